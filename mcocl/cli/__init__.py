@@ -1,0 +1,76 @@
+"""The ``mcocl`` command line: one sub-command per module in this package.
+
+Each sub-command module defines ``register(subparsers)``, which adds its parser
+and sets ``func`` (called with the parsed arguments, returning an exit status).
+Errors of the engine (:class:`~mcocl.errors.MCOCLError`) become one message on
+stderr and exit status 2; Ctrl-C exits with 130 after saving what was computed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import warnings
+
+from ..errors import MCOCLError
+
+# Sub-commands, in the order --help lists them.
+COMMANDS = ("devices", "integrate", "solve", "render", "bench")
+
+EPILOG = """\
+examples:
+  mcocl devices
+  mcocl integrate "exp(-x[0]*x[0])" --dim 1 --samples 1e6 --sampler nrooks --seed 7
+  mcocl integrate "exp(-x[0]*x[0] - x[1]*x[1])" --dim 2 --samples 1e7 --json
+  mcocl <command> --help       more about one command
+
+Every per-sample computation runs in OpenCL kernels; results depend only on the
+seed, never on the device, the work split or interruptions.
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level parser with every available sub-command."""
+    parser = argparse.ArgumentParser(
+        prog="mcocl",
+        description="mcocl — an OpenCL Monte Carlo engine: integration, integral equations, light transport.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    from .. import __version__
+
+    parser.add_argument("--version", action="version", version=f"mcocl {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMANDS:
+        try:
+            mod = importlib.import_module(f".{name}_cmd", __name__)
+        except ModuleNotFoundError as e:
+            if e.name == f"{__name__}.{name}_cmd":
+                continue  # command not part of this build
+            raise
+        mod.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``mcocl`` console script."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        try:
+            return int(args.func(args) or 0)
+        except MCOCLError as e:
+            print(f"mcocl {args.command}: error: {e}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print(f"mcocl {args.command}: interrupted", file=sys.stderr)
+            return 130
+
+
+if __name__ == "__main__":  # python -m mcocl.cli
+    sys.exit(main())

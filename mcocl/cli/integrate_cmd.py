@@ -1,0 +1,129 @@
+"""``mcocl integrate``: Monte Carlo integration of an OpenCL C expression."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+
+from ..integration import NonFiniteWarning, integrate
+from ..integration.codegen import HEURISTICS
+from ..integration.api import SAMPLERS
+from .common import add_device_args, count, positive, print_json
+
+DESCRIPTION = """\
+Estimate the integral of INTEGRAND over the unit cube [0,1]^dim.
+
+INTEGRAND is OpenCL C over `float x[dim]`: an expression such as
+"exp(-x[0]*x[0])", or a function body that returns, such as
+"float r = x[0]*x[0] + x[1]*x[1]; return r < 1.0f ? 1.0f : 0.0f;".
+
+Samplers (how the uniform points are placed):
+  independent  plain secondary estimator, (1/N) sum f(x_i)
+  stratified   jittered strata, m^dim per design with 2 samples each; the
+               standard error comes from the pairs (honest, not the plain
+               sample variance)
+  nrooks       Latin hypercube designs (N-rooks); the standard error comes
+               from the spread of independent designs
+
+Estimators (combine with any sampler):
+  --proposal SPEC          importance sampling, x = P^-1(u), f(x)/p(x)
+  --proposals SPEC SPEC..  combined estimator, --heuristic average|max|balance|power
+  --control G --control-integral J   control variate f - g + J
+  --roulette P             Russian roulette with survival probability P
+
+A proposal SPEC is one factor for every dimension or a JSON list of factors:
+  uniform | exponential:rate=R | power:a=A | truncnorm:mu=M,sigma=S |
+  {"type": "tabulated", "weights": [...]} | {"type": "tabulated2d", "weights": [[...]]} |
+  {"type": "analytic", "pdf": "3*x*x", "inverse": "cbrt(u)"}
+"""
+
+EXAMPLES = """\
+examples:
+  mcocl integrate "exp(-x[0]*x[0])" --dim 1 --samples 1e6 --sampler nrooks --seed 7
+  mcocl integrate "exp(-x[0]*x[0])" --samples 1e6 --json
+  mcocl integrate "exp(-3*x[0])" --proposal exponential:rate=3
+  mcocl integrate "1/sqrt(x[0])" --proposal power:a=-0.5
+  mcocl integrate "exp(-x[0])" --control "1 - x[0]" --control-integral 0.5
+  mcocl integrate "exp(-x[0]*x[0])" --samples 1e12 --time 10 --target-stderr 1e-7
+"""
+
+
+def _spec(text: str) -> object:
+    t = text.strip()
+    if t.startswith("{") or t.startswith("["):
+        try:
+            return json.loads(t)
+        except json.JSONDecodeError as e:
+            raise argparse.ArgumentTypeError(f"proposal JSON: {e}") from None
+    return t
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``integrate`` parser."""
+    p = sub.add_parser("integrate", help="integrate a function over the unit cube",
+                       description=DESCRIPTION, epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("integrand", help="OpenCL C over float x[dim]")
+    p.add_argument("--dim", type=int, default=1, help="dimension of the cube (default 1)")
+    p.add_argument("--samples", type=count, default=None,
+                   help="integrand evaluations (default 1e6, or unlimited with --time/--target-stderr)")
+    p.add_argument("--sampler", choices=SAMPLERS, default="independent", help="point placement (default independent)")
+    p.add_argument("--seed", type=int, default=0, help="64-bit seed (default 0)")
+    p.add_argument("--proposal", type=_spec, default=None, help="importance-sampling density (see above)")
+    p.add_argument("--proposals", type=_spec, nargs="+", default=None, help="densities of a combined estimator")
+    p.add_argument("--shares", type=int, nargs="+", default=None, help="samples of each proposal per unit")
+    p.add_argument("--heuristic", choices=tuple(HEURISTICS), default="balance", help="combined weights (default balance)")
+    p.add_argument("--beta", type=positive, default=2.0, help="power-heuristic exponent (default 2)")
+    p.add_argument("--control", default=None, help="control variate g(x), OpenCL C")
+    p.add_argument("--control-integral", type=float, default=None, help="exact integral J of g")
+    p.add_argument("--roulette", type=float, default=None, help="Russian roulette survival probability P in (0, 1]")
+    p.add_argument("--time", dest="time_budget", type=positive, default=None, help="stop after this many seconds")
+    p.add_argument("--target-stderr", type=positive, default=None, help="stop once the standard error is this small")
+    p.add_argument("--design-samples", type=count, default=None, help="samples per stratified / N-rooks design")
+    p.add_argument("--checkpoint", default=None, help="save progress to this file (periodically and at the end)")
+    p.add_argument("--resume", default=None, help="continue from a checkpoint of the same job")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_device_args(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run an integration and print the result."""
+    samples = args.samples
+    if samples is None and args.time_budget is None and args.target_stderr is None:
+        samples = 1_000_000
+    proposal = proposals = None
+    if args.proposals:
+        proposals = args.proposals
+    elif args.proposal is not None:
+        proposal = args.proposal
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", NonFiniteWarning)
+        r = integrate(
+            args.integrand, dim=args.dim, samples=samples, sampler=args.sampler, seed=args.seed,
+            proposal=proposal, proposals=proposals, shares=args.shares, heuristic=args.heuristic, beta=args.beta,
+            control=args.control, control_integral=args.control_integral, roulette=args.roulette,
+            time_budget=args.time_budget, target_stderr=args.target_stderr, design_samples=args.design_samples,
+            device=args.device, lanes=args.lanes, checkpoint=args.checkpoint, resume=args.resume,
+            progress=not args.quiet and not args.json,
+        )
+    for w in caught:
+        if issubclass(w.category, NonFiniteWarning):
+            print(f"WARNING: {w.message}", file=sys.stderr)
+    if args.json:
+        print_json(r.to_dict())
+    else:
+        print(f"estimate  {r.estimate:.12g}")
+        print(f"stderr    {r.stderr:.6g}   ({r.variance_method})")
+        print(f"samples   {r.samples}   in {r.seconds:.3f} s  ({r.samples_per_second / 1e6:.1f} M samples/s, {r.lanes} lanes)")
+        print(f"estimator {r.estimator}")
+        print(f"device    {r.device}")
+        if r.nonfinite:
+            print(f"nonfinite {r.nonfinite}  (left out of the estimate)")
+        if r.stopped_by != "samples":
+            print(f"stopped   by {r.stopped_by}")
+        for n in r.notes:
+            print(f"note      {n}")
+    return 130 if r.stopped_by == "interrupt" else 0

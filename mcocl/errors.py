@@ -1,0 +1,42 @@
+"""Exceptions raised by mcocl.
+
+Every error a user can cause derives from :class:`MCOCLError`, so a caller can
+catch the engine's complaints without catching its bugs; the command line turns
+them into one readable message and a non-zero exit status.
+"""
+
+from __future__ import annotations
+
+
+class MCOCLError(Exception):
+    """Base class of every error mcocl raises on purpose."""
+
+
+class InputError(MCOCLError, ValueError):
+    """A parameter, file or table given by the user is invalid.
+
+    The message names the offending parameter (or key path) and says what was
+    expected.
+    """
+
+
+class KernelBuildError(MCOCLError):
+    """OpenCL C code failed to compile.
+
+    Attributes:
+        message: the readable summary (the user's offending lines and the
+            compiler's messages for them).
+        log: the complete compiler log, for the rare case it is needed.
+    """
+
+    def __init__(self, message: str, log: str = "") -> None:
+        super().__init__(message)
+        self.log = log
+
+
+class DeviceError(MCOCLError):
+    """No OpenCL device matches the request, or a device failed."""
+
+
+class ConvergenceError(MCOCLError):
+    """A random walk did not terminate: the Neumann series appears not to converge."""

@@ -1,0 +1,164 @@
+"""The integration job: a compiled estimator over blocks of sample indices.
+
+:class:`IntegrationJob` holds everything needed to build the kernel on any
+device (plain data: text, numbers, arrays, so it can be pickled and shipped
+to another process); :class:`IntegrationRunner` is the job bound to one device.
+
+The statistics folded by the accumulator, one row per scheduler block (one
+kernel block for the independent sampler, one whole design otherwise):
+
+====  ===========================================================
+col   meaning
+====  ===========================================================
+0     valid finite samples
+1     non-finite samples (NaN/Inf, kept out of every sum)
+2     sum (v - shift)
+3     sum (v - shift)^2 (stratified: sum over pairs (v1 - v2)^2)
+4     stratum pairs (stratified)
+5     designs (nrooks)
+6     sum over designs of the design mean - shift (nrooks)
+7     sum over designs of (design mean - shift)^2 (nrooks)
+====  ===========================================================
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pyopencl as cl
+
+from .. import runtime
+from ..accumulate import mean_and_variance
+from ..usercode import UserFunction
+from .codegen import EstimatorCode
+from .design import Design
+
+KERNEL_STATS = 5
+ROW = 8
+
+
+@dataclass
+class IntegrationJob:
+    """A compiled-on-demand integration estimator (device independent)."""
+
+    code: EstimatorCode
+    dim: int
+    design: Design
+    seed: int
+    unit_limit: int
+    lanes: int | None = None
+    shift: float = 0.0
+
+    stat_shape: tuple[int, ...] = (ROW,)
+
+    @property
+    def users(self) -> tuple[UserFunction, ...]:
+        """The user snippets in the program."""
+        return self.code.users
+
+    def runner(self, ctx: runtime.DeviceContext) -> IntegrationRunner:
+        """Build for ``ctx`` (see :class:`IntegrationRunner`)."""
+        return IntegrationRunner(self, ctx)
+
+
+class IntegrationRunner:
+    """An :class:`IntegrationJob` built for one device."""
+
+    def __init__(self, job: IntegrationJob, ctx: runtime.DeviceContext) -> None:
+        self.job = job
+        self.ctx = ctx
+        t0 = time.perf_counter()
+        self.program = runtime.build_user_program(
+            ctx,
+            job.code.includes,
+            job.code.generated,
+            job.code.users,
+            tail=["integrate/integrate.cl"],
+            options=job.design.defines(job.dim, job.code.points),
+            what="integrand",
+            lanes=job.lanes,
+        )
+        self.build_seconds = time.perf_counter() - t0
+        self.kernel = runtime.kernel(self.program.program, "integrate_blocks")
+        mf = cl.mem_flags
+        self.tables = cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=job.code.tables)
+
+    @property
+    def lanes(self) -> int:
+        """The lane width actually built."""
+        return self.program.lanes
+
+    def _launch(self, first_kblock: int, nkblocks: int, shift: float) -> tuple[cl.Event, np.ndarray]:
+        out = np.empty((nkblocks, KERNEL_STATS), dtype=np.float64)
+        buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+        gsize, lsize = self.ctx.work_size(nkblocks)
+        self.kernel(
+            self.ctx.queue, gsize, lsize,
+            np.uint64(first_kblock), np.uint64(nkblocks), np.uint64(self.job.unit_limit), np.uint64(self.job.seed),
+            np.float64(shift), self.tables, buf,
+        )
+        ev = cl.enqueue_copy(self.ctx.queue, out, buf, is_blocking=False)
+        return ev, out
+
+    def pilot_shift(self) -> float:
+        """The mean of block 0 computed with shift 0: a deterministic shift for the sums."""
+        ev, out = self._launch(0, 1, 0.0)
+        ev.wait()
+        n, _, s1 = out[0, 0], out[0, 1], out[0, 2]
+        return float(np.float32(s1 / n)) if n > 0 and math.isfinite(s1 / n) else 0.0
+
+    def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, np.ndarray, int]:
+        """Launch scheduler blocks ``first_block ..`` (each ``granule_blocks`` kernel blocks)."""
+        g = self.job.design.granule_blocks
+        ev, out = self._launch(first_block * g, nblocks * g, self.job.shift)
+        return ev, out, nblocks
+
+    def collect(self, handle: tuple[cl.Event, np.ndarray, int]) -> np.ndarray:
+        """Wait for a launch and reduce its kernel blocks to accumulator rows."""
+        ev, out, nblocks = handle
+        ev.wait()
+        return reduce_blocks(out, nblocks, self.job.design)
+
+
+def reduce_blocks(out: np.ndarray, nblocks: int, design: Design) -> np.ndarray:
+    """Kernel-block statistics -> accumulator rows (one per scheduler block)."""
+    g = design.granule_blocks
+    k = out.reshape(nblocks, g, KERNEL_STATS)
+    # within a design, add kernel blocks sequentially (fixed order)
+    per = np.add.accumulate(k, axis=1)[:, -1, :] if g > 1 else k[:, 0, :]
+    rows = np.zeros((nblocks, ROW), dtype=np.float64)
+    rows[:, :5] = per
+    if design.sampler == "nrooks":
+        n = per[:, 0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m = np.where(n > 0, per[:, 2] / np.where(n > 0, n, 1), 0.0)
+        rows[:, 5] = (n > 0).astype(np.float64)
+        rows[:, 6] = m
+        rows[:, 7] = m * m
+    return rows
+
+
+def estimate_from_totals(t: np.ndarray, design: Design, shift: float) -> tuple[float, float, float]:
+    """(estimate, variance of the estimate, samples used) from accumulator totals.
+
+    independent  sample mean; variance = sample variance / n (lecture: sigma_sec^2 = sigma_prim^2 / N)
+    stratified   variance = sum over pairs (v1 - v2)^2 / (4 pairs^2) (sampling/stratified.cl)
+    nrooks       mean of design means; variance = their sample variance / designs
+    """
+    n = t[0]
+    if design.sampler == "independent":
+        mean, var = mean_and_variance(n, t[2], t[3], shift)
+        return mean, (var / n if n > 1 else math.nan), n
+    if design.sampler == "stratified":
+        pairs = t[4]
+        if pairs <= 0:
+            return math.nan, math.nan, n
+        return shift + t[2] / n, t[3] / (4.0 * pairs * pairs), n
+    r = t[5]
+    if r <= 0:
+        return math.nan, math.nan, n
+    mean, var = mean_and_variance(r, t[6], t[7], shift)
+    return mean, (var / r if r > 1 else math.nan), n

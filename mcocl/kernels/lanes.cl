@@ -1,0 +1,105 @@
+/* lanes.cl — one source, scalar or SIMD-packet build.
+ *
+ * Every estimator kernel is written once over the "lane" types below and built
+ * with -DLANES=1 (scalar) or -DLANES=16 (a packet of 16 samples in the lanes of
+ * OpenCL vector types).  PoCL's wheel build does not vectorise across
+ * work-items (../shared/POCL-NOTES.md), so explicit 16-lane vectors are what
+ * reaches the SIMD units; the scalar build exists for user code that is not
+ * valid on vectors (an `if` on a coordinate, an int cast) and for devices
+ * where vectors do not pay (GPUs vectorise across work-items themselves).
+ *
+ * Masks follow OpenCL's vector convention: a true lane is all ones (-1) in a
+ * vector build and 1 in a scalar build; use the helpers here, never compare
+ * a mask with 1.
+ */
+#ifndef MCOCL_LANES_CL
+#define MCOCL_LANES_CL
+
+#ifndef LANES
+#define LANES 16
+#endif
+
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+
+#define MC_CAT_(a, b) a##b
+#define MC_CAT(a, b) MC_CAT_(a, b)
+
+#if LANES == 1
+#define LANE_SUFFIX
+#elif LANES == 2 || LANES == 4 || LANES == 8 || LANES == 16
+#define LANE_SUFFIX LANES
+#else
+#error "LANES must be 1, 2, 4, 8 or 16"
+#endif
+
+typedef MC_CAT(float, LANE_SUFFIX) floatv;
+typedef MC_CAT(double, LANE_SUFFIX) doublev;
+typedef MC_CAT(uint, LANE_SUFFIX) uintv;
+typedef MC_CAT(int, LANE_SUFFIX) intv;
+typedef MC_CAT(ulong, LANE_SUFFIX) ulongv;
+typedef MC_CAT(long, LANE_SUFFIX) longv;
+
+#define to_floatv(x) MC_CAT(convert_float, LANE_SUFFIX)(x)
+#define to_doublev(x) MC_CAT(convert_double, LANE_SUFFIX)(x)
+#define to_uintv(x) MC_CAT(convert_uint, LANE_SUFFIX)(x)
+#define to_intv(x) MC_CAT(convert_int, LANE_SUFFIX)(x)
+#define to_ulongv(x) MC_CAT(convert_ulong, LANE_SUFFIX)(x)
+#define to_longv(x) MC_CAT(convert_long, LANE_SUFFIX)(x)
+#define to_uintv_rtz(x) MC_CAT(MC_CAT(convert_uint, LANE_SUFFIX), _rtz)(x)
+#define to_intv_rtz(x) MC_CAT(MC_CAT(convert_int, LANE_SUFFIX), _rtz)(x)
+/* double -> float mask (comparisons of doubles give long lanes) */
+#define long_mask_to_int(m) to_intv(m)
+
+/* Lane index 0..LANES-1 as a uint vector. */
+#if LANES == 1
+#define LANE_IOTA ((uint)0)
+#elif LANES == 2
+#define LANE_IOTA ((uint2)(0, 1))
+#elif LANES == 4
+#define LANE_IOTA ((uint4)(0, 1, 2, 3))
+#elif LANES == 8
+#define LANE_IOTA ((uint8)(0, 1, 2, 3, 4, 5, 6, 7))
+#else
+#define LANE_IOTA ((uint16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+#endif
+
+/* A comparison result (intv mask) as 0/1 integers, the same in both builds. */
+#if LANES == 1
+#define mask_bit(m) ((m) ? 1 : 0)
+#define mask_any(m) ((m) != 0)
+#define mask_all(m) ((m) != 0)
+#define mask_true() 1
+#else
+#define mask_bit(m) (-(m))
+#define mask_any(m) any(m)
+#define mask_all(m) all(m)
+#define mask_true() ((intv)(-1))
+#endif
+
+/* Horizontal sum of a double lane vector in a fixed order (lane 0 first), so
+ * that the result is the same however the work is split. */
+inline double lane_sum_d(doublev v) {
+#if LANES == 1
+    return v;
+#else
+    double s = 0.0;
+    double t[LANES];
+    MC_CAT(vstore, LANE_SUFFIX)(v, 0, t);
+    for (int k = 0; k < LANES; ++k) s += t[k];
+    return s;
+#endif
+}
+
+inline uint lane_sum_u(uintv v) {
+#if LANES == 1
+    return v;
+#else
+    uint s = 0;
+    uint t[LANES];
+    MC_CAT(vstore, LANE_SUFFIX)(v, 0, t);
+    for (int k = 0; k < LANES; ++k) s += t[k];
+    return s;
+#endif
+}
+
+#endif

@@ -1,0 +1,22 @@
+/* rng_api.cl — kernels behind mcocl.rng: the raw generator and the uniforms
+ * of the engine's addressing, exposed so that tests and users can check the
+ * numbers any estimator sees.  Built with LANES=1. */
+#include "rng/uniform.cl"
+
+/* Philox4x32-10 of arbitrary (counter, key) pairs: the known-answer test. */
+kernel void philox_raw(global const uint4 *ctr, global const uint2 *key, global uint4 *out) {
+    size_t i = get_global_id(0);
+    philox_ctr c;
+    uint4 v = ctr[i];
+    c.v0 = v.x; c.v1 = v.y; c.v2 = v.z; c.v3 = v.w;
+    uint2 k = key[i];
+    philox_ctr r = philox4x32_10(c, k.x, k.y);
+    out[i] = (uint4)(r.v0, r.v1, r.v2, r.v3);
+}
+
+/* u[i * dims + j] = uniform of sample first + i, dimension j, in `stream`. */
+kernel void uniforms(ulong first, ulong seed, uint stream, uint dims, global float *out) {
+    size_t i = get_global_id(0);
+    rng_t r = rng_init(first + i, seed, stream);
+    for (uint j = 0; j < dims; ++j) out[i * dims + j] = rng_uniform(r, j);
+}

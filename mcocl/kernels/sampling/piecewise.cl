@@ -1,0 +1,101 @@
+/* piecewise.cl — tabulated piecewise-constant densities on [0, 1] and
+ * [0, 1]^2, sampled by inverting their CDF (pbrt-v4 §A.4, PiecewiseConstant1D
+ * and PiecewiseConstant2D: marginal over the first axis, then the conditional
+ * row).
+ *
+ * Tables are cumulative counts out of 2^23, the resolution of the engine's
+ * uniforms (rng/uniform.cl): cum[0] = 0, cum[nbins] = 2^23, bin b has mass
+ * (cum[b+1] - cum[b]) / 2^23.  The host quantises the user's weights so that
+ * every bin with positive weight keeps at least one count; with the CDF on
+ * the uniforms' own grid, the probability of choosing a bin is exactly the
+ * mass the pdf reports, and the estimate f/p stays unbiased whatever the
+ * rounding.  The position inside the bin reuses the fraction of u (so
+ * stratification of u carries over), uniform within the bin.
+ */
+#ifndef MCOCL_PIECEWISE_CL
+#define MCOCL_PIECEWISE_CL
+
+#include "sampling/gather.cl"
+#include "sampling/unit_interval.cl"
+
+#define PC_TOTAL 8388608.0f /* 2^23 */
+#define PC_INV_TOTAL 0x1p-23f
+
+/* Largest b in [0, nbins - 1] with cum[b] <= c; `top` = largest power of 2 <= nbins. */
+inline uintv pc_find(global const uint *cum, uint nbins, uint top, uintv c) {
+    uintv b = (uintv)(0u);
+    for (uint step = top; step > 0u; step >>= 1) {
+        uintv cand = b + step;
+        uintv safe = min(cand, (uintv)(nbins - 1u));
+        intv take = (cand < (uintv)(nbins)) & (gather_uint(cum, safe) <= c);
+        b = select(b, cand, take);
+    }
+    return b;
+}
+
+/* Sample a 1-D table; returns x and writes its bin mass in *mass (probability, not density). */
+inline floatv pc1_sample_mass(global const uint *cum, uint nbins, uint top, floatv u, floatv *mass) {
+    floatv t = u * PC_TOTAL;
+    uintv c = min(to_uintv_rtz(t), (uintv)(8388607u));
+    uintv b = pc_find(cum, nbins, top, c);
+    uintv lo = gather_uint(cum, b);
+    uintv hi = gather_uint(cum, b + 1u);
+    floatv cnt = to_floatv(hi - lo);
+    floatv frac = clamp((t - to_floatv(lo)) / cnt, 0.0f, ONE_MINUS_EPS);
+    *mass = cnt * PC_INV_TOTAL;
+    return clamp_open01((to_floatv(b) + frac) / (float)nbins);
+}
+
+/* The bin of x and its mass. */
+inline floatv pc1_mass(global const uint *cum, uint nbins, floatv x) {
+    uintv b = min(to_uintv_rtz(x * (float)nbins), (uintv)(nbins - 1u));
+    return to_floatv(gather_uint(cum, b + 1u) - gather_uint(cum, b)) * PC_INV_TOTAL;
+}
+
+inline floatv pc1_warp(global const uint *cum, uint nbins, uint top, floatv u, floatv *pdf) {
+    floatv mass;
+    floatv x = pc1_sample_mass(cum, nbins, top, u, &mass);
+    *pdf = mass * (float)nbins;
+    return x;
+}
+
+inline floatv pc1_pdf(global const uint *cum, uint nbins, floatv x) {
+    return pc1_mass(cum, nbins, x) * (float)nbins;
+}
+
+/* 2-D: `marg` has na + 1 entries (marginal over the first axis), `cond` holds
+ * na rows of nb + 1 entries (the conditional of the second axis given the row). */
+inline void pc2_warp(global const uint *marg, global const uint *cond, uint na, uint topa, uint nb, uint topb,
+                     floatv ua, floatv ub, floatv *xa, floatv *xb, floatv *pdf) {
+    floatv ma;
+    *xa = pc1_sample_mass(marg, na, topa, ua, &ma);
+    uintv row = min(to_uintv_rtz(*xa * (float)na), (uintv)(na - 1u));
+    /* sample the conditional of that row: gather through a per-lane row offset */
+    floatv t = ub * PC_TOTAL;
+    uintv c = min(to_uintv_rtz(t), (uintv)(8388607u));
+    uintv base = row * (nb + 1u);
+    uintv b = (uintv)(0u);
+    for (uint step = topb; step > 0u; step >>= 1) {
+        uintv cand = b + step;
+        uintv safe = min(cand, (uintv)(nb - 1u));
+        intv take = (cand < (uintv)(nb)) & (gather_uint(cond, base + safe) <= c);
+        b = select(b, cand, take);
+    }
+    uintv lo = gather_uint(cond, base + b);
+    uintv hi = gather_uint(cond, base + b + 1u);
+    floatv cnt = to_floatv(hi - lo);
+    floatv frac = clamp((t - to_floatv(lo)) / cnt, 0.0f, ONE_MINUS_EPS);
+    *xb = clamp_open01((to_floatv(b) + frac) / (float)nb);
+    *pdf = ma * cnt * PC_INV_TOTAL * (float)na * (float)nb;
+}
+
+inline floatv pc2_pdf(global const uint *marg, global const uint *cond, uint na, uint nb, floatv xa, floatv xb) {
+    uintv row = min(to_uintv_rtz(xa * (float)na), (uintv)(na - 1u));
+    uintv col = min(to_uintv_rtz(xb * (float)nb), (uintv)(nb - 1u));
+    uintv base = row * (nb + 1u);
+    floatv ma = to_floatv(gather_uint(marg, row + 1u) - gather_uint(marg, row));
+    floatv mb = to_floatv(gather_uint(cond, base + col + 1u) - gather_uint(cond, base + col));
+    return ma * mb * (PC_INV_TOTAL * PC_INV_TOTAL) * (float)na * (float)nb;
+}
+
+#endif

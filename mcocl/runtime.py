@@ -1,0 +1,448 @@
+"""OpenCL devices, contexts, queues and program builds.
+
+The runtime is the only module that talks to pyopencl's platform layer:
+- :func:`list_devices` enumerates the devices of every platform;
+- :func:`select_device` picks one by index, name substring or ``PYOPENCL_CTX``;
+- :func:`device_context` gives the (cached) context and in-order queue of a device;
+- :func:`build` compiles an engine kernel with user snippets pasted in, with a
+  build cache keyed by (source, options, device), and turns compiler errors into
+  :class:`~mcocl.errors.KernelBuildError` quoting the user's own lines.
+
+Kernel sources live in ``mcocl/kernels`` (shipped inside the wheel).  Includes
+are resolved here, not by the OpenCL compiler, so that the flattened text is a
+complete cache key and so that ``#line`` markers make compiler messages point
+at ``rng/philox.cl:40`` instead of a temporary file.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import threading
+import warnings
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pyopencl as cl
+
+from .errors import DeviceError, KernelBuildError
+from .usercode import UserFunction, explain_build_log, probe_source
+
+KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+
+# Options every engine build gets.  No fast-math: -cl-finite-math-only would
+# let the compiler delete the NaN/Inf checks that keep bad samples out of sums.
+BASE_OPTIONS: tuple[str, ...] = ("-cl-std=CL1.2",)
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    """One OpenCL device as :func:`list_devices` reports it."""
+
+    index: int
+    platform_index: int
+    device_index: int
+    name: str
+    platform: str
+    platform_version: str
+    type: str
+    compute_units: int
+    global_mem_mb: int
+    fp64: bool
+    lanes: int
+
+    def describe(self) -> str:
+        """A one-line human description."""
+        return (
+            f"[{self.index}] {self.name} ({self.type}, {self.compute_units} compute units, "
+            f"{self.global_mem_mb} MiB, fp64 {'yes' if self.fp64 else 'no'}, {self.lanes} lanes) "
+            f"— {self.platform_version}"
+        )
+
+
+def _type_name(t: int) -> str:
+    names = []
+    for flag, name in ((cl.device_type.CPU, "CPU"), (cl.device_type.GPU, "GPU"), (cl.device_type.ACCELERATOR, "accelerator")):
+        if t & flag:
+            names.append(name)
+    return "/".join(names) or "other"
+
+
+def _all_devices() -> list[tuple[int, int, cl.Device]]:
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error as e:  # no ICD loader configuration, no platform
+        raise DeviceError(
+            f"no OpenCL platform found ({e}); install one, e.g. pip install 'mcocl[pocl]' for the PoCL CPU device"
+        ) from None
+    out = []
+    for pi, p in enumerate(platforms):
+        try:
+            devs = p.get_devices()
+        except cl.Error:
+            continue
+        for di, d in enumerate(devs):
+            out.append((pi, di, d))
+    return out
+
+
+def has_fp64(device: cl.Device) -> bool:
+    """True when the device supports double precision (cl_khr_fp64)."""
+    return "cl_khr_fp64" in device.extensions.split() or bool(getattr(device, "double_fp_config", 0))
+
+
+def default_lanes(device: cl.Device) -> int:
+    """How many samples a work-item carries in vector lanes on this device.
+
+    CPUs get their preferred float vector width (8 with AVX2, 16 with AVX-512:
+    measured fastest on PoCL, see bench/); GPUs vectorise across work-items by
+    themselves and get 1.  ``MCOCL_LANES`` overrides.
+    """
+    env = os.environ.get("MCOCL_LANES")
+    if env:
+        lanes = int(env)
+    elif device.type & cl.device_type.CPU:
+        lanes = int(device.preferred_vector_width_float) or 8
+    else:
+        lanes = 1
+    for allowed in (16, 8, 4, 2, 1):
+        if lanes >= allowed:
+            return allowed
+    return 1
+
+
+def list_devices() -> list[DeviceInfo]:
+    """Every device of every OpenCL platform, with a global index."""
+    infos = []
+    for k, (pi, di, d) in enumerate(_all_devices()):
+        p = d.platform
+        infos.append(
+            DeviceInfo(
+                index=k,
+                platform_index=pi,
+                device_index=di,
+                name=d.name.strip(),
+                platform=p.name.strip(),
+                platform_version=p.version.strip(),
+                type=_type_name(d.type),
+                compute_units=int(d.max_compute_units),
+                global_mem_mb=int(d.global_mem_size // (1 << 20)),
+                fp64=has_fp64(d),
+                lanes=default_lanes(d),
+            )
+        )
+    return infos
+
+
+def _match(items: list, spec: str, key) -> list:
+    if spec.isdigit():
+        k = int(spec)
+        return [items[k]] if k < len(items) else []
+    s = spec.lower()
+    return [it for it in items if s in key(it).lower()]
+
+
+def select_device(spec: int | str | cl.Device | None = None) -> cl.Device:
+    """Choose one device.
+
+    Args:
+        spec: ``None`` — ``PYOPENCL_CTX`` if set (``"P"`` or ``"P:D"``, each an
+            index or a name substring, as pyopencl reads it), else the first
+            device found; an ``int`` or digit string — the global index shown
+            by ``mcocl devices``; any other string — a case-insensitive
+            substring of the device name, platform name or platform version;
+            a ``pyopencl.Device`` is returned as is.
+
+    Raises:
+        DeviceError: nothing matches; the message lists what exists.
+    """
+    if isinstance(spec, cl.Device):
+        return spec
+    devs = _all_devices()
+    if not devs:
+        raise DeviceError("no OpenCL device found; pip install 'mcocl[pocl]' gives a CPU device")
+    listing = "\n".join(i.describe() for i in list_devices())
+    if spec is None:
+        env = os.environ.get("PYOPENCL_CTX", "").strip()
+        if not env:
+            return devs[0][2]
+        pspec, _, dspec = env.partition(":")
+        platforms = sorted({pi for pi, _, _ in devs})
+        plats = _match(platforms, pspec, lambda pi: _platform_text(devs, pi)) if pspec else platforms
+        cands = [d for pi, _, d in devs if pi in plats]
+        if dspec:
+            cands = _match(cands, dspec, lambda d: d.name)
+        if not cands:
+            raise DeviceError(f"PYOPENCL_CTX={env!r} matches no device; devices:\n{listing}")
+        return cands[0]
+    if isinstance(spec, (int, np.integer)):
+        spec = str(int(spec))
+    if not isinstance(spec, str) or not spec.strip():
+        raise DeviceError(f"device must be an index or a name substring, got {spec!r}")
+    hits = _match(devs, spec.strip(), lambda t: f"{t[2].name} {t[2].platform.name} {t[2].platform.version}")
+    if not hits:
+        raise DeviceError(f"no device matches {spec!r}; devices:\n{listing}")
+    return hits[0][2]
+
+
+def _platform_text(devs: list, pi: int) -> str:
+    for qi, _, d in devs:
+        if qi == pi:
+            return f"{d.platform.name} {d.platform.version}"
+    return ""
+
+
+class DeviceContext:
+    """A device with its context, in-order queue and build parameters.
+
+    ``group`` is the work-group size every launch uses.  It is fixed per
+    device because PoCL compiles a kernel anew for every new work-group size
+    (about 0.2 s each, ../shared/POCL-NOTES.md) and would otherwise choose one
+    per global size.  CPUs get 1 (a work-item is already a block of thousands
+    of samples); GPUs get 64.
+    """
+
+    def __init__(self, device: cl.Device) -> None:
+        self.device = device
+        self.context = cl.Context([device])
+        self.queue = cl.CommandQueue(self.context)
+        self.lanes = default_lanes(device)
+        self.fp64 = has_fp64(device)
+        self.name = device.name.strip()
+        self.group = 1 if device.type & cl.device_type.CPU else min(64, int(device.max_work_group_size))
+
+    def work_size(self, n: int) -> tuple[tuple[int], tuple[int]]:
+        """(global, local) sizes covering ``n`` work-items; kernels skip ids >= n."""
+        g = self.group
+        return (max(-(-n // g), 1) * g,), (g,)
+
+    def __repr__(self) -> str:
+        return f"DeviceContext({self.name!r}, lanes={self.lanes})"
+
+
+_contexts: dict[int, DeviceContext] = {}
+_contexts_lock = threading.Lock()
+
+
+def device_context(device: int | str | cl.Device | None = None) -> DeviceContext:
+    """The cached :class:`DeviceContext` of a device (see :func:`select_device`)."""
+    dev = select_device(device)
+    key = dev.int_ptr
+    with _contexts_lock:
+        ctx = _contexts.get(key)
+        if ctx is None:
+            ctx = DeviceContext(dev)
+            _contexts[key] = ctx
+        return ctx
+
+
+@lru_cache(maxsize=None)
+def _read_kernel(rel: str) -> str:
+    path = KERNEL_DIR / rel
+    if not path.is_file():
+        raise FileNotFoundError(f"kernel source {rel} not found under {KERNEL_DIR}")
+    return path.read_text()
+
+
+def kernel_source(rel: str, _seen: set[str] | None = None) -> str:
+    """A kernel file with its ``#include "..."`` lines resolved (once each).
+
+    Paths are relative to ``mcocl/kernels``.  ``#line`` markers keep compiler
+    diagnostics pointing at the original file and line.
+    """
+    seen = _seen if _seen is not None else set()
+    if rel in seen:
+        return ""
+    seen.add(rel)
+    out = [f'#line 1 "{rel}"']
+    for n, line in enumerate(_read_kernel(rel).splitlines(), start=1):
+        m = _INCLUDE.match(line)
+        if m:
+            out.append(kernel_source(m.group(1), seen))
+            out.append(f'#line {n + 1} "{rel}"')
+        else:
+            out.append(line)
+    return "\n".join(out)
+
+
+def compose(
+    includes: list[str],
+    generated: str = "",
+    users: tuple[UserFunction, ...] = (),
+    vector_users: bool = True,
+    tail: list[str] | tuple[str, ...] = (),
+) -> str:
+    """One program: engine includes, user snippets, generated text, tail includes.
+
+    User snippets come in their scalar form ``<func>_s`` and, when
+    ``vector_users``, their lane form ``<func>_v``; the macro ``<func>`` names
+    the one that matches the build's ``LANES``.  ``generated`` is engine text
+    produced at run time (glue that calls the snippets); ``tail`` are kernel
+    files that use what ``generated`` defines.
+    """
+    seen: set[str] = set()
+    parts = [kernel_source("lanes.cl", seen)]
+    parts += [kernel_source(rel, seen) for rel in includes]
+    for u in users:
+        parts.append(u.render(vector=False))
+        if vector_users:
+            parts.append(u.render(vector=True))
+        parts.append(f"#if LANES == 1\n#define {u.func} {u.func}_s\n#else\n#define {u.func} {u.func}_v\n#endif")
+    parts.append('#line 1 "<generated>"')
+    parts.append(generated)
+    parts += [kernel_source(rel, seen) for rel in tail]
+    return "\n".join(parts) + "\n"
+
+
+_programs: dict[tuple[int, str, tuple[str, ...]], cl.Program] = {}
+_programs_lock = threading.Lock()
+
+
+def build(
+    ctx: DeviceContext,
+    source: str,
+    options: list[str] | tuple[str, ...] = (),
+    users: tuple[UserFunction, ...] = (),
+    what: str = "kernel",
+) -> cl.Program:
+    """Compile ``source`` for ``ctx``'s device, or return the cached program.
+
+    Raises:
+        KernelBuildError: the compiler rejected the source; the message quotes
+            the user snippet lines it complained about.
+    """
+    opts = tuple(BASE_OPTIONS) + tuple(options)
+    digest = hashlib.sha256(source.encode()).hexdigest()
+    key = (ctx.device.int_ptr, digest, opts)
+    with _programs_lock:
+        prg = _programs.get(key)
+    if prg is not None:
+        return prg
+    with warnings.catch_warnings():
+        # PoCL prints ABI notes about wide vectors as warnings: not the user's business.
+        warnings.simplefilter("ignore", cl.CompilerWarning)
+        try:
+            prg = cl.Program(ctx.context, source).build(options=list(opts))
+        except cl.RuntimeError as e:
+            raise explain_build_log(str(e), list(users), what) from None
+    with _programs_lock:
+        _programs[key] = prg
+    return prg
+
+
+@dataclass
+class UserProgram:
+    """A program with user snippets, and the lane width it was built for."""
+
+    program: cl.Program
+    lanes: int
+    note: str | None = None  # why the scalar build was used, if it was
+
+
+def build_user_program(
+    ctx: DeviceContext,
+    includes: list[str],
+    generated: str,
+    users: tuple[UserFunction, ...],
+    tail: list[str] | tuple[str, ...] = (),
+    options: list[str] | tuple[str, ...] = (),
+    what: str = "kernel",
+    lanes: int | None = None,
+) -> UserProgram:
+    """Build a program holding user snippets, in lane form where that is safe.
+
+    The lane build (``LANES`` = ``lanes`` or the device's default) is tried
+    first.  It is used only if it compiles *and* every snippet's lane form
+    agrees with its scalar form on a set of probe points (a snippet may
+    compile on vectors yet mean something else, e.g. a comparison used as a
+    number).  Otherwise the scalar build is used and ``note`` says why; the
+    scalar build's compile errors are the ones reported to the user, since
+    they concern the code as the user wrote it.
+    """
+    want = ctx.lanes if lanes is None else int(lanes)
+    note = None
+    if want > 1:
+        probe = probe_source(users) if users else ""
+        src = compose(includes, generated + probe, users, vector_users=True, tail=tail)
+        try:
+            prg = build(ctx, src, [f"-DLANES={want}", *options], users, what)
+        except KernelBuildError:
+            note = f"the {what} is not valid on vector lanes; using the scalar build"
+        else:
+            bad = _probe_mismatch(ctx, prg, users, want)
+            if bad is None:
+                return UserProgram(prg, want)
+            note = f"the lane form of {bad} disagreed with its scalar form; using the scalar build"
+    src = compose(includes, generated, users, vector_users=False, tail=tail)
+    prg = build(ctx, src, ["-DLANES=1", *options], users, what)
+    return UserProgram(prg, 1, note)
+
+
+_PROBE_POINTS = 64
+
+
+def _probe_mismatch(ctx: DeviceContext, prg: cl.Program, users: tuple[UserFunction, ...], lanes: int) -> str | None:
+    """Run the probe kernel; return the label of the first disagreeing snippet."""
+    if not users:
+        return None
+    nargs = max(sum(max(n, 1) for _, n in u.params) for u in users)
+    pts = np.random.default_rng(12345).uniform(0.02, 0.98, size=(nargs, _PROBE_POINTS)).astype(np.float32)
+    mf = cl.mem_flags
+    bp = cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=pts)
+    out_s = np.empty((len(users), _PROBE_POINTS), np.float32)
+    out_v = np.empty_like(out_s)
+    bs = cl.Buffer(ctx.context, mf.WRITE_ONLY, out_s.nbytes)
+    bv = cl.Buffer(ctx.context, mf.WRITE_ONLY, out_v.nbytes)
+    kernel(prg, "probe_users")(ctx.queue, (_PROBE_POINTS // lanes,), None, bp, bs, bv)
+    cl.enqueue_copy(ctx.queue, out_s, bs)
+    cl.enqueue_copy(ctx.queue, out_v, bv)
+    with np.errstate(invalid="ignore"):
+        for k, u in enumerate(users):
+            a, b = out_s[k].astype(np.float64), out_v[k].astype(np.float64)
+            fin = np.isfinite(a) & np.isfinite(b)
+            same_class = (np.isfinite(a) == np.isfinite(b)) & ((np.isnan(a) == np.isnan(b)))
+            close = np.abs(a - b) <= 1e-4 * np.maximum(np.abs(a), np.abs(b)) + 1e-30
+            if not np.all(same_class) or not np.all(close[fin]):
+                return u.label
+    return None
+
+
+_kernels: dict[tuple[int, str], cl.Kernel] = {}
+
+
+def kernel(program: cl.Program, name: str) -> cl.Kernel:
+    """The kernel ``name`` of ``program``, retrieved once and reused.
+
+    A kernel object carries its arguments, so callers that launch from several
+    threads must use one device (one program) per thread, as the scheduler does.
+    """
+    key = (program.int_ptr, name)
+    with _programs_lock:
+        k = _kernels.get(key)
+        if k is None:
+            k = cl.Kernel(program, name)
+            _kernels[key] = k
+        return k
+
+
+__all__ = [
+    "KERNEL_DIR",
+    "DeviceContext",
+    "DeviceInfo",
+    "KernelBuildError",
+    "UserProgram",
+    "build",
+    "build_user_program",
+    "compose",
+    "default_lanes",
+    "device_context",
+    "has_fp64",
+    "kernel",
+    "kernel_source",
+    "list_devices",
+    "select_device",
+]
