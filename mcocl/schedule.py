@@ -240,3 +240,52 @@ def run(
         chunks=chunks,
     )
 
+
+
+@dataclass
+class Placement:
+    """Where a job runs.
+
+    Attributes:
+        device: one device (index, name substring, or None for the default).
+        devices: several devices: a list of specs, or ``"all"``.
+        split: partition each (CPU) device into this many sub-devices.
+        client: a ``dask.distributed.Client`` (or its address) to run chunks on.
+    """
+
+    device: Any = None
+    devices: Any = None
+    split: int | None = None
+    client: Any = None
+
+    @property
+    def is_single(self) -> bool:
+        """True when the job runs on one local device."""
+        return self.devices is None and not self.split and self.client is None
+
+
+def execute(
+    job: BlockJob,
+    acc: Accumulator,
+    halting: Halting,
+    placement: Placement | None = None,
+    progress: Callable[[Progress], None] | None = None,
+    runner: BlockRunner | None = None,
+    ctx: DeviceContext | None = None,
+) -> RunReport:
+    """Run ``job`` where ``placement`` says; the single entry point of the public APIs.
+
+    Args:
+        runner, ctx: a runner already built on ``ctx`` (the API builds one
+            first, to report compile errors early); reused, not rebuilt.
+    """
+    from .runtime import device_context
+
+    placement = placement or Placement()
+    if not placement.is_single:
+        from .errors import InputError
+
+        raise InputError("several devices, sub-devices and Dask are not available in this build")
+    if ctx is None:
+        ctx = device_context(placement.device)
+    return run(job, acc, halting, ctx, progress=progress, runner=runner)

@@ -13,7 +13,7 @@ from .. import runtime
 from ..accumulate import Accumulator
 from ..errors import InputError
 from ..progress import ProgressBar
-from ..schedule import Halting, Progress, run
+from ..schedule import Halting, Placement, Progress, execute
 from ..usercode import UserFunction
 from .codegen import HEURISTICS, generate
 from .design import Design, plan, total_granules
@@ -225,6 +225,9 @@ def integrate(
     target_stderr: float | None = None,
     design_samples: int | None = None,
     device: Any = None,
+    devices: Any = None,
+    split: int | None = None,
+    client: Any = None,
     lanes: int | None = None,
     checkpoint: str | None = None,
     resume: str | None = None,
@@ -253,6 +256,9 @@ def integrate(
         target_stderr: stop once the standard error is at most this.
         design_samples: samples per stratified / N-rooks design (default: see design.py).
         device: device index or name substring (``mcocl devices``).
+        devices: several devices (a list of specs, or ``"all"``).
+        split: partition each CPU device into this many sub-devices.
+        client: a ``dask.distributed`` client (or scheduler address).
         lanes: vector width override (1 forces the scalar kernel).
         checkpoint: save the accumulator to this file periodically and at the end.
         resume: continue from a checkpoint; the job must match.
@@ -298,6 +304,7 @@ def integrate(
             "or start runs with a multiple of the block size"
         )
 
+    placement = Placement(device=device, devices=devices, split=split, client=client)
     ctx = runtime.device_context(device)
     job = IntegrationJob(code, req.dim, design, req.seed, unit_limit, lanes)
     runner = job.runner(ctx)
@@ -327,7 +334,7 @@ def integrate(
     acc.meta["unit_limit"] = unit_limit
     halting = Halting(max_blocks=max_blocks, time_budget=time_budget, target=target if target_stderr else None,
                       checkpoint=checkpoint)
-    report = run(job, acc, halting, ctx, progress=callback, runner=runner)
+    report = execute(job, acc, halting, placement, progress=callback, runner=runner, ctx=ctx)
     if bar is not None:
         bar.close()
     acc.meta["partial_tail"] = bool(design.sampler == "independent" and acc.blocks_done * design.units_per_block > unit_limit)
