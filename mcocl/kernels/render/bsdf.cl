@@ -1,0 +1,134 @@
+/* bsdf.cl — the materials of a scene and one entry point per BSDF query.
+ *
+ * Materials come from CompiledScene.materials, float (M, 8):
+ *   [kind, r, g, b, alpha, int_ior, ext_ior, 0]
+ * kind 0 diffuse, 1 conductor (mirror), 2 roughconductor (GGX), 3 dielectric.
+ *
+ * In a lane build the eight paths of a packet may sit on different
+ * materials: every kind present in the packet is evaluated and the lanes
+ * take their own kind's result (a kind absent from the packet costs one
+ * test).  In the scalar build the same code is an ordinary branch.
+ *
+ * Conventions (Mitsuba 3): directions in the local frame of the surface's
+ * front normal, both pointing away from the surface; eval returns f cos(theta_o)
+ * and the solid-angle pdf of sampling wo; sample returns f cos / pdf.
+ */
+#ifndef MCOCL_BSDF_CL
+#define MCOCL_BSDF_CL
+
+#include "render/vec3.cl"
+#include "sampling/gather.cl"
+#include "render/bsdf_diffuse.cl"
+#include "render/bsdf_conductor.cl"
+#include "render/bsdf_roughconductor.cl"
+#include "render/bsdf_dielectric.cl"
+
+#define MAT_DIFFUSE 0
+#define MAT_CONDUCTOR 1
+#define MAT_ROUGHCONDUCTOR 2
+#define MAT_DIELECTRIC 3
+#define MAT_STRIDE 8
+
+typedef struct {
+    intv kind;
+    vec3v color;  /* albedo (diffuse), specular reflectance (conductors), tint (dielectric) */
+    floatv alpha; /* GGX roughness */
+    floatv eta;   /* int_ior / ext_ior */
+} material_v;
+
+/* The material record `index` of every lane. */
+RT_INLINE material_v material_load(global const float *mats, uintv index) {
+    uintv b = index * (uint)MAT_STRIDE;
+    material_v m;
+    m.kind = to_intv(gather_float(mats, b));
+    m.color = v3(gather_float(mats, b + 1u), gather_float(mats, b + 2u), gather_float(mats, b + 3u));
+    m.alpha = gather_float(mats, b + 4u);
+    m.eta = gather_float(mats, b + 5u) / gather_float(mats, b + 6u);
+    return m;
+}
+
+/* Lanes whose material has a non-delta lobe: light sampling applies there. */
+RT_INLINE intv bsdf_is_smooth(const material_v *m) {
+    return (m->kind == MAT_DIFFUSE) | (m->kind == MAT_ROUGHCONDUCTOR);
+}
+
+/* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi.
+ * Zero for the delta materials (a mirror never reflects a sampled light). */
+RT_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {
+    vec3v f = v3s(0.0f);
+    floatv p = (floatv)(0.0f);
+    intv is_d = m->kind == MAT_DIFFUSE;
+    if (mask_any(is_d)) {
+        floatv pd;
+        vec3v fd = diffuse_eval(m->color, wi, wo, &pd);
+        f = v3_select(f, fd, is_d);
+        p = select(p, pd, is_d);
+    }
+    intv is_r = m->kind == MAT_ROUGHCONDUCTOR;
+    if (mask_any(is_r)) {
+        floatv pr;
+        vec3v fr = roughconductor_eval(m->color, m->alpha, wi, wo, &pr);
+        f = v3_select(f, fr, is_r);
+        p = select(p, pr, is_r);
+    }
+    *pdf = p;
+    return f;
+}
+
+typedef struct {
+    vec3v wo;      /* sampled direction (local frame) */
+    vec3v weight;  /* f cos / pdf; zero when the sample failed */
+    floatv pdf;    /* solid-angle pdf, or the lobe's probability for a delta lobe */
+    floatv eta;    /* eta_t / eta_i of the move (refraction), else 1 */
+    intv delta;    /* the sampled lobe is a Dirac delta */
+} bsdf_sample_v;
+
+/* Sample wo given wi; u_lobe picks a lobe (dielectric), (u1, u2) the direction. */
+RT_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe, floatv u1, floatv u2) {
+    bsdf_sample_v s;
+    s.wo = v3(0.0f, 0.0f, 1.0f);
+    s.weight = v3s(0.0f);
+    s.pdf = (floatv)(0.0f);
+    s.eta = (floatv)(1.0f);
+    s.delta = (m->kind == MAT_CONDUCTOR) | (m->kind == MAT_DIELECTRIC);
+    intv is_d = m->kind == MAT_DIFFUSE;
+    if (mask_any(is_d)) {
+        vec3v wo;
+        floatv p;
+        vec3v w = diffuse_sample(m->color, wi, u1, u2, &wo, &p);
+        s.wo = v3_select(s.wo, wo, is_d);
+        s.weight = v3_select(s.weight, w, is_d);
+        s.pdf = select(s.pdf, p, is_d);
+    }
+    intv is_c = m->kind == MAT_CONDUCTOR;
+    if (mask_any(is_c)) {
+        vec3v wo;
+        floatv p;
+        vec3v w = conductor_sample(m->color, wi, &wo, &p);
+        s.wo = v3_select(s.wo, wo, is_c);
+        s.weight = v3_select(s.weight, w, is_c);
+        s.pdf = select(s.pdf, p, is_c);
+    }
+    intv is_r = m->kind == MAT_ROUGHCONDUCTOR;
+    if (mask_any(is_r)) {
+        vec3v wo;
+        floatv p;
+        vec3v w = roughconductor_sample(m->color, m->alpha, wi, u1, u2, &wo, &p);
+        s.wo = v3_select(s.wo, wo, is_r);
+        s.weight = v3_select(s.weight, w, is_r);
+        s.pdf = select(s.pdf, p, is_r);
+    }
+    intv is_g = m->kind == MAT_DIELECTRIC;
+    if (mask_any(is_g)) {
+        vec3v wo;
+        floatv p, e;
+        vec3v w = dielectric_sample(m->color, m->eta, wi, u_lobe, &wo, &p, &e);
+        s.wo = v3_select(s.wo, wo, is_g);
+        s.weight = v3_select(s.weight, w, is_g);
+        s.pdf = select(s.pdf, p, is_g);
+        s.eta = select(s.eta, e, is_g);
+    }
+    return s;
+}
+
+#endif
