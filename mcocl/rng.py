@@ -82,3 +82,20 @@ def uniforms(seed: int, first: int, count: int, dims: int, stream: int = STREAM_
                      np.uint32(stream), np.uint32(dims), bo)
         cl.enqueue_copy(ctx.queue, out, bo)
     return out
+
+
+def to_unit_float(bits: np.ndarray, device: object = None) -> np.ndarray:
+    """The kernels' uint32 -> float conversion applied to ``bits`` (computed by the kernel).
+
+    ``u = (floor(bits / 2**9) + 1/2) * 2**-23``: never 0 nor 1, unbiased.
+    """
+    b = np.ascontiguousarray(bits, dtype=np.uint32).ravel()
+    ctx, prg = _program(device)
+    out = np.empty(b.shape, dtype=np.float32)
+    if b.size:
+        mf = cl.mem_flags
+        bb = cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=b)
+        bo = cl.Buffer(ctx.context, mf.WRITE_ONLY, out.nbytes)
+        runtime.kernel(prg, "unit_floats")(ctx.queue, (b.size,), None, bb, bo)
+        cl.enqueue_copy(ctx.queue, out, bo)
+    return out.reshape(np.shape(bits))

@@ -22,7 +22,7 @@ import re
 import threading
 import warnings
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -240,7 +240,7 @@ def device_context(device: int | str | cl.Device | None = None) -> DeviceContext
         return ctx
 
 
-@lru_cache(maxsize=None)
+@cache
 def _read_kernel(rel: str) -> str:
     path = KERNEL_DIR / rel
     if not path.is_file():
@@ -404,7 +404,7 @@ def _probe_mismatch(ctx: DeviceContext, prg: cl.Program, users: tuple[UserFuncti
         for k, u in enumerate(users):
             a, b = out_s[k].astype(np.float64), out_v[k].astype(np.float64)
             fin = np.isfinite(a) & np.isfinite(b)
-            same_class = (np.isfinite(a) == np.isfinite(b)) & ((np.isnan(a) == np.isnan(b)))
+            same_class = (np.isfinite(a) == np.isfinite(b)) & (np.isnan(a) == np.isnan(b))
             close = np.abs(a - b) <= 1e-4 * np.maximum(np.abs(a), np.abs(b)) + 1e-30
             if not np.all(same_class) or not np.all(close[fin]):
                 return u.label

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -312,7 +311,7 @@ def integrate(
         shift = runner.pilot_shift()
     job.shift = shift
     if acc is None:
-        acc = Accumulator((8,), {**meta, "design": design.to_dict(), "shift": shift})
+        acc = Accumulator((job.stat_shape[0],), {**meta, "design": design.to_dict(), "shift": shift})
     notes = [runner.program.note] if runner.program.note else []
 
     def target(a: Accumulator) -> bool:

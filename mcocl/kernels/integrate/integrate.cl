@@ -18,6 +18,7 @@
  *   [0] valid finite samples   [1] non-finite samples (kept out of the sums)
  *   [2] sum (v - shift)        [3] sum (v - shift)^2   [4] 0     (independent, nrooks)
  *                              [3] sum (v1 - v2)^2     [4] pairs (stratified)
+ *   [5] sum |v| (the scale of float rounding in v, see job.py)
  * Sums run in double on 16 *virtual* lanes (unit offset mod 16), whatever the
  * build's LANES, and the virtual lanes are added in order at the end: the
  * numbers of a block depend on its index alone, not on the device's vector
@@ -32,7 +33,7 @@
 #define SAMPLER_NROOKS 2
 
 #define NCOORD (POINTS * DIM)
-#define STATS 5
+#define STATS 6
 #define VLANES 16
 #define NACC (VLANES / LANES)
 
@@ -59,9 +60,9 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
     const uint nunits = (uint)min((ulong)UNITS_PER_BLOCK, limit > unit0 ? limit - unit0 : 0ul);
     const ulong design_base = design * (ulong)DESIGN_UNITS;
 
-    doublev s1[NACC], s2[NACC], npairs[NACC];
+    doublev s1[NACC], s2[NACC], npairs[NACC], sabs[NACC];
     for (int a = 0; a < NACC; ++a) {
-        s1[a] = (doublev)(0.0); s2[a] = (doublev)(0.0); npairs[a] = (doublev)(0.0);
+        s1[a] = (doublev)(0.0); s2[a] = (doublev)(0.0); npairs[a] = (doublev)(0.0); sabs[a] = (doublev)(0.0);
     }
     uintv nvalid = (uintv)(0u), nbad = (uintv)(0u);
 
@@ -94,6 +95,7 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
         doublev d0 = to_doublev(select((floatv)(0.0f), v2[0], ok)) - shift;
         doublev d1 = to_doublev(select((floatv)(0.0f), v2[1], ok)) - shift;
         s1[acc] += (d0 + d1) * okd;
+        sabs[acc] += to_doublev(fabs(select((floatv)(0.0f), v2[0], ok)) + fabs(select((floatv)(0.0f), v2[1], ok)));
         s2[acc] += (d0 - d1) * (d0 - d1) * okd;
         npairs[acc] += okd;
         nvalid += 2u * to_uintv(mask_bit(ok));
@@ -112,6 +114,7 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
         doublev d = (to_doublev(select((floatv)(0.0f), v, ok)) - shift) * okd;
         s1[acc] += d;
         s2[acc] += d * d;
+        sabs[acc] += to_doublev(fabs(select((floatv)(0.0f), v, ok)));
         nvalid += to_uintv(mask_bit(ok));
 #endif
     }
@@ -121,4 +124,5 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
     o[2] = vlane_sum(s1);
     o[3] = vlane_sum(s2);
     o[4] = vlane_sum(npairs);
+    o[5] = vlane_sum(sabs);
 }

@@ -20,3 +20,9 @@ kernel void uniforms(ulong first, ulong seed, uint stream, uint dims, global flo
     rng_t r = rng_init(first + i, seed, stream);
     for (uint j = 0; j < dims; ++j) out[i * dims + j] = rng_uniform(r, j);
 }
+
+/* The uint32 -> (0, 1) conversion of arbitrary bit patterns (extremes included). */
+kernel void unit_floats(global const uint *bits, global float *out) {
+    size_t i = get_global_id(0);
+    out[i] = u01(bits[i]);
+}

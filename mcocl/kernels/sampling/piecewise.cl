@@ -33,6 +33,16 @@ inline uintv pc_find(global const uint *cum, uint nbins, uint top, uintv c) {
     return b;
 }
 
+/* (b + frac) / n rounded to float may land in a neighbouring bin; move x by one
+ * float towards bin b so that the bin a pdf lookup finds at x is the bin that
+ * was sampled (sampling and evaluation must agree for combined estimators). */
+inline floatv pc_keep_in_bin(floatv x, uintv b, uint nbins) {
+    uintv bx = to_uintv_rtz(x * (float)nbins);
+    x = select(x, nextafter(x, (floatv)(0.0f)), bx > b);
+    x = select(x, nextafter(x, (floatv)(1.0f)), bx < b);
+    return x;
+}
+
 /* Sample a 1-D table; returns x and writes its bin mass in *mass (probability, not density). */
 inline floatv pc1_sample_mass(global const uint *cum, uint nbins, uint top, floatv u, floatv *mass) {
     floatv t = u * PC_TOTAL;
@@ -43,7 +53,7 @@ inline floatv pc1_sample_mass(global const uint *cum, uint nbins, uint top, floa
     floatv cnt = to_floatv(hi - lo);
     floatv frac = clamp((t - to_floatv(lo)) / cnt, 0.0f, ONE_MINUS_EPS);
     *mass = cnt * PC_INV_TOTAL;
-    return clamp_open01((to_floatv(b) + frac) / (float)nbins);
+    return pc_keep_in_bin(clamp_open01((to_floatv(b) + frac) / (float)nbins), b, nbins);
 }
 
 /* The bin of x and its mass. */
@@ -85,7 +95,7 @@ inline void pc2_warp(global const uint *marg, global const uint *cond, uint na, 
     uintv hi = gather_uint(cond, base + b + 1u);
     floatv cnt = to_floatv(hi - lo);
     floatv frac = clamp((t - to_floatv(lo)) / cnt, 0.0f, ONE_MINUS_EPS);
-    *xb = clamp_open01((to_floatv(b) + frac) / (float)nb);
+    *xb = pc_keep_in_bin(clamp_open01((to_floatv(b) + frac) / (float)nb), b, nb);
     *pdf = ma * cnt * PC_INV_TOTAL * (float)na * (float)nb;
 }
 

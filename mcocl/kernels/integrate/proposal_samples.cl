@@ -1,0 +1,29 @@
+/* proposal_samples.cl — draw points from a proposal exactly as the estimator
+ * does (same uniforms, same warp), and report the pdf the warp returned and
+ * the pdf re-evaluated at the point.  Used by mcocl.integration.sample_proposal
+ * (goodness-of-fit tests, users inspecting a proposal).  Needs DIM and the
+ * generated warp_t0 / pdf_t0. */
+#include "rng/uniform.cl"
+
+kernel void proposal_samples(ulong n, ulong seed, global const uint *tables,
+                             global float *xs, global float *pdf_warp, global float *pdf_eval) {
+    const ulong i0 = get_global_id(0) * (ulong)LANES;
+    if (i0 >= n) return;
+    ulongv idx = (ulongv)(i0) + to_ulongv(LANE_IOTA);
+    rng_t r = rng_init(idx, seed, RNG_STREAM_SAMPLE);
+    floatv u[DIM], x[DIM];
+    rng_uniforms(r, 0u, DIM, u);
+    floatv p = warp_t0(u, x, tables);
+    floatv q = pdf_t0(x, tables);
+    float ps[LANES], qs[LANES], xj[LANES];
+    MC_CAT(vstore, LANE_SUFFIX)(p, 0, ps);
+    MC_CAT(vstore, LANE_SUFFIX)(q, 0, qs);
+    for (int l = 0; l < LANES && i0 + l < n; ++l) {
+        pdf_warp[i0 + l] = ps[l];
+        pdf_eval[i0 + l] = qs[l];
+    }
+    for (int j = 0; j < DIM; ++j) {
+        MC_CAT(vstore, LANE_SUFFIX)(x[j], 0, xj);
+        for (int l = 0; l < LANES && i0 + l < n; ++l) xs[(i0 + l) * DIM + j] = xj[l];
+    }
+}
