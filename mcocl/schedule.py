@@ -81,6 +81,9 @@ class Progress:
     elapsed: float
     blocks_per_second: float
     time_budget: float | None
+    # (device name, blocks per second of wall time) for each device of a
+    # multi-device or Dask run, in device order; empty for one device.
+    device_rates: tuple[tuple[str, float], ...] = ()
 
     @property
     def fraction(self) -> float | None:
@@ -104,14 +107,51 @@ class Progress:
 
 
 @dataclass
+class DeviceStats:
+    """What one device (or Dask worker) did in a run.
+
+    Attributes:
+        name: the device's name (sub-devices: ``name [k/N]``; Dask workers:
+            ``address: name``).
+        blocks: blocks it computed and that were folded.
+        chunks: chunks (launches or Dask tasks) it completed.
+        busy_seconds: time it had work in flight.
+        build_seconds: time its program build took (0 when cached).
+        error: why it dropped out, if it failed.
+    """
+
+    name: str
+    blocks: int = 0
+    chunks: int = 0
+    busy_seconds: float = 0.0
+    build_seconds: float = 0.0
+    error: str | None = None
+
+    def blocks_per_second(self, seconds: float) -> float:
+        """Its throughput over ``seconds`` of wall time (the run's duration)."""
+        return self.blocks / seconds if seconds > 0 else 0.0
+
+
+class DeviceFailureWarning(RuntimeWarning):
+    """A device failed during a run; its chunks went to the remaining devices."""
+
+
+@dataclass
 class RunReport:
-    """What happened in one :func:`run`."""
+    """What happened in one :func:`run` (or multi-device / Dask run)."""
 
     seconds: float
     blocks: int
     stopped_by: str  # "blocks", "time", "target", "interrupt"
     devices: list[str] = field(default_factory=list)
     chunks: int = 0
+    per_device: list[DeviceStats] = field(default_factory=list)
+    failures: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def device_rates(self) -> list[tuple[str, float]]:
+        """(device name, blocks per second of wall time) for every device."""
+        return [(d.name, d.blocks_per_second(self.seconds)) for d in self.per_device]
 
     @property
     def interrupted(self) -> bool:
@@ -232,12 +272,15 @@ def run(
             stopped_by = "interrupt" if intr.flag else ("blocks" if remaining_blocks() <= 0 else "time")
     if halting.checkpoint:
         acc.save(halting.checkpoint)
+    seconds = time.perf_counter() - t0
     return RunReport(
-        seconds=time.perf_counter() - t0,
+        seconds=seconds,
         blocks=acc.blocks_done,
         stopped_by=stopped_by,
         devices=[ctx.name],
         chunks=chunks,
+        per_device=[DeviceStats(ctx.name, acc.blocks_done - start_blocks, chunks, seconds,
+                                float(getattr(runner, "build_seconds", 0.0)))],
     )
 
 
@@ -275,17 +318,43 @@ def execute(
 ) -> RunReport:
     """Run ``job`` where ``placement`` says; the single entry point of the public APIs.
 
+    - one device (the default): :func:`run`;
+    - ``devices`` and/or ``split``: :func:`mcocl.multidevice.run_devices`,
+      one feeder thread per device or sub-device;
+    - ``client``: :func:`mcocl.distributed.run_dask`, chunks as Dask tasks.
+
+    Whatever the placement, blocks are folded in block order, so the sums are
+    bit-identical to a one-device run of the same job (on devices that build
+    the same kernel: same lane width and compiler).
+
     Args:
         runner, ctx: a runner already built on ``ctx`` (the API builds one
-            first, to report compile errors early); reused, not rebuilt.
+            first, to report compile errors early); reused, not rebuilt,
+            when ``ctx`` is one of the placement's devices.
+
+    Raises:
+        InputError: a malformed placement.
+        DeviceError: no device is left after failures (multi-device, Dask).
     """
     from .runtime import device_context
 
     placement = placement or Placement()
-    if not placement.is_single:
-        from .errors import InputError
+    if placement.client is not None:
+        from .distributed import run_dask
 
-        raise InputError("several devices, sub-devices and Dask are not available in this build")
-    if ctx is None:
-        ctx = device_context(placement.device)
-    return run(job, acc, halting, ctx, progress=progress, runner=runner)
+        return run_dask(job, acc, halting, placement, progress=progress)
+    if placement.is_single:
+        if ctx is None:
+            ctx = device_context(placement.device)
+        return run(job, acc, halting, ctx, progress=progress, runner=runner)
+    from .devices import resolve_devices
+    from .multidevice import run_devices
+
+    choice = resolve_devices(placement.device, placement.devices, placement.split)
+    contexts = choice.contexts
+    runners = {k: runner for k, c in enumerate(contexts) if runner is not None and c is ctx}
+    if len(contexts) == 1:
+        return run(job, acc, halting, contexts[0], progress=progress, runner=runners.get(0))
+    report = run_devices(job, acc, halting, contexts, progress=progress, runners=runners)
+    report.notes = choice.notes + report.notes
+    return report

@@ -31,12 +31,43 @@ def positive(text: str) -> float:
     return v
 
 
+def split_count(text: str) -> int:
+    """A number of sub-devices: a whole number >= 1."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number of sub-devices, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return v
+
+
 def add_device_args(p: argparse.ArgumentParser) -> None:
-    """--device and --lanes."""
-    p.add_argument("--device", default=None,
+    """--device, --devices, --split, --dask and --lanes (read them back with :func:`placement_kwargs`)."""
+    g = p.add_argument_group("devices")
+    g.add_argument("--device", default=None,
                    help="OpenCL device: index from `mcocl devices` or a name substring (default: PYOPENCL_CTX, else the first device)")
-    p.add_argument("--lanes", type=int, choices=(1, 2, 4, 8, 16), default=None,
+    g.add_argument("--devices", default=None, metavar="LIST",
+                   help="run on several devices at once: 'all', or a comma-separated list of indices/names (e.g. 0,2); "
+                        "the result is bit-identical to a one-device run")
+    g.add_argument("--split", type=split_count, default=None, metavar="N",
+                   help="partition each CPU device into N sub-devices (OpenCL device fission) and use them as devices; "
+                        "`mcocl devices --split N` shows the parts")
+    g.add_argument("--dask", default=None, metavar="ADDRESS",
+                   help="run the chunks as tasks on a Dask cluster (scheduler address, e.g. tcp://host:8786); "
+                        "needs pip install 'mcocl[dask]' here and mcocl on the workers")
+    g.add_argument("--lanes", type=int, choices=(1, 2, 4, 8, 16), default=None,
                    help="samples per vector instruction in the kernel (default: the device's preferred float width; 1 = scalar)")
+
+
+def placement_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """The ``device``, ``devices``, ``split`` and ``client`` keyword arguments of the APIs, from parsed options."""
+    return {
+        "device": getattr(args, "device", None),
+        "devices": getattr(args, "devices", None),
+        "split": getattr(args, "split", None),
+        "client": getattr(args, "dask", None),
+    }
 
 
 def print_json(obj: Any) -> None:

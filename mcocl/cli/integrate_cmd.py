@@ -8,9 +8,10 @@ import sys
 import warnings
 
 from ..integration import NonFiniteWarning, integrate
-from ..integration.codegen import HEURISTICS
 from ..integration.api import SAMPLERS
-from .common import add_device_args, count, positive, print_json
+from ..integration.codegen import HEURISTICS
+from ..schedule import DeviceFailureWarning
+from .common import add_device_args, count, placement_kwargs, positive, print_json
 
 DESCRIPTION = """\
 Estimate the integral of INTEGRAND over the unit cube [0,1]^dim.
@@ -47,6 +48,9 @@ examples:
   mcocl integrate "1/sqrt(x[0])" --proposal power:a=-0.5
   mcocl integrate "exp(-x[0])" --control "1 - x[0]" --control-integral 0.5
   mcocl integrate "exp(-x[0]*x[0])" --samples 1e12 --time 10 --target-stderr 1e-7
+  mcocl integrate "exp(-x[0]*x[0])" --samples 1e10 --devices all
+  mcocl integrate "exp(-x[0]*x[0])" --samples 1e10 --split 2
+  mcocl integrate "exp(-x[0]*x[0])" --samples 1e12 --dask tcp://scheduler:8786
 """
 
 
@@ -106,11 +110,11 @@ def run(args: argparse.Namespace) -> int:
             proposal=proposal, proposals=proposals, shares=args.shares, heuristic=args.heuristic, beta=args.beta,
             control=args.control, control_integral=args.control_integral, roulette=args.roulette,
             time_budget=args.time_budget, target_stderr=args.target_stderr, design_samples=args.design_samples,
-            device=args.device, lanes=args.lanes, checkpoint=args.checkpoint, resume=args.resume,
+            lanes=args.lanes, **placement_kwargs(args), checkpoint=args.checkpoint, resume=args.resume,
             progress=not args.quiet and not args.json,
         )
     for w in caught:
-        if issubclass(w.category, NonFiniteWarning):
+        if issubclass(w.category, (NonFiniteWarning, DeviceFailureWarning)):
             print(f"WARNING: {w.message}", file=sys.stderr)
     if args.json:
         print_json(r.to_dict())
