@@ -1,0 +1,189 @@
+/* intersect.cl — scene geometry seen from a kernel: ray–triangle, ray–sphere,
+ * normals, areas and uniform area sampling of primitives.
+ *
+ * Scalar code (one ray per call); valid in any LANES build.  The data are the
+ * arrays of mcocl/render/compiled.py:
+ *   tris:    float4 (3T): v0, v1, v2 of triangle p at 3p, 3p+1, 3p+2 (w unused);
+ *            the front side is counter-clockwise, n = normalize(cross(v1-v0, v2-v0));
+ *   spheres: float4 (S): centre xyz, radius; sphere_flip[s] = 1: normal points inwards.
+ * Primitive ids: p < ntris is triangle p, p >= ntris is sphere p - ntris.
+ *
+ * Ray–triangle: Möller–Trumbore (1997) with the barycentric edge tests widened
+ * by TRI_EDGE_EPS (relative to the triangle, since barycentrics are), so that
+ * a ray through an edge shared by two triangles hits at least one of them:
+ * float rounding of u, v is ~1e-7 relative for rays that do not start
+ * thousands of triangle sizes away, far below the 2^-20 slack.  This is
+ * "watertight enough" for closed scenes (the furnace test), not the exact
+ * watertight test of Woop et al. 2013 (pbrt-v4 §6.5.3), which costs a shear
+ * per ray and is not needed at these scales.  det == 0 (parallel ray or
+ * degenerate triangle) never hits; every comparison is written so that a NaN
+ * fails it, so degenerate input cannot produce a hit or a NaN t.
+ *
+ * Ray–sphere: the quadratic with the discriminant computed as
+ * r² − |f − (f·d/d·d) d|² (Haines et al., Ray Tracing Gems ch. 7, eq. 10),
+ * which stays accurate for small spheres far away, and the root pair formed
+ * from q = −(b + sign(b)·sqrt(Δ)) (no cancellation).
+ *
+ * Rays have an implicit tmin of 0: a ray leaving a surface must start off it;
+ * spawn_origin() below offsets a point along its normal for that.
+ */
+#ifndef MCOCL_RENDER_INTERSECT_CL
+#define MCOCL_RENDER_INTERSECT_CL
+
+#ifndef M_PI_F
+#define M_PI_F 3.14159265358979323846f
+#endif
+
+#define TRI_EDGE_EPS 9.5367431640625e-7f /* 2^-20 */
+
+typedef struct {
+    global const float4 *nodes;   /* BVH, layout of mcocl/render/bvh.py */
+    global const uint *prims;     /* BVH leaf primitive ids */
+    global const float4 *tris;    /* 3 float4 per triangle */
+    global const float4 *spheres; /* centre, radius */
+    global const uint *sphere_flip;
+    uint ntris;
+    uint nspheres;
+} scene_geom;
+
+typedef struct {
+    float t;     /* ray parameter of the hit: point = o + t d */
+    uint prim;   /* primitive id */
+    float b1, b2; /* triangle barycentrics of v1, v2 (0 for spheres) */
+} hit_info;
+
+/* Kernel parameters carrying the geometry, in the order of CompiledScene.geom_args(). */
+#define SCENE_GEOM_PARAMS                                                                    \
+    global const float4 *bvh_nodes, global const uint *bvh_prims, global const float4 *tri_vertices, \
+    global const float4 *scene_spheres, global const uint *scene_sphere_flip, const uint scene_ntris, \
+    const uint scene_nspheres
+/* Declare `scene_geom name` from SCENE_GEOM_PARAMS inside a kernel. */
+#define SCENE_GEOM_MAKE(name)                                                                \
+    scene_geom name;                                                                         \
+    name.nodes = bvh_nodes; name.prims = bvh_prims; name.tris = tri_vertices;                \
+    name.spheres = scene_spheres; name.sphere_flip = scene_sphere_flip;                      \
+    name.ntris = scene_ntris; name.nspheres = scene_nspheres
+
+/* Ray–triangle (Möller–Trumbore).  On a hit with t in (0, tmax) writes t and
+ * the barycentrics of v1 and v2 and returns true. */
+inline __attribute__((always_inline)) bool intersect_triangle(float3 v0, float3 v1, float3 v2, float3 o, float3 d,
+                                                                float tmax, float *t_out, float *b1_out, float *b2_out)
+{
+    float3 e1 = v1 - v0, e2 = v2 - v0;
+    float3 pv = cross(d, e2);
+    float det = dot(e1, pv);
+    float inv = 1.0f / det;                  /* det == 0: inv = inf, every test below fails */
+    float3 tv = o - v0;
+    float u = dot(tv, pv) * inv;
+    float3 qv = cross(tv, e1);
+    float v = dot(d, qv) * inv;
+    float t = dot(e2, qv) * inv;
+    bool ok = (u >= -TRI_EDGE_EPS) && (v >= -TRI_EDGE_EPS) && (u + v <= 1.0f + TRI_EDGE_EPS) && (t > 0.0f) && (t < tmax)
+              && (det != 0.0f);
+    if (ok) {
+        *t_out = t;
+        *b1_out = u;
+        *b2_out = v;
+    }
+    return ok;
+}
+
+/* Ray–sphere: the nearest root in (0, tmax).  Works for any (non-zero) d. */
+inline __attribute__((always_inline)) bool intersect_sphere(float4 s, float3 o, float3 d, float tmax, float *t_out)
+{
+    float3 f = o - s.xyz;
+    float a = dot(d, d);
+    float b = dot(f, d);                         /* half the linear coefficient */
+    float c = dot(f, f) - s.w * s.w;
+    float3 l = f - (b / a) * d;                  /* f minus its projection on d */
+    float disc = a * (s.w * s.w - dot(l, l));    /* = b² − a c, without cancellation */
+    if (!(disc >= 0.0f)) return false;
+    float q = -(b + copysign(sqrt(disc), b));
+    float t0 = q / a, t1 = c / q;
+    float tn = fmin(t0, t1), tf = fmax(t0, t1);
+    float t = (tn > 0.0f) ? tn : tf;
+    if (t > 0.0f && t < tmax) {
+        *t_out = t;
+        return true;
+    }
+    return false;
+}
+
+/* Centre and radius of sphere primitive `prim` (prim >= ntris). */
+inline float4 sphere_of(const scene_geom *g, uint prim)
+{
+    return g->spheres[prim - g->ntris];
+}
+
+/* The unit geometric normal on the front side at point p of primitive prim. */
+inline float3 prim_normal(const scene_geom *g, uint prim, float3 p)
+{
+    if (prim < g->ntris) {
+        float3 v0 = g->tris[3 * prim].xyz, v1 = g->tris[3 * prim + 1].xyz, v2 = g->tris[3 * prim + 2].xyz;
+        return normalize(cross(v1 - v0, v2 - v0));
+    }
+    float4 s = g->spheres[prim - g->ntris];
+    float3 n = normalize(p - s.xyz);
+    return g->sphere_flip[prim - g->ntris] ? -n : n;
+}
+
+/* Surface area of a primitive. */
+inline float prim_area(const scene_geom *g, uint prim)
+{
+    if (prim < g->ntris) {
+        float3 v0 = g->tris[3 * prim].xyz, v1 = g->tris[3 * prim + 1].xyz, v2 = g->tris[3 * prim + 2].xyz;
+        return 0.5f * length(cross(v1 - v0, v2 - v0));
+    }
+    float r = g->spheres[prim - g->ntris].w;
+    return 4.0f * M_PI_F * r * r;
+}
+
+/* A point distributed uniformly over the primitive's area (density 1/area) and
+ * its front normal in *n.  Triangles: b0 = 1 − √u1, b1 = u2 √u1 (pbrt-v3
+ * §13.6.5 "UniformSampleTriangle"); spheres: z = 1 − 2 u1, φ = 2π u2 (Archimedes). */
+inline float3 prim_sample_area(const scene_geom *g, uint prim, float2 u, float3 *n)
+{
+    if (prim < g->ntris) {
+        float3 v0 = g->tris[3 * prim].xyz, v1 = g->tris[3 * prim + 1].xyz, v2 = g->tris[3 * prim + 2].xyz;
+        float su = sqrt(u.x);
+        float b1 = 1.0f - su, b2 = u.y * su;
+        *n = normalize(cross(v1 - v0, v2 - v0));
+        return v0 + b1 * (v1 - v0) + b2 * (v2 - v0);
+    }
+    float4 s = g->spheres[prim - g->ntris];
+    float z = 1.0f - 2.0f * u.x;
+    float rxy = sqrt(fmax(0.0f, 1.0f - z * z));
+    float phi = 2.0f * M_PI_F * u.y;
+    float3 dir = (float3)(rxy * cos(phi), rxy * sin(phi), z);
+    *n = g->sphere_flip[prim - g->ntris] ? -dir : dir;
+    return s.xyz + s.w * dir;
+}
+
+/* The hit point of a ray, recomputed from the primitive for accuracy: the
+ * barycentric combination on a triangle (lies on its plane up to rounding of
+ * the vertices), the re-projection onto the sphere (pbrt-v4 §6.8.5). */
+inline float3 hit_point(const scene_geom *g, float3 o, float3 d, const hit_info *h)
+{
+    if (h->prim < g->ntris) {
+        uint p = h->prim;
+        float3 v0 = g->tris[3 * p].xyz, v1 = g->tris[3 * p + 1].xyz, v2 = g->tris[3 * p + 2].xyz;
+        return v0 + h->b1 * (v1 - v0) + h->b2 * (v2 - v0);
+    }
+    float4 s = g->spheres[h->prim - g->ntris];
+    float3 p = o + h->t * d;
+    return s.xyz + s.w * normalize(p - s.xyz);
+}
+
+/* A ray origin near surface point p (geometric normal n) from which a ray in
+ * direction w does not re-hit the surface it leaves: p moved along ±n to the
+ * side w points to, by an offset relative to the magnitude of p's
+ * coordinates (float32 rounding of p is ~6e-8 |p|; 2^-17 leaves a wide
+ * margin and is invisible at scene scale). */
+inline float3 spawn_origin(float3 p, float3 n, float3 w)
+{
+    float3 ap = fabs(p);
+    float eps = 7.62939453125e-6f * fmax(fmax(fmax(ap.x, ap.y), ap.z), 1e-2f); /* 2^-17 */
+    return p + (dot(n, w) >= 0.0f ? eps : -eps) * n;
+}
+
+#endif

@@ -1,0 +1,314 @@
+"""The compiled scene: flat, C-contiguous arrays that the render kernels read.
+
+This module is the contract between the scene half (loading, geometry, BVH)
+and the integrator half (camera, BSDFs, lights, megakernel) of the renderer.
+
+Arrays of :class:`CompiledScene` (all C-contiguous):
+
+- ``width``, ``height``: image size in pixels.
+- ``camera``: float32 (4, 4), rows ``origin, right, up, forward`` (w = 0).
+  A film point (sx, sy) in pixels (sx in [0, W), sy in [0, H), row 0 = top of
+  the image, column 0 = left) looks along
+  ``normalize(forward + ndc_x·right + ndc_y·up)`` with ``ndc_x = 2·sx/W − 1``,
+  ``ndc_y = 1 − 2·sy/H``; ``right``/``up`` are pre-scaled by tan(fov/2) and the
+  aspect ratio so that ``fov`` is the full angle on the smaller image axis.
+  ``forward`` is a unit vector; right = forward × up (world), so at the
+  Cornell camera (0, 0, 3.9) → origin, +x is on the right of the image.
+- ``tri_vertices``: float32 (T, 3, 4): v0, v1, v2 (w = 0) in world space.
+  The front side is counter-clockwise: normal = normalize(cross(v1 − v0, v2 − v0));
+  mirroring transforms and ``flip_normals`` are already applied by swapping
+  v1 and v2.
+- ``spheres``: float32 (S, 4): centre xyz, radius (world space);
+  ``sphere_flip``: uint32 (S,), 1 when the front normal points inwards.
+- Primitive ids: ``p < T`` is triangle ``p``; ``p >= T`` is sphere ``p − T``.
+  ``prim_shape``: uint32 (T + S,): the shape each primitive belongs to.
+- ``bvh_nodes`` (float32 (1 + 4K, 4)), ``bvh_prims`` (uint32): see
+  :mod:`mcocl.render.bvh`; kernels use them only through ``render/bvh.cl``.
+  Degenerate triangles (zero area) are left out of the BVH: no ray hits them.
+- ``shape_material``: uint32 (num_shapes,); ``shape_emitter``: int32
+  (num_shapes,), index into ``emitter_radiance`` or −1.
+- ``materials``: float32 (M, 8): ``[kind, r, g, b, alpha, int_ior, ext_ior, 0]``;
+  kind 0 diffuse, 1 conductor, 2 roughconductor, 3 dielectric (:data:`MATERIAL_CODES`);
+  (r, g, b) = albedo (diffuse) or specular reflectance (conductors; 1 for dielectrics).
+- ``emitter_radiance``: float32 (E, 4): RGB radiance, 0.
+- ``light_prims``: uint32 (L,): every primitive of every emissive shape
+  with non-zero area, in primitive-id order.
+- ``light_cdf``: float32 (L + 1,): CDF over ``light_prims`` proportional to
+  power = luminance(radiance)·area·π (luminance = 0.2126 R + 0.7152 G +
+  0.0722 B); ``light_cdf[0] = 0``, ``light_cdf[L] = 1``.  With no light
+  (or only black ones) L = 0 and ``light_cdf = [0]``.
+- ``light_pmf``: float32 (L,): ``light_cdf[i+1] − light_cdf[i]`` computed in
+  float32, i.e. exactly the probability with which CDF inversion picks light i.
+  (extension of the contract)
+- ``prim_light``: int32 (T + S,): index of a primitive in ``light_prims``,
+  −1 if it is not a light (for the MIS weight of an emitter hit by BSDF
+  sampling). (extension of the contract)
+- ``light_area``: float32 (L,): surface area of each light primitive.
+- ``env_radiance``: float32 (4,): RGB of the constant environment, 0 (all
+  zero = no environment).
+- ``integrator`` (str), ``max_depth``, ``rr_depth``, ``spp`` (int): Mitsuba 3
+  conventions (max_depth −1 unbounded, 1 emitters seen directly, 2 direct
+  light only).
+- ``bounds``: float32 (2, 3) world box of all geometry (zeros when empty).
+- ``source``: the scene file.
+
+``buffers(ctx)`` returns one read-only pyopencl Buffer per array (a zero-size
+array gets a 16-byte zero buffer, since OpenCL has no empty buffers), cached
+per context; ``geom_args(ctx)`` gives the seven kernel arguments declared by
+``SCENE_GEOM_PARAMS`` in ``render/intersect.cl``, in order.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from . import transform as tf
+from .bvh import BVH, build_bvh
+from .scene import Scene, check_integrator_settings, load_scene
+
+MATERIAL_CODES = {"diffuse": 0, "conductor": 1, "roughconductor": 2, "dielectric": 3}
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+# Names of the arrays passed to kernels (the order of ``buffers``).
+ARRAY_NAMES = (
+    "camera", "tri_vertices", "spheres", "sphere_flip", "prim_shape", "bvh_nodes", "bvh_prims",
+    "shape_material", "shape_emitter", "materials", "emitter_radiance", "light_prims", "light_cdf",
+    "light_pmf", "prim_light", "light_area", "env_radiance",
+)
+
+
+@dataclass
+class CompiledScene:
+    """A scene as flat arrays for the kernels (see the module docstring for every field)."""
+
+    width: int
+    height: int
+    camera: np.ndarray
+    tri_vertices: np.ndarray
+    spheres: np.ndarray
+    sphere_flip: np.ndarray
+    prim_shape: np.ndarray
+    bvh_nodes: np.ndarray
+    bvh_prims: np.ndarray
+    shape_material: np.ndarray
+    shape_emitter: np.ndarray
+    materials: np.ndarray
+    emitter_radiance: np.ndarray
+    light_prims: np.ndarray
+    light_cdf: np.ndarray
+    light_pmf: np.ndarray
+    prim_light: np.ndarray
+    light_area: np.ndarray
+    env_radiance: np.ndarray
+    integrator: str
+    max_depth: int
+    rr_depth: int
+    spp: int
+    bounds: np.ndarray
+    source: Path | None = None
+    shape_names: list[str] = field(default_factory=list)
+    bvh_stats: dict = field(default_factory=dict)
+    _buffers: dict = field(default_factory=dict, repr=False, compare=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
+
+    @property
+    def num_triangles(self) -> int:
+        """T, the number of triangles."""
+        return int(self.tri_vertices.shape[0])
+
+    @property
+    def num_spheres(self) -> int:
+        """S, the number of spheres."""
+        return int(self.spheres.shape[0])
+
+    @property
+    def num_lights(self) -> int:
+        """L, the number of emissive primitives."""
+        return int(self.light_prims.shape[0])
+
+    def buffers(self, ctx) -> dict:
+        """One read-only pyopencl Buffer per array of :data:`ARRAY_NAMES`, cached per context."""
+        import pyopencl as cl
+
+        key = ctx.context.int_ptr
+        with self._lock:
+            bufs = self._buffers.get(key)
+            if bufs is None:
+                mf = cl.mem_flags
+                bufs = {}
+                for name in ARRAY_NAMES:
+                    a = np.ascontiguousarray(getattr(self, name))
+                    if a.nbytes == 0:
+                        a = np.zeros(4, np.uint32)
+                    bufs[name] = cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+                self._buffers[key] = bufs
+            return bufs
+
+    def geom_args(self, ctx) -> list:
+        """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, prims, triangles, spheres, flips, T, S)."""
+        b = self.buffers(ctx)
+        return [b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
+                np.uint32(self.num_triangles), np.uint32(self.num_spheres)]
+
+    def with_settings(self, integrator: str | None = None, max_depth: int | None = None,
+                      rr_depth: int | None = None, spp: int | None = None) -> CompiledScene:
+        """Override the integrator settings in place (validated); returns ``self``.
+
+        Raises:
+            InputError: a setting is invalid (e.g. integrator 'foo', spp 0).
+        """
+        s = check_integrator_settings(
+            self.integrator if integrator is None else integrator,
+            self.max_depth if max_depth is None else max_depth,
+            self.rr_depth if rr_depth is None else rr_depth,
+            self.spp if spp is None else spp,
+            key="settings",
+        )
+        self.integrator, self.max_depth, self.rr_depth, self.spp = (
+            s["integrator"], s["max_depth"], s["rr_depth"], s["spp"])
+        return self
+
+
+def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: float,
+                  width: int, height: int) -> np.ndarray:
+    """The (4, 4) float32 camera rows ``origin, right, up, forward`` of the contract."""
+    fwd = np.asarray(target, np.float64) - origin
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, fwd)
+    t = math.tan(math.radians(fov) / 2.0)
+    # fov spans the smaller axis; the other axis extends by the aspect ratio.
+    sx, sy = (t * width / height, t) if width >= height else (t, t * height / width)
+    cam = np.zeros((4, 4), np.float32)
+    cam[0, :3], cam[1, :3], cam[2, :3], cam[3, :3] = origin, right * sx, true_up * sy, fwd
+    return cam
+
+
+def _shape_triangles(shape) -> np.ndarray:
+    """World-space triangles (n, 3, 3) of a mesh-like shape, front side counter-clockwise."""
+    v = tf.apply_points(shape.matrix, shape.vertices)
+    f = shape.faces
+    if tf.is_orientation_reversing(shape.matrix) != shape.flip_normals:
+        f = f[:, [0, 2, 1]]
+    return v[f]
+
+
+def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, max_depth: int | None = None,
+                  rr_depth: int | None = None, spp: int | None = None, max_leaf: int = 8,
+                  bins: int = 16) -> CompiledScene:
+    """Flatten a scene (or scene file) into a :class:`CompiledScene`; keyword settings override the file's.
+
+    Raises:
+        InputError: the scene file or an override is invalid.
+    """
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)
+    tris, tri_shape, spheres, sphere_flip, sphere_shape = [], [], [], [], []
+    for k, sh in enumerate(scene.shapes):
+        if sh.kind == "sphere":
+            s = tf.uniform_scale_of(sh.matrix)
+            c = tf.apply_points(sh.matrix, sh.center)
+            spheres.append([*c, sh.radius * s])
+            sphere_flip.append(1 if sh.flip_normals else 0)
+            sphere_shape.append(k)
+        else:
+            t = _shape_triangles(sh)
+            tris.append(t)
+            tri_shape.append(np.full(len(t), k, np.uint32))
+    tri64 = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+    if not np.all(np.isfinite(tri64)):
+        raise InputError(f"{scene.path}: a transform produced non-finite vertices")
+    sph64 = np.array(spheres, np.float64).reshape(-1, 4)
+    ntri, nsph = len(tri64), len(sph64)
+    tri_vertices = np.zeros((ntri, 3, 4), np.float32)
+    tri_vertices[:, :, :3] = tri64
+    sph32 = sph64.astype(np.float32)
+    prim_shape = np.concatenate([*tri_shape, np.array(sphere_shape, np.uint32)]).astype(np.uint32)
+
+    # Areas and degeneracy as the kernels will see them (from the float32 vertices).
+    t32 = tri_vertices[:, :, :3].astype(np.float64)
+    e1, e2 = t32[:, 1] - t32[:, 0], t32[:, 2] - t32[:, 0]
+    cr = np.cross(e1, e2)
+    tri_area = 0.5 * np.linalg.norm(cr, axis=1)
+    # Degenerate: zero area, or so thin that its normal is numerical noise (sin angle < 1e-6).
+    edge_scale = np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+    good_tri = (tri_area > 0) & (2.0 * tri_area > 1e-6 * edge_scale)
+    sph_area = 4.0 * math.pi * sph32[:, 3].astype(np.float64) ** 2
+    prim_area = np.concatenate([tri_area, sph_area])
+
+    # BVH over the non-degenerate primitives.
+    lo = np.concatenate([t32.min(axis=1)[good_tri], sph32[:, :3] - sph32[:, 3:]]).astype(np.float32)
+    hi = np.concatenate([t32.max(axis=1)[good_tri], sph32[:, :3] + sph32[:, 3:]]).astype(np.float32)
+    ids = np.concatenate([np.flatnonzero(good_tri), ntri + np.arange(nsph)]).astype(np.uint32)
+    bvh: BVH = build_bvh(lo, hi, ids, max_leaf=max_leaf, bins=bins)
+
+    # Materials and emitters.
+    mats = np.zeros((max(len(scene.materials), 0), 8), np.float32)
+    for i, m in enumerate(scene.materials):
+        mats[i] = [MATERIAL_CODES[m.kind], *m.rgb, m.alpha, m.int_ior, m.ext_ior, 0.0]
+    shape_material = np.array([sh.material for sh in scene.shapes], np.uint32)
+    shape_emitter = np.full(len(scene.shapes), -1, np.int32)
+    radiance = []
+    for k, sh in enumerate(scene.shapes):
+        if sh.radiance is not None:
+            shape_emitter[k] = len(radiance)
+            radiance.append([*sh.radiance, 0.0])
+    emitter_radiance = np.array(radiance, np.float32).reshape(-1, 4)
+
+    # Lights: every primitive of an emissive shape, chosen in proportion to its power.
+    prim_emitter = shape_emitter[prim_shape] if len(prim_shape) else np.zeros(0, np.int32)
+    good_prim = np.concatenate([good_tri, sph_area > 0])
+    is_light = (prim_emitter >= 0) & good_prim
+    light_prims = np.flatnonzero(is_light).astype(np.uint32)
+    lum = emitter_radiance[:, :3].astype(np.float64) @ LUMINANCE if len(radiance) else np.zeros(0)
+    power = lum[prim_emitter[light_prims]] * prim_area[light_prims] * math.pi if len(light_prims) else np.zeros(0)
+    total = float(power.sum())
+    if total > 0.0:
+        cdf = np.concatenate([[0.0], np.cumsum(power) / total]).astype(np.float32)
+        cdf[-1] = 1.0
+        # A black light keeps its slot with probability 0: CDF inversion never picks it.
+        pmf = np.diff(cdf).astype(np.float32)
+    else:
+        light_prims = np.zeros(0, np.uint32)
+        cdf = np.zeros(1, np.float32)
+        pmf = np.zeros(0, np.float32)
+    prim_light = np.full(ntri + nsph, -1, np.int32)
+    prim_light[light_prims] = np.arange(len(light_prims), dtype=np.int32)
+    light_area = prim_area[light_prims].astype(np.float32)
+
+    env = np.zeros(4, np.float32)
+    env[:3] = scene.env_radiance
+    cam = scene.camera
+    bounds = bvh.bounds if len(ids) else np.zeros((2, 3), np.float32)
+    cs = CompiledScene(
+        width=cam.width, height=cam.height,
+        camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height),
+        tri_vertices=np.ascontiguousarray(tri_vertices), spheres=np.ascontiguousarray(sph32),
+        sphere_flip=np.array(sphere_flip, np.uint32), prim_shape=prim_shape,
+        bvh_nodes=np.ascontiguousarray(bvh.nodes), bvh_prims=np.ascontiguousarray(bvh.prims),
+        shape_material=shape_material, shape_emitter=shape_emitter, materials=mats,
+        emitter_radiance=emitter_radiance, light_prims=light_prims, light_cdf=cdf, light_pmf=pmf,
+        prim_light=prim_light, light_area=light_area, env_radiance=env,
+        integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
+        bounds=np.ascontiguousarray(bounds, np.float32), source=scene.path,
+        shape_names=[sh.name or sh.key for sh in scene.shapes],
+        bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
+                   "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},
+    )
+    return cs.with_settings(integrator, max_depth, rr_depth, spp)
+
+
+def load_compiled(path: str | Path, **overrides) -> CompiledScene:
+    """Load, validate and compile a scene file (``overrides`` as for :func:`compile_scene`)."""
+    return compile_scene(load_scene(path), **overrides)
+
+
+__all__ = ["ARRAY_NAMES", "LUMINANCE", "MATERIAL_CODES", "CompiledScene", "camera_matrix", "compile_scene",
+           "load_compiled"]

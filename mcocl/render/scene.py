@@ -1,0 +1,440 @@
+"""Scene files: JSON loading and validation (the format is documented in ``scenes/README.md``).
+
+:func:`load_scene` reads a scene file into a :class:`Scene` of plain Python and
+NumPy values, checking every key on the way.  A mistake — an unknown key, a
+missing field, a value of the wrong type or range, a dangling material
+reference, a non-uniform scale on a sphere — raises
+:class:`~mcocl.errors.InputError` whose message starts with the file and the
+key path, e.g. ``scenes/x.json: shapes[3].material: unknown material 'wite'
+(defined: white, red)``.  Nothing here raises a bare Python exception on bad
+input.
+
+:mod:`mcocl.render.compiled` turns a :class:`Scene` into the flat arrays the
+kernels read.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from . import shapes as shape_lib
+from . import transform as tf
+
+INTEGRATORS = ("path", "nee", "mis")
+MATERIAL_KINDS = ("diffuse", "conductor", "roughconductor", "dielectric")
+SHAPE_KINDS = ("rectangle", "cube", "sphere", "mesh")
+
+# Defaults, with Mitsuba 3's where it has one (max_depth -1, rr_depth 5,
+# dielectric int_ior = BK7 glass 1.5046, roughconductor alpha 0.1).
+DEFAULT_INTEGRATOR = "mis"
+DEFAULT_MAX_DEPTH = -1
+DEFAULT_RR_DEPTH = 5
+DEFAULT_SPP = 64
+DEFAULT_INT_IOR = 1.5046
+DEFAULT_EXT_IOR = 1.0
+DEFAULT_ALPHA = 0.1
+
+
+@dataclass
+class Camera:
+    """A perspective pinhole camera; ``fov`` is the full angle in degrees on the image's smaller axis."""
+
+    origin: np.ndarray
+    target: np.ndarray
+    up: np.ndarray
+    fov: float
+    width: int
+    height: int
+
+
+@dataclass
+class Material:
+    """One material: ``kind`` is one of :data:`MATERIAL_KINDS`; ``rgb`` the albedo or specular reflectance."""
+
+    name: str
+    kind: str
+    rgb: np.ndarray
+    alpha: float = 0.0
+    int_ior: float = 1.0
+    ext_ior: float = 1.0
+
+
+@dataclass
+class Shape:
+    """One shape in local coordinates with its world transform.
+
+    ``vertices``/``faces`` hold the local triangle mesh of a rectangle, cube
+    or mesh; a sphere has ``center``/``radius`` instead.  ``radiance`` is the
+    RGB radiance of its area emitter, ``None`` when it does not emit.
+    """
+
+    kind: str
+    key: str  # key path in the scene file, e.g. "shapes[3]"
+    material: int
+    matrix: np.ndarray
+    flip_normals: bool = False
+    radiance: np.ndarray | None = None
+    vertices: np.ndarray | None = None
+    faces: np.ndarray | None = None
+    center: np.ndarray | None = None
+    radius: float = 0.0
+    name: str = ""
+
+
+@dataclass
+class Scene:
+    """A validated scene file."""
+
+    path: Path
+    camera: Camera
+    materials: list[Material]
+    shapes: list[Shape]
+    env_radiance: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    integrator: str = DEFAULT_INTEGRATOR
+    max_depth: int = DEFAULT_MAX_DEPTH
+    rr_depth: int = DEFAULT_RR_DEPTH
+    spp: int = DEFAULT_SPP
+
+
+class _Checker:
+    """Type and key checks that raise :class:`InputError` naming the file and key path."""
+
+    def __init__(self, file: str) -> None:
+        self.file = file
+
+    def fail(self, key: str, msg: str) -> None:
+        raise InputError(f"{self.file}: {key}: {msg}" if key else f"{self.file}: {msg}")
+
+    def obj(self, value: Any, key: str, required: tuple[str, ...], optional: tuple[str, ...] = ()) -> dict:
+        """``value`` as a dict with all ``required`` keys and no key outside ``required + optional + comment``."""
+        if not isinstance(value, dict):
+            self.fail(key, f"expected an object {{...}}, got {_kind(value)}")
+        allowed = set(required) | set(optional) | {"comment"}
+        for k in value:
+            if k not in allowed:
+                self.fail(_join(key, k), f"unknown key (allowed here: {', '.join(sorted(allowed))})")
+        for k in required:
+            if k not in value:
+                self.fail(_join(key, k), "missing required key")
+        if "comment" in value and not isinstance(value["comment"], (str, list)):
+            self.fail(_join(key, "comment"), "a comment must be a string or a list of strings")
+        return value
+
+    def number(self, value: Any, key: str, lo: float | None = None, hi: float | None = None,
+               lo_open: bool = False, hi_open: bool = False) -> float:
+        """A finite JSON number within the bounds (open or closed)."""
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.fail(key, f"expected a number, got {_kind(value)}")
+        x = float(value)
+        if not math.isfinite(x):
+            self.fail(key, f"expected a finite number, got {value}")
+        if lo is not None and (x < lo or (lo_open and x == lo)):
+            self.fail(key, f"must be {'>' if lo_open else '>='} {lo:g}, got {x:g}")
+        if hi is not None and (x > hi or (hi_open and x == hi)):
+            self.fail(key, f"must be {'<' if hi_open else '<='} {hi:g}, got {x:g}")
+        return x
+
+    def integer(self, value: Any, key: str, lo: int | None = None) -> int:
+        """A JSON integer (``3``, not ``3.0`` or ``"3"``) at least ``lo``."""
+        if isinstance(value, bool) or not isinstance(value, int):
+            self.fail(key, f"expected an integer, got {_kind(value)}")
+        if lo is not None and value < lo:
+            self.fail(key, f"must be >= {lo}, got {value}")
+        return int(value)
+
+    def string(self, value: Any, key: str, choices: tuple[str, ...] | None = None) -> str:
+        """A JSON string, one of ``choices`` when given."""
+        if not isinstance(value, str):
+            self.fail(key, f"expected a string, got {_kind(value)}")
+        if choices is not None and value not in choices:
+            self.fail(key, f"unknown value {value!r} (expected one of: {', '.join(choices)})")
+        return value
+
+    def boolean(self, value: Any, key: str) -> bool:
+        """A JSON ``true``/``false``."""
+        if not isinstance(value, bool):
+            self.fail(key, f"expected true or false, got {_kind(value)}")
+        return value
+
+    def vector(self, value: Any, key: str, n: int = 3) -> np.ndarray:
+        """A list of ``n`` finite numbers."""
+        if not isinstance(value, list) or len(value) != n:
+            self.fail(key, f"expected a list of {n} numbers, got {_kind(value)}")
+        return np.array([self.number(x, f"{key}[{i}]") for i, x in enumerate(value)], dtype=np.float64)
+
+    def rgb(self, value: Any, key: str) -> np.ndarray:
+        """An RGB triple of non-negative numbers, or one number for grey."""
+        if isinstance(value, list):
+            v = self.vector(value, key, 3)
+        else:
+            v = np.full(3, self.number(value, key))
+        if np.any(v < 0):
+            self.fail(key, "RGB values must be >= 0")
+        return v
+
+    def array(self, value: Any, key: str, width: int, integer: bool) -> np.ndarray:
+        """A list of lists of ``width`` numbers (vertices or faces), vectorised check."""
+        if not isinstance(value, list):
+            self.fail(key, f"expected a list of [{', '.join('abc'[:width])}] lists, got {_kind(value)}")
+        for i, row in enumerate(value):
+            if not isinstance(row, list) or len(row) != width:
+                self.fail(f"{key}[{i}]", f"expected a list of {width} {'integers' if integer else 'numbers'}")
+            for j, x in enumerate(row):
+                ok = isinstance(x, int) if integer else isinstance(x, (int, float))
+                if isinstance(x, bool) or not ok:
+                    self.fail(f"{key}[{i}][{j}]", f"expected {'an integer' if integer else 'a number'}, got {_kind(x)}")
+        a = np.array(value, dtype=np.int64 if integer else np.float64).reshape(-1, width)
+        if not integer and not np.all(np.isfinite(a)):
+            bad = int(np.flatnonzero(~np.all(np.isfinite(a), axis=1))[0])
+            self.fail(f"{key}[{bad}]", "non-finite number")
+        return a
+
+
+def _kind(v: Any) -> str:
+    if isinstance(v, bool):
+        return f"the boolean {str(v).lower()}"
+    if isinstance(v, (int, float)):
+        return f"the number {v}"
+    if isinstance(v, str):
+        return f"the string {v!r}"
+    if isinstance(v, list):
+        return f"a list of {len(v)} items"
+    if isinstance(v, dict):
+        return "an object"
+    return "null" if v is None else type(v).__name__
+
+
+def _join(key: str, k: str) -> str:
+    return f"{key}.{k}" if key else k
+
+
+def _reject_constant(name: str) -> float:
+    raise ValueError(f"{name} is not valid JSON")
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file.
+
+    Raises:
+        InputError: the file cannot be read, is not JSON, or breaks the
+            format; the message names the file and the key path.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except OSError as e:
+        raise InputError(f"{p}: cannot read scene file: {e.strerror or e}") from None
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except json.JSONDecodeError as e:
+        raise InputError(f"{p}:{e.lineno}:{e.colno}: not valid JSON: {e.msg}") from None
+    except ValueError as e:
+        raise InputError(f"{p}: not valid JSON: {e}") from None
+    return parse_scene(data, p)
+
+
+def parse_scene(data: Any, path: str | Path = "<scene>") -> Scene:
+    """Validate an already-parsed scene description (``path`` names it in errors and resolves OBJ paths)."""
+    p = Path(path)
+    c = _Checker(str(p))
+    top = c.obj(data, "", ("camera",), ("integrator", "materials", "shapes", "environment"))
+    camera = _camera(c, top["camera"], "camera")
+    integ = _integrator(c, top.get("integrator", {}), "integrator")
+    materials, index = _materials(c, top.get("materials", {}), "materials")
+    raw_shapes = top.get("shapes", [])
+    if not isinstance(raw_shapes, list):
+        c.fail("shapes", f"expected a list of shapes, got {_kind(raw_shapes)}")
+    shape_list = [_shape(c, s, f"shapes[{i}]", index, p.parent) for i, s in enumerate(raw_shapes)]
+    env = np.zeros(3)
+    if "environment" in top:
+        e = c.obj(top["environment"], "environment", ("type", "radiance"))
+        c.string(e["type"], "environment.type", ("constant",))
+        env = c.rgb(e["radiance"], "environment.radiance")
+    return Scene(p, camera, materials, shape_list, env, **integ)
+
+
+def _camera(c: _Checker, v: Any, key: str) -> Camera:
+    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up",))
+    origin = c.vector(o["origin"], f"{key}.origin")
+    target = c.vector(o["target"], f"{key}.target")
+    up = c.vector(o.get("up", [0, 1, 0]), f"{key}.up")
+    fov = c.number(o["fov"], f"{key}.fov", 0.0, 180.0, lo_open=True, hi_open=True)
+    width = c.integer(o["width"], f"{key}.width", 1)
+    height = c.integer(o["height"], f"{key}.height", 1)
+    fwd = target - origin
+    if np.linalg.norm(fwd) == 0.0:
+        c.fail(f"{key}.target", "the target coincides with the origin")
+    if np.linalg.norm(np.cross(fwd, up)) <= 1e-9 * np.linalg.norm(fwd) * np.linalg.norm(up):
+        c.fail(f"{key}.up", "the up vector is zero or parallel to the viewing direction")
+    return Camera(origin, target, up, fov, width, height)
+
+
+def _integrator(c: _Checker, v: Any, key: str) -> dict:
+    o = c.obj(v, key, (), ("type", "max_depth", "rr_depth", "spp"))
+    return check_integrator_settings(
+        o.get("type", DEFAULT_INTEGRATOR), o.get("max_depth", DEFAULT_MAX_DEPTH),
+        o.get("rr_depth", DEFAULT_RR_DEPTH), o.get("spp", DEFAULT_SPP), c, key,
+    )
+
+
+def check_integrator_settings(integrator: Any, max_depth: Any, rr_depth: Any, spp: Any,
+                              checker: _Checker | None = None, key: str = "integrator") -> dict:
+    """Validate integrator settings (from a file or from command-line overrides).
+
+    ``max_depth`` follows Mitsuba 3: -1 unbounded, 1 emitters seen directly,
+    2 direct light only; ``rr_depth`` (>= 1) is the depth from which Russian
+    roulette may stop a path.
+    """
+    c = checker or _Checker("settings")
+    return {
+        "integrator": c.string(integrator, f"{key}.type", INTEGRATORS),
+        "max_depth": c.integer(max_depth, f"{key}.max_depth", -1),
+        "rr_depth": c.integer(rr_depth, f"{key}.rr_depth", 1),
+        "spp": c.integer(spp, f"{key}.spp", 1),
+    }
+
+
+def _materials(c: _Checker, v: Any, key: str) -> tuple[list[Material], dict[str, int]]:
+    if not isinstance(v, dict):
+        c.fail(key, f"expected an object mapping names to materials, got {_kind(v)}")
+    out: list[Material] = []
+    index: dict[str, int] = {}
+    for name, m in v.items():
+        k = f"{key}.{name}"
+        if name == "comment":
+            continue
+        if not isinstance(m, dict):
+            c.fail(k, f"expected a material object, got {_kind(m)}")
+        kind = c.string(m.get("type"), f"{k}.type", MATERIAL_KINDS) if "type" in m else c.fail(f"{k}.type", "missing required key")
+        if kind == "diffuse":
+            o = c.obj(m, k, ("type", "reflectance"))
+            mat = Material(name, kind, c.rgb(o["reflectance"], f"{k}.reflectance"))
+        elif kind in ("conductor", "roughconductor"):
+            o = c.obj(m, k, ("type",), ("specular_reflectance",) + (("alpha",) if kind == "roughconductor" else ()))
+            rgb = c.rgb(o.get("specular_reflectance", 1.0), f"{k}.specular_reflectance")
+            alpha = c.number(o.get("alpha", DEFAULT_ALPHA), f"{k}.alpha", 1e-4, 1.0) if kind == "roughconductor" else 0.0
+            mat = Material(name, kind, rgb, alpha=alpha)
+        else:
+            o = c.obj(m, k, ("type",), ("int_ior", "ext_ior"))
+            ni = c.number(o.get("int_ior", DEFAULT_INT_IOR), f"{k}.int_ior", 0.0, lo_open=True)
+            ne = c.number(o.get("ext_ior", DEFAULT_EXT_IOR), f"{k}.ext_ior", 0.0, lo_open=True)
+            if ni == ne:
+                c.fail(f"{k}.int_ior", "int_ior equals ext_ior: the interface would be invisible")
+            mat = Material(name, kind, np.ones(3), int_ior=ni, ext_ior=ne)
+        index[name] = len(out)
+        out.append(mat)
+    return out, index
+
+
+def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:
+    if isinstance(v, dict):
+        v = [v]
+    if not isinstance(v, list):
+        c.fail(key, f"expected a list of operations, got {_kind(v)}")
+    ops = []
+    for i, op in enumerate(v):
+        k = f"{key}[{i}]"
+        if not isinstance(op, dict):
+            c.fail(k, f"expected an object with one of translate, rotate, scale, matrix; got {_kind(op)}")
+        names = [n for n in op if n != "comment"]
+        if len(names) != 1:
+            c.fail(k, "each operation is an object with exactly one of: translate, rotate, scale, matrix")
+        c.obj(op, k, (), ("translate", "rotate", "scale", "matrix"))
+        name = names[0]
+        val, kk = op[name], f"{k}.{name}"
+        if name == "translate":
+            ops.append(tf.translate(c.vector(val, kk)))
+        elif name == "rotate":
+            r = c.obj(val, kk, ("axis", "angle"))
+            axis = c.vector(r["axis"], f"{kk}.axis")
+            if np.linalg.norm(axis) == 0.0:
+                c.fail(f"{kk}.axis", "the rotation axis is zero")
+            ops.append(tf.rotate(axis, c.number(r["angle"], f"{kk}.angle")))
+        elif name == "scale":
+            s = c.vector(val, kk) if isinstance(val, list) else np.full(3, c.number(val, kk))
+            if np.any(s == 0.0):
+                c.fail(kk, "a scale factor of zero flattens the shape")
+            ops.append(tf.scale(s))
+        else:
+            if not isinstance(val, list) or len(val) not in (3, 4):
+                c.fail(kk, "expected 4 rows of 4 numbers (or 3 rows: the affine part)")
+            rows = [c.vector(r, f"{kk}[{j}]", 4) for j, r in enumerate(val)]
+            m = np.eye(4)
+            m[: len(rows)] = np.array(rows)
+            if len(rows) == 4 and not np.allclose(m[3], [0, 0, 0, 1]):
+                c.fail(f"{kk}[3]", "the last row must be [0, 0, 0, 1] (affine transforms only)")
+            if abs(np.linalg.det(m[:3, :3])) < 1e-12:
+                c.fail(kk, "the matrix is singular")
+            ops.append(m)
+    return tf.compose(ops)
+
+
+def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], base: Path) -> Shape:
+    common = ("material",)
+    optional = ("transform", "flip_normals", "emitter", "name")
+    if not isinstance(v, dict):
+        c.fail(key, f"expected a shape object, got {_kind(v)}")
+    if "type" not in v:
+        c.fail(f"{key}.type", "missing required key")
+    kind = c.string(v["type"], f"{key}.type", SHAPE_KINDS)
+    extra = {"sphere": ("center", "radius"), "mesh": ("vertices", "faces", "obj")}.get(kind, ())
+    o = c.obj(v, key, ("type", *common), optional + extra)
+    mname = c.string(o["material"], f"{key}.material")
+    if mname not in materials:
+        known = ", ".join(materials) or "none"
+        c.fail(f"{key}.material", f"unknown material {mname!r} (defined: {known})")
+    m = _transform(c, o.get("transform", []), f"{key}.transform")
+    shp = Shape(kind, key, materials[mname], m,
+                flip_normals=c.boolean(o.get("flip_normals", False), f"{key}.flip_normals"),
+                name=c.string(o.get("name", ""), f"{key}.name"))
+    if "emitter" in o:
+        e = c.obj(o["emitter"], f"{key}.emitter", ("type", "radiance"))
+        c.string(e["type"], f"{key}.emitter.type", ("area",))
+        shp.radiance = c.rgb(e["radiance"], f"{key}.emitter.radiance")
+    if kind == "rectangle":
+        shp.vertices, shp.faces = shape_lib.rectangle()
+    elif kind == "cube":
+        shp.vertices, shp.faces = shape_lib.cube()
+    elif kind == "sphere":
+        shp.center = c.vector(o.get("center", [0, 0, 0]), f"{key}.center")
+        shp.radius = c.number(o.get("radius", 1.0), f"{key}.radius", 0.0, lo_open=True)
+        if tf.uniform_scale_of(m) is None:
+            c.fail(f"{key}.transform", "a sphere allows only translations, rotations and uniform scales")
+    else:
+        has_inline = "vertices" in o or "faces" in o
+        if has_inline and "obj" in o:
+            c.fail(f"{key}.obj", "give either vertices/faces or obj, not both")
+        if "obj" in o:
+            rel = c.string(o["obj"], f"{key}.obj")
+            shp.vertices, shp.faces = shape_lib.read_obj(base / rel, f"{c.file}: {key}.obj")
+        else:
+            for k in ("vertices", "faces"):
+                if k not in o:
+                    c.fail(f"{key}.{k}", "missing required key (or give obj)")
+            shp.vertices = c.array(o["vertices"], f"{key}.vertices", 3, integer=False)
+            shp.faces = c.array(o["faces"], f"{key}.faces", 3, integer=True)
+            if shp.faces.size and (shp.faces.min() < 0 or shp.faces.max() >= len(shp.vertices)):
+                bad = int(np.flatnonzero((shp.faces < 0).any(1) | (shp.faces >= len(shp.vertices)).any(1))[0])
+                c.fail(f"{key}.faces[{bad}]", f"vertex index outside 0..{len(shp.vertices) - 1}")
+    return shp
+
+
+__all__ = [
+    "INTEGRATORS",
+    "MATERIAL_KINDS",
+    "SHAPE_KINDS",
+    "Camera",
+    "Material",
+    "Scene",
+    "Shape",
+    "check_integrator_settings",
+    "load_scene",
+    "parse_scene",
+]
