@@ -1,0 +1,49 @@
+/* sample_check.cl — the walk's samplers on their own, for goodness-of-fit
+ * tests (tests/test_walks_sampling.py): the very functions walk.cl calls, fed
+ * with the uniforms of step 0 of walks 0 .. n-1 of query point 0.
+ *
+ * walk_sample_check: for n samples from the vertex x,
+ *   y[i*DIM + k]  the move sampled by walk_transition,  m[i] its multiplier K/p,
+ *   q[i]          the survival probability,
+ *   z[i*DIM + k]  the next-event point (nee builds; else 0), e[i] its g/p.
+ */
+#include "walks/walk_rng.cl"
+#include "walks/next_event.cl"
+#include "walks/lane_store.cl"
+
+kernel void walk_sample_check(uint n, ulong seed, global const float *xs, global const uint *tab, uint nxa,
+                              uint nya, uint nb, uint top, uint trans_off, uint q_off, uint src_off,
+                              global float *ys, global float *ms, global float *qs, global float *zs,
+                              global float *es) {
+    const uint gid = get_global_id(0);
+    if (gid * LANES >= n) return;
+    walk_tables t;
+    t.tab = tab; t.nxa = nxa; t.nya = nya; t.nb = nb; t.top = top;
+    t.trans_off = trans_off; t.q_off = q_off; t.src_off = src_off;
+    const uintv idx = (uintv)(gid * LANES) + LANE_IOTA;
+    floatv u[WALK_NU];
+    walk_step_uniforms(idx, (uintv)(0u), (uintv)(0u), (uint)(seed & 0xffffffffu), (uint)(seed >> 32), WALK_STREAM,
+                       u);
+    floatv x[DIM], y[DIM], z[DIM], q;
+    for (int k = 0; k < DIM; ++k) x[k] = (floatv)(xs[k]);
+    floatv m = walk_transition(x, u, y, &q, t);
+#if WALK_EST == WALK_EST_NEE
+    floatv e = walk_source_sample(u, z, t);
+#else
+    floatv e = (floatv)(0.0f);
+    for (int k = 0; k < DIM; ++k) z[k] = (floatv)(0.0f);
+#endif
+    float a[LANES];
+    for (int k = 0; k < DIM; ++k) {
+        WALK_STORE(y[k], a);
+        for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) ys[(gid * LANES + l) * DIM + k] = a[l];
+        WALK_STORE(z[k], a);
+        for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) zs[(gid * LANES + l) * DIM + k] = a[l];
+    }
+    WALK_STORE(m, a);
+    for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) ms[gid * LANES + l] = a[l];
+    WALK_STORE(q, a);
+    for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) qs[gid * LANES + l] = a[l];
+    WALK_STORE(e, a);
+    for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) es[gid * LANES + l] = a[l];
+}

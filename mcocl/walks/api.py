@@ -1,0 +1,351 @@
+"""``mcocl.solve_fredholm``: integral equations of the second kind by random walks.
+
+Solves f(x) = g(x) + integral_D K(x, y) f(y) dy on D = [0, 1]^dim at query
+points; each walk is one sample of f at one point (lecture, "Řešení
+integrálních rovnic" to "Odhad příští události"; kernels in
+``kernels/walks``).  The Neumann series f = g + Tg + T^2 g + ... is what the
+walks sum; it converges in mean when the operator of |K| has spectral radius
+below 1.  A problem where it does not is stopped, never left to hang:
+
+- estimators with random walk lengths (roulette with the weight-driven
+  survival, subcritical, nee) stop a walk that makes ``max_walk_length``
+  moves and raise :class:`~mcocl.errors.ConvergenceError`;
+- estimators whose walks end regardless (truncated, roulette with a constant
+  survival probability) cannot see divergence in their walks, so the spectral
+  radius of the discretised |K| is checked before they run.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .. import runtime
+from ..accumulate import Accumulator
+from ..errors import ConvergenceError, InputError
+from ..integration.api import NonFiniteWarning
+from ..progress import ProgressBar
+from ..schedule import Halting, Placement, Progress, execute
+from .codegen import generate
+from .job import STATS, WalkJob, WalkRunner, estimates
+from .nystrom import spectral_radius
+from .request import WalkRequest, positive_int, validate
+from .tabulate import build_tables
+
+
+@dataclass
+class FredholmResult:
+    """The outcome of :func:`solve_fredholm`.
+
+    Attributes:
+        values: the estimate of f at every query point.
+        stderr: its standard error (sample standard deviation of the walks / sqrt(n)).
+        at: the query points, ``(nq, dim)``.
+        walks: walks run per query point (``nonfinite`` of them left out).
+        mean_walk_length: moves per walk, averaged over every walk of every point.
+        seconds: wall time of the walks (build, tabulation and pilot excluded).
+        estimator, seed, dim: as requested.
+        description: the estimator and its options in words.
+        variance: per-walk variance at every point, ``stderr**2 * finite walks``.
+        nonfinite: walks per point whose value was NaN/Inf (counted, left out).
+        device, lanes: where it ran, walks per vector instruction.
+        stopped_by: ``walks``, ``time``, ``stderr`` or ``interrupt``.
+        build_seconds, setup_seconds: kernel build; tabulation and pilot.
+        notes: anything the user should know.
+    """
+
+    values: np.ndarray
+    stderr: np.ndarray
+    at: np.ndarray
+    walks: int
+    mean_walk_length: float
+    seconds: float
+    estimator: str
+    seed: int
+    dim: int
+    description: str = ""
+    variance: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    nonfinite: list[int] = field(default_factory=list)
+    device: str = ""
+    lanes: int = 1
+    stopped_by: str = "walks"
+    build_seconds: float = 0.0
+    setup_seconds: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def walks_per_second(self) -> float:
+        """Walks (all query points together) per second of walking."""
+        return self.walks * len(self.values) / self.seconds if self.seconds > 0 else math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict of every field plus ``walks_per_second``."""
+        return {
+            "values": [float(v) for v in self.values],
+            "stderr": [float(v) for v in self.stderr],
+            "at": np.asarray(self.at).tolist(),
+            "walks": int(self.walks),
+            "mean_walk_length": float(self.mean_walk_length),
+            "seconds": float(self.seconds),
+            "estimator": self.estimator,
+            "seed": int(self.seed),
+            "dim": int(self.dim),
+            "description": self.description,
+            "variance": [float(v) for v in self.variance],
+            "nonfinite": [int(v) for v in self.nonfinite],
+            "device": self.device,
+            "lanes": int(self.lanes),
+            "stopped_by": self.stopped_by,
+            "build_seconds": float(self.build_seconds),
+            "setup_seconds": float(self.setup_seconds),
+            "walks_per_second": float(self.walks_per_second),
+            "notes": list(self.notes),
+        }
+
+    def __str__(self) -> str:
+        rows = [f"f({', '.join(f'{c:g}' for c in p)}) = {v:.8g} ± {e:.3g}"
+                for p, v, e in zip(np.asarray(self.at), self.values, self.stderr)]
+        return "\n".join(rows) + f"\n({self.walks} walks per point, {self.estimator}, {self.seconds:.3g} s)"
+
+
+def _divergence_message(guards: float, walks: float, max_len: int) -> str:
+    return (f"the Neumann series appears not to converge: {int(guards)} of {int(walks)} walks were still going "
+            f"after max_walk_length={max_len} moves (the spectral radius of |K| seems to be >= 1). "
+            "If the series converges slowly, raise max_walk_length.")
+
+
+def _check_spectral_radius(req: WalkRequest, device: Any) -> list[str]:
+    rho = spectral_radius(req.kernel, req.dim, device=device)
+    if not math.isfinite(rho):
+        return ["the kernel is not finite at some Gauss-Legendre node; the convergence check was skipped"]
+    if rho >= 1.0:
+        raise ConvergenceError(
+            f"the Neumann series appears not to converge: the discretised |K| has spectral radius about "
+            f"{rho:.4g} >= 1, so the {req.estimator} estimator would return a meaningless finite number"
+        )
+    return []
+
+
+def _tabulate(req: WalkRequest, job: WalkJob, runner: WalkRunner) -> list[str]:
+    code = job.code
+    if not (code.needs_transition_table or code.needs_source_table):
+        return []
+    kw = runner.tabulate_kernel(req.grid) if code.needs_transition_table else None
+    sw = runner.tabulate_source(req.grid) if code.needs_source_table else None
+    tabs = build_tables(kw, sw, req.grid)
+    job.tables = tabs
+    notes = []
+    if tabs.nonfinite_kernel:
+        notes.append(f"the kernel was NaN/Inf at {tabs.nonfinite_kernel} of {kw.size} tabulation weights; "
+                     "those bins are sampled by the defensive mixture only")
+    if tabs.nonfinite_source:
+        notes.append(f"the source was NaN/Inf at {tabs.nonfinite_source} of {sw.size} tabulation weights; "
+                     "those bins are sampled by the defensive mixture only")
+    return notes
+
+
+def solve_fredholm(
+    kernel: str,
+    source: str,
+    dim: int = 1,
+    at: Any = (0.5,),
+    walks: int | float | None = 1_000_000,
+    *,
+    estimator: str = "nee",
+    seed: int = 0,
+    depth: int = 8,
+    survival: float | str = "weight",
+    row_integral: str | None = None,
+    transition_sampler: str | Sequence[str] | None = None,
+    source_integral: float | None = None,
+    source_sampler: str | Sequence[str] | None = None,
+    max_walk_length: int = 10_000,
+    table_cells: int | None = None,
+    table_bins: int | None = None,
+    time_budget: float | None = None,
+    target_stderr: float | None = None,
+    device: Any = None,
+    devices: Any = None,
+    split: int | None = None,
+    client: Any = None,
+    lanes: int | None = None,
+    checkpoint: str | None = None,
+    resume: str | None = None,
+    progress: bool | Callable[[Progress], None] = False,
+) -> FredholmResult:
+    """Solve f(x) = g(x) + ∫_D K(x, y) f(y) dy, D = [0, 1]^dim, at query points by random walks.
+
+    Args:
+        kernel: K as OpenCL C over ``float x[dim], y[dim]`` (e.g. ``"0.5f*(x[0] + y[0])"``).
+        source: g as OpenCL C over ``float x[dim]``.
+        dim: dimension of the domain.
+        at: query points: ``[[x0, x1, ...], ...]`` (a flat list for dim 1).
+        walks: walks per query point (at most); ``None``: until ``time_budget``
+            or ``target_stderr``.
+        estimator: ``truncated`` (fixed ``depth``, biased), ``roulette``
+            (uniform moves, Russian roulette), ``subcritical`` (moves ~ |K|,
+            survival min(1, ∫|K|)) or ``nee`` (subcritical plus next-event
+            estimation of the g term, sampled ~ |g|).
+        seed: 64-bit seed; the result depends on nothing else.
+        depth: moves of the truncated estimator.
+        survival: roulette's survival probability: a number in (0, 1], or
+            ``"weight"`` for min(1, |walk weight|).
+        row_integral, transition_sampler: subcritical/nee: A(x) = ∫|K(x, y)| dy
+            and the inverse CDF of |K(x, .)| / A(x), one expression per
+            coordinate over ``float x[dim], u[dim]``; without them |K(x, .)|
+            is tabulated.
+        source_integral, source_sampler: nee: G = ∫|g| and the inverse CDF of
+            |g| / G, one expression per coordinate over ``float u[dim]``;
+            without them |g| is tabulated.
+        max_walk_length: the walk-length guard (moves); a walk that reaches it
+            stops the run with :class:`ConvergenceError`.
+        table_cells, table_bins: tabulation grid per axis (see ``tabulate.py``).
+        time_budget: stop after this many seconds.
+        target_stderr: stop once every point's standard error is at most this.
+        device, devices, split, client: where to run (see :class:`mcocl.schedule.Placement`).
+        lanes: walks per vector instruction (1 forces the scalar kernel).
+        checkpoint: save the sums to this file periodically and at the end.
+        resume: continue from a checkpoint of the same problem.
+        progress: True for a progress bar on stderr, or a callback.
+
+    Returns:
+        a :class:`FredholmResult`.
+
+    Raises:
+        InputError: invalid arguments (the message names the argument).
+        KernelBuildError: the kernel, source or a sampler does not compile.
+        ConvergenceError: the Neumann series appears not to converge.
+    """
+    req = validate(kernel, source, dim, at, estimator, seed, depth, survival, row_integral, transition_sampler,
+                   source_integral, source_sampler, max_walk_length, table_cells, table_bins)
+    if walks is not None:
+        walks = positive_int("walks", walks, 1, 1 << 62)
+    for name, v in (("time_budget", time_budget), ("target_stderr", target_stderr)):
+        if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
+            raise InputError(f"{name} must be a positive number, got {v!r}")
+    if walks is None and time_budget is None and target_stderr is None:
+        raise InputError("walks=None needs time_budget= or target_stderr= to know when to stop")
+    if lanes is not None and lanes not in (1, 2, 4, 8, 16):
+        raise InputError(f"lanes must be 1, 2, 4, 8 or 16, got {lanes!r}")
+
+    code = generate(req.kernel, req.source, req.dim, req.estimator, req.row_integral, req.transition_sampler,
+                    req.source_integral, req.source_sampler)
+    meta = req.meta()
+    acc: Accumulator | None = None
+    if resume is not None:
+        acc = Accumulator.load(resume, expect_meta=meta)
+        if acc.totals[:, 5].sum() > 0:
+            raise ConvergenceError(_divergence_message(acc.totals[:, 5].sum(), acc.totals[:, 0].sum(),
+                                                       req.max_walk_length))
+
+    notes: list[str] = []
+    placement = Placement(device=device, devices=devices, split=split, client=client)
+    ctx = runtime.device_context(device)
+    limit = walks if walks is not None else (1 << 62)
+    job = WalkJob(code, req.at, req.seed, limit, survival=req.survival, depth=req.depth,
+                  max_len=req.max_walk_length, lanes=lanes)
+    runner = job.runner(ctx)
+    if runner.program.note:
+        notes.append(runner.program.note)
+    if req.estimator == "truncated" or (req.estimator == "roulette" and req.survival > 0):
+        notes += _check_spectral_radius(req, device)
+
+    t0 = time.perf_counter()
+    notes += _tabulate(req, job, runner)
+    if acc is not None:
+        if acc.meta.get("tables") != (job.tables.digest() if job.tables is not None else None):
+            raise InputError(f"checkpoint {resume} was made with different tabulated densities "
+                             "(another device or version); it cannot be resumed here")
+        if acc.meta.get("partial_tail") and acc.meta.get("walk_limit") != limit:
+            raise InputError(f"checkpoint {resume} ends in a partial block of {job.walks_per_block} walks; "
+                             f"resume it with the same walks ({acc.meta.get('walk_limit')}) or start runs with a "
+                             "multiple of the block size")
+        job.shifts = np.asarray(acc.meta["shifts"], dtype=np.float64)
+    else:
+        pilot = runner.pilot()
+        if pilot[:, 5].sum() > 0:
+            raise ConvergenceError(_divergence_message(pilot[:, 5].sum(), pilot[:, 0].sum() + pilot[:, 5].sum(),
+                                                       req.max_walk_length))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m = np.where(pilot[:, 0] > 0, pilot[:, 2] / np.maximum(pilot[:, 0], 1), 0.0)
+        job.shifts = np.where(np.isfinite(m), m, 0.0).astype(np.float32).astype(np.float64)
+        acc = Accumulator((job.nq, STATS), {
+            **meta,
+            "shifts": job.shifts.tolist(),
+            "tables": job.tables.digest() if job.tables is not None else None,
+            "walks_per_block": job.walks_per_block,
+        })
+    setup_seconds = time.perf_counter() - t0
+
+    def target(a: Accumulator) -> bool:
+        if a.totals[:, 5].sum() > 0:
+            return True  # a guard hit: stop now, the run will raise
+        if target_stderr is None:
+            return False
+        if a.totals[:, 0].min() < 1000:
+            return False
+        _, errs = estimates(a.totals, job.shifts)
+        return bool(np.all(np.isfinite(errs)) and np.max(errs) <= target_stderr)
+
+    callback: Callable[[Progress], None] | None = None
+    bar: ProgressBar | None = None
+    if progress is True:
+        bar = ProgressBar(f"solve [{req.estimator}]", unit="walks", per_block=job.walks_per_block * job.nq)
+        callback = bar.update
+    elif callable(progress):
+        callback = progress
+
+    acc.meta["walk_limit"] = limit
+    max_blocks = job.max_blocks if walks is not None else None
+    halting = Halting(max_blocks=max_blocks, time_budget=time_budget, target=target, checkpoint=checkpoint)
+    report = execute(job, acc, halting, placement, progress=callback, runner=runner, ctx=ctx)
+    if bar is not None:
+        bar.close()
+    acc.meta["partial_tail"] = bool(acc.blocks_done * job.walks_per_block > limit)
+    if checkpoint:
+        acc.save(checkpoint)
+
+    t = acc.totals
+    walks_run = min(acc.blocks_done * job.walks_per_block, limit)
+    if t[:, 5].sum() > 0:
+        raise ConvergenceError(_divergence_message(t[:, 5].sum(), t[:, 0].sum() + t[:, 1].sum() + t[:, 5].sum(),
+                                                   req.max_walk_length))
+    values, errs = estimates(t, job.shifts)
+    nonfinite = [int(v) for v in t[:, 1]]
+    stopped = "walks" if report.stopped_by == "blocks" else report.stopped_by
+    if report.stopped_by == "target":
+        stopped = "stderr"
+    result = FredholmResult(
+        values=values,
+        stderr=errs,
+        at=req.at,
+        walks=int(walks_run),
+        mean_walk_length=float(t[:, 4].sum() / max(walks_run * job.nq, 1)),
+        seconds=report.seconds,
+        estimator=req.estimator,
+        seed=req.seed,
+        dim=req.dim,
+        description=req.describe(),
+        variance=errs**2 * t[:, 0],
+        nonfinite=nonfinite,
+        device=ctx.name,
+        lanes=runner.lanes,
+        stopped_by=stopped,
+        build_seconds=runner.build_seconds,
+        setup_seconds=setup_seconds,
+        notes=notes,
+    )
+    if sum(nonfinite):
+        warnings.warn(
+            f"{sum(nonfinite)} of {walks_run * job.nq} walks had a NaN or infinite value and were left out "
+            f"(per query point: {nonfinite})",
+            NonFiniteWarning,
+            stacklevel=2,
+        )
+    return result

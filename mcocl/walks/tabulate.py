@@ -1,0 +1,189 @@
+"""Tabulated transition and next-event densities of the walks.
+
+Without the user's own samplers, ``subcritical`` and ``nee`` sample
+
+- the move from x with a density ~ |K(x, .)|: one piecewise-constant density
+  per *cell* of x (``cells`` per axis), over ``bins`` per axis of y;
+- next-event points zeta with a density ~ |g|, over the same bins of y.
+
+The weights are means of |K| (|g|) over a few sub-points per cell and bin,
+evaluated on the device (``kernels/walks/tabulate.cl``).  Every density is a
+*defensive mixture* (Hesterberg 1995): ``(1 - DEFENSIVE)`` of the tabulated
+shape plus ``DEFENSIVE`` of the uniform density, so that every bin has positive
+probability — the tabulation sees K only at its sub-points, and a bin it found
+empty may not be empty for every x of the cell.  The walk weighs each move by
+the exact K / (q p) (``transition.cl``), so the estimate stays unbiased
+whatever the table: the table only decides the variance.
+
+The survival probability of a cell is ``q = clip(A, Q_FLOOR, 1)`` with A the
+table's row integral (the mean weight); the floor keeps cells whose sub-points
+all saw K = 0 reachable by an unbiased (if rare) continuation.
+
+Tables are stored in one uint32 buffer, CDFs as counts out of 2^23 (see
+``kernels/walks/table.cl``)::
+
+    [trans_off, q_off)   ncells CDFs of nb + 1 counts (transition)
+    [q_off, src_off)     ncells survival probabilities (float32 bits)
+    [src_off, end)       one CDF of nb + 1 counts (next-event source)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+DEFENSIVE = 0.05  # share of the uniform density in every tabulated density
+Q_FLOOR = 1.0 / 64.0  # smallest tabulated survival probability
+CDF_TOTAL = 1 << 23  # counts of a CDF: the resolution of the engine's uniforms (rng/uniform.cl)
+MAX_BINS = 1 << 16  # bins of y (all axes together) a table may have
+MAX_CELLS = 1 << 12  # cells of x (all axes together)
+
+
+@dataclass(frozen=True)
+class TableGrid:
+    """The tabulation grid: ``cells`` per axis of x, ``bins`` per axis of y.
+
+    ``sub_x`` / ``sub_y``: sub-points per axis at which K is averaged in a
+    cell / bin.
+    """
+
+    dim: int
+    cells: int
+    bins: int
+    sub_x: int = 2
+    sub_y: int = 2
+
+    @property
+    def ncells(self) -> int:
+        """Cells of x, all axes together."""
+        return self.cells**self.dim
+
+    @property
+    def nbins(self) -> int:
+        """Bins of y, all axes together."""
+        return self.bins**self.dim
+
+    @property
+    def top(self) -> int:
+        """Largest power of two <= nbins (the binary search's first step)."""
+        return 1 << (self.nbins.bit_length() - 1)
+
+    def to_dict(self) -> dict[str, int]:
+        """JSON-ready fields (checkpoint metadata)."""
+        return asdict(self)
+
+
+def default_grid(dim: int, cells: int | None = None, bins: int | None = None) -> TableGrid:
+    """The grid used unless the caller chooses: about 4096 bins and 256 cells in all.
+
+    1-D: 128 cells x 256 bins (4 sub-points per bin); 2-D: 16 x 16 cells,
+    32 x 32 bins; higher dimensions fewer per axis.
+    """
+    if dim == 1:
+        c, b, sy = 128, 256, 4
+    elif dim == 2:
+        c, b, sy = 16, 32, 2
+    else:
+        c = max(1, int(math.floor(256 ** (1.0 / dim) + 1e-9)))
+        b = max(2, int(math.floor(4096 ** (1.0 / dim) + 1e-9)))
+        sy = 1 if dim > 3 else 2
+    return TableGrid(dim, cells if cells is not None else c, bins if bins is not None else b, 2 if dim <= 3 else 1, sy)
+
+
+@dataclass
+class WalkTables:
+    """The walk's table buffer and where each part starts."""
+
+    data: np.ndarray  # uint32
+    grid: TableGrid
+    trans_off: int = 0
+    q_off: int = 0
+    src_off: int = 0
+    nonfinite_kernel: int = 0  # tabulation weights of K that were NaN/Inf
+    nonfinite_source: int = 0  # of g
+
+    def digest(self) -> str:
+        """A hash of the tables (a resumed run must sample the same densities)."""
+        return hashlib.sha256(np.ascontiguousarray(self.data).tobytes()).hexdigest()[:16]
+
+    def kernel_args(self) -> tuple[np.uint32, ...]:
+        """(nxa, nya, nb, top, trans_off, q_off, src_off) as walk.cl takes them."""
+        g = self.grid
+        return tuple(np.uint32(v) for v in (g.cells, g.bins, g.nbins, g.top, self.trans_off, self.q_off, self.src_off))
+
+    def transition_mass(self, cell: int) -> np.ndarray:
+        """Probability of every bin of the transition density of ``cell``."""
+        nb = self.grid.nbins
+        cum = self.data[self.trans_off + cell * (nb + 1): self.trans_off + (cell + 1) * (nb + 1)].astype(np.int64)
+        return np.diff(cum) / CDF_TOTAL
+
+    def survival(self, cell: int) -> float:
+        """The survival probability q of ``cell``."""
+        return float(self.data[self.q_off + cell: self.q_off + cell + 1].view(np.float32)[0])
+
+    def source_mass(self) -> np.ndarray:
+        """Probability of every bin of the next-event density."""
+        nb = self.grid.nbins
+        return np.diff(self.data[self.src_off: self.src_off + nb + 1].astype(np.int64)) / CDF_TOTAL
+
+
+def mixture_cdfs(weights: np.ndarray) -> np.ndarray:
+    """Quantised CDFs (rows of ``nb + 1`` counts out of 2^23) of defensive mixtures.
+
+    Row r of ``weights`` (``(rows, nb)``) becomes the density
+    ``(1 - DEFENSIVE) w / sum(w) + DEFENSIVE / nb``; non-finite weights count
+    as 0 and a row without positive weight gives the uniform density.  The
+    counts are the rounded cumulative sums: every bin holds at least
+    ``DEFENSIVE * 2^23 / nb - 1 >= 5`` counts (nb <= MAX_BINS), so no bin is
+    ever impossible and the probability of a bin is exactly its count / 2^23.
+    """
+    w = np.atleast_2d(np.asarray(weights, dtype=np.float64))
+    w = np.where(np.isfinite(w), np.abs(w), 0.0)
+    nb = w.shape[1]
+    total = w.sum(axis=1, keepdims=True)
+    ok = (total > 0) & np.isfinite(total)
+    shape = np.divide(w, total, out=np.full_like(w, 1.0 / nb), where=ok)
+    p = (1.0 - DEFENSIVE) * shape + DEFENSIVE / nb
+    cum = np.zeros((len(w), nb + 1), dtype=np.float64)
+    cum[:, 1:] = np.cumsum(p, axis=1)
+    cum /= cum[:, -1:]
+    counts = np.rint(cum * CDF_TOTAL).astype(np.int64)
+    counts[:, 0] = 0
+    counts[:, -1] = CDF_TOTAL
+    assert np.all(np.diff(counts, axis=1) > 0)
+    return counts.astype(np.uint32)
+
+
+def build_tables(kernel_weights: np.ndarray | None, source_weights: np.ndarray | None, grid: TableGrid) -> WalkTables:
+    """The table buffer from raw weights.
+
+    Args:
+        kernel_weights: ``(ncells, nbins)`` mean |K| per cell of x and bin of y, or None.
+        source_weights: ``(nbins,)`` mean |g| per bin, or None.
+        grid: the grid both were computed on.
+    """
+    parts: list[np.ndarray] = []
+    nb = grid.nbins
+    trans_off = 0
+    bad_k = bad_g = 0
+    if kernel_weights is not None:
+        kw = np.asarray(kernel_weights, dtype=np.float64).reshape(grid.ncells, nb)
+        bad_k = int(np.sum(~np.isfinite(kw)))
+        parts.append(mixture_cdfs(kw).ravel())
+        with np.errstate(invalid="ignore"):
+            a = np.where(np.isfinite(kw), kw, 0.0).mean(axis=1)
+        q = np.clip(a, Q_FLOOR, 1.0).astype(np.float32)
+        q_off = sum(len(p) for p in parts)
+        parts.append(q.view(np.uint32))
+    else:
+        q_off = 0
+    src_off = sum(len(p) for p in parts)
+    if source_weights is not None:
+        sw = np.asarray(source_weights, dtype=np.float64).reshape(nb)
+        bad_g = int(np.sum(~np.isfinite(sw)))
+        parts.append(mixture_cdfs(sw[None, :]).ravel())
+    data = np.concatenate(parts).astype(np.uint32) if parts else np.zeros(1, np.uint32)
+    return WalkTables(data, grid, trans_off, q_off, src_off, bad_k, bad_g)
