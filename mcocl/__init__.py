@@ -20,12 +20,14 @@ from .integration import (
     uniform,
 )
 from .runtime import list_devices
+from .walks import FredholmResult, solve_fredholm
 
 __version__ = "0.1.0"
 
 __all__ = [
     "ConvergenceError",
     "DeviceError",
+    "FredholmResult",
     "InputError",
     "IntegrationResult",
     "KernelBuildError",
@@ -38,6 +40,7 @@ __all__ = [
     "list_devices",
     "power",
     "rng",
+    "solve_fredholm",
     "tabulated",
     "tabulated2d",
     "truncnorm",
