@@ -209,7 +209,7 @@ def resolve_devices(device: Any = None, devices: Any = None, split: Any = None) 
                 notes.append(f"{d.name.strip()} is used whole ({why})")
             contexts.append(device_context(d))
     if parts > 1 and not any(isinstance(c, SubDeviceContext) for c in contexts):
-        raise DeviceError(f"split={parts}: none of the chosen devices can be split ({'; '.join(notes)})")
+        raise DeviceError(f"split={parts}: no chosen device can be split into {parts} sub-devices ({'; '.join(notes)})")
     return DeviceChoice(contexts, notes)
 
 

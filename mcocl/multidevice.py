@@ -76,6 +76,7 @@ class ChunkQueue:
         self._cond = threading.Condition()
         self._closed = False
         self._finished = False
+        self.waiting = 0  # takers blocked in take(wait=True)
 
     @property
     def exhausted(self) -> bool:
@@ -86,6 +87,11 @@ class ChunkQueue:
         """True when no block will be handed out any more (unless a device fails)."""
         with self._cond:
             return not self._returned and (self._closed or self.exhausted)
+
+    def has_work(self) -> bool:
+        """True when a waiting taker would get something (given-back or new blocks)."""
+        with self._cond:
+            return bool(self._returned) or not (self._closed or self.exhausted)
 
     def take(self, size: int, allow_new: bool, wait: bool) -> tuple[int, int] | None:
         """The next chunk ``(first_block, nblocks)`` of at most ``size`` blocks.
@@ -118,7 +124,11 @@ class ChunkQueue:
                     return first, n
                 if not wait:
                     return None
-                self._cond.wait()
+                self.waiting += 1
+                try:
+                    self._cond.wait()
+                finally:
+                    self.waiting -= 1
 
     def give_back(self, first: int, nblocks: int) -> None:
         """Return a chunk that a failed device will not deliver."""
@@ -386,6 +396,10 @@ def run_devices(
                     chunks.close()
                 if chunks.drained() and acc.blocks_done >= chunks.next_block:
                     break  # everything handed out has been folded
+                if msg is None and chunks.waiting == alive > 0 and results.empty() and not chunks.has_work():
+                    # Every live feeder waits for work, none is coming back, yet
+                    # blocks handed out are missing: a scheduler bug, never a hang.
+                    raise RuntimeError(f"blocks {acc.blocks_done}..{chunks.next_block - 1} were lost by the scheduler")
                 if alive == 0:
                     if halting.checkpoint:
                         acc.save(halting.checkpoint)

@@ -64,6 +64,9 @@ class ProgressBar:
         rate = p.blocks_per_second * self.per_block
         line = (f"{self.label} {bar}{_si(done)} {self.unit}, {_si(rate)} {self.unit}/s, "
                 f"elapsed {_clock(p.elapsed)}, left {_clock(p.eta)}{self.extra}")
+        rates = getattr(p, "device_rates", ())
+        if len(rates) > 1:  # several devices or Dask workers: each one's rate, in device order
+            line += " | " + " ".join(f"{_si(r * self.per_block)}/s" for _, r in rates)
         self._draw(line)
 
     def _draw(self, line: str) -> None:
