@@ -164,7 +164,16 @@ def compute_chunk(payload: bytes, fingerprint: str, device: Any, first: int, nbl
         text = str(e).strip().splitlines()
         msg = f"{type(e).__name__}: {text[0][:300] if text else ''}"
         own = e if isinstance(e, MCOCLError) else None
-        return ChunkResult(first, nblocks, None, 0.0, worker, repr(device), error=msg, exception=own)
+        return ChunkResult(first, nblocks, None, 0.0, worker, _device_name(device), error=msg, exception=own)
+
+
+def _device_name(device: Any) -> str:
+    from .runtime import device_context
+
+    try:
+        return device_context(device).name
+    except Exception:  # the device itself is what failed
+        return f"device {device!r}"
 
 
 # -- client side -------------------------------------------------------------
@@ -199,6 +208,17 @@ def connect(client: Any) -> tuple[Any, bool]:
         return distributed.Client(client.strip(), timeout="15s"), True
     except (OSError, TimeoutError) as e:
         raise DeviceError(f"cannot reach the Dask scheduler at {client.strip()!r}: {e}") from None
+
+
+def _pickle_job(job: BlockJob) -> bytes:
+    # cloudpickle (a dependency of distributed) also ships classes defined in
+    # a script or registered for pickling by value; its output loads with
+    # plain pickle on the worker.
+    try:
+        import cloudpickle
+    except ImportError:
+        return pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
+    return cloudpickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
 
 
 class _Sizer:
@@ -287,7 +307,7 @@ def run_dask(
 def _run(distributed: Any, client: Any, job: BlockJob, acc: Accumulator, halting: Halting, device: Any,
          progress: Callable[[Progress], None] | None, chunk_seconds: float, first_chunk: int,
          max_chunk: int | None, tasks_per_worker: int) -> RunReport:
-    payload = pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
+    payload = _pickle_job(job)
     fp = job_fingerprint(payload)
     tag = uuid.uuid4().hex[:8]
     t0 = time.perf_counter()
@@ -362,7 +382,9 @@ def _run(distributed: Any, client: Any, job: BlockJob, acc: Accumulator, halting
                         raise no_worker_left() from e
                     chunks.give_back(first, n)
                     res = None  # type: ignore[assignment]
-                if res is not None and res.error is not None:
+                if res is not None and res.error is not None and res.worker in bad:
+                    chunks.give_back(first, n)  # more tasks of a worker already known to have failed
+                elif res is not None and res.error is not None:
                     label = f"{res.worker} ({res.device})"
                     bad[res.worker] = res.error
                     failures.append(f"{label}: {res.error}")
