@@ -116,8 +116,8 @@ class FredholmResult:
 
 def _divergence_message(guards: float, walks: float, max_len: int) -> str:
     return (f"the Neumann series appears not to converge: {int(guards)} of {int(walks)} walks were still going "
-            f"after max_walk_length={max_len} moves (the spectral radius of |K| seems to be >= 1). "
-            "If the series converges slowly, raise max_walk_length.")
+            f"after max_walk_length={max_len} moves or their weight grew beyond 1e30 (the spectral radius of |K| "
+            "seems to be >= 1). If the series converges slowly, raise max_walk_length.")
 
 
 def _check_spectral_radius(req: WalkRequest, device: Any) -> list[str]:
@@ -334,7 +334,7 @@ def solve_fredholm(
         description=req.describe(),
         variance=errs**2 * t[:, 0],
         nonfinite=nonfinite,
-        device=ctx.name,
+        device=", ".join(report.devices) if report.devices else ctx.name,
         lanes=runner.lanes,
         stopped_by=stopped,
         build_seconds=runner.build_seconds,

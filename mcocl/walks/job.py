@@ -34,6 +34,19 @@ from .tabulate import TableGrid, WalkTables
 STATS = 6
 WALKS_PER_BLOCK = 1024
 
+# Tabulation weights by (program, kind, grid); a program is cached by the
+# runtime for the life of the process, so its handle identifies K and g.
+_TABLE_CACHE: dict[tuple[int, str, TableGrid], np.ndarray] = {}
+_TABLE_CACHE_SIZE = 32
+
+
+def _remember(key: tuple[int, str, TableGrid], value: np.ndarray) -> np.ndarray:
+    if len(_TABLE_CACHE) >= _TABLE_CACHE_SIZE:
+        _TABLE_CACHE.pop(next(iter(_TABLE_CACHE)))
+    value.setflags(write=False)
+    _TABLE_CACHE[key] = value
+    return value
+
 
 @dataclass
 class WalkJob:
@@ -178,7 +191,14 @@ class WalkRunner:
     # -- tabulation and sampler checks -------------------------------------
 
     def tabulate_kernel(self, grid: TableGrid) -> np.ndarray:
-        """``(ncells, nbins)`` mean |K| per cell of x and bin of y (NaN where not finite)."""
+        """``(ncells, nbins)`` mean |K| per cell of x and bin of y (NaN where not finite).
+
+        Remembered per program and grid: repeated solves of one problem (other
+        seeds, more walks) tabulate once.
+        """
+        key = (self.program.program.int_ptr, "kernel", grid)
+        if key in _TABLE_CACHE:
+            return _TABLE_CACHE[key]
         n = grid.ncells * grid.nbins
         out = np.empty(n, np.float32)
         buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
@@ -188,10 +208,13 @@ class WalkRunner:
             np.uint32(grid.bins), np.uint32(grid.sub_x), np.uint32(grid.sub_y), buf,
         )
         cl.enqueue_copy(self.ctx.queue, out, buf)
-        return out.reshape(grid.ncells, grid.nbins)
+        return _remember(key, out.reshape(grid.ncells, grid.nbins))
 
     def tabulate_source(self, grid: TableGrid) -> np.ndarray:
-        """``(nbins,)`` mean |g| per bin of y (NaN where not finite)."""
+        """``(nbins,)`` mean |g| per bin of y (NaN where not finite); remembered like the kernel's."""
+        key = (self.program.program.int_ptr, "source", grid)
+        if key in _TABLE_CACHE:
+            return _TABLE_CACHE[key]
         n = grid.nbins
         out = np.empty(n, np.float32)
         buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
@@ -200,7 +223,7 @@ class WalkRunner:
             self.ctx.queue, gsize, lsize, np.uint32(n), np.uint32(grid.bins), np.uint32(grid.sub_y), buf,
         )
         cl.enqueue_copy(self.ctx.queue, out, buf)
-        return out
+        return _remember(key, out)
 
     def sample_check(self, x: np.ndarray, n: int, seed: int = 0) -> dict[str, np.ndarray]:
         """The walk's own samplers at vertex ``x``, ``n`` times (for goodness-of-fit tests).

@@ -28,9 +28,13 @@
  * double.  The block's sums are therefore the same bits for any LANES, any
  * work-group size and any split of blocks into launches.
  *
- * Guard.  A walk that survives `max_len` moves is stopped and counted as a
- * guard hit (the Neumann series appears not to converge); the work-item then
- * starts no new walk: the host raises ConvergenceError.
+ * Guard.  A walk that survives `max_len` moves, or whose weight grows beyond
+ * WALK_WEIGHT_GUARD (finite factors multiplying up: the terms of the series
+ * grow, they would overflow to Inf a few hundred moves later), is stopped and
+ * counted as a guard hit: the Neumann series appears not to converge.  The
+ * work-item then starts no new walk and the host raises ConvergenceError.
+ * An infinite weight in one move (K or 1/p infinite) is a non-finite value,
+ * not a guard hit.
  *
  * Output per work-item, WALK_STATS doubles:
  *   [0] finite walks   [1] non-finite walks   [2] sum (v - shift)   [3] sum (v - shift)^2
@@ -42,6 +46,7 @@
 
 #define WALK_STATS 6
 #define WALK_GUARD_BIT 0x80000000u
+#define WALK_WEIGHT_GUARD 1e30f
 
 kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong walk_limit, ulong seed,
                         global const float *queries, global const double *shifts,
@@ -98,7 +103,7 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
         const floatv Wn = W * m / q;
 #endif
         go = go & active;
-        const intv guard = go & (n >= (uintv)(max_len));
+        const intv guard = go & ((n >= (uintv)(max_len)) | ((fabs(Wn) > WALK_WEIGHT_GUARD) & isfinite(Wn)));
         go = go & !guard;
         for (int k = 0; k < DIM; ++k) x[k] = select(x[k], y[k], go);
         W = select(W, Wn, go);
