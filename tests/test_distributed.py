@@ -87,6 +87,18 @@ def test_dask_gives_the_local_sums(client, tmp_path):
     assert (r1.estimate, r1.stderr, r1.samples) == (r2.estimate, r2.stderr, r2.samples)
 
 
+def test_dask_gives_the_local_random_walk_sums(client, tmp_path):
+    from walk_problems import SEP1
+
+    one, two = tmp_path / "one.npz", tmp_path / "two.npz"
+    kw = dict(dim=SEP1.dim, at=SEP1.at, walks=100_000, estimator="nee", seed=13)
+    r1 = mcocl.solve_fredholm(SEP1.kernel, SEP1.source, checkpoint=str(one), **kw)
+    r2 = mcocl.solve_fredholm(SEP1.kernel, SEP1.source, checkpoint=str(two), client=client, **kw)
+    with np.load(one) as a, np.load(two) as b:
+        assert np.array_equal(a["totals"], b["totals"])
+    assert np.array_equal(r1.values, r2.values) and np.array_equal(r1.stderr, r2.stderr)
+
+
 def test_many_small_tasks_and_per_worker_rates(client, monkeypatch):
     ref = capture_job(monkeypatch, F3, dim=3, samples=4e6, seed=22)
     acc = Accumulator(ref.shape)

@@ -98,6 +98,19 @@ def test_split_gives_the_sums_of_one_device_bit_for_bit(tmp_path, sampler):
     assert (r1.estimate, r1.stderr, r1.samples) == (r2.estimate, r2.stderr, r2.samples)
 
 
+@pytest.mark.parametrize("estimator", ["nee", "roulette"])
+def test_split_gives_the_random_walk_sums_of_one_device_bit_for_bit(tmp_path, estimator):
+    from walk_problems import SEP2
+
+    one, two = tmp_path / "one.npz", tmp_path / "two.npz"
+    kw = dict(dim=SEP2.dim, at=SEP2.at, walks=100_000, estimator=estimator, seed=12)
+    r1 = mcocl.solve_fredholm(SEP2.kernel, SEP2.source, checkpoint=str(one), **kw)
+    r2 = mcocl.solve_fredholm(SEP2.kernel, SEP2.source, checkpoint=str(two), split=2, **kw)
+    assert np.array_equal(_totals(one), _totals(two))
+    assert np.array_equal(r1.values, r2.values) and np.array_equal(r1.stderr, r2.stderr)
+    assert "[2/2]" in r2.device
+
+
 def test_many_small_chunks_on_two_sub_devices_give_the_same_sums(monkeypatch, subs):
     ref = capture_job(monkeypatch, F3, dim=3, samples=4e6, seed=3)
     acc = Accumulator(ref.shape)
