@@ -76,7 +76,7 @@ class UserFunction:
             f"const {ftype} *{p}" if n else f"const {ftype} {p}" for p, n in self.params
         )
         code = self.code.rstrip()
-        lines = [f"inline {ftype} {name}({args}) {{"]
+        lines = [f"MC_INLINE {ftype} {name}({args}) {{"]
         if vector:
             lines.append("#define float floatv")
         if self.is_body:

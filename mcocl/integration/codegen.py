@@ -43,7 +43,7 @@ class EstimatorCode:
 
 def _proposal_functions(t: int, prop: Proposal, tag: str, offsets: list[list[int]]) -> str:
     """``warp_t<t>`` (uniforms -> x, returns pdf) and ``pdf_t<t>`` (x -> pdf) for one proposal."""
-    warp = [f"inline floatv warp_t{t}(const floatv *u, floatv *x, global const uint *tables) {{",
+    warp = [f"MC_INLINE floatv warp_t{t}(const floatv *u, floatv *x, global const uint *tables) {{",
             "    floatv pdf = (floatv)(1.0f);"]
     pdfs = []
     k = 0
@@ -56,7 +56,7 @@ def _proposal_functions(t: int, prop: Proposal, tag: str, offsets: list[list[int
         pdfs.append(f.pdf_code(ftag, xs, tabs))
         k += f.ndim
     warp += ["    return pdf;", "}"]
-    pdf = [f"inline floatv pdf_t{t}(const floatv *x, global const uint *tables) {{",
+    pdf = [f"MC_INLINE floatv pdf_t{t}(const floatv *x, global const uint *tables) {{",
            "    return " + " * ".join(pdfs) + ";", "}"]
     return "\n".join(warp + pdf) + "\n"
 
@@ -91,7 +91,7 @@ def generate(
         funcs.append(_proposal_functions(t, prop, f"proposal{t}", offsets))
 
     g = "integrand(x)" if control is None else "(integrand(x) - control(x))"
-    body = ["inline floatv unit_value(floatv *tau, global const uint *tables) {"]
+    body = ["MC_INLINE floatv unit_value(floatv *tau, global const uint *tables) {"]
     if roulette is not None:
         body += [
             "    const floatv rr_u = tau[0];",

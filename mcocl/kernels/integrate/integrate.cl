@@ -38,17 +38,23 @@
 #define NACC (VLANES / LANES)
 
 /* Sum of the 16 virtual lanes held in NACC lane vectors, in virtual-lane order. */
-inline double vlane_sum(const doublev *acc) {
+MC_INLINE double vlane_sum(const doublev *acc) {
     double s = 0.0;
     for (int a = 0; a < NACC; ++a) s += lane_sum_d(acc[a]);
     return s;
 }
 
-/* Uniform coordinates of sample `index`: dimensions 0 .. NCOORD-1. */
-inline void sample_uniforms(ulongv index, ulong seed, floatv *u) {
-    rng_t r = rng_init(index, seed, RNG_STREAM_SAMPLE);
-    rng_uniforms(r, 0u, NCOORD, u);
+/* Uniform coordinates (dimensions 0 .. NCOORD-1) of the packet of samples
+ * base + stride * lane. */
+MC_INLINE void sample_uniforms(ulong base, uint stride, ulong seed, floatv *u) {
+    rng_uniforms(rng_init_packet(base, stride, seed, RNG_STREAM_SAMPLE), 0u, NCOORD, u);
 }
+
+/* Float partial sums are flushed into the double accumulators every FLUSH
+ * groups of 16 units: a float sum of at most 64 terms per lane loses nothing
+ * that matters, and float lanes are twice as wide as double ones
+ * (../shared/POCL-NOTES.md: "accumulating in float was fine up to 4096"). */
+#define FLUSH 4
 
 kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit, ulong seed, double shift,
                              global const uint *tables, global double *out) {
@@ -61,62 +67,79 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
     const ulong design_base = design * (ulong)DESIGN_UNITS;
 
     doublev s1[NACC], s2[NACC], npairs[NACC], sabs[NACC];
+    floatv f1[NACC], f2[NACC], fpairs[NACC], fabsv[NACC];
     for (int a = 0; a < NACC; ++a) {
         s1[a] = (doublev)(0.0); s2[a] = (doublev)(0.0); npairs[a] = (doublev)(0.0); sabs[a] = (doublev)(0.0);
+        f1[a] = (floatv)(0.0f); f2[a] = (floatv)(0.0f); fpairs[a] = (floatv)(0.0f); fabsv[a] = (floatv)(0.0f);
     }
     uintv nvalid = (uintv)(0u), nbad = (uintv)(0u);
+    const float fshift = (float)shift; /* the host rounds the shift to float */
 
 #if SAMPLER == SAMPLER_NROOKS
     perm_key keys[NCOORD];
     for (uint a = 0; a < NCOORD; ++a) keys[a] = nrooks_key(seed, design, a);
 #endif
 
-    for (uint k = 0; k < nunits; k += LANES) {
-        const int acc = (int)((k / LANES) % NACC);
-        uintv in_design = to_uintv((ulongv)(unit0 + k) + to_ulongv(LANE_IOTA));
-        intv valid = (uintv)(k) + LANE_IOTA < (uintv)(nunits);
-        ulongv unit = (ulongv)(design_base + unit0 + k) + to_ulongv(LANE_IOTA);
-        floatv tau[NCOORD];
+    /* k runs over units in steps of LANES; the inner loop over the NACC lane
+     * vectors of one group of 16 virtual lanes is unrolled so that every
+     * accumulator index is a compile-time constant (a run-time index would
+     * force the accumulators out of registers into memory). */
+    for (uint k0 = 0; k0 < nunits; k0 += VLANES) {
+#pragma unroll
+        for (int acc = 0; acc < NACC; ++acc) {
+            const uint k = k0 + (uint)acc * LANES;
+            if (k >= nunits) break;
+            const uintv in_design = (uintv)((uint)(unit0 + k)) + LANE_IOTA;
+            const intv valid = (uintv)(k) + LANE_IOTA < (uintv)(nunits);
+            const ulong ubase = design_base + unit0 + k;
+            floatv tau[NCOORD];
 #if SAMPLER == SAMPLER_STRATIFIED
-        /* two samples (indices 2 unit, 2 unit + 1) in stratum `in_design` */
-        doublev cell[DIM];
-        stratum_cells(in_design, DIM, (double)STRATA_M, 1.0 / (double)STRATA_M, cell);
-        floatv v2[2];
-        for (int t = 0; t < 2; ++t) {
-            sample_uniforms(2ul * unit + (ulong)t, seed, tau);
-            for (uint a = 0; a < NCOORD; ++a)
-                tau[a] = cell_to_unit(cell[a % DIM], tau[a], 1.0 / (double)STRATA_M);
-            v2[t] = unit_value(tau, tables);
-        }
-        intv fin0 = isfinite(v2[0]), fin1 = isfinite(v2[1]);
-        intv ok = valid & fin0 & fin1;
-        nbad += to_uintv(mask_bit(valid & !fin0)) + to_uintv(mask_bit(valid & !fin1));
-        doublev okd = to_doublev(mask_bit(ok));
-        doublev d0 = to_doublev(select((floatv)(0.0f), v2[0], ok)) - shift;
-        doublev d1 = to_doublev(select((floatv)(0.0f), v2[1], ok)) - shift;
-        s1[acc] += (d0 + d1) * okd;
-        sabs[acc] += to_doublev(fabs(select((floatv)(0.0f), v2[0], ok)) + fabs(select((floatv)(0.0f), v2[1], ok)));
-        s2[acc] += (d0 - d1) * (d0 - d1) * okd;
-        npairs[acc] += okd;
-        nvalid += 2u * to_uintv(mask_bit(ok));
+            /* two samples (indices 2 unit, 2 unit + 1) in stratum `in_design` */
+            doublev cell[DIM];
+            stratum_cells(in_design, DIM, (double)STRATA_M, 1.0 / (double)STRATA_M, cell);
+            floatv v2[2];
+            for (int t = 0; t < 2; ++t) {
+                sample_uniforms(2ul * ubase + (ulong)t, 2u, seed, tau);
+                for (uint a = 0; a < NCOORD; ++a)
+                    tau[a] = cell_to_unit(cell[a % DIM], tau[a], 1.0 / (double)STRATA_M);
+                v2[t] = unit_value(tau, tables);
+            }
+            const intv fin0 = isfinite(v2[0]), fin1 = isfinite(v2[1]);
+            const intv ok = valid & fin0 & fin1;
+            nbad += to_uintv(mask_bit(valid & !fin0)) + to_uintv(mask_bit(valid & !fin1));
+            const floatv a0 = select((floatv)(0.0f), v2[0], ok), a1 = select((floatv)(0.0f), v2[1], ok);
+            const floatv okf = select((floatv)(0.0f), (floatv)(1.0f), ok);
+            f1[acc] += (a0 - fshift + a1 - fshift) * okf;
+            f2[acc] += (a0 - a1) * (a0 - a1);
+            fabsv[acc] += fabs(a0) + fabs(a1);
+            fpairs[acc] += okf;
+            nvalid += 2u * to_uintv(mask_bit(ok));
 #else
-        sample_uniforms(unit, seed, tau);
+            sample_uniforms(ubase, 1u, seed, tau);
 #if SAMPLER == SAMPLER_NROOKS
-        for (uint a = 0; a < NCOORD; ++a) {
-            uintv cell = nrooks_permute(in_design, DESIGN_UNITS, NROOKS_MASK, NROOKS_S1, NROOKS_S2, keys[a]);
-            tau[a] = cell_to_unit(to_doublev(cell), tau[a], 1.0 / (double)DESIGN_UNITS);
+            for (uint a = 0; a < NCOORD; ++a) {
+                uintv cell = nrooks_permute(in_design, DESIGN_UNITS, NROOKS_MASK, NROOKS_S1, NROOKS_S2, keys[a]);
+                tau[a] = cell_to_unit(to_doublev(cell), tau[a], 1.0 / (double)DESIGN_UNITS);
+            }
+#endif
+            const floatv v = unit_value(tau, tables);
+            const intv fin = isfinite(v);
+            const intv ok = valid & fin;
+            nbad += to_uintv(mask_bit(valid & !fin));
+            const floatv d = select((floatv)(0.0f), v - fshift, ok);
+            f1[acc] += d;
+            f2[acc] += d * d;
+            fabsv[acc] += fabs(select((floatv)(0.0f), v, ok));
+            nvalid += to_uintv(mask_bit(ok));
+#endif
         }
-#endif
-        floatv v = unit_value(tau, tables);
-        intv ok = valid & isfinite(v);
-        nbad += to_uintv(mask_bit(valid & !isfinite(v)));
-        doublev okd = to_doublev(mask_bit(ok));
-        doublev d = (to_doublev(select((floatv)(0.0f), v, ok)) - shift) * okd;
-        s1[acc] += d;
-        s2[acc] += d * d;
-        sabs[acc] += to_doublev(fabs(select((floatv)(0.0f), v, ok)));
-        nvalid += to_uintv(mask_bit(ok));
-#endif
+        if ((k0 / VLANES) % FLUSH == FLUSH - 1 || k0 + VLANES >= nunits) {
+            for (int a = 0; a < NACC; ++a) {
+                s1[a] += to_doublev(f1[a]); s2[a] += to_doublev(f2[a]);
+                npairs[a] += to_doublev(fpairs[a]); sabs[a] += to_doublev(fabsv[a]);
+                f1[a] = (floatv)(0.0f); f2[a] = (floatv)(0.0f); fpairs[a] = (floatv)(0.0f); fabsv[a] = (floatv)(0.0f);
+            }
+        }
     }
     global double *o = out + get_global_id(0) * STATS;
     o[0] = (double)lane_sum_u(nvalid);

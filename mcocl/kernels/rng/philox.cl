@@ -28,7 +28,7 @@ typedef struct {
     uintv v0, v1, v2, v3;
 } philox_ctr;
 
-inline __attribute__((always_inline)) uintv philox_mulhi(uint m, uintv a) {
+MC_INLINE uintv philox_mulhi(uint m, uintv a) {
     return to_uintv((to_ulongv(a) * (ulong)m) >> 32);
 }
 
@@ -48,7 +48,7 @@ inline __attribute__((always_inline)) uintv philox_mulhi(uint m, uintv a) {
 
 /* Philox4x32 with 10 rounds; the key is bumped by the Weyl constants between
  * rounds.  The key is uniform across lanes (one seed per launch). */
-inline __attribute__((always_inline)) philox_ctr philox4x32_10(philox_ctr c, uint k0, uint k1) {
+MC_INLINE philox_ctr philox4x32_10(philox_ctr c, uint k0, uint k1) {
     uintv c0 = c.v0, c1 = c.v1, c2 = c.v2, c3 = c.v3;
     PHILOX_ROUND(c0, c1, c2, c3, k0, k1); k0 += PHILOX_W0; k1 += PHILOX_W1;
     PHILOX_ROUND(c0, c1, c2, c3, k0, k1); k0 += PHILOX_W0; k1 += PHILOX_W1;

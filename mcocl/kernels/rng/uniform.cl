@@ -34,7 +34,7 @@ typedef struct {
     uint stream;
 } rng_t;
 
-inline rng_t rng_init(ulongv index, ulong seed, uint stream) {
+MC_INLINE rng_t rng_init(ulongv index, ulong seed, uint stream) {
     rng_t r;
     r.lo = to_uintv(index & (ulong)0xffffffffu);
     r.hi = to_uintv(index >> 32);
@@ -44,8 +44,21 @@ inline rng_t rng_init(ulongv index, ulong seed, uint stream) {
     return r;
 }
 
+/* The samples base + stride * lane of a packet, without 64-bit lane arithmetic
+ * (the low word can carry at most once within a packet). */
+MC_INLINE rng_t rng_init_packet(ulong base, uint stride, ulong seed, uint stream) {
+    rng_t r;
+    uint lo0 = (uint)base;
+    r.lo = (uintv)(lo0) + stride * LANE_IOTA;
+    r.hi = (uintv)((uint)(base >> 32)) + to_uintv(mask_bit(r.lo < (uintv)(lo0)));
+    r.k0 = (uint)(seed & 0xffffffffu);
+    r.k1 = (uint)(seed >> 32);
+    r.stream = stream;
+    return r;
+}
+
 /* The four 32-bit words of dimensions 4*block .. 4*block + 3. */
-inline __attribute__((always_inline)) philox_ctr rng_block(rng_t r, uint block) {
+MC_INLINE philox_ctr rng_block(rng_t r, uint block) {
     philox_ctr c;
     c.v0 = r.lo;
     c.v1 = r.hi;
@@ -55,26 +68,26 @@ inline __attribute__((always_inline)) philox_ctr rng_block(rng_t r, uint block) 
 }
 
 /* 32 random bits -> cell centre in (0, 1); see the header for why. */
-inline __attribute__((always_inline)) floatv u01(uintv bits) {
+MC_INLINE floatv u01(uintv bits) {
     return (to_floatv(bits >> 9) + 0.5f) * 0x1p-23f;
 }
 
 /* 64 random bits -> cell centre in (0, 1) in double precision (52-bit cells). */
-inline doublev u01d(uintv hi, uintv lo) {
+MC_INLINE doublev u01d(uintv hi, uintv lo) {
     ulongv b = (to_ulongv(hi) << 20) | to_ulongv(lo >> 12);
     return (to_doublev(b) + 0.5) * 0x1p-52;
 }
 
 /* One uniform of dimension `dim`; costs a whole Philox call, so prefer
  * rng_block when several consecutive dimensions are needed. */
-inline floatv rng_uniform(rng_t r, uint dim) {
+MC_INLINE floatv rng_uniform(rng_t r, uint dim) {
     philox_ctr c = rng_block(r, dim >> 2);
     uint w = dim & 3u;
     return u01(w == 0u ? c.v0 : w == 1u ? c.v1 : w == 2u ? c.v2 : c.v3);
 }
 
 /* Fill u[0 .. n-1] with dimensions first .. first+n-1 (first % 4 == 0). */
-inline void rng_uniforms(rng_t r, uint first, int n, floatv *u) {
+MC_INLINE void rng_uniforms(rng_t r, uint first, int n, floatv *u) {
     for (int j = 0; j < n; j += 4) {
         philox_ctr c = rng_block(r, (first >> 2) + (uint)(j >> 2));
         u[j] = u01(c.v0);

@@ -22,7 +22,7 @@
                                           (t)[(i).sc], (t)[(i).sd], (t)[(i).se], (t)[(i).sf]))
 #endif
 
-inline uintv gather_uint(global const uint *t, uintv i) { return GATHER(uint, t, i); }
-inline floatv gather_float(global const float *t, uintv i) { return GATHER(float, t, i); }
+MC_INLINE uintv gather_uint(global const uint *t, uintv i) { return GATHER(uint, t, i); }
+MC_INLINE floatv gather_float(global const float *t, uintv i) { return GATHER(float, t, i); }
 
 #endif

@@ -16,13 +16,13 @@
 #define MIS_BALANCE 2
 #define MIS_POWER 3
 
-inline floatv mis_weight_average(int i, const float *n, int k) {
+MC_INLINE floatv mis_weight_average(int i, const float *n, int k) {
     float total = 0.0f;
     for (int j = 0; j < k; ++j) total += n[j];
     return (floatv)(n[i] / total);
 }
 
-inline floatv mis_weight_max(int i, const floatv *q, int k) {
+MC_INLINE floatv mis_weight_max(int i, const floatv *q, int k) {
     floatv w = (floatv)(1.0f);
     for (int j = 0; j < k; ++j) {
         if (j == i) continue;
@@ -33,14 +33,14 @@ inline floatv mis_weight_max(int i, const floatv *q, int k) {
     return w;
 }
 
-inline floatv mis_weight_balance(int i, const floatv *q, int k) {
+MC_INLINE floatv mis_weight_balance(int i, const floatv *q, int k) {
     floatv s = (floatv)(0.0f);
     for (int j = 0; j < k; ++j) s += q[j];
     return select(q[i] / s, (floatv)(0.0f), s <= 0.0f);
 }
 
 /* Powers are taken of q / max(q) so that large densities do not overflow. */
-inline floatv mis_weight_power(int i, const floatv *q, int k, float beta) {
+MC_INLINE floatv mis_weight_power(int i, const floatv *q, int k, float beta) {
     floatv m = q[0];
     for (int j = 1; j < k; ++j) m = fmax(m, q[j]);
     floatv s = (floatv)(0.0f), qi = (floatv)(0.0f);
@@ -55,12 +55,12 @@ inline floatv mis_weight_power(int i, const floatv *q, int k, float beta) {
 
 /* The rendering special case: two techniques, beta = 2 (Veach eq. 9.13), for
  * the technique whose (count-weighted) pdf is a against the other's b. */
-inline floatv power_heuristic(floatv a, floatv b) {
+MC_INLINE floatv power_heuristic(floatv a, floatv b) {
     floatv a2 = a * a, b2 = b * b;
     return select(a2 / (a2 + b2), (floatv)(0.0f), (a2 + b2) <= 0.0f);
 }
 
-inline floatv balance_heuristic(floatv a, floatv b) {
+MC_INLINE floatv balance_heuristic(floatv a, floatv b) {
     return select(a / (a + b), (floatv)(0.0f), (a + b) <= 0.0f);
 }
 

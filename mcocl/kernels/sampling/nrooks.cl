@@ -26,7 +26,7 @@ typedef struct {
 } perm_key;
 
 /* Round keys of the permutation of `axis` in `design`. */
-inline perm_key nrooks_key(ulong seed, ulong design, uint axis) {
+MC_INLINE perm_key nrooks_key(ulong seed, ulong design, uint axis) {
     philox_ctr c;
 #if LANES == 1
     c.v0 = (uint)design; c.v1 = (uint)(design >> 32); c.v2 = axis; c.v3 = RNG_STREAM_PERMUTATION;
@@ -42,7 +42,7 @@ inline perm_key nrooks_key(ulong seed, ulong design, uint axis) {
 }
 
 /* One application of the keyed bijection of [0, mask + 1). */
-inline uintv nrooks_mix(uintv x, uint mask, uint s1, uint s2, perm_key k) {
+MC_INLINE uintv nrooks_mix(uintv x, uint mask, uint s1, uint s2, perm_key k) {
     x = (x ^ (k.k0 & mask)) & mask;
     x = (x * 0x2C1B3C6Du) & mask;
     x ^= x >> s1;
@@ -59,7 +59,7 @@ inline uintv nrooks_mix(uintv x, uint mask, uint s1, uint s2, perm_key k) {
 }
 
 /* pi(i) for i < n, a permutation of [0, n); mask = 2^w - 1 >= n - 1. */
-inline uintv nrooks_permute(uintv i, uint n, uint mask, uint s1, uint s2, perm_key k) {
+MC_INLINE uintv nrooks_permute(uintv i, uint n, uint mask, uint s1, uint s2, perm_key k) {
     uintv x = nrooks_mix(i, mask, s1, s2, k);
     intv out = x >= (uintv)(n);
     while (mask_any(out)) {

@@ -22,7 +22,7 @@
 #define PC_INV_TOTAL 0x1p-23f
 
 /* Largest b in [0, nbins - 1] with cum[b] <= c; `top` = largest power of 2 <= nbins. */
-inline uintv pc_find(global const uint *cum, uint nbins, uint top, uintv c) {
+MC_INLINE uintv pc_find(global const uint *cum, uint nbins, uint top, uintv c) {
     uintv b = (uintv)(0u);
     for (uint step = top; step > 0u; step >>= 1) {
         uintv cand = b + step;
@@ -36,7 +36,7 @@ inline uintv pc_find(global const uint *cum, uint nbins, uint top, uintv c) {
 /* (b + frac) / n rounded to float may land in a neighbouring bin; move x by one
  * float towards bin b so that the bin a pdf lookup finds at x is the bin that
  * was sampled (sampling and evaluation must agree for combined estimators). */
-inline floatv pc_keep_in_bin(floatv x, uintv b, uint nbins) {
+MC_INLINE floatv pc_keep_in_bin(floatv x, uintv b, uint nbins) {
     uintv bx = to_uintv_rtz(x * (float)nbins);
     x = select(x, nextafter(x, (floatv)(0.0f)), bx > b);
     x = select(x, nextafter(x, (floatv)(1.0f)), bx < b);
@@ -44,7 +44,7 @@ inline floatv pc_keep_in_bin(floatv x, uintv b, uint nbins) {
 }
 
 /* Sample a 1-D table; returns x and writes its bin mass in *mass (probability, not density). */
-inline floatv pc1_sample_mass(global const uint *cum, uint nbins, uint top, floatv u, floatv *mass) {
+MC_INLINE floatv pc1_sample_mass(global const uint *cum, uint nbins, uint top, floatv u, floatv *mass) {
     floatv t = u * PC_TOTAL;
     uintv c = min(to_uintv_rtz(t), (uintv)(8388607u));
     uintv b = pc_find(cum, nbins, top, c);
@@ -57,25 +57,25 @@ inline floatv pc1_sample_mass(global const uint *cum, uint nbins, uint top, floa
 }
 
 /* The bin of x and its mass. */
-inline floatv pc1_mass(global const uint *cum, uint nbins, floatv x) {
+MC_INLINE floatv pc1_mass(global const uint *cum, uint nbins, floatv x) {
     uintv b = min(to_uintv_rtz(x * (float)nbins), (uintv)(nbins - 1u));
     return to_floatv(gather_uint(cum, b + 1u) - gather_uint(cum, b)) * PC_INV_TOTAL;
 }
 
-inline floatv pc1_warp(global const uint *cum, uint nbins, uint top, floatv u, floatv *pdf) {
+MC_INLINE floatv pc1_warp(global const uint *cum, uint nbins, uint top, floatv u, floatv *pdf) {
     floatv mass;
     floatv x = pc1_sample_mass(cum, nbins, top, u, &mass);
     *pdf = mass * (float)nbins;
     return x;
 }
 
-inline floatv pc1_pdf(global const uint *cum, uint nbins, floatv x) {
+MC_INLINE floatv pc1_pdf(global const uint *cum, uint nbins, floatv x) {
     return pc1_mass(cum, nbins, x) * (float)nbins;
 }
 
 /* 2-D: `marg` has na + 1 entries (marginal over the first axis), `cond` holds
  * na rows of nb + 1 entries (the conditional of the second axis given the row). */
-inline void pc2_warp(global const uint *marg, global const uint *cond, uint na, uint topa, uint nb, uint topb,
+MC_INLINE void pc2_warp(global const uint *marg, global const uint *cond, uint na, uint topa, uint nb, uint topb,
                      floatv ua, floatv ub, floatv *xa, floatv *xb, floatv *pdf) {
     floatv ma;
     *xa = pc1_sample_mass(marg, na, topa, ua, &ma);
@@ -99,7 +99,7 @@ inline void pc2_warp(global const uint *marg, global const uint *cond, uint na, 
     *pdf = ma * cnt * PC_INV_TOTAL * (float)na * (float)nb;
 }
 
-inline floatv pc2_pdf(global const uint *marg, global const uint *cond, uint na, uint nb, floatv xa, floatv xb) {
+MC_INLINE floatv pc2_pdf(global const uint *marg, global const uint *cond, uint na, uint nb, floatv xa, floatv xb) {
     uintv row = min(to_uintv_rtz(xa * (float)na), (uintv)(na - 1u));
     uintv col = min(to_uintv_rtz(xb * (float)nb), (uintv)(nb - 1u));
     uintv base = row * (nb + 1u);

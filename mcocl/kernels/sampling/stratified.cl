@@ -22,7 +22,7 @@
 #include "sampling/unit_interval.cl"
 
 /* cell[j] = digit j of h in base m, as doubles. */
-inline void stratum_cells(uintv h, int d, double m, double inv_m, doublev *cell) {
+MC_INLINE void stratum_cells(uintv h, int d, double m, double inv_m, doublev *cell) {
     doublev rest = to_doublev(h);
     for (int j = 0; j < d; ++j) {
         doublev q = floor(rest * inv_m);

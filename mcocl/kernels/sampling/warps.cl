@@ -18,11 +18,11 @@
  * P(x) = (1 - exp(-rate x)) / (1 - exp(-rate)),
  * P^-1(u) = -log(1 + u * expm1(-rate)) / rate,  em1 = expm1(-rate) in (-1, 0).
  * (A negative rate is the mirror image x -> 1 - x; the host emits that.) */
-inline floatv pdf_exponential(floatv x, float rate, float norm) {
+MC_INLINE floatv pdf_exponential(floatv x, float rate, float norm) {
     return norm * exp(-rate * x);
 }
 
-inline floatv warp_exponential(floatv u, float rate, float em1, float norm, floatv *pdf) {
+MC_INLINE floatv warp_exponential(floatv u, float rate, float em1, float norm, floatv *pdf) {
     floatv x = clamp_open01(-log1p(u * em1) / rate);
     *pdf = pdf_exponential(x, rate, norm);
     return x;
@@ -30,11 +30,11 @@ inline floatv warp_exponential(floatv u, float rate, float em1, float norm, floa
 
 /* ---- power law --------------------------------------------------------------
  * p(x) = (a + 1) x^a, a > -1;  P(x) = x^(a+1);  P^-1(u) = u^(1/(a+1)). */
-inline floatv pdf_power(floatv x, float a) {
+MC_INLINE floatv pdf_power(floatv x, float a) {
     return (a + 1.0f) * exp(a * log(x));
 }
 
-inline floatv warp_power(floatv u, float a, floatv *pdf) {
+MC_INLINE floatv warp_power(floatv u, float a, floatv *pdf) {
     floatv x = clamp_open01(exp(log(u) / (a + 1.0f)));
     *pdf = pdf_power(x, a);
     return x;
@@ -48,9 +48,9 @@ inline floatv warp_power(floatv u, float a, floatv *pdf) {
  * away from 1, where they lose their digits, the host mirrors the problem
  * (z -> -z) whenever alpha > 0 so that the sampled tail is always the lower one:
  * then p = p_lo + u (p_hi - p_lo) with p_lo = Phi(alpha), p_hi = Phi(beta). */
-inline doublev norm_cdf_d(doublev z) { return 0.5 * erfc(-z * M_SQRT1_2); }
+MC_INLINE doublev norm_cdf_d(doublev z) { return 0.5 * erfc(-z * M_SQRT1_2); }
 
-inline doublev norm_quantile_d(doublev p) {
+MC_INLINE doublev norm_quantile_d(doublev p) {
     const double a0 = -3.969683028665376e+01, a1 = 2.209460984245205e+02, a2 = -2.759285104469687e+02,
                  a3 = 1.383577518672690e+02, a4 = -3.066479806614716e+01, a5 = 2.506628277459239e+00;
     const double b0 = -5.447609879822406e+01, b1 = 1.615858368580409e+02, b2 = -1.556989798598866e+02,
@@ -81,13 +81,13 @@ inline doublev norm_quantile_d(doublev p) {
     return z - u / (1.0 + 0.5 * z * u);
 }
 
-inline floatv pdf_truncnorm(floatv x, float mu, float inv_sigma, float norm) {
+MC_INLINE floatv pdf_truncnorm(floatv x, float mu, float inv_sigma, float norm) {
     floatv z = (x - mu) * inv_sigma;
     return norm * exp(-0.5f * z * z);
 }
 
 /* sign = +1, or -1 when the host mirrored the problem; norm = 1/(sigma Z sqrt(2 pi)). */
-inline floatv warp_truncnorm(floatv u, double mu, double sigma, double sign, double p_lo, double p_hi,
+MC_INLINE floatv warp_truncnorm(floatv u, double mu, double sigma, double sign, double p_lo, double p_hi,
                              float norm, floatv *pdf) {
     doublev p = p_lo + to_doublev(u) * (p_hi - p_lo);
     doublev z = norm_quantile_d(p);
