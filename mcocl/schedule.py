@@ -13,7 +13,8 @@ their statistics.  The scheduler
 - halts on the block count, a time budget, a job-defined target (e.g. a
   standard error) or Ctrl-C (SIGINT), whichever comes first, and never drops
   a block that was already computed;
-- saves a checkpoint every ``checkpoint_every`` seconds when asked.
+- saves a checkpoint after the first chunk and then every ``checkpoint_every``
+  seconds when asked.
 """
 
 from __future__ import annotations
@@ -215,7 +216,7 @@ def run(
     rate = 0.0  # blocks per second, measured
     stopped_by = ""
     chunks = 0
-    last_ckpt = t0
+    last_ckpt = -math.inf  # the first fold is saved at once, then every checkpoint_every seconds
     size = max(int(first_chunk), 1)
 
     def remaining_blocks() -> float:

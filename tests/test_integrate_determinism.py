@@ -123,3 +123,30 @@ def test_target_stderr_stops_when_reached() -> None:
     assert r.stopped_by == "stderr"
     assert r.stderr <= 2e-4
     assert r.samples < 10**9
+
+
+def test_ctrl_c_keeps_what_was_computed(tmp_path) -> None:
+    import json
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    ckpt = tmp_path / "run.npz"
+    cmd = [sys.executable, "-m", "mcocl", "integrate", POLY, "--dim", "3", "--samples", "1e13", "--seed", "4",
+           "--checkpoint", str(ckpt), "--json"]
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while not ckpt.exists() and time.time() < deadline:  # the first checkpoint comes with the first fold
+        time.sleep(0.2)
+    time.sleep(1.0)
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    d = json.loads(out)
+    assert d["stopped_by"] == "interrupt" and d["samples"] > 0
+    exact = 0.25 + 0.5 / 3 - 0.5
+    assert abs(d["estimate"] - exact) <= 5 * d["stderr"]
+    # the checkpoint holds exactly what was reported and can be continued
+    more = mcocl.integrate(POLY, dim=3, samples=d["samples"] + (1 << 20), seed=4, resume=str(ckpt))
+    assert more.samples == d["samples"] + (1 << 20)
