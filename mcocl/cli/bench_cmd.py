@@ -1,0 +1,159 @@
+"""``mcocl bench``: variance versus time for every estimator, on this machine."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..bench import BenchOptions, available_suites, run_bench
+from ..bench.status import BenchStatus
+from ..bench.suite import load_suite
+from .common import positive
+
+DEFAULT_BUDGET = 5.0
+QUICK_BUDGET = 0.25
+DEFAULT_OUT = "bench-out"
+
+DESCRIPTION = """\
+Measure which estimator buys the most accuracy per second, on this machine.
+
+For each problem and each estimator the bench samples for --budget seconds,
+recording checkpoints (seconds, samples, estimate, reported standard error,
+actual error against the exact value).  It prints one table per problem:
+
+  samples/s     throughput
+  var/sample    the estimator's honest variance per sample, stderr^2 x samples
+                (for stratified and N-rooks designs the variance of the
+                design means, not the plain sample variance of f)
+  efficiency    1 / (variance per sample x seconds per sample)
+  rel. eff.     efficiency over that of the 'independent' estimator
+  error at end  estimate - exact
+  |err|<=4 se   whether the actual error agrees with the reported stderr
+
+and the engine's speed-up over a vectorised NumPy float64 version of the
+plain estimator, timed in the same process (the 'numpy' row).  Files in --out:
+SUITE-table.txt, SUITE-checkpoints.csv (one row per checkpoint),
+SUITE-summary.json, SUITE-error-vs-time.png and SUITE-efficiency.png.
+
+Modes:
+  integrate   built-in integrands with exact integrals (smooth, peaked,
+              discontinuous, singular, additive, two-peak, the six Genz
+              families, 1 to 10 dimensions), or your own from --problem FILE
+  solve       random-walk estimators on integral equations with known solutions
+  render      integrators on a scene against a reference image
+  --quick     a few seconds in all: the problems behind the lecture's orderings
+"""
+
+EXAMPLES = """\
+examples:
+  mcocl bench --quick
+  mcocl bench integrate --budget 5 --out bench-out/
+  mcocl bench integrate --problem my_problems.json --estimators independent stratified nrooks
+  mcocl bench integrate --only 'genz-*' two-peak-2d --budget 2
+  mcocl bench integrate --list
+"""
+
+PROBLEM_FILE_HELP = """\
+problem file (JSON): {"problems": [{"name": ..., "expression": "<OpenCL C over x[dim]>",
+"dim": N, "exact": V, optional "numpy", "proposals", "proposal_names", "shares",
+"control": {"expression": ..., "integral": J}, "estimators": {name: {integrate kwargs}}}]}
+"""
+
+
+def _common(p: argparse.ArgumentParser, top: bool) -> None:
+    """Options valid before and after the mode (a mode's copy only overrides when given)."""
+    d = (lambda v: v) if top else (lambda v: argparse.SUPPRESS)
+    p.add_argument("--budget", type=positive, default=d(None), metavar="SECONDS",
+                   help=f"sampling seconds per estimator and problem (default {DEFAULT_BUDGET:g}; {QUICK_BUDGET:g} with --quick)")
+    p.add_argument("--out", default=d(None), metavar="DIR", help=f"folder for the table, CSV, JSON and PNG files (default {DEFAULT_OUT})")
+    p.add_argument("--quick", action="store_true", default=d(False), help="the quick subset, a few seconds in all")
+    p.add_argument("--seed", type=int, default=d(1), help="seed of every estimator (default 1)")
+    p.add_argument("--device", default=d(None), help="OpenCL device: index from `mcocl devices` or a name substring")
+    p.add_argument("--lanes", type=int, choices=(1, 2, 4, 8, 16), default=d(None), help="kernel vector width override")
+    p.add_argument("--no-plot", dest="plot", action="store_false", default=d(True), help="do not draw the PNG plots")
+    p.add_argument("--no-numpy", dest="numpy", action="store_false", default=d(True), help="skip the NumPy baseline")
+    p.add_argument("--estimators", nargs="+", default=d(None), metavar="NAME",
+                   help="run only these estimators (names as in the tables)")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``bench`` parser and its modes."""
+    p = sub.add_parser("bench", help="variance versus time of every estimator (tables, CSV, JSON, plots)",
+                       description=DESCRIPTION, epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _common(p, top=True)
+    modes = p.add_subparsers(dest="mode", metavar="MODE")
+    pi = modes.add_parser("integrate", help="integration estimators on integrands with exact integrals",
+                          epilog=PROBLEM_FILE_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _common(pi, top=False)
+    pi.add_argument("--problem", action="append", default=[], metavar="FILE",
+                    help="a JSON problem file (repeatable); replaces the built-in problems")
+    pi.add_argument("--only", nargs="+", default=None, metavar="NAME",
+                    help="built-in problems to run (names or shell patterns such as 'genz-*')")
+    pi.add_argument("--list", action="store_true", help="list the problems and their estimators, run nothing")
+    ps = modes.add_parser("solve", help="random-walk estimators on integral equations with known solutions")
+    _common(ps, top=False)
+    ps.add_argument("--only", nargs="+", default=None, metavar="NAME", help="built-in problems to run")
+    ps.add_argument("--list", action="store_true", help="list the problems and their estimators, run nothing")
+    pr = modes.add_parser("render", help="integrators on a scene against a reference image (RMSE)")
+    _common(pr, top=False)
+    pr.add_argument("scene", nargs="?", default=None, help="scene file")
+    pr.add_argument("--reference", default=None, help="reference image (default: rendered at high spp and cached)")
+    pr.add_argument("--list", action="store_true", help="list the integrators, run nothing")
+    p.set_defaults(func=run)
+
+
+def _options(args: argparse.Namespace) -> BenchOptions:
+    out = args.out or DEFAULT_OUT
+    return BenchOptions(
+        quick=args.quick, seed=args.seed, device=args.device, lanes=args.lanes,
+        problem_files=list(getattr(args, "problem", []) or []), only=getattr(args, "only", None),
+        inputs=[args.scene] if getattr(args, "scene", None) else [], reference=getattr(args, "reference", None),
+        cache_dir=str(Path(out) / "cache"),
+    )
+
+
+def _list(suite: str, options: BenchOptions) -> None:
+    for prob in load_suite(suite).problems(options):
+        names = " ".join(s.name for s in prob.estimators())
+        print(f"{prob.name}: {prob.description}\n    estimators: {names}")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the requested suites; print the tables; write the files."""
+    if args.mode is None and not args.quick:
+        print("mcocl bench: give a mode (integrate, solve, render) or --quick; see mcocl bench --help",
+              file=sys.stderr)
+        return 2
+    suites = [args.mode] if args.mode else available_suites()
+    if args.mode == "render" and not args.quick and not args.scene and not getattr(args, "list", False):
+        print("mcocl bench render: give a scene file (mcocl bench render SCENE)", file=sys.stderr)
+        return 2
+    if args.mode is None:
+        # `mcocl bench --quick` runs every suite's built-in quick subset; render needs a scene of its own
+        suites = [s for s in suites if s != "render"]
+    options = _options(args)
+    if getattr(args, "list", False):
+        _list(suites[0], options)
+        return 0
+    budget = args.budget or (QUICK_BUDGET if args.quick else DEFAULT_BUDGET)
+    out = args.out or DEFAULT_OUT
+    status = 0
+    for suite in suites:
+        result, files = run_bench(suite, budget, options, args.estimators, out, plots=False, baseline=args.numpy,
+                                  status=BenchStatus(f"bench {suite}"))
+        from ..bench.report import format_table
+
+        sys.stdout.write(format_table(result))
+        sys.stdout.write("\n")
+        sys.stdout.flush()
+        if args.plot:
+            from ..bench.plots import write_plots
+
+            files.update(write_plots(result, out))
+        print(f"wrote {', '.join(str(f) for f in files.values())}", file=sys.stderr)
+        if result.interrupted:
+            return 130
+        if result.failures:
+            status = 1
+    return status
