@@ -45,3 +45,35 @@ def sample_proposal(proposal: Any, dim: int, n: int, seed: int = 0, device: Any 
     for host, buf in ((xs, bx), (pw, bw), (pe, be)):
         cl.enqueue_copy(ctx.queue, host, buf)
     return xs, pw, pe
+
+
+def design_points(sampler: str, dim: int, size: int, design: int = 0, seed: int = 0, device: Any = None) -> np.ndarray:
+    """The points of one design, placed exactly as the integration kernel places them.
+
+    Args:
+        sampler: ``nrooks`` (``size`` = points n) or ``stratified`` (``size`` =
+            strata per axis m; the design has 2 m^dim points, two per stratum,
+            stratum h's pair at rows 2h and 2h + 1).
+        design: which design (designs differ in permutations and jitter).
+
+    Returns:
+        ``(points, dim)`` float32 array.
+    """
+    if sampler not in ("nrooks", "stratified"):
+        raise InputError(f"sampler: design points exist for nrooks and stratified, not {sampler!r}")
+    ctx = runtime.device_context(device)
+    src = runtime.compose(["sampling/design_points.cl"])
+    prg = runtime.build(ctx, src, ["-DLANES=1", f"-DDIM={dim}"], what="design points")
+    mf = cl.mem_flags
+    if sampler == "nrooks":
+        out = np.empty((size, dim), np.float32)
+        buf = cl.Buffer(ctx.context, mf.WRITE_ONLY, out.nbytes)
+        runtime.kernel(prg, "nrooks_points")(ctx.queue, (size,), None, np.uint32(size), np.uint64(design), np.uint64(seed), buf)
+    else:
+        strata = size**dim
+        out = np.empty((2 * strata, dim), np.float32)
+        buf = cl.Buffer(ctx.context, mf.WRITE_ONLY, out.nbytes)
+        runtime.kernel(prg, "stratified_points")(ctx.queue, (strata,), None, np.uint32(size), np.uint32(strata),
+                                                 np.uint64(design), np.uint64(seed), buf)
+    cl.enqueue_copy(ctx.queue, out, buf)
+    return out
