@@ -246,8 +246,10 @@ class _Sizer:
         else:
             n = max(1, int(self.rate * self.chunk_seconds))
             if self.chunks.max_blocks is not None:
+                # Guided tail: half a worker's share of what is left, but no task
+                # under a tenth of the normal one (a task costs a round trip).
                 remaining = self.chunks.max_blocks - self.chunks.next_block
-                n = min(n, max(1, -(-remaining // (2 * max(workers, 1)))))
+                n = min(n, max(max(1, n // 10), -(-remaining // (2 * max(workers, 1)))))
         allow_new = True
         if self.halting.time_budget is not None:
             left = self.halting.time_budget - (time.perf_counter() - self.t0)

@@ -197,8 +197,11 @@ class _Sizer:
             total = sum(s.rate for s in self.states if s.alive and s.rate > 0)
             if self.chunks.max_blocks is not None and total > 0:
                 remaining = self.chunks.max_blocks - self.chunks.next_block
-                # Guided self-scheduling: half of this device's share of what is left.
-                n = min(n, max(1, math.ceil(remaining * st.rate / total / 2)))
+                # Guided self-scheduling: half of this device's share of what is
+                # left, but no chunk under 1/8 of the normal one (tiny chunks at
+                # the end cost launches and gain nothing).
+                floor = max(1, n // 8)
+                n = min(n, max(floor, math.ceil(remaining * st.rate / total / 2)))
         allow_new = True
         budget = self.halting.time_budget
         if budget is not None:
@@ -333,6 +336,14 @@ def run_devices(
     if not contexts:
         raise DeviceError("no device to run on")
     runners = runners or {}
+    notes = []
+    kinds = {(c.device.name.strip(), c.device.platform.version.strip(), c.lanes) for c in contexts}
+    if len(kinds) > 1:
+        # Different compilers or lane widths round differently: each block's
+        # statistics still come from one device, but which device computed a
+        # block depends on timing, so the sums' last bits may vary run to run.
+        notes.append("devices of different kinds: the sums agree statistically with a one-device run, "
+                     "but their last bits depend on which device computed which block")
     start_blocks = acc.blocks_done
     chunks = ChunkQueue(start_blocks, halting.max_blocks)
     states = [_DeviceState(c.name, first_chunk) for c in contexts]
@@ -421,6 +432,7 @@ def run_devices(
         chunks=sum(s.stats.chunks for s in states),
         per_device=[s.stats for s in states],
         failures=failures,
+        notes=notes,
     )
 
 
