@@ -20,6 +20,7 @@ from .integration import (
     uniform,
 )
 from .runtime import list_devices
+from .schedule import DeviceFailureWarning
 from .walks import FredholmResult, solve_fredholm
 
 __version__ = "0.1.0"
@@ -27,6 +28,7 @@ __version__ = "0.1.0"
 __all__ = [
     "ConvergenceError",
     "DeviceError",
+    "DeviceFailureWarning",
     "FredholmResult",
     "InputError",
     "IntegrationResult",
