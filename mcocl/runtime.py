@@ -364,6 +364,29 @@ def build_user_program(
     they concern the code as the user wrote it.
     """
     want = ctx.lanes if lanes is None else int(lanes)
+    key = (ctx.device.int_ptr, tuple(includes), generated, users, tuple(tail), tuple(options), what, want)
+    with _programs_lock:
+        done = _user_programs.get(key)
+    if done is None:
+        done = _build_user_program(ctx, includes, generated, users, tail, options, what, want)
+        with _programs_lock:
+            _user_programs[key] = done
+    return done
+
+
+_user_programs: dict[tuple, UserProgram] = {}
+
+
+def _build_user_program(
+    ctx: DeviceContext,
+    includes: list[str],
+    generated: str,
+    users: tuple[UserFunction, ...],
+    tail: list[str] | tuple[str, ...],
+    options: list[str] | tuple[str, ...],
+    what: str,
+    want: int,
+) -> UserProgram:
     note = None
     if want > 1:
         probe = probe_source(users) if users else ""
