@@ -58,18 +58,18 @@ RT_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) 
     vec3v f = v3s(0.0f);
     floatv p = (floatv)(0.0f);
     intv is_d = m->kind == MAT_DIFFUSE;
-    if (mask_any(is_d)) {
+    if (rt_any(is_d)) {
         floatv pd;
         vec3v fd = diffuse_eval(m->color, wi, wo, &pd);
         f = v3_select(f, fd, is_d);
-        p = select(p, pd, is_d);
+        p = rt_select(p, pd, is_d);
     }
     intv is_r = m->kind == MAT_ROUGHCONDUCTOR;
-    if (mask_any(is_r)) {
+    if (rt_any(is_r)) {
         floatv pr;
         vec3v fr = roughconductor_eval(m->color, m->alpha, wi, wo, &pr);
         f = v3_select(f, fr, is_r);
-        p = select(p, pr, is_r);
+        p = rt_select(p, pr, is_r);
     }
     *pdf = p;
     return f;
@@ -92,41 +92,41 @@ RT_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
     s.eta = (floatv)(1.0f);
     s.delta = (m->kind == MAT_CONDUCTOR) | (m->kind == MAT_DIELECTRIC);
     intv is_d = m->kind == MAT_DIFFUSE;
-    if (mask_any(is_d)) {
+    if (rt_any(is_d)) {
         vec3v wo;
         floatv p;
         vec3v w = diffuse_sample(m->color, wi, u1, u2, &wo, &p);
         s.wo = v3_select(s.wo, wo, is_d);
         s.weight = v3_select(s.weight, w, is_d);
-        s.pdf = select(s.pdf, p, is_d);
+        s.pdf = rt_select(s.pdf, p, is_d);
     }
     intv is_c = m->kind == MAT_CONDUCTOR;
-    if (mask_any(is_c)) {
+    if (rt_any(is_c)) {
         vec3v wo;
         floatv p;
         vec3v w = conductor_sample(m->color, wi, &wo, &p);
         s.wo = v3_select(s.wo, wo, is_c);
         s.weight = v3_select(s.weight, w, is_c);
-        s.pdf = select(s.pdf, p, is_c);
+        s.pdf = rt_select(s.pdf, p, is_c);
     }
     intv is_r = m->kind == MAT_ROUGHCONDUCTOR;
-    if (mask_any(is_r)) {
+    if (rt_any(is_r)) {
         vec3v wo;
         floatv p;
         vec3v w = roughconductor_sample(m->color, m->alpha, wi, u1, u2, &wo, &p);
         s.wo = v3_select(s.wo, wo, is_r);
         s.weight = v3_select(s.weight, w, is_r);
-        s.pdf = select(s.pdf, p, is_r);
+        s.pdf = rt_select(s.pdf, p, is_r);
     }
     intv is_g = m->kind == MAT_DIELECTRIC;
-    if (mask_any(is_g)) {
+    if (rt_any(is_g)) {
         vec3v wo;
         floatv p, e;
         vec3v w = dielectric_sample(m->color, m->eta, wi, u_lobe, &wo, &p, &e);
         s.wo = v3_select(s.wo, wo, is_g);
         s.weight = v3_select(s.weight, w, is_g);
-        s.pdf = select(s.pdf, p, is_g);
-        s.eta = select(s.eta, e, is_g);
+        s.pdf = rt_select(s.pdf, p, is_g);
+        s.eta = rt_select(s.eta, e, is_g);
     }
     return s;
 }

@@ -19,17 +19,17 @@
  * inverse.  Total internal reflection gives R = 1. */
 RT_INLINE floatv fresnel_dielectric(floatv cos_i, floatv eta, floatv *cos_t, floatv *eta_it, floatv *eta_ti) {
     intv outside = cos_i >= 0.0f;
-    floatv it = select(1.0f / eta, eta, outside);
-    floatv ti = select(eta, 1.0f / eta, outside);
-    floatv ci = fabs(cos_i);
-    floatv ct2 = 1.0f - ti * ti * fma(-ci, ci, 1.0f);
+    floatv it = rt_select(1.0f / eta, eta, outside);
+    floatv ti = rt_select(eta, 1.0f / eta, outside);
+    floatv ci = rt_abs(cos_i);
+    floatv ct2 = 1.0f - ti * ti * rt_fma(-ci, ci, 1.0f);
     floatv ct = safe_sqrt(ct2);
     floatv a_s = (it * ct - ci) / (it * ct + ci);
     floatv a_p = (it * ci - ct) / (it * ci + ct);
     floatv r = 0.5f * (a_s * a_s + a_p * a_p);
-    r = select(r, (floatv)(1.0f), ct2 <= 0.0f);          /* total internal reflection */
-    r = select(r, (floatv)(0.0f), eta == 1.0f);           /* index matched: no interface */
-    *cos_t = select(ct, -ct, cos_i >= 0.0f);
+    r = rt_select(r, (floatv)(1.0f), ct2 <= 0.0f);          /* total internal reflection */
+    r = rt_select(r, (floatv)(0.0f), eta == 1.0f);           /* index matched: no interface */
+    *cos_t = rt_select(ct, -ct, cos_i >= 0.0f);
     *eta_it = it;
     *eta_ti = ti;
     return r;
@@ -44,9 +44,9 @@ RT_INLINE vec3v dielectric_sample(vec3v tint, floatv eta, vec3v wi, floatv u, ve
     vec3v wr = v3(-wi.x, -wi.y, wi.z);
     vec3v wt = v3(-eta_ti * wi.x, -eta_ti * wi.y, cos_t);
     *wo = v3_select(wt, wr, refl);
-    *pdf = select(1.0f - r, r, refl);
-    *eta_path = select(eta_it, (floatv)(1.0f), refl);
-    floatv scale = select(eta_ti * eta_ti, (floatv)(1.0f), refl);
+    *pdf = rt_select(1.0f - r, r, refl);
+    *eta_path = rt_select(eta_it, (floatv)(1.0f), refl);
+    floatv scale = rt_select(eta_ti * eta_ti, (floatv)(1.0f), refl);
     return v3_scale(tint, scale);
 }
 

@@ -12,20 +12,20 @@
 #include "render/vec3.cl"
 
 /* Cosine-weighted hemisphere, p(w) = cos(theta) / pi (pbrt-v4 §A.5.3): a
- * uniform point of the unit disk (polar map, r = sqrt(u1)) lifted to the
- * hemisphere.  cos(theta) = sqrt(1 - u1) > 0 because u1 < 1. */
+ * uniform point of the unit disk (polar map, r = rt_sqrt(u1)) lifted to the
+ * hemisphere.  cos(theta) = rt_sqrt(1 - u1) > 0 because u1 < 1. */
 RT_INLINE vec3v square_to_cosine_hemisphere(floatv u1, floatv u2, floatv *pdf) {
-    floatv r = sqrt(u1);
+    floatv r = rt_sqrt(u1);
     floatv c;
     floatv s = sincos(2.0f * RT_PI * u2, &c);
-    floatv z = sqrt(1.0f - u1);
+    floatv z = rt_sqrt(1.0f - u1);
     *pdf = z * RT_INV_PI;
     return v3(r * c, r * s, z);
 }
 
 RT_INLINE vec3v diffuse_eval(vec3v albedo, vec3v wi, vec3v wo, floatv *pdf) {
     intv ok = (wi.z > 0.0f) & (wo.z > 0.0f);
-    floatv c = select((floatv)(0.0f), wo.z * RT_INV_PI, ok);
+    floatv c = rt_select((floatv)(0.0f), wo.z * RT_INV_PI, ok);
     *pdf = c;
     return v3_scale(albedo, c);
 }
@@ -34,7 +34,7 @@ RT_INLINE vec3v diffuse_eval(vec3v albedo, vec3v wi, vec3v wo, floatv *pdf) {
 RT_INLINE vec3v diffuse_sample(vec3v albedo, vec3v wi, floatv u1, floatv u2, vec3v *wo, floatv *pdf) {
     *wo = square_to_cosine_hemisphere(u1, u2, pdf);
     intv ok = wi.z > 0.0f;
-    *pdf = select((floatv)(0.0f), *pdf, ok);
+    *pdf = rt_select((floatv)(0.0f), *pdf, ok);
     return v3_select(v3s(0.0f), albedo, ok);
 }
 

@@ -1,0 +1,342 @@
+/* integrator.cl — the path-tracing megakernel: one work-item traces every
+ * path of its pixel tile for one block of samples per pixel, LANES paths at
+ * a time, and adds their radiance into per-pixel sums.
+ *
+ * The estimator is the random walk of the lecture ("Path Tracing – náhodná
+ * procházka"): L = sum over vertices of the path throughput times the
+ * emitted radiance, with the variants chosen at build time by -DINTEGRATOR:
+ *   INTEGRATOR_PATH  BSDF sampling only; an emitter hit adds its radiance;
+ *   INTEGRATOR_NEE   next-event estimation ("NEE pro Path Tracing"): a light
+ *                    sample at every non-delta vertex, BSDF sampling only to
+ *                    continue; an emitter hit counts only after a delta
+ *                    vertex or the camera (no double counting);
+ *   INTEGRATOR_MIS   both, weighted by the power heuristic, beta = 2 (Veach &
+ *                    Guibas 1995; Veach's thesis eq. 9.13).
+ * Depths follow Mitsuba 3's path integrator: the camera ray's hit has depth 0;
+ * emission is collected at every hit, a vertex scatters (light sample and
+ * BSDF sample) only while depth + 1 < MAX_DEPTH (MAX_DEPTH < 0: unbounded),
+ * and Russian roulette (survival min(max(throughput) eta^2, 0.95)) starts once
+ * depth >= RR_DEPTH (lecture: "Ruská ruleta pro integrální rovnice").
+ *
+ * Random numbers.  Sample (pixel, s) has the 64-bit index s * W * H + pixel
+ * and reads Philox block 0 (dims 0-3: pixel jitter) and, at depth d, blocks
+ * 1 + 2d (dims: lobe choice, direction 2D, roulette) and 2 + 2d (emitter
+ * choice: environment or area, which area light, position 2D) of stream
+ * RNG_STREAM_RENDER: the image depends on the seed alone, not on how samples
+ * are split over launches, work-items or lanes.
+ *
+ * Path regeneration.  In a lane build a lane whose path ends takes the next
+ * sample of the work-item at once, so lanes stay busy whatever the path
+ * lengths.  The order in which a work-item adds samples into a pixel's sums
+ * depends on nothing but the work-item's own samples.
+ *
+ * Output: for every block of the launch and every pixel, STATS floats
+ *   [0..2] sum of R, G, B   [3..5] sum of squares   [6] finite samples
+ *   [7] non-finite samples (NaN/Inf in any channel: counted, kept out of the sums).
+ */
+#include "rng/uniform.cl"
+#include "sampling/mis.cl"
+#include "render/vec3.cl"
+#include "render/lane_io.cl"
+#include "render/camera.cl"
+#include "render/bsdf.cl"
+#include "render/prims.cl"
+#include "render/lights.cl"
+#include "render/trace.cl"
+
+#define INTEGRATOR_PATH 0
+#define INTEGRATOR_NEE 1
+#define INTEGRATOR_MIS 2
+#ifndef INTEGRATOR
+#define INTEGRATOR INTEGRATOR_MIS
+#endif
+#ifndef MAX_DEPTH
+#define MAX_DEPTH 8
+#endif
+#ifndef RR_DEPTH
+#define RR_DEPTH 5
+#endif
+/* A guard against endless paths (max_depth -1 with roulette switched off in a
+ * closed white scene): the random-number dimension of a vertex must fit 32 bits. */
+#define DEPTH_GUARD 65536
+
+#define RNG_STREAM_RENDER 8u
+#define STATS 8
+
+/* Philox block `block` (per lane) of the lanes' samples. */
+RT_INLINE philox_ctr rng_block_lanes(rng_t r, uintv block) {
+    philox_ctr c;
+    c.v0 = r.lo;
+    c.v1 = r.hi;
+    c.v2 = block;
+    c.v3 = (uintv)(r.stream);
+    return philox4x32_10(c, r.k0, r.k1);
+}
+
+/* Weight of radiance found by hitting an emitter (or escaping to the
+ * environment) after a BSDF sample of pdf prev_pdf; light_pdf is the pdf with
+ * which light sampling at the previous vertex would have chosen the same point. */
+RT_INLINE floatv emission_weight(intv unsampled, floatv prev_pdf, floatv light_pdf) {
+#if INTEGRATOR == INTEGRATOR_PATH
+    return (floatv)(1.0f);
+#elif INTEGRATOR == INTEGRATOR_NEE
+    return rt_select((floatv)(0.0f), (floatv)(1.0f), unsampled);
+#else
+    return rt_select(power_heuristic(prev_pdf, light_pdf), (floatv)(1.0f), unsampled);
+#endif
+}
+
+/* Add finished paths into the pixel sums of this work-item's block (float:
+ * a block holds few samples of a pixel; the host adds blocks in double). */
+RT_INLINE void add_sample(global float *o, float r, float g, float b) {
+    if ((r - r) == 0.0f && (g - g) == 0.0f && (b - b) == 0.0f) { /* all finite */
+        o[0] += r; o[1] += g; o[2] += b;
+        o[3] += r * r; o[4] += g * g; o[5] += b * b;
+        o[6] += 1.0f;
+    } else {
+        o[7] += 1.0f;
+    }
+}
+
+RT_INLINE void flush_samples(global float *out, uintv pixel, vec3v L, intv done) {
+#if LANES == 1
+    if (done) add_sample(out + (size_t)pixel * STATS, L.x, L.y, L.z);
+#else
+    float lx[LANES], ly[LANES], lz[LANES];
+    uint px[LANES];
+    int dn[LANES];
+    store_floatv(L.x, lx); store_floatv(L.y, ly); store_floatv(L.z, lz);
+    MC_CAT(vstore, LANE_SUFFIX)(pixel, 0, px);
+    MC_CAT(vstore, LANE_SUFFIX)(done, 0, dn);
+    for (int k = 0; k < LANES; ++k)
+        if (dn[k]) add_sample(out + (size_t)px[k] * STATS, lx[k], ly[k], lz[k]);
+#endif
+}
+
+/* Give lanes that need work the next samples of the work-item, in lane order. */
+RT_INLINE intv assign_samples(intv need, uint *next, uint total, uintv *j) {
+#if LANES == 1
+    if (need && *next < total) {
+        *j = (*next)++;
+        return 1;
+    }
+    return 0;
+#else
+    int nd[LANES], fr[LANES];
+    uint jj[LANES];
+    MC_CAT(vstore, LANE_SUFFIX)(need, 0, nd);
+    MC_CAT(vstore, LANE_SUFFIX)(*j, 0, jj);
+    for (int k = 0; k < LANES; ++k) {
+        fr[k] = 0;
+        if (nd[k] && *next < total) {
+            jj[k] = (*next)++;
+            fr[k] = -1;
+        }
+    }
+    *j = MC_CAT(vload, LANE_SUFFIX)(0, jj);
+    return MC_CAT(vload, LANE_SUFFIX)(0, fr);
+#endif
+}
+
+kernel void render_blocks(
+    ulong first_block, uint nblocks, uint spp_per_block, uint spp_limit,
+    uint width, uint height, uint tile_pixels, uint ntiles, ulong seed,
+    global const float4 *camera,
+    global const float4 *bvh_nodes, global const uint *bvh_prims,
+    global const float4 *tri_vertices, global const float4 *spheres, global const uint *sphere_flip,
+    uint ntris, uint nspheres,
+    global const uint *prim_material, global const float *materials,
+    global const int *prim_emitter, global const float *emitter_radiance,
+    global const uint *light_prims, global const float *light_cdf, global const float *prim_pmf,
+    uint nlights, uint light_top, float env_threshold, float env_pmf, float4 env_radiance,
+    global float *out)
+{
+    const uint gid = (uint)get_global_id(0);
+    if (gid >= nblocks * ntiles) return;
+    const uint bi = gid / ntiles;
+    const uint tile = gid - bi * ntiles;
+    const ulong block = first_block + bi;
+    const uint npix_total = width * height;
+    const uint pix0 = tile * tile_pixels;
+    const uint npix = min(tile_pixels, npix_total - pix0);
+    const ulong spp0 = block * (ulong)spp_per_block;
+    const uint nspp = spp0 >= (ulong)spp_limit ? 0u : (uint)min((ulong)spp_per_block, (ulong)spp_limit - spp0);
+    const uint total = npix * nspp;
+    global float *acc = out + (size_t)bi * npix_total * STATS;
+    for (uint k = 0; k < npix * STATS; ++k) acc[(size_t)pix0 * STATS + k] = 0.0f;
+    if (total == 0u) return;
+
+    scene_geom geom;
+    geom.nodes = bvh_nodes;
+    geom.prims = bvh_prims;
+    geom.tris = tri_vertices;
+    geom.spheres = spheres;
+    geom.sphere_flip = sphere_flip;
+    geom.ntris = ntris;
+    geom.nspheres = nspheres;
+    prim_tables pt;
+    pt.tris = (global const float *)tri_vertices;
+    pt.spheres = (global const float *)spheres;
+    pt.sphere_flip = sphere_flip;
+    pt.ntris = ntris;
+    pt.nspheres = nspheres;
+    light_tables lt;
+    lt.light_prims = light_prims;
+    lt.light_cdf = light_cdf;
+    lt.prim_pmf = prim_pmf;
+    lt.prim_emitter = prim_emitter;
+    lt.emitter_radiance = emitter_radiance;
+    lt.nlights = nlights;
+    lt.light_top = light_top;
+    lt.env_threshold = env_threshold;
+    lt.env_pmf = env_pmf;
+    lt.env_radiance = env_radiance;
+    const bool has_env = env_radiance.x > 0.0f || env_radiance.y > 0.0f || env_radiance.z > 0.0f;
+    const vec3v env_le = v3((floatv)(env_radiance.x), (floatv)(env_radiance.y), (floatv)(env_radiance.z));
+    const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;
+
+    /* per-lane path state */
+    intv alive = (intv)(0);
+    uintv j = (uintv)(0u), pixel = (uintv)(0u);
+    uintv depth = (uintv)(0u);
+    rng_t rng = rng_init((ulongv)(0ul), seed, RNG_STREAM_RENDER);
+    vec3v o = v3s(0.0f), d = v3(0.0f, 0.0f, 1.0f), prev_p = v3s(0.0f);
+    vec3v thr = v3s(1.0f), L = v3s(0.0f);
+    floatv eta = (floatv)(1.0f), prev_pdf = (floatv)(0.0f);
+    intv unsampled = (intv)(0); /* the previous vertex was the camera or a delta lobe */
+    uint next = 0u;
+
+    while (true) {
+        /* ---- regeneration: new camera paths for idle lanes ---- */
+        intv need = !alive;
+        if (next < total && rt_any(need)) {
+            intv fresh = assign_samples(need, &next, total, &j);
+            uintv s = j / npix;
+            uintv px = (uintv)(pix0) + (j - s * npix);
+            ulongv index = (to_ulongv(s) + (ulongv)(spp0)) * (ulong)npix_total + to_ulongv(px);
+            rng_t r = rng_init(index, seed, RNG_STREAM_RENDER);
+            rng.lo = rt_select(rng.lo, r.lo, fresh);
+            rng.hi = rt_select(rng.hi, r.hi, fresh);
+            philox_ctr c0 = rng_block_lanes(r, (uintv)(0u));
+            uintv py = px / width;
+            floatv sx = to_floatv(px - py * width) + u01(c0.v0);
+            floatv sy = to_floatv(py) + u01(c0.v1);
+            vec3v co;
+            vec3v cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
+            pixel = rt_select(pixel, px, fresh);
+            o = v3_select(o, co, fresh);
+            d = v3_select(d, cd, fresh);
+            thr = v3_select(thr, v3s(1.0f), fresh);
+            L = v3_select(L, v3s(0.0f), fresh);
+            eta = rt_select(eta, (floatv)(1.0f), fresh);
+            prev_pdf = rt_select(prev_pdf, (floatv)(0.0f), fresh);
+            depth = rt_select(depth, (uintv)(0u), fresh);
+            unsampled = unsampled | fresh;
+            alive = alive | fresh;
+        }
+        if (!rt_any(alive)) break;
+
+        /* ---- intersect ---- */
+        hitv h = trace_closest_v(&geom, o, d, alive);
+        intv hit = alive & h.hit;
+        intv miss = alive & !h.hit;
+
+        /* ---- the environment, seen by a ray that escaped ---- */
+        if (has_env && rt_any(miss)) {
+            floatv w = emission_weight(unsampled, prev_pdf, (floatv)(env_pmf * RT_INV_4PI));
+            L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, env_le), w)), miss);
+        }
+
+        vec3v n;
+        vec3v p = prim_hit_point(&pt, h.prim, h.b1, h.b2, o, d, h.t, hit, &n);
+
+        /* ---- emission of the surface hit (one-sided: front = normal) ---- */
+        intv em = prim_emitter_of(&lt, h.prim, hit);
+        intv emitting = hit & (em >= 0) & (v3_dot(n, d) < 0.0f);
+        if (rt_any(emitting)) {
+            vec3v le = emitter_radiance_of(&lt, em);
+#if INTEGRATOR == INTEGRATOR_MIS
+            floatv lp = light_pdf_hit(&lt, &pt, prev_p, h.prim, p, n, emitting & !unsampled);
+#else
+            floatv lp = (floatv)(0.0f);
+#endif
+            floatv w = emission_weight(unsampled, prev_pdf, lp);
+            L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, le), w)), emitting);
+        }
+
+        /* ---- scatter, while the path may grow ---- */
+#if MAX_DEPTH >= 0
+        intv cont = hit & (depth + 1u < (uintv)(MAX_DEPTH));
+#else
+        intv cont = hit;
+#endif
+        cont = cont & (depth + 1u < (uintv)(DEPTH_GUARD));
+        intv next_alive = (intv)(0);
+        if (rt_any(cont)) {
+            uintv mi = GATHER(uint, prim_material, rt_select((uintv)(0u), h.prim, cont));
+            material_v m = material_load(materials, mi);
+            frame3v fr = frame_from_normal(n);
+            vec3v wi = frame_to_local(fr, v3_neg(d));
+            philox_ctr ca = rng_block_lanes(rng, 1u + 2u * depth);
+            /* The vertex as both strategies see it: the point lifted off the
+             * surface on its front side.  Light samples, shadow rays, reflected
+             * rays and the light pdf of a reflected ray's emitter hit all start
+             * here, so that the two MIS weights of one path are computed from
+             * the same point and sum to one (computing them from p and from the
+             * offset origin biased the white furnace by ~1e-4). */
+            vec3v p_up = offset_origin(p, n, n);
+
+#if INTEGRATOR != INTEGRATOR_PATH
+            /* -- next-event estimation -- */
+            intv nee = cont & bsdf_is_smooth(&m);
+            if (rt_any(nee)) {
+                philox_ctr cb = rng_block_lanes(rng, 2u + 2u * depth);
+                light_sample_v ls = sample_light(&lt, &pt, p_up, u01(cb.v0), u01(cb.v1), u01(cb.v2), u01(cb.v3), nee);
+                floatv bpdf;
+                vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, ls.wo), &bpdf);
+#if INTEGRATOR == INTEGRATOR_MIS
+                floatv w = power_heuristic(ls.pdf, bpdf);
+#else
+                floatv w = (floatv)(1.0f);
+#endif
+                vec3v c = v3_scale(v3_mul(v3_mul(thr, f), ls.radiance), w / ls.pdf);
+                intv ok = nee & ls.valid & (v3_maxc(c) > 0.0f);
+                if (rt_any(ok)) {
+                    vec3v so = p_up;
+                    vec3v sd = v3_sub(ls.pos, so);
+                    floatv sl = rt_sqrt(v3_len2(sd));
+                    vec3v sdir = v3_select(v3_scale(sd, 1.0f / sl), ls.wo, ls.env);
+                    floatv tmax = rt_select(sl * (1.0f - SHADOW_EPSILON), (floatv)(INFINITY), ls.env);
+                    intv occluded = trace_any_v(&geom, so, sdir, tmax, ok);
+                    L = v3_select(L, v3_add(L, c), ok & !occluded);
+                }
+            }
+#endif
+            /* -- BSDF sampling continues the path -- */
+            bsdf_sample_v bs = bsdf_sample(&m, wi, u01(ca.v0), u01(ca.v1), u01(ca.v2));
+            vec3v wo = frame_to_world(fr, bs.wo);
+            thr = v3_select(thr, v3_mul(thr, bs.weight), cont);
+            eta = rt_select(eta, eta * bs.eta, cont);
+            vec3v o_next = offset_origin(p, n, wo);
+            prev_p = v3_select(prev_p, o_next, cont);
+            prev_pdf = rt_select(prev_pdf, bs.pdf, cont);
+            unsampled = rt_select(unsampled, bs.delta, cont);
+            o = v3_select(o, o_next, cont);
+            d = v3_select(d, wo, cont);
+            depth = rt_select(depth, depth + 1u, cont);
+
+            /* -- Russian roulette (Mitsuba 3's rule) -- */
+            floatv tmax_ = v3_maxc(thr);
+            floatv q = rt_min(tmax_ * eta * eta, (floatv)(0.95f));
+            intv rr = depth >= (uintv)(RR_DEPTH);
+            intv survive = u01(ca.v3) < q;
+            thr = v3_select(thr, v3_scale(thr, 1.0f / q), cont & rr & survive);
+            next_alive = cont & (!rr | survive) & (tmax_ > 0.0f);
+        }
+
+        /* ---- paths that ended: into the pixel sums ---- */
+        intv done = alive & !next_alive;
+        if (rt_any(done)) flush_samples(acc, pixel, L, done);
+        alive = next_alive;
+    }
+}

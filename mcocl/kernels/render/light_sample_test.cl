@@ -1,0 +1,78 @@
+/* light_sample_test.cl — emitter sampling exposed to the tests: draw light
+ * samples from a point (sample_light) and evaluate, for given directions
+ * from the same point, the solid-angle density with which those samples
+ * arrive there (light_pdf_hit at the emitter the direction hits, plus the
+ * environment's share), for a chi-square test.  Outputs are structure of
+ * arrays (component c of item i at c * n + i). */
+#include "rng/uniform.cl"
+#include "render/lane_io.cl"
+#include "render/lights.cl"
+#include "render/trace.cl"
+
+#define RNG_STREAM_LIGHT_TEST 10u
+
+#define LIGHT_TEST_PARAMS                                                                                      \
+    global const float4 *bvh_nodes, global const uint *bvh_prims, global const float4 *tri_vertices,        \
+    global const float4 *spheres, global const uint *sphere_flip, uint ntris, uint nspheres,                  \
+    global const int *prim_emitter, global const float *emitter_radiance, global const uint *light_prims,    \
+    global const float *light_cdf, global const float *prim_pmf, uint nlights, uint light_top,                \
+    float env_threshold, float env_pmf, float4 env_radiance
+
+#define LIGHT_TEST_SETUP                                                                                       \
+    scene_geom geom;                                                                                           \
+    geom.nodes = bvh_nodes; geom.prims = bvh_prims; geom.tris = tri_vertices; geom.spheres = spheres;        \
+    geom.sphere_flip = sphere_flip; geom.ntris = ntris; geom.nspheres = nspheres;                             \
+    prim_tables pt;                                                                                            \
+    pt.tris = (global const float *)tri_vertices; pt.spheres = (global const float *)spheres;                 \
+    pt.sphere_flip = sphere_flip; pt.ntris = ntris; pt.nspheres = nspheres;                                   \
+    light_tables lt;                                                                                           \
+    lt.light_prims = light_prims; lt.light_cdf = light_cdf; lt.prim_pmf = prim_pmf;                           \
+    lt.prim_emitter = prim_emitter; lt.emitter_radiance = emitter_radiance; lt.nlights = nlights;             \
+    lt.light_top = light_top; lt.env_threshold = env_threshold; lt.env_pmf = env_pmf;                         \
+    lt.env_radiance = env_radiance
+
+/* out: wo.xyz, pdf, radiance.rgb, valid, env, prim, pos.xyz (13 components) */
+kernel void light_sample_dirs(LIGHT_TEST_PARAMS, float4 p4, ulong seed, uint n, global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    LIGHT_TEST_SETUP;
+    vec3v p = v3((floatv)(p4.x), (floatv)(p4.y), (floatv)(p4.z));
+    rng_t r = rng_init(to_ulongv((uintv)(base) + LANE_IOTA), seed, RNG_STREAM_LIGHT_TEST);
+    philox_ctr c = rng_block(r, 0u);
+    intv all = (intv)(0) == (intv)(0);
+    light_sample_v s = sample_light(&lt, &pt, p, u01(c.v0), u01(c.v1), u01(c.v2), u01(c.v3), all);
+    store_floatv(s.wo.x, out + 0 * n + base);
+    store_floatv(s.wo.y, out + 1 * n + base);
+    store_floatv(s.wo.z, out + 2 * n + base);
+    store_floatv(s.pdf, out + 3 * n + base);
+    store_floatv(s.radiance.x, out + 4 * n + base);
+    store_floatv(s.radiance.y, out + 5 * n + base);
+    store_floatv(s.radiance.z, out + 6 * n + base);
+    store_floatv(to_floatv(mask_bit(s.valid)), out + 7 * n + base);
+    store_floatv(to_floatv(mask_bit(s.env)), out + 8 * n + base);
+    store_floatv(to_floatv(s.prim), out + 9 * n + base);
+    store_floatv(s.pos.x, out + 10 * n + base);
+    store_floatv(s.pos.y, out + 11 * n + base);
+    store_floatv(s.pos.z, out + 12 * n + base);
+}
+
+/* For directions wo from p: the pdf with which sample_light would pick the
+ * first emitter point the ray meets (front side only; 0 if none), that
+ * primitive (-1 if none), and whether the ray escapes (3 components). */
+kernel void light_pdf_dirs(LIGHT_TEST_PARAMS, float4 p4, uint n, global const float *wo, global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    LIGHT_TEST_SETUP;
+    vec3v p = v3((floatv)(p4.x), (floatv)(p4.y), (floatv)(p4.z));
+    vec3v d = v3(load_floatv(wo + 0 * n + base), load_floatv(wo + 1 * n + base), load_floatv(wo + 2 * n + base));
+    intv all = (intv)(0) == (intv)(0);
+    hitv h = trace_closest_v(&geom, p, d, all);
+    vec3v nrm;
+    vec3v y = prim_hit_point(&pt, h.prim, h.b1, h.b2, p, d, h.t, h.hit, &nrm);
+    intv em = prim_emitter_of(&lt, h.prim, h.hit);
+    intv emitting = h.hit & (em >= 0) & (v3_dot(nrm, d) < 0.0f);
+    floatv pdf = light_pdf_hit(&lt, &pt, p, h.prim, y, nrm, emitting);
+    store_floatv(pdf, out + 0 * n + base);
+    store_floatv(rt_select((floatv)(-1.0f), to_floatv(h.prim), emitting), out + 1 * n + base);
+    store_floatv(to_floatv(mask_bit(!h.hit)), out + 2 * n + base);
+}

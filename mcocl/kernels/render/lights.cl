@@ -1,0 +1,228 @@
+/* lights.cl — sampling the emitters for next-event estimation, and the pdf
+ * with which that sampling would have produced a given emitter hit (for the
+ * MIS weight of the same path found by BSDF sampling; Veach & Guibas 1995).
+ *
+ * Emitter choice.  The constant environment (if any) is chosen with
+ * probability env_pmf; otherwise an emitting primitive is chosen from
+ * light_cdf, which is proportional to power (luminance * area * pi), by
+ * finding the largest k with light_cdf[k] <= u.  The uniforms live on a grid
+ * of 2^23 cell centres (rng/uniform.cl), so the host computes the *exact*
+ * probability of every choice on that grid (prim_pmf, env_pmf): the pdf the
+ * estimator divides by is the probability the sampler really has.
+ *
+ * Position on the chosen primitive (Veach's thesis §9.2 / pbrt-v4 §6.x):
+ *   triangle   uniform area sampling, pdf_omega = d^2 / (A cos theta_l);
+ *   sphere     uniform in the cone of directions it subtends when the point
+ *              is outside it (pdf_omega = 1 / (2 pi (1 - cos theta_max)),
+ *              pbrt-v4 §6.2.4), uniform area sampling otherwise (a point
+ *              inside, or a sphere whose normals point inward).
+ * Area emitters are one-sided: a sample on the back of the emitter carries
+ * no radiance.  The environment is sampled uniformly over the sphere.
+ */
+#ifndef MCOCL_RENDER_LIGHTS_CL
+#define MCOCL_RENDER_LIGHTS_CL
+
+#include "render/prims.cl"
+
+typedef struct {
+    global const uint *light_prims;       /* L emitting primitives */
+    global const float *light_cdf;        /* L + 1 */
+    global const float *prim_pmf;         /* T + S: probability that the area-light choice gives the primitive */
+    global const int *prim_emitter;       /* T + S: emitter index, -1 if the primitive does not emit */
+    global const float *emitter_radiance; /* E * 4 */
+    uint nlights, light_top;              /* light_top: largest power of two <= nlights (0 if none) */
+    float env_threshold;                  /* the environment is chosen when u < env_threshold */
+    float env_pmf;                        /* ... which happens with this exact probability */
+    float4 env_radiance;
+} light_tables;
+
+/* Radiance of emitter e (lanes with e < 0 get black). */
+RT_INLINE vec3v emitter_radiance_of(const light_tables *lt, intv e) {
+    intv has = e >= 0;
+    uintv b = to_uintv(rt_select((intv)(0), e, has)) * 4u;
+    vec3v le = v3(gather_float(lt->emitter_radiance, b), gather_float(lt->emitter_radiance, b + 1u),
+                  gather_float(lt->emitter_radiance, b + 2u));
+    return v3_select(v3s(0.0f), le, has);
+}
+
+RT_INLINE intv prim_emitter_of(const light_tables *lt, uintv prim, intv active) {
+    intv e = to_intv(GATHER(int, lt->prim_emitter, rt_select((uintv)(0u), prim, active)));
+    return rt_select((intv)(-1), e, active);
+}
+
+/* Largest k in [0, nlights - 1] with light_cdf[k] <= u (light_cdf[0] = 0). */
+RT_INLINE uintv light_find(const light_tables *lt, floatv u) {
+    uintv k = (uintv)(0u);
+    for (uint step = lt->light_top; step > 0u; step >>= 1) {
+        uintv cand = k + step;
+        uintv safe = min(cand, (uintv)(lt->nlights - 1u));
+        intv take = (cand < (uintv)(lt->nlights)) & (gather_float(lt->light_cdf, safe) <= u);
+        k = rt_select(k, cand, take);
+    }
+    return k;
+}
+
+/* Geometry of the cone a sphere subtends from p: 1 - cos(theta_max) without
+ * cancellation (sin^2 / (1 + cos)), and whether cone sampling applies. */
+RT_INLINE intv sphere_cone(vec3v p, vec3v c, floatv r, intv flip, floatv *one_minus_cos, floatv *sin2max, vec3v *wc,
+                           floatv *dc) {
+    vec3v v = v3_sub(c, p);
+    floatv dc2 = v3_len2(v);
+    floatv s2 = rt_min(r * r / dc2, (floatv)(1.0f));
+    *sin2max = s2;
+    *one_minus_cos = s2 / (1.0f + safe_sqrt(1.0f - s2));
+    *dc = rt_sqrt(dc2);
+    *wc = v3_scale(v, 1.0f / *dc);
+    return (!flip) & (dc2 > r * r);
+}
+
+typedef struct {
+    vec3v wo;        /* unit direction from the shading point */
+    vec3v pos;       /* the point on the emitter (area lights) */
+    vec3v n;         /* its front normal */
+    floatv pdf;      /* solid-angle pdf at the shading point, emitter choice included */
+    vec3v radiance;  /* emitted radiance towards the shading point (0 from behind) */
+    intv env;        /* the environment was sampled (the shadow ray is unbounded) */
+    uintv prim;      /* the emitting primitive chosen (area lights) */
+    intv valid;
+} light_sample_v;
+
+/* Uniform direction on the unit sphere, pdf 1 / (4 pi). */
+RT_INLINE vec3v square_to_uniform_sphere(floatv u1, floatv u2) {
+    floatv z = 1.0f - 2.0f * u1;
+    floatv r = safe_sqrt(1.0f - z * z);
+    floatv c;
+    floatv s = sincos(2.0f * RT_PI * u2, &c);
+    return v3(r * c, r * s, z);
+}
+
+RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables *pt, vec3v p, floatv u_env,
+                                      floatv u_sel, floatv u1, floatv u2, intv active) {
+    light_sample_v s;
+    s.valid = active & (intv)(0);
+    s.env = u_env < lt->env_threshold;
+    s.pdf = (floatv)(0.0f);
+    s.radiance = v3s(0.0f);
+    s.wo = v3(0.0f, 0.0f, 1.0f);
+    s.pos = p;
+    s.n = s.wo;
+    s.prim = (uintv)(0u);
+    intv area = active & !s.env;
+    if (lt->nlights > 0u && rt_any(area)) {
+        uintv k = light_find(lt, u_sel);
+        uintv prim = GATHER(uint, lt->light_prims, k);
+        floatv pmf = gather_float(lt->prim_pmf, prim) * (1.0f - lt->env_pmf);
+        intv sph = prim_is_sphere(pt, prim);
+        vec3v y = p, ny = s.wo;
+        floatv pdf = (floatv)(0.0f);
+        intv tri_l = area & !sph;
+        if (pt->ntris > 0u && rt_any(tri_l)) {
+            /* uniform point of the triangle: b0 = 1 - rt_sqrt(u1), b1 = u2 rt_sqrt(u1) (pbrt-v3 §13.6.5) */
+            uintv t = rt_select((uintv)(0u), prim, tri_l);
+            vec3v v0 = tri_vertex(pt, t, 0), v1 = tri_vertex(pt, t, 1), v2 = tri_vertex(pt, t, 2);
+            floatv su = rt_sqrt(u1);
+            floatv b0 = 1.0f - su, b1 = u2 * su;
+            vec3v yt = v3_add(v3_add(v3_scale(v0, b0), v3_scale(v1, b1)), v3_scale(v2, 1.0f - b0 - b1));
+            floatv a;
+            vec3v nt = tri_normal_area(v0, v1, v2, &a);
+            vec3v dv = v3_sub(yt, p);
+            floatv d2 = v3_len2(dv);
+            floatv cosl = -v3_dot(nt, dv) * rt_rsqrt(d2);
+            y = v3_select(y, yt, tri_l);
+            ny = v3_select(ny, nt, tri_l);
+            pdf = rt_select(pdf, pmf * d2 / (a * cosl), tri_l);
+        }
+        intv sph_l = area & sph;
+        if (pt->nspheres > 0u && rt_any(sph_l)) {
+            uintv si = rt_select((uintv)(0u), prim - pt->ntris, sph_l);
+            floatv r;
+            vec3v c = sphere_center(pt, si, &r);
+            intv flip = to_intv(GATHER(uint, pt->sphere_flip, si)) != 0;
+            floatv omc, s2max, dc;
+            vec3v wc;
+            intv cone = sphere_cone(p, c, r, flip, &omc, &s2max, &wc, &dc);
+            floatv cph;
+            floatv sph_ = sincos(2.0f * RT_PI * u2, &cph);
+            /* cone: cos(theta) uniform in [cos theta_max, 1]; the point follows from the angle alpha at
+             * the centre, cos alpha = sin^2 theta / sin theta_max + cos theta rt_sqrt(1 - sin^2 theta / sin^2 theta_max)
+             * (pbrt-v4 §6.2.4) */
+            floatv ct = 1.0f - u1 * omc;
+            floatv s2t = u1 * omc * (2.0f - u1 * omc);
+            floatv smax = rt_sqrt(s2max);
+            floatv ca = s2t / smax + ct * safe_sqrt(1.0f - s2t / s2max);
+            floatv sa = safe_sqrt(1.0f - ca * ca);
+            frame3v fr = frame_from_normal(wc);
+            vec3v nc = v3_neg(frame_to_world(fr, v3(sa * cph, sa * sph_, ca)));
+            /* area: uniform over the whole sphere */
+            vec3v na = square_to_uniform_sphere(u1, u2);
+            vec3v nout = v3_select(na, nc, cone);
+            vec3v ys = v3_madd(c, r, nout);
+            vec3v nf = v3_select(nout, v3_neg(nout), flip);
+            vec3v dv = v3_sub(ys, p);
+            floatv d2 = v3_len2(dv);
+            floatv cosl = -v3_dot(nf, dv) * rt_rsqrt(d2);
+            floatv pdf_area = d2 / (4.0f * RT_PI * r * r * cosl);
+            floatv pdf_cone = RT_INV_2PI / omc;
+            y = v3_select(y, ys, sph_l);
+            ny = v3_select(ny, nf, sph_l);
+            pdf = rt_select(pdf, pmf * rt_select(pdf_area, pdf_cone, cone), sph_l);
+        }
+        vec3v dv = v3_sub(y, p);
+        floatv dist = rt_sqrt(v3_len2(dv));
+        vec3v wo = v3_scale(dv, 1.0f / dist);
+        intv front = v3_dot(ny, wo) < 0.0f;
+        intv ok = area & front & (pdf > 0.0f) & rt_isfinite(pdf);
+        vec3v le = emitter_radiance_of(lt, prim_emitter_of(lt, prim, area));
+        s.wo = v3_select(s.wo, wo, area);
+        s.prim = rt_select(s.prim, prim, area);
+        s.pos = v3_select(s.pos, y, area);
+        s.n = v3_select(s.n, ny, area);
+        s.pdf = rt_select(s.pdf, pdf, ok);
+        s.radiance = v3_select(s.radiance, le, ok);
+        s.valid = s.valid | ok;
+    }
+    intv envl = active & s.env;
+    if (lt->env_pmf > 0.0f && rt_any(envl)) {
+        s.wo = v3_select(s.wo, square_to_uniform_sphere(u1, u2), envl);
+        s.pdf = rt_select(s.pdf, (floatv)(lt->env_pmf * RT_INV_4PI), envl);
+        s.radiance = v3_select(s.radiance, v3((floatv)(lt->env_radiance.x), (floatv)(lt->env_radiance.y),
+                                              (floatv)(lt->env_radiance.z)), envl);
+        s.valid = s.valid | envl;
+    }
+    return s;
+}
+
+/* The solid-angle pdf with which sample_light, called at p, picks the point y
+ * (normal n_y) of emitting primitive `prim` — the same choices as above. */
+RT_INLINE floatv light_pdf_hit(const light_tables *lt, const prim_tables *pt, vec3v p, uintv prim, vec3v y, vec3v ny,
+                               intv active) {
+    uintv pr = rt_select((uintv)(0u), prim, active);
+    floatv pmf = gather_float(lt->prim_pmf, pr) * (1.0f - lt->env_pmf);
+    vec3v dv = v3_sub(y, p);
+    floatv d2 = v3_len2(dv);
+    floatv cosl = rt_abs(v3_dot(ny, dv)) * rt_rsqrt(d2);
+    intv sph = prim_is_sphere(pt, pr);
+    floatv pdf = (floatv)(0.0f);
+    intv tri_l = active & !sph;
+    if (pt->ntris > 0u && rt_any(tri_l)) {
+        uintv t = rt_select((uintv)(0u), pr, tri_l);
+        floatv a;
+        tri_normal_area(tri_vertex(pt, t, 0), tri_vertex(pt, t, 1), tri_vertex(pt, t, 2), &a);
+        pdf = rt_select(pdf, pmf * d2 / (a * cosl), tri_l);
+    }
+    intv sph_l = active & sph;
+    if (pt->nspheres > 0u && rt_any(sph_l)) {
+        uintv si = rt_select((uintv)(0u), pr - pt->ntris, sph_l);
+        floatv r;
+        vec3v c = sphere_center(pt, si, &r);
+        intv flip = to_intv(GATHER(uint, pt->sphere_flip, si)) != 0;
+        floatv omc, s2max, dc;
+        vec3v wc;
+        intv cone = sphere_cone(p, c, r, flip, &omc, &s2max, &wc, &dc);
+        floatv pdf_area = d2 / (4.0f * RT_PI * r * r * cosl);
+        pdf = rt_select(pdf, pmf * rt_select(pdf_area, RT_INV_2PI / omc, cone), sph_l);
+    }
+    return rt_select((floatv)(0.0f), pdf, active);
+}
+
+#endif

@@ -1,0 +1,243 @@
+"""The render job: the path-tracing megakernel over blocks of samples per pixel.
+
+A *block* is ``spp_per_block`` consecutive samples of **every** pixel: block b
+holds samples ``b * spp_per_block ..`` (capped at ``spp_limit``) of the whole
+image, and its statistics are an (H, W, STATS) array of per-pixel sums (see
+:mod:`mcocl.render.film`).  The accumulator folds blocks in block order, so
+the image is bit-identical however the scheduler groups blocks into launches,
+devices or resumed runs.  Sample (pixel, s) always uses the random numbers of
+index ``s * W * H + pixel`` (kernels/render/integrator.cl), so the image does
+not depend on ``spp_per_block`` either, up to the order of float additions.
+
+Inside a launch, one work-item renders one tile of ``tile_pixels``
+consecutive pixels for one block, LANES paths at a time.
+
+:class:`RenderJob` is plain picklable data (arrays and numbers, no OpenCL
+objects), so it can be shipped to other devices or Dask workers;
+:class:`RenderRunner` is the job built on one device.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyopencl as cl
+
+from .. import runtime
+from .compiled import LUMINANCE, CompiledScene
+from .film import STATS
+
+INTEGRATOR_CODES = {"path": 0, "nee": 1, "mis": 2}
+KERNEL_FILE = "render/integrator.cl"
+UNBOUNDED_SPP = 0xFFFFFFFF
+GRID = 1 << 23  # the uniforms' grid (kernels/rng/uniform.cl): u = (m + 1/2) / 2^23
+# Blocks are sized to about this many paths, so that the host's share of the
+# work (copying and folding (H, W, STATS) per block) stays small.
+PATHS_PER_BLOCK = 1 << 18
+TILE_PIXELS = 64
+
+
+def _cells_below(x: np.ndarray) -> np.ndarray:
+    """How many grid uniforms u_m = (m + 1/2) / 2^23 are < x (exact for float32 x)."""
+    c = np.ceil(np.asarray(x, np.float64) * GRID - 0.5)
+    return np.clip(c, 0, GRID)
+
+
+def light_tables(cs: CompiledScene) -> dict[str, np.ndarray | float | int]:
+    """The emitter-choice tables of the kernel (kernels/render/lights.cl) from a compiled scene.
+
+    The choice is proportional to power: area lights by ``light_cdf``; the
+    constant environment by its power pi * luminance * 4 pi R^2 (the flux it
+    sends into the scene's bounding sphere of radius R).  Probabilities are
+    exact on the uniforms' grid: ``prim_pmf`` is the share of grid cells that
+    CDF inversion maps to each primitive, ``env_pmf`` the share below
+    ``env_threshold``.
+    """
+    ntotal = cs.num_triangles + cs.num_spheres
+    nl = cs.num_lights
+    cdf = np.asarray(cs.light_cdf, np.float32)
+    prim_pmf = np.zeros(max(ntotal, 1), np.float32)
+    p_area = 0.0
+    if nl:
+        below = _cells_below(cdf[:nl])
+        upper = np.append(below[1:], GRID)
+        prim_pmf[cs.light_prims] = ((upper - below) / GRID).astype(np.float32)
+        emit = cs.shape_emitter[cs.prim_shape[cs.light_prims]]
+        lum = cs.emitter_radiance[emit, :3].astype(np.float64) @ LUMINANCE
+        p_area = float(np.sum(lum * cs.light_area.astype(np.float64) * math.pi))
+    env = cs.env_radiance[:3].astype(np.float64)
+    p_env = 0.0
+    if np.any(env > 0):
+        lo, hi = cs.bounds.astype(np.float64)
+        radius = 0.5 * float(np.linalg.norm(hi - lo))
+        p_env = math.pi * float(env @ LUMINANCE) * 4.0 * math.pi * max(radius, 1e-3) ** 2
+    if p_env > 0 and p_area > 0:
+        threshold = np.float32(p_env / (p_env + p_area))
+    elif p_env > 0:
+        threshold = np.float32(1.0)
+    else:
+        threshold = np.float32(0.0)
+    env_pmf = float(_cells_below(threshold)) / GRID
+    top = 1 << (nl.bit_length() - 1) if nl else 0
+    return {"prim_pmf": prim_pmf, "env_threshold": float(threshold), "env_pmf": env_pmf, "light_top": top}
+
+
+def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
+    """Every array the kernel reads, as plain NumPy arrays (never empty: OpenCL has no empty buffers)."""
+    def nonempty(a: np.ndarray, dtype: type) -> np.ndarray:
+        a = np.ascontiguousarray(a, dtype=dtype)
+        return a if a.size else np.zeros(4, dtype)
+
+    prim_shape = np.asarray(cs.prim_shape, np.int64)
+    lt = light_tables(cs)
+    return {
+        "camera": nonempty(cs.camera, np.float32),
+        "bvh_nodes": nonempty(cs.bvh_nodes, np.float32),
+        "bvh_prims": nonempty(cs.bvh_prims, np.uint32),
+        "tri_vertices": nonempty(cs.tri_vertices, np.float32),
+        "spheres": nonempty(cs.spheres, np.float32),
+        "sphere_flip": nonempty(cs.sphere_flip, np.uint32),
+        "prim_material": nonempty(cs.shape_material[prim_shape] if len(prim_shape) else [], np.uint32),
+        "materials": nonempty(cs.materials, np.float32),
+        "prim_emitter": nonempty(cs.shape_emitter[prim_shape] if len(prim_shape) else [], np.int32),
+        "emitter_radiance": nonempty(cs.emitter_radiance, np.float32),
+        "light_prims": nonempty(cs.light_prims, np.uint32),
+        "light_cdf": nonempty(cs.light_cdf, np.float32),
+        "prim_pmf": nonempty(lt["prim_pmf"], np.float32),
+        "env": np.array([*cs.env_radiance[:3], 0.0], np.float32),
+        "light_scalars": np.array([cs.num_lights, lt["light_top"]], np.uint32),
+        "env_choice": np.array([lt["env_threshold"], lt["env_pmf"]], np.float32),
+        "geometry_counts": np.array([cs.num_triangles, cs.num_spheres], np.uint32),
+    }
+
+
+def tables_digest(tables: dict[str, np.ndarray]) -> str:
+    """A short hash of the scene tables: a checkpoint must belong to the same scene."""
+    h = hashlib.sha256()
+    for name in sorted(tables):
+        a = np.ascontiguousarray(tables[name])
+        h.update(name.encode())
+        h.update(str(a.dtype).encode())
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()[:16]
+
+
+def default_spp_per_block(width: int, height: int) -> int:
+    """A power of two close to PATHS_PER_BLOCK / pixels (at least 1, at most 64)."""
+    want = max(1, PATHS_PER_BLOCK // max(width * height, 1))
+    return min(1 << (want.bit_length() - 1), 64)
+
+
+@dataclass
+class RenderJob:
+    """A render as plain data: scene tables, settings and the block layout.
+
+    Attributes:
+        tables: the kernel's arrays (:func:`scene_tables`).
+        width, height: image size.
+        integrator: ``path``, ``nee`` or ``mis``.
+        max_depth, rr_depth: Mitsuba 3's conventions (max_depth -1: unbounded).
+        seed: 64-bit seed.
+        spp_per_block: samples per pixel in one block.
+        spp_limit: samples per pixel in all (the last block may be partial);
+            :data:`UNBOUNDED_SPP` for time or noise halting.
+        lanes: vector width of the build (None: the device's).
+        tile_pixels: pixels of one work-item.
+    """
+
+    tables: dict[str, np.ndarray]
+    width: int
+    height: int
+    integrator: str
+    max_depth: int
+    rr_depth: int
+    seed: int
+    spp_per_block: int
+    spp_limit: int = UNBOUNDED_SPP
+    lanes: int | None = None
+    tile_pixels: int = TILE_PIXELS
+    stat_shape: tuple[int, ...] = field(default=(0, 0, STATS))
+
+    def __post_init__(self) -> None:
+        self.stat_shape = (self.height, self.width, STATS)
+
+    @property
+    def ntiles(self) -> int:
+        """Work-items per block."""
+        return -(-self.width * self.height // self.tile_pixels)
+
+    def options(self, lanes: int) -> list[str]:
+        """The build's -D options."""
+        return [f"-DLANES={lanes}", f"-DINTEGRATOR={INTEGRATOR_CODES[self.integrator]}",
+                f"-DMAX_DEPTH={self.max_depth}", f"-DRR_DEPTH={self.rr_depth}"]
+
+    def spp_done(self, blocks: int) -> int:
+        """Samples per pixel contained in the first ``blocks`` blocks."""
+        return int(min(blocks * self.spp_per_block, self.spp_limit))
+
+    def runner(self, ctx: runtime.DeviceContext) -> RenderRunner:
+        """Build for ``ctx`` (see :class:`RenderRunner`)."""
+        return RenderRunner(self, ctx)
+
+
+class RenderRunner:
+    """A :class:`RenderJob` built on one device: the program and the scene buffers."""
+
+    def __init__(self, job: RenderJob, ctx: runtime.DeviceContext) -> None:
+        self.job = job
+        self.ctx = ctx
+        self.lanes = int(job.lanes) if job.lanes is not None else ctx.lanes
+        t0 = time.perf_counter()
+        src = runtime.compose([KERNEL_FILE])
+        self.program = runtime.build(ctx, src, job.options(self.lanes), what="render kernel")
+        self.build_seconds = time.perf_counter() - t0
+        self.kernel = runtime.kernel(self.program, "render_blocks")
+        mf = cl.mem_flags
+        t = job.tables
+        self.buffers = {
+            name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(t[name]))
+            for name in ("camera", "bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip",
+                         "prim_material", "materials", "prim_emitter", "emitter_radiance", "light_prims",
+                         "light_cdf", "prim_pmf")
+        }
+
+    def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, np.ndarray, int]:
+        """Launch blocks ``first_block .. first_block + nblocks - 1``; the copy back is non-blocking."""
+        job = self.job
+        out = np.empty((nblocks, job.height, job.width, STATS), np.float32)
+        buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+        b = self.buffers
+        t = job.tables
+        nl, top = (int(x) for x in t["light_scalars"])
+        thr, env_pmf = (float(x) for x in t["env_choice"])
+        ntris, nsph = (int(x) for x in t["geometry_counts"])
+        g, lsz = self.ctx.work_size(nblocks * job.ntiles)
+        self.kernel(
+            self.ctx.queue, g, lsz,
+            np.uint64(first_block), np.uint32(nblocks), np.uint32(job.spp_per_block), np.uint32(job.spp_limit),
+            np.uint32(job.width), np.uint32(job.height), np.uint32(job.tile_pixels), np.uint32(job.ntiles),
+            np.uint64(job.seed),
+            b["camera"], b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
+            np.uint32(ntris), np.uint32(nsph),
+            b["prim_material"], b["materials"], b["prim_emitter"], b["emitter_radiance"],
+            b["light_prims"], b["light_cdf"], b["prim_pmf"],
+            np.uint32(nl), np.uint32(top), np.float32(thr), np.float32(env_pmf), t["env"],
+            buf,
+        )
+        ev = cl.enqueue_copy(self.ctx.queue, out, buf, is_blocking=False)
+        return ev, out, nblocks
+
+    def collect(self, handle: tuple[cl.Event, np.ndarray, int]) -> np.ndarray:
+        """Wait for a launch; its (nblocks, H, W, STATS) statistics."""
+        ev, out, _ = handle
+        ev.wait()
+        return out
+
+
+__all__ = ["INTEGRATOR_CODES", "UNBOUNDED_SPP", "RenderJob", "RenderRunner", "default_spp_per_block",
+           "light_tables", "scene_tables", "tables_digest"]
