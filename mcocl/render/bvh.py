@@ -1,23 +1,26 @@
 """Bounding volume hierarchy: a binned-SAH build vectorised with NumPy, flattened for the kernels.
 
 Build (after Wald 2007, "On fast construction of SAH-based bounding volume
-hierarchies", and pbrt-v4 §7.3): every node tries ``bins`` equal-width
-centroid bins on each of the three axes and splits where the surface-area
-heuristic
+hierarchies", and pbrt-v4 §7.3.2): a node is split along the axis of widest
+centroid extent; its centroids go into ``bins`` equal-width bins (one per
+primitive for smaller nodes) and it is split at the bin boundary where the
+surface-area heuristic
 
-    cost = C_trav + (A_L·N_L + A_R·N_R) / A_node · C_isect
+    cost = C_trav + (A_L·N_L + A_R·N_R) / A_node · C_isect   (C_isect = 1)
 
-is lowest; a node becomes a leaf when it holds one primitive, when splitting
-costs more than intersecting all its primitives (``N·C_isect``, only for
-``N <= max_leaf``) or at depth :data:`MAX_DEPTH`.
+is lowest.  A node becomes a leaf when it holds one primitive, when
+splitting costs more than intersecting all its primitives (``N·C_isect``,
+considered only for ``N <= max_leaf``), or at depth :data:`MAX_DEPTH`; a node
+whose centroids all fall in one bin is halved.
 
 No Python loop runs over primitives or nodes: the tree is built one *level*
-at a time, every node of the level at once.  Three index arrays hold the
-primitives sorted by centroid along x, y and z, each partitioned into the
-nodes' contiguous ranges; a node's bins are then contiguous runs of those
-arrays, so per-bin bounds are ``reduceat`` reductions and per-bin counts a
-``bincount``.  After a split the three arrays are partitioned stably (a
-segmented prefix sum), which keeps each sorted within every child.
+at a time, every node of the level at once.  The primitives of the nodes
+still to split are kept as 1-D arrays grouped into the nodes' contiguous
+ranges; per-bin counts are a ``bincount``, per-bin bounds ``minimum.at`` /
+``maximum.at`` into a compact table (all nodes' bins end to end), the
+prefix/suffix bounds of the bins are segmented scans, and the split is a
+stable partition by a segmented prefix sum.  Leaves leave the arrays, so
+later levels touch only what is left.
 
 Flattened layout (``nodes``, float32 (1 + 4·K, 4); ``prims``, uint32):
 
@@ -56,9 +59,9 @@ class BVH:
     bounds: np.ndarray  # float32 (2, 3): scene box (zeros when empty)
 
 
-def _surface_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Surface areas of boxes given as (3, ...) corner arrays (empty boxes give 0)."""
-    d = np.maximum(hi - lo, 0.0)
+def _surface_area(lo, hi) -> np.ndarray:
+    """Surface areas of boxes given as three arrays of lower and of upper corners (empty boxes give 0)."""
+    d = [np.maximum(h - lo_, 0.0) for lo_, h in zip(lo, hi)]
     return 2.0 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0])
 
 
@@ -71,7 +74,7 @@ def _ranges(start: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def _segmented_scan(x: np.ndarray, seg: np.ndarray, nseg: int, big: float, op: np.ufunc, reverse: bool) -> np.ndarray:
-    """Inclusive min/max scan of ``x`` (3, R), restarting at every change of ``seg`` (sorted ascending).
+    """Inclusive min/max scan of ``x`` (R,), restarting at every change of ``seg`` (sorted ascending).
 
     One ``accumulate`` does every segment at once: each segment is lifted by
     a multiple of ``big`` (> twice the range of ``x``, a power of two) so that
@@ -82,8 +85,8 @@ def _segmented_scan(x: np.ndarray, seg: np.ndarray, nseg: int, big: float, op: n
     rising = (op is np.maximum) != reverse
     off = (seg if rising else (nseg - seg)).astype(np.float64) * big
     if reverse:
-        return (op.accumulate((x + off)[:, ::-1], axis=1) - off[::-1])[:, ::-1]
-    return op.accumulate(x + off, axis=1) - off
+        return (op.accumulate((x + off)[::-1]) - off[::-1])[::-1]
+    return op.accumulate(x + off) - off
 
 
 def build_bvh(lo: np.ndarray, hi: np.ndarray, ids: np.ndarray | None = None,
@@ -95,119 +98,156 @@ def build_bvh(lo: np.ndarray, hi: np.ndarray, ids: np.ndarray | None = None,
         ids: the primitive id stored for each box (default ``arange(N)``).
         max_leaf: leaves are never chosen for more primitives than this
             (except at :data:`MAX_DEPTH`).
-        bins: centroid bins per axis.
+        bins: centroid bins of a node (a node of fewer primitives gets one
+            bin per primitive).
     """
-    lo_t = np.ascontiguousarray(np.asarray(lo, dtype=np.float32).T)  # (3, N): contiguous rows
-    hi_t = np.ascontiguousarray(np.asarray(hi, dtype=np.float32).T)
-    n = lo_t.shape[1]
+    lo = np.asarray(lo, dtype=np.float32).reshape(-1, 3)
+    hi = np.asarray(hi, dtype=np.float32).reshape(-1, 3)
+    n = len(lo)
     ids = np.arange(n, dtype=np.uint32) if ids is None else np.asarray(ids, dtype=np.uint32)
     if n == 0:
         return BVH(np.zeros((1, 4), np.float32), np.zeros(0, np.uint32), 0, 0, 0, np.zeros((2, 3), np.float32))
-    cen = 0.5 * (lo_t + hi_t)
-    orders = [np.argsort(cen[a], kind="stable") for a in range(3)]
-    is_left = np.zeros(n, dtype=bool)
-    gmin = lo_t.min(axis=1).astype(np.float64)[:, None]
-    span = float((hi_t.max(axis=1) - gmin[:, 0]).max())
+    gmin = lo.min(axis=0).astype(np.float64)
+    span = float((hi.max(axis=0) - gmin).max())
     big = 2.0 ** np.ceil(np.log2(2.0 * span + 1.0))
+    # The primitives of the nodes still to split, as separate 1-D arrays (NumPy
+    # gathers, scatters and reductions on 1-D arrays are several times faster
+    # than on rows of a 2-D array), grouped into the nodes' contiguous ranges.
+    # Per-primitive copies of per-node values use np.repeat (a sequential
+    # expansion) rather than indexing by node, which is a gather.
+    box = [np.ascontiguousarray(lo[:, a]) for a in range(3)] + [np.ascontiguousarray(hi[:, a]) for a in range(3)]
+    pid = np.arange(n, dtype=np.int64)
+    out = np.empty(n, np.int64)  # final primitive order: leaves write their ranges here
 
-    # Per-node records, appended level by level (node id = order of appearance).
     rec_lo, rec_hi, rec_start, rec_count, rec_leaf, rec_left = [], [], [], [], [], []
-    start = np.zeros(1, np.int64)
-    count = np.array([n], np.int64)
+    count = np.array([n], np.int64)  # the active nodes of this level, in order
+    out_start = np.zeros(1, np.int64)  # where each node's primitives go in `out`
     first_id = 0
     depth = 0
     max_internal_depth = 0
-    while len(start):
-        s = len(start)
-        pos, seg, offs = _ranges(start, count)
-        m = len(pos)
-        p0 = orders[0][pos]
-        nlo = np.minimum.reduceat(lo_t[:, p0], offs, axis=1)
-        nhi = np.maximum.reduceat(hi_t[:, p0], offs, axis=1)
-        clo = np.minimum.reduceat(cen[:, p0], offs, axis=1)
-        chi = np.maximum.reduceat(cen[:, p0], offs, axis=1)
-        best_cost = np.full(s, np.inf)
-        best_axis = np.zeros(s, np.int64)
-        best_nl = np.zeros(s, np.int64)
-        try_split = count > 1
-        for a in range(3):
-            pa = orders[a][pos]
-            ext = (chi[a] - clo[a]).astype(np.float64)
-            scale = np.where(ext > 0, bins / np.where(ext > 0, ext, 1.0), 0.0)
-            b = np.minimum((cen[a, pa] - clo[a, seg]) * scale[seg], bins - 1).astype(np.int64)
-            key = seg * bins + b  # non-decreasing: positions are sorted by this axis' centroid
-            runs = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-            rseg = seg[runs]
-            rcnt = np.diff(np.r_[runs, m])
-            rlo = np.minimum.reduceat(lo_t[:, pa], runs, axis=1).astype(np.float64) - gmin
-            rhi = np.maximum.reduceat(hi_t[:, pa], runs, axis=1).astype(np.float64) - gmin
-            # Split after run r: left = runs ..r of the node, right = r+1.. of the node.
-            plo = _segmented_scan(rlo, rseg, s, big, np.minimum, False)
-            phi = _segmented_scan(rhi, rseg, s, big, np.maximum, False)
-            slo = _segmented_scan(rlo, rseg, s, big, np.minimum, True)
-            shi = _segmented_scan(rhi, rseg, s, big, np.maximum, True)
-            cs = np.cumsum(rcnt)
-            seg_first = np.flatnonzero(np.r_[True, rseg[1:] != rseg[:-1]])  # one per node
-            nl = cs - (cs - rcnt)[seg_first][rseg]
-            cost = np.full(len(runs), np.inf)
-            inner = np.flatnonzero(rseg[:-1] == rseg[1:])
-            cost[inner] = (_surface_area(plo[:, inner], phi[:, inner]) * nl[inner]
-                           + _surface_area(slo[:, inner + 1], shi[:, inner + 1]) * (count[rseg[inner]] - nl[inner]))
-            segmin = np.minimum.reduceat(cost, seg_first)
-            cand = np.where(cost == segmin[rseg], np.arange(len(runs)), len(runs))
-            first = np.minimum.reduceat(cand, seg_first)
-            ok = np.isfinite(segmin) & (segmin < best_cost)
-            best_cost = np.where(ok, segmin, best_cost)
-            best_axis = np.where(ok, a, best_axis)
-            best_nl = np.where(ok, nl[np.minimum(first, len(runs) - 1)], best_nl)
-        area = np.maximum(_surface_area(nlo.astype(np.float64), nhi.astype(np.float64)), 1e-30)
+    while len(count):
+        s = len(count)
+        m = len(pid)
+        offs = np.cumsum(count) - count
+        nodes = np.arange(s)
+
+        def rep(x, _count=count):
+            return np.repeat(x, _count)
+
+        nb_lo = np.stack([np.minimum.reduceat(box[a], offs) for a in range(3)])
+        nb_hi = np.stack([np.maximum.reduceat(box[3 + a], offs) for a in range(3)])
+        # Split axis: the widest extent of the centroids (pbrt-v4 §7.3.2), binned there.
+        # (Centroids are kept doubled, lo + hi: the factor 1/2 cancels in the binning.)
+        cen = [box[a] + box[3 + a] for a in range(3)]
+        c_lo = np.stack([np.minimum.reduceat(cen[a], offs) for a in range(3)])
+        c_hi = np.stack([np.maximum.reduceat(cen[a], offs) for a in range(3)])
+        axis = np.argmax(c_hi - c_lo, axis=0)
+        ext = (c_hi - c_lo)[axis, nodes].astype(np.float64)
+        cmin = c_lo[axis, nodes]
+        nbin = np.minimum(count, bins)
+        base = np.cumsum(nbin) - nbin
+        tsize = int(nbin.sum())
+        scale = np.where(ext > 0, nbin / np.where(ext > 0, ext, 1.0), 0.0).astype(np.float32)
+        if s > 1:
+            ap = rep(axis)
+            caxis = np.where(ap == 0, cen[0], np.where(ap == 1, cen[1], cen[2]))
+            del ap
+        else:
+            caxis = cen[int(axis[0])]
+        del cen
+        b = ((caxis - rep(cmin)) * rep(scale)).astype(np.int64)
+        del caxis
+        np.minimum(b, rep(nbin - 1), out=b)
+        key = b + rep(base)
+        cnt = np.bincount(key, minlength=tsize)
+        tseg = np.repeat(nodes, nbin)
+        # Per-bin boxes, shifted by gmin to be >= 0; an empty bin gets lo = big - 1, hi = 0
+        # so that it never wins a min/max scan (its side then has no primitive and no cost).
+        pre, suf = [], []
+        for a in range(6):
+            is_lo = a < 3
+            op = np.minimum if is_lo else np.maximum
+            t = np.full(tsize, np.inf if is_lo else -np.inf, np.float32)
+            op.at(t, key, box[a])
+            t = t.astype(np.float64) - gmin[a % 3]
+            t[~np.isfinite(t)] = big - 1 if is_lo else 0.0
+            pre.append(_segmented_scan(t, tseg, s, big, op, False))
+            suf.append(_segmented_scan(t, tseg, s, big, op, True))
+        del key
+        # Split after bin j: left = bins ..j of the node (prefix j), right = j+1.. (suffix j+1).
+        cs = np.cumsum(cnt)
+        nl = cs - np.repeat((cs - cnt)[base], nbin)
+        nl_j = nl[:-1]
+        nr_j = np.repeat(count, nbin)[:-1] - nl_j
+        area_l = _surface_area([x[:-1] for x in pre[:3]], [x[:-1] for x in pre[3:]])
+        area_r = _surface_area([x[1:] for x in suf[:3]], [x[1:] for x in suf[3:]])
+        del pre, suf
+        cost = np.full(tsize, np.inf)
+        cost[:-1] = np.where((tseg[:-1] == tseg[1:]) & (nl_j > 0) & (nr_j > 0), area_l * nl_j + area_r * nr_j, np.inf)
+        best_cost = np.minimum.reduceat(cost, base)
+        cand = np.where(cost == np.repeat(best_cost, nbin), np.arange(tsize), tsize)
+        best_bin = np.minimum.reduceat(cand, base) - base  # last bin of the left side
+        best_nl = nl[np.minimum(base + best_bin, tsize - 1)]
+
+        area = np.maximum(_surface_area(nb_lo.astype(np.float64), nb_hi.astype(np.float64)), 1e-30)
         split_cost = C_TRAV + best_cost / area
-        leaf = ~try_split | (depth >= MAX_DEPTH) | ((count <= max_leaf) & (count <= split_cost))
+        leaf = (count == 1) | (depth >= MAX_DEPTH) | ((count <= max_leaf) & (count <= split_cost))
         if depth == 0 and n > 1:
             leaf[:] = False  # the root is always internal, so the kernel starts from a node
-        # No valid SAH split (all centroids in one bin on every axis): halve the range.
+        # No valid SAH split (all centroids in one bin): halve the node in its current order.
         nosah = ~leaf & ~np.isfinite(best_cost)
-        best_axis = np.where(nosah, np.argmax(nhi - nlo, axis=0), best_axis)
         best_nl = np.where(nosah, count // 2, best_nl)
+        best_bin = np.where(nosah, -1, best_bin)
 
         split = ~leaf
         nsplit = int(split.sum())
         next_first = first_id + s
         left_ids = np.full(s, -1, np.int64)
         left_ids[split] = next_first + 2 * np.arange(nsplit)
-        rec_lo.append(nlo.T)
-        rec_hi.append(nhi.T)
-        rec_start.append(start)
+        rec_lo.append(nb_lo.T)
+        rec_hi.append(nb_hi.T)
+        rec_start.append(out_start)
         rec_count.append(count)
         rec_leaf.append(leaf)
         rec_left.append(left_ids)
+        local = np.arange(m) - rep(offs)
+        leaf_p = rep(leaf) if nsplit < s else None
+        if leaf_p is not None:  # leaves: their primitives take their final place
+            out[(rep(out_start) + local)[leaf_p]] = pid[leaf_p]
         if not nsplit:
             break
         max_internal_depth = depth
-        # Left/right flag of every primitive of a split node, from its chosen axis' order.
-        psplit = split[seg]
-        local = np.arange(m) - offs[seg]
-        for a in range(3):
-            sel = psplit & (best_axis[seg] == a)
-            is_left[orders[a][pos[sel]]] = local[sel] < best_nl[seg[sel]]
-        # Stable partition of the three orders inside each split node (keeps them sorted).
-        spos, sseg, slocal = pos[psplit], seg[psplit], local[psplit]
-        seg_first = np.r_[True, sseg[1:] != sseg[:-1]]
-        for a in range(3):
-            pr = orders[a][spos]
-            f = is_left[pr]
-            cs = np.cumsum(f)
-            excl = cs - f
-            rank_l = excl - np.maximum.accumulate(np.where(seg_first, excl, 0))
-            newpos = start[sseg] + np.where(f, rank_l, best_nl[sseg] + (slocal - rank_l))
-            orders[a][newpos] = pr
-        sst, scn, snl = start[split], count[split], best_nl[split]
-        start = np.stack([sst, sst + snl], axis=1).ravel()
+        # Stable partition of each split node: left = bins <= best_bin (or the first half),
+        # into the compacted arrays of the next level; leaves' primitives go past the end.
+        f = b <= rep(best_bin)
+        if nosah.any():
+            f |= rep(nosah) & (local < rep(best_nl))
+        del b
+        csf = np.cumsum(f)
+        rank_l = csf - f - rep((csf - f)[offs])
+        del csf
+        sizes = np.where(split, count, 0)
+        new_offs = np.cumsum(sizes) - sizes
+        newpos = rep(new_offs) + np.where(f, rank_l, rep(best_nl) + local - rank_l)
+        del rank_l, f, local
+        mk = int(sizes.sum())
+        if leaf_p is not None:
+            newpos[leaf_p] = mk + np.arange(m - mk)
+        pid_new = np.empty(m, np.int64)
+        pid_new[newpos] = pid
+        pid = pid_new[:mk]
+        for a in range(6):
+            v = np.empty(m, np.float32)
+            v[newpos] = box[a]
+            box[a] = v[:mk]
+        del newpos
+        snl, scn, sos = best_nl[split], count[split], out_start[split]
         count = np.stack([snl, scn - snl], axis=1).ravel()
+        out_start = np.stack([sos, sos + snl], axis=1).ravel()
         first_id = next_first
         depth += 1
 
-    prims = ids[orders[0]]
+    prims = ids[out]
     return _flatten(np.concatenate(rec_lo), np.concatenate(rec_hi), np.concatenate(rec_start),
                     np.concatenate(rec_count), np.concatenate(rec_leaf), np.concatenate(rec_left),
                     prims, max_internal_depth)

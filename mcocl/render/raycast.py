@@ -16,6 +16,7 @@ from ..runtime import DeviceContext, build, compose, device_context, kernel
 from .compiled import CompiledScene
 
 MISS = np.uint32(0xFFFFFFFF)
+ITEMS = 1024  # work-items per launch; each loops over a strided share of the rays
 
 
 @dataclass
@@ -56,9 +57,10 @@ def cast_rays(scene: CompiledScene, origins: np.ndarray, directions: np.ndarray,
         bh = cl.Buffer(ctx.context, mf.WRITE_ONLY, hits.nbytes)
         ba = cl.Buffer(ctx.context, mf.WRITE_ONLY, anyv.nbytes)
         mode = (1 if closest else 0) | (2 if any_hit else 0)
-        gsz, lsz = ctx.work_size(n)
+        items = min(n, ITEMS)
+        gsz, lsz = ctx.work_size(items)
         kernel(prg, "raycast")(ctx.queue, gsz, lsz, *scene.geom_args(ctx), bo, bd, bt, bh, ba,
-                               np.uint32(n), np.uint32(mode))
+                               np.uint32(n), np.uint32(mode), np.uint32(items))
         cl.enqueue_copy(ctx.queue, hits, bh)
         cl.enqueue_copy(ctx.queue, anyv, ba)
     hits, anyv = hits[:n], anyv[:n]

@@ -25,18 +25,16 @@
 #define BVH_TFAR_SCALE 1.0000004f /* 1 + 2 γ3, γn = n ε / (1 − n ε), ε = 2^-24 */
 
 /* Slab test of box [lo, hi]: entry distance in *tnear when the ray enters it before tmax. */
-inline __attribute__((always_inline)) bool bvh_box(float3 lo, float3 hi, float3 o, float3 inv, float tmax,
-                                                    float *tnear)
+GEOM_INLINE bool bvh_box(float3 lo, float3 hi, float3 o, float3 inv, float tmax, float *tnear)
 {
     float3 t0 = (lo - o) * inv, t1 = (hi - o) * inv;
-    float3 tmin = fmin(t0, t1), tmaxv = fmax(t0, t1);
-    float tn = fmax(fmax(tmin.x, tmin.y), fmax(tmin.z, 0.0f));
-    float tf = fmin(fmin(tmaxv.x, tmaxv.y), fmin(tmaxv.z, tmax)) * BVH_TFAR_SCALE;
+    float tn = g_max(g_max(g_min(t0.x, t1.x), g_min(t0.y, t1.y)), g_max(g_min(t0.z, t1.z), 0.0f));
+    float tf = g_min(g_min(g_max(t0.x, t1.x), g_max(t0.y, t1.y)), g_min(g_max(t0.z, t1.z), tmax)) * BVH_TFAR_SCALE;
     *tnear = tn;
     return tn <= tf;
 }
 
-inline __attribute__((always_inline)) float3 bvh_inv_dir(float3 d)
+GEOM_INLINE float3 bvh_inv_dir(float3 d)
 {
     /* A zero component would make (lo − o)·inv = 0·∞ = NaN; 1e-30 keeps it finite and signed. */
     float3 dd = (float3)(d.x != 0.0f ? d.x : 1e-30f, d.y != 0.0f ? d.y : 1e-30f, d.z != 0.0f ? d.z : 1e-30f);
@@ -44,7 +42,7 @@ inline __attribute__((always_inline)) float3 bvh_inv_dir(float3 d)
 }
 
 /* Intersect the primitives of a leaf; the closest hit so far is (*tbest, h). */
-inline __attribute__((always_inline)) bool bvh_leaf_closest(const scene_geom *g, uint first, uint count, float3 o,
+GEOM_INLINE bool bvh_leaf_closest(const scene_geom *g, uint first, uint count, float3 o,
                                                              float3 d, float *tbest, hit_info *h)
 {
     bool hit = false;
@@ -70,7 +68,7 @@ inline __attribute__((always_inline)) bool bvh_leaf_closest(const scene_geom *g,
     return hit;
 }
 
-inline __attribute__((always_inline)) bool bvh_leaf_any(const scene_geom *g, uint first, uint count, float3 o,
+GEOM_INLINE bool bvh_leaf_any(const scene_geom *g, uint first, uint count, float3 o,
                                                          float3 d, float tmax)
 {
     for (uint k = first; k < first + count; ++k) {

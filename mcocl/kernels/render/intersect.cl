@@ -36,6 +36,18 @@
 
 #define TRI_EDGE_EPS 9.5367431640625e-7f /* 2^-20 */
 
+/* Hand-written vector helpers for the hot paths: the PoCL wheel does not
+ * inline OpenCL built-ins (dot, cross, fmin, fmax are out-of-line calls per
+ * component there, ../shared/POCL-NOTES.md), which made traversal ~20x slower. */
+#define GEOM_INLINE inline __attribute__((always_inline))
+GEOM_INLINE float g3_dot(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+GEOM_INLINE float3 g3_cross(float3 a, float3 b)
+{
+    return (float3)(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+GEOM_INLINE float g_min(float a, float b) { return a < b ? a : b; }
+GEOM_INLINE float g_max(float a, float b) { return a > b ? a : b; }
+
 typedef struct {
     global const float4 *nodes;   /* BVH, layout of mcocl/render/bvh.py */
     global const uint *prims;     /* BVH leaf primitive ids */
@@ -66,18 +78,18 @@ typedef struct {
 
 /* Ray–triangle (Möller–Trumbore).  On a hit with t in (0, tmax) writes t and
  * the barycentrics of v1 and v2 and returns true. */
-inline __attribute__((always_inline)) bool intersect_triangle(float3 v0, float3 v1, float3 v2, float3 o, float3 d,
-                                                                float tmax, float *t_out, float *b1_out, float *b2_out)
+GEOM_INLINE bool intersect_triangle(float3 v0, float3 v1, float3 v2, float3 o, float3 d, float tmax, float *t_out,
+                                    float *b1_out, float *b2_out)
 {
     float3 e1 = v1 - v0, e2 = v2 - v0;
-    float3 pv = cross(d, e2);
-    float det = dot(e1, pv);
+    float3 pv = g3_cross(d, e2);
+    float det = g3_dot(e1, pv);
     float inv = 1.0f / det;                  /* det == 0: inv = inf, every test below fails */
     float3 tv = o - v0;
-    float u = dot(tv, pv) * inv;
-    float3 qv = cross(tv, e1);
-    float v = dot(d, qv) * inv;
-    float t = dot(e2, qv) * inv;
+    float u = g3_dot(tv, pv) * inv;
+    float3 qv = g3_cross(tv, e1);
+    float v = g3_dot(d, qv) * inv;
+    float t = g3_dot(e2, qv) * inv;
     bool ok = (u >= -TRI_EDGE_EPS) && (v >= -TRI_EDGE_EPS) && (u + v <= 1.0f + TRI_EDGE_EPS) && (t > 0.0f) && (t < tmax)
               && (det != 0.0f);
     if (ok) {
@@ -89,18 +101,19 @@ inline __attribute__((always_inline)) bool intersect_triangle(float3 v0, float3 
 }
 
 /* Ray–sphere: the nearest root in (0, tmax).  Works for any (non-zero) d. */
-inline __attribute__((always_inline)) bool intersect_sphere(float4 s, float3 o, float3 d, float tmax, float *t_out)
+GEOM_INLINE bool intersect_sphere(float4 s, float3 o, float3 d, float tmax, float *t_out)
 {
     float3 f = o - s.xyz;
-    float a = dot(d, d);
-    float b = dot(f, d);                         /* half the linear coefficient */
-    float c = dot(f, f) - s.w * s.w;
+    float a = g3_dot(d, d);
+    float b = g3_dot(f, d);                      /* half the linear coefficient */
+    float c = g3_dot(f, f) - s.w * s.w;
     float3 l = f - (b / a) * d;                  /* f minus its projection on d */
-    float disc = a * (s.w * s.w - dot(l, l));    /* = b² − a c, without cancellation */
+    float disc = a * (s.w * s.w - g3_dot(l, l)); /* = b² − a c, without cancellation */
     if (!(disc >= 0.0f)) return false;
-    float q = -(b + copysign(sqrt(disc), b));
+    float sq = sqrt(disc);
+    float q = -(b + (b < 0.0f ? -sq : sq));
     float t0 = q / a, t1 = c / q;
-    float tn = fmin(t0, t1), tf = fmax(t0, t1);
+    float tn = g_min(t0, t1), tf = g_max(t0, t1);
     float t = (tn > 0.0f) ? tn : tf;
     if (t > 0.0f && t < tmax) {
         *t_out = t;

@@ -3,22 +3,26 @@
 #include "render/bvh.cl"
 
 /* hits[i] = (t, prim bits, b1, b2) of the closest hit, (INFINITY, 0xffffffff, 0, 0) on a miss;
- * any[i] = trace_any(...). */
+ * any[i] = trace_any(...).  Each work-item handles rays i = id, id + nitems, ... (a
+ * work-item per ray would make PoCL pay its per-work-group overhead per ray). */
 kernel void raycast(SCENE_GEOM_PARAMS, global const float4 *orig, global const float4 *dir,
-                    global const float *tmax, global float4 *hits, global uint *any, const uint n, const uint mode)
+                    global const float *tmax, global float4 *hits, global uint *any, const uint n, const uint mode,
+                    const uint nitems)
 {
-    uint i = get_global_id(0);
-    if (i >= n) return;
+    uint id = get_global_id(0);
+    if (id >= nitems) return;
     SCENE_GEOM_MAKE(g);
-    float3 o = orig[i].xyz, d = dir[i].xyz;
-    if (mode & 1u) {
-        hit_info h;
-        if (trace_closest(&g, o, d, tmax[i], &h))
-            hits[i] = (float4)(h.t, as_float(h.prim), h.b1, h.b2);
-        else
-            hits[i] = (float4)(INFINITY, as_float(0xffffffffu), 0.0f, 0.0f);
+    for (uint i = id; i < n; i += nitems) {
+        float3 o = orig[i].xyz, d = dir[i].xyz;
+        if (mode & 1u) {
+            hit_info h;
+            if (trace_closest(&g, o, d, tmax[i], &h))
+                hits[i] = (float4)(h.t, as_float(h.prim), h.b1, h.b2);
+            else
+                hits[i] = (float4)(INFINITY, as_float(0xffffffffu), 0.0f, 0.0f);
+        }
+        if (mode & 2u) any[i] = trace_any(&g, o, d, tmax[i]) ? 1u : 0u;
     }
-    if (mode & 2u) any[i] = trace_any(&g, o, d, tmax[i]) ? 1u : 0u;
 }
 
 /* For primitive prims[i]: normal at points[i] (xyz) and area (w); a uniform
