@@ -97,6 +97,15 @@ def test_traversal_matches_brute_force(ntri, nsph, seed):
     assert (hits.prim != MISS).sum() >= 10  # the test exercises hits, not only misses
 
 
+@pytest.mark.parametrize("all_axes,traversal_cost", [(True, 1.0), (False, 0.25), (False, 4.0)])
+def test_build_variants_match_brute_force(all_axes, traversal_cost):
+    rng = np.random.default_rng(8)
+    cs = compile_scene(parse_scene(soup_scene(rng, 400, 20, size=0.1), "soup.json"), all_axes=all_axes,
+                       traversal_cost=traversal_cost)
+    o, d = random_rays(rng, 3000)
+    check_against_brute_force(cs, o, d, np.full(len(o), np.inf, np.float32))
+
+
 def test_small_leaves_deep_tree_matches_brute_force():
     rng = np.random.default_rng(7)
     cs = compile_scene(parse_scene(soup_scene(rng, 600, 30, size=0.05), "soup.json"), max_leaf=1, bins=4)
@@ -222,14 +231,15 @@ def test_prim_normal_area_and_sampling():
     assert chisquare(counts, expected).pvalue > 1e-4
 
 
-def test_build_limits_and_partition():
+@pytest.mark.parametrize("all_axes", [False, True])
+def test_build_limits_and_partition(all_axes):
     rng = np.random.default_rng(5)
     n = 5000
     c = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
     c[:1000] = 0.25  # many identical boxes: the no-SAH-split fallback
     e = rng.uniform(0, 0.01, (n, 3)).astype(np.float32)
     e[:1000] = 0.01
-    b = build_bvh(c - e, c + e)
+    b = build_bvh(c - e, c + e, all_axes=all_axes)
     assert b.depth <= MAX_DEPTH
     assert np.array_equal(np.sort(b.prims), np.arange(n))
     u = b.nodes.view(np.uint32)
@@ -244,3 +254,6 @@ def test_build_limits_and_partition():
         pr = b.prims[ref[k, j]: ref[k, j] + cnt[k, j]]
         assert np.all((c - e)[pr] >= lo[k, j]) and np.all((c + e)[pr] <= hi[k, j])
     assert cnt.sum() == n
+    # Depth-first node order: a node's children come after it.
+    parent = np.repeat(np.arange(b.num_nodes), 2).reshape(-1, 2)
+    assert np.all(ref[cnt == 0] > parent[cnt == 0])
