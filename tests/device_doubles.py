@@ -8,6 +8,7 @@
   feeder sees exactly what a lost device or an out-of-memory launch gives it.
 - :class:`SlowJob` makes one device slow (a sleep per block), to check that
   chunk sizes follow each device's throughput.
+- :func:`small_cornell` is a tiny render job's scene.
 
 Jobs here are plain picklable data, like the engine's, so they also run on
 Dask workers (pickled by value: see ``cloudpickle.register_pickle_by_value``).
@@ -18,6 +19,7 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,6 +27,16 @@ import numpy as np
 import mcocl.integration.api as integration_api
 from mcocl.errors import DeviceError
 from mcocl.schedule import execute
+
+
+def small_cornell(size: int = 16) -> Any:
+    """The Cornell box scene at ``size`` x ``size`` pixels, compiled."""
+    from mcocl.render.compiled import compile_scene
+    from mcocl.render.scene import load_scene
+
+    sc = load_scene(Path(__file__).resolve().parent.parent / "scenes" / "cornell.json")
+    sc.camera.width = sc.camera.height = size
+    return compile_scene(sc)
 
 
 @dataclass

@@ -20,7 +20,7 @@ distributed = pytest.importorskip("distributed")
 cloudpickle = pytest.importorskip("cloudpickle")
 
 import device_doubles  # noqa: E402
-from device_doubles import FaultyJob, SlowJob, capture_job  # noqa: E402
+from device_doubles import FaultyJob, SlowJob, capture_job, small_cornell  # noqa: E402
 
 import mcocl  # noqa: E402
 from mcocl.accumulate import Accumulator  # noqa: E402
@@ -97,6 +97,18 @@ def test_dask_gives_the_local_random_walk_sums(client, tmp_path):
     with np.load(one) as a, np.load(two) as b:
         assert np.array_equal(a["totals"], b["totals"])
     assert np.array_equal(r1.values, r2.values) and np.array_equal(r1.stderr, r2.stderr)
+
+
+def test_dask_gives_the_local_film(client, tmp_path):
+    from mcocl.render.api import render
+
+    cs = small_cornell()
+    one, two = tmp_path / "one.npz", tmp_path / "two.npz"
+    r1 = render(cs, spp=16, seed=8, spp_per_block=2, checkpoint=one)
+    r2 = render(cs, spp=16, seed=8, spp_per_block=2, checkpoint=two, client=client)
+    with np.load(one) as a, np.load(two) as b:
+        assert np.array_equal(a["totals"], b["totals"])
+    assert np.array_equal(r1.mean, r2.mean) and r2.spp == 16
 
 
 def test_many_small_tasks_and_per_worker_rates(client, monkeypatch):

@@ -11,7 +11,7 @@ import warnings
 
 import numpy as np
 import pytest
-from device_doubles import FaultyJob, SlowJob, capture_job
+from device_doubles import FaultyJob, SlowJob, capture_job, small_cornell
 
 import mcocl
 from mcocl.accumulate import Accumulator
@@ -109,6 +109,18 @@ def test_split_gives_the_random_walk_sums_of_one_device_bit_for_bit(tmp_path, es
     assert np.array_equal(_totals(one), _totals(two))
     assert np.array_equal(r1.values, r2.values) and np.array_equal(r1.stderr, r2.stderr)
     assert "[2/2]" in r2.device
+
+
+def test_split_gives_the_film_of_one_device_bit_for_bit(tmp_path):
+    from mcocl.render.api import render
+
+    cs = small_cornell()
+    one, two = tmp_path / "one.npz", tmp_path / "two.npz"
+    r1 = render(cs, spp=16, seed=7, spp_per_block=2, checkpoint=one)
+    r2 = render(cs, spp=16, seed=7, spp_per_block=2, checkpoint=two, split=2)
+    assert np.array_equal(_totals(one), _totals(two))
+    assert np.array_equal(r1.mean, r2.mean) and np.array_equal(r1.variance, r2.variance)
+    assert r2.spp == 16 and "[2/2]" in r2.device
 
 
 def test_many_small_chunks_on_two_sub_devices_give_the_same_sums(monkeypatch, subs):
