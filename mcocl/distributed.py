@@ -33,6 +33,7 @@ Dask is optional: ``pip install "mcocl[dask]"``.
 from __future__ import annotations
 
 import hashlib
+import math
 import pickle
 import threading
 import time
@@ -324,7 +325,7 @@ def _run(distributed: Any, client: Any, job: BlockJob, acc: Accumulator, halting
     futures: dict[Any, tuple[int, int]] = {}
     ac = distributed.as_completed()
     stopped_by = ""
-    last_ckpt = t0
+    last_ckpt = -math.inf  # as schedule.run: the first fold is saved at once, then every checkpoint_every s
     workers_seen = 0.0
     good: list[str] = []
 

@@ -355,7 +355,8 @@ def run_devices(
     errors: list[BaseException] = []
     failures: list[str] = []
     stopped_by = ""
-    t0 = last_ckpt = time.perf_counter()
+    t0 = time.perf_counter()
+    last_ckpt = -math.inf  # as schedule.run: the first fold is saved at once, then every checkpoint_every s
     with _Interrupt() as intr:
         try:
             for f in feeders:
@@ -365,7 +366,7 @@ def run_devices(
             for f in feeders:
                 while not f.built.wait(0.1) and not intr.flag:
                     pass
-            t0 = sizer.t0 = last_ckpt = time.perf_counter()
+            t0 = sizer.t0 = time.perf_counter()
             go.set()
             while True:
                 try:

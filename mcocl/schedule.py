@@ -288,13 +288,18 @@ def run(
 
 @dataclass
 class Placement:
-    """Where a job runs.
+    """Where a job runs (see :func:`execute`).
 
     Attributes:
-        device: one device (index, name substring, or None for the default).
-        devices: several devices: a list of specs, or ``"all"``.
-        split: partition each (CPU) device into this many sub-devices.
-        client: a ``dask.distributed.Client`` (or its address) to run chunks on.
+        device: one device (index, name substring, or None for the default);
+            with ``client``, the device every Dask worker picks for itself.
+        devices: several devices: a list of specs, a comma-separated string,
+            or ``"all"`` (:mod:`mcocl.devices`).
+        split: partition each device that supports OpenCL device fission
+            into this many sub-devices and use them as devices.
+        client: a ``dask.distributed.Client`` (or a scheduler address) to run
+            chunks on as Dask tasks (:mod:`mcocl.distributed`); excludes
+            ``devices`` and ``split``.
     """
 
     device: Any = None
