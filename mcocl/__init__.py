@@ -4,7 +4,7 @@ OpenCL C kernels do every per-sample computation; Python orchestrates devices,
 buffers and progressive accumulation.  Start with :func:`integrate`.
 """
 
-from . import rng
+from . import render, rng
 from .errors import ConvergenceError, DeviceError, InputError, KernelBuildError, MCOCLError
 from .integration import (
     IntegrationResult,
@@ -19,6 +19,7 @@ from .integration import (
     truncnorm,
     uniform,
 )
+from .render import RenderResult
 from .runtime import list_devices
 from .schedule import DeviceFailureWarning
 from .walks import FredholmResult, solve_fredholm
@@ -36,11 +37,13 @@ __all__ = [
     "MCOCLError",
     "NonFiniteWarning",
     "Proposal",
+    "RenderResult",
     "analytic",
     "exponential",
     "integrate",
     "list_devices",
     "power",
+    "render",
     "rng",
     "solve_fredholm",
     "tabulated",

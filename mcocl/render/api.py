@@ -208,6 +208,8 @@ def render(
         InputError: a bad scene file, setting or checkpoint (the message names it).
         KernelBuildError: the kernel did not compile.
     """
+    if integrator is not None and integrator not in INTEGRATORS:
+        raise InputError(f"integrator: unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
     cs = _compile(scene, integrator, max_depth, rr_depth)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**64:
         raise InputError(f"seed must be an integer in [0, 2**64), got {seed!r}")

@@ -194,7 +194,9 @@ class RenderRunner:
         self.lanes = int(job.lanes) if job.lanes is not None else ctx.lanes
         t0 = time.perf_counter()
         src = runtime.compose([KERNEL_FILE])
-        self.program = runtime.build(ctx, src, job.options(self.lanes), what="render kernel")
+        self.film_dtype = np.float64 if ctx.fp64 else np.float32
+        options = job.options(self.lanes) + (["-DFILM_DOUBLE"] if ctx.fp64 else [])
+        self.program = runtime.build(ctx, src, options, what="render kernel")
         self.build_seconds = time.perf_counter() - t0
         self.kernel = runtime.kernel(self.program, "render_blocks")
         mf = cl.mem_flags
@@ -209,7 +211,7 @@ class RenderRunner:
     def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, np.ndarray, int]:
         """Launch blocks ``first_block .. first_block + nblocks - 1``; the copy back is non-blocking."""
         job = self.job
-        out = np.empty((nblocks, job.height, job.width, STATS), np.float32)
+        out = np.empty((nblocks, job.height, job.width, STATS), self.film_dtype)
         buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
         b = self.buffers
         t = job.tables

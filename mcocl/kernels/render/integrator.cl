@@ -30,7 +30,7 @@
  * lengths.  The order in which a work-item adds samples into a pixel's sums
  * depends on nothing but the work-item's own samples.
  *
- * Output: for every block of the launch and every pixel, STATS floats
+ * Output: for every block of the launch and every pixel, STATS numbers (film_t)
  *   [0..2] sum of R, G, B   [3..5] sum of squares   [6] finite samples
  *   [7] non-finite samples (NaN/Inf in any channel: counted, kept out of the sums).
  */
@@ -86,19 +86,27 @@ RT_INLINE floatv emission_weight(intv unsampled, floatv prev_pdf, floatv light_p
 #endif
 }
 
-/* Add finished paths into the pixel sums of this work-item's block (float:
- * a block holds few samples of a pixel; the host adds blocks in double). */
-RT_INLINE void add_sample(global float *o, float r, float g, float b) {
+/* The film's number type: double where the device has it, so that the sum of
+ * squares of a very bright (finite) sample cannot overflow; float otherwise. */
+#ifdef FILM_DOUBLE
+typedef double film_t;
+#else
+typedef float film_t;
+#endif
+
+/* Add finished paths into the pixel sums of this work-item's block. */
+RT_INLINE void add_sample(global film_t *o, float r, float g, float b) {
     if ((r - r) == 0.0f && (g - g) == 0.0f && (b - b) == 0.0f) { /* all finite */
-        o[0] += r; o[1] += g; o[2] += b;
-        o[3] += r * r; o[4] += g * g; o[5] += b * b;
-        o[6] += 1.0f;
+        film_t fr = r, fg = g, fb = b;
+        o[0] += fr; o[1] += fg; o[2] += fb;
+        o[3] += fr * fr; o[4] += fg * fg; o[5] += fb * fb;
+        o[6] += 1;
     } else {
-        o[7] += 1.0f;
+        o[7] += 1;
     }
 }
 
-RT_INLINE void flush_samples(global float *out, uintv pixel, vec3v L, intv done) {
+RT_INLINE void flush_samples(global film_t *out, uintv pixel, vec3v L, intv done) {
 #if LANES == 1
     if (done) add_sample(out + (size_t)pixel * STATS, L.x, L.y, L.z);
 #else
@@ -149,7 +157,7 @@ kernel void render_blocks(
     global const int *prim_emitter, global const float *emitter_radiance,
     global const uint *light_prims, global const float *light_cdf, global const float *prim_pmf,
     uint nlights, uint light_top, float env_threshold, float env_pmf, float4 env_radiance,
-    global float *out)
+    global film_t *out)
 {
     const uint gid = (uint)get_global_id(0);
     if (gid >= nblocks * ntiles) return;
@@ -162,8 +170,8 @@ kernel void render_blocks(
     const ulong spp0 = block * (ulong)spp_per_block;
     const uint nspp = spp0 >= (ulong)spp_limit ? 0u : (uint)min((ulong)spp_per_block, (ulong)spp_limit - spp0);
     const uint total = npix * nspp;
-    global float *acc = out + (size_t)bi * npix_total * STATS;
-    for (uint k = 0; k < npix * STATS; ++k) acc[(size_t)pix0 * STATS + k] = 0.0f;
+    global film_t *acc = out + (size_t)bi * npix_total * STATS;
+    for (uint k = 0; k < npix * STATS; ++k) acc[(size_t)pix0 * STATS + k] = 0;
     if (total == 0u) return;
 
     scene_geom geom;

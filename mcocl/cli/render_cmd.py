@@ -1,0 +1,104 @@
+"""``mcocl render``: path-trace a scene file into an OpenEXR image."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+
+from ..render.api import INTEGRATORS, NonFiniteSampleWarning, render
+from ..schedule import DeviceFailureWarning
+from .common import add_device_args, count, placement_kwargs, positive, print_json
+
+DESCRIPTION = """\
+Render SCENE (a JSON scene file, see scenes/README.md) by path tracing and
+write an OpenEXR image: channels R, G, B (the mean radiance), a `variance`
+layer (variance of the mean, per channel) and `samples` (samples per pixel).
+
+Integrators (one megakernel, chosen at build time):
+  path  BSDF sampling only; an emitter hit adds its radiance
+  nee   light sampling at every vertex, BSDF sampling to continue
+  mis   both, combined by the power heuristic (default)
+
+Stopping: --spp N samples per pixel, --time S seconds, --noise R (mean
+relative standard error over the pixels), whichever comes first; with none
+of them, the scene's spp.  Ctrl-C stops after the current batch, writes the
+image so far and exits with status 130.  The image depends only on the
+scene, the settings and --seed: --checkpoint / --resume continue a render
+and give the same image as an uninterrupted one.
+"""
+
+EXAMPLES = """\
+examples:
+  mcocl render scenes/cornell.json --spp 256 --out cornell.exr
+  mcocl render scenes/cornell.json --time 60 --integrator mis --out cornell.exr --png cornell.png
+  mcocl render scenes/veach_mis.json --integrator nee --spp 64 --out nee.exr
+  mcocl render scenes/cornell.json --noise 0.01 --checkpoint cornell.ckpt --out cornell.exr
+  mcocl render scenes/cornell.json --resume cornell.ckpt --spp 1024 --out cornell.exr
+"""
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``render`` parser."""
+    p = sub.add_parser("render", help="path-trace a scene into an OpenEXR image", description=DESCRIPTION,
+                       epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("scene", help="scene file (JSON)")
+    p.add_argument("--spp", type=count, default=None, help="samples per pixel (default: the scene's, unless --time/--noise)")
+    p.add_argument("--time", dest="time_budget", type=positive, default=None, help="stop after this many seconds")
+    p.add_argument("--noise", type=positive, default=None,
+                   help="stop once the mean relative standard error of the pixels is at most this (e.g. 0.01)")
+    p.add_argument("--integrator", choices=INTEGRATORS, default=None, help="light transport estimator (default: the scene's)")
+    p.add_argument("--max-depth", type=int, default=None,
+                   help="longest path in segments, Mitsuba's convention (-1 unbounded, 1 emitters only, 2 direct light)")
+    p.add_argument("--rr-depth", type=int, default=None, help="depth from which Russian roulette may end paths")
+    p.add_argument("--seed", type=int, default=0, help="64-bit seed (default 0)")
+    p.add_argument("--out", default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
+    p.add_argument("--png", default=None, help="also write an sRGB PNG preview")
+    p.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops (default 0)")
+    p.add_argument("--checkpoint", default=None, help="save progress to this file (periodically and at the end)")
+    p.add_argument("--resume", default=None, help="continue from a checkpoint of the same scene and settings")
+    p.add_argument("--json", action="store_true", help="print one JSON object describing the render")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_device_args(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Render, write the image(s), print a summary; 130 if Ctrl-C stopped the render."""
+    out = Path(args.out) if args.out else Path(Path(args.scene).stem + ".exr")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", NonFiniteSampleWarning)
+        warnings.simplefilter("always", DeviceFailureWarning)
+        r = render(
+            args.scene, spp=args.spp, time=args.time_budget, noise=args.noise, integrator=args.integrator,
+            max_depth=args.max_depth, rr_depth=args.rr_depth, seed=args.seed, checkpoint=args.checkpoint,
+            resume=args.resume, progress=not args.quiet and not args.json, lanes=args.lanes,
+            **placement_kwargs(args),
+        )
+    for w in caught:
+        if issubclass(w.category, (NonFiniteSampleWarning, DeviceFailureWarning)):
+            print(f"WARNING: {w.message}", file=sys.stderr)
+    r.save_exr(out)
+    if args.png:
+        r.save_png(args.png, exposure=args.exposure)
+    if args.json:
+        d = r.to_dict()
+        d["out"] = str(out)
+        d["png"] = args.png
+        print_json(d)
+    else:
+        print(f"image     {out}" + (f" (preview {args.png})" if args.png else ""))
+        print(f"render    {r.width}x{r.height}, {r.spp} spp, {r.integrator}, max_depth {r.max_depth}, "
+              f"rr_depth {r.rr_depth}, seed {r.seed}")
+        print(f"time      {r.seconds:.3f} s  ({r.samples_per_second / 1e6:.3g} M samples/s, {r.lanes} lanes; "
+              f"build {r.build_seconds:.2f} s)")
+        print(f"noise     {r.relative_error:.4g} (mean relative standard error)")
+        print(f"device    {r.device}")
+        if r.nonfinite:
+            print(f"nonfinite {r.nonfinite} samples (left out of the image)")
+        if r.stopped_by not in ("spp",):
+            print(f"stopped   by {r.stopped_by}")
+        for n in r.notes:
+            print(f"note      {n}")
+    return 130 if r.stopped_by == "interrupt" else 0
