@@ -42,6 +42,12 @@ def quick(tmp_path_factory):
     return out, status, summary
 
 
+@pytest.fixture(scope="module")
+def quick_solve(quick):
+    """The solve suite's summary from the same quick run."""
+    return json.loads((quick[0] / "solve-summary.json").read_text())
+
+
 def _est(summary: dict, problem: str, name: str) -> dict:
     prob = next(p for p in summary["problems"] if p["name"] == problem)
     return next(e for e in prob["estimators"] if e["name"] == name)
@@ -54,7 +60,7 @@ def _est(summary: dict, problem: str, name: str) -> dict:
 def test_quick_draws_png(quick):
     out, status, _ = quick
     assert status == 0
-    for png in ("integrate-error-vs-time.png", "integrate-efficiency.png"):
+    for png in ("integrate-error-vs-time.png", "integrate-efficiency.png", "solve-error-vs-time.png"):
         data = (out / png).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000, png
 
@@ -62,8 +68,9 @@ def test_quick_draws_png(quick):
 def test_quick_writes_csv_json(quick):
     out, status, summary = quick
     assert status == 0
-    for name in ("integrate-table.txt", "integrate-checkpoints.csv", "integrate-summary.json"):
-        assert (out / name).stat().st_size > 0, name
+    for suite in ("integrate", "solve"):
+        for kind in ("table.txt", "checkpoints.csv", "summary.json"):
+            assert (out / f"{suite}-{kind}").stat().st_size > 0, (suite, kind)
 
     with open(out / "integrate-checkpoints.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
@@ -93,10 +100,10 @@ def test_quick_writes_csv_json(quick):
         assert word in table
 
 
-def test_quick_reports_honest_numbers(quick):
+def test_quick_reports_honest_numbers(quick, quick_solve):
     """Every estimator's final error agrees with its reported stderr; efficiency = 1/(V * s/sample)."""
     _, _, summary = quick
-    for p in summary["problems"]:
+    for p in summary["problems"] + quick_solve["problems"]:
         for e in p["estimators"]:
             assert e["consistent"] is True, (p["name"], e["name"], e["z"])
             v, sps = e["variance_per_sample"], e["samples_per_second"]
@@ -123,6 +130,16 @@ def test_bench_combined_beats_single_proposals_on_two_peaks(quick):
     for h in ("balance", "power"):
         eff = _est(s, "two-peak-2d", h)["efficiency"]
         assert eff > 2 * max(singles), (h, eff, singles)
+
+
+def test_bench_nee_beats_plain_walk_on_peaked_source(quick_solve):
+    # variance per walk about 20x lower, at about half the walks per second
+    assert _est(quick_solve, "peaked-source-1d", "nee")["relative_efficiency"] > 2
+
+
+def test_bench_subcritical_beats_uniform_moves_on_peaked_kernel(quick_solve):
+    # variance per walk about 200x lower, at about a quarter of the walks per second
+    assert _est(quick_solve, "peaked-kernel-1d", "subcritical")["relative_efficiency"] > 5
 
 
 # -- problem files ------------------------------------------------------------------

@@ -174,6 +174,7 @@ class IntegrateSuite:
 
     name = "integrate"
     error_kind = "signed"
+    reference_estimator = "independent"
 
     def problems(self, options: BenchOptions) -> list[IntegrationProblem]:
         """Built-in problems (filtered by ``only``; the quick subset), or the users' files."""

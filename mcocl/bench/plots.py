@@ -64,7 +64,7 @@ def _panel_errors(ax: Any, p: ProblemRecord, colors: dict[str, Any], error_label
         se = [(q[0], q[2]) for q in pts if math.isfinite(q[2]) and q[2] > 0]
         if se:
             ax.plot([q[0] for q in se], [q[1] for q in se], ":", linewidth=0.9, color=col)
-        if e.name == "independent" or ref_anchor is None:
+        if e.name == p.reference or ref_anchor is None:
             if se:
                 ref_anchor = se[len(se) // 2]
     if ref_anchor is not None:
@@ -83,13 +83,20 @@ def _panel_errors(ax: Any, p: ProblemRecord, colors: dict[str, Any], error_label
     ax.legend(fontsize=6, loc="best", ncol=2, framealpha=0.6)
 
 
-def _colors(result: BenchResult, cmap: Any) -> dict[str, Any]:
-    names: list[str] = []
-    for p in result.problems:
-        for e in p.estimators:
-            if e.name not in names:
-                names.append(e.name)
-    return {n: cmap(i % cmap.N) for i, n in enumerate(names)}
+# Fixed colours for the estimators most panels share; the others take the
+# remaining tab10 colours in panel order.
+FIXED_COLORS = {"independent": "C0", "stratified": "C1", "nrooks": "C2", "numpy": "black",
+                "roulette": "C0", "truncated": "C7", "subcritical": "C1", "nee": "C2",
+                "path": "C0", "nee_render": "C1", "mis": "C2"}
+OTHER_COLORS = ("C3", "C4", "C5", "C6", "C8", "C9", "C7")
+
+
+def _colors(p: ProblemRecord) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    others = iter(OTHER_COLORS * 4)
+    for e in p.estimators:
+        out[e.name] = FIXED_COLORS.get(e.name) or next(others)
+    return out
 
 
 def plot_error_vs_time(result: BenchResult, path: str | Path) -> Path:
@@ -97,13 +104,9 @@ def plot_error_vs_time(result: BenchResult, path: str | Path) -> Path:
     probs = [p for p in result.problems if any(e.checkpoints for e in p.estimators)]
     rows, cols = _grid(len(probs))
     fig = _figure(4.2 * cols, 3.3 * rows)
-    from matplotlib import colormaps
-
-    colors = _colors(result, colormaps["tab10"] if len({e.name for p in probs for e in p.estimators}) <= 10
-                     else colormaps["tab20"])
     label = "|error| (—), reported stderr (··)" if result.error_kind == "signed" else "RMSE (—), stderr (··)"
     for i, p in enumerate(probs):
-        _panel_errors(fig.add_subplot(rows, cols, i + 1), p, colors, label)
+        _panel_errors(fig.add_subplot(rows, cols, i + 1), p, _colors(p), label)
     fig.suptitle(f"mcocl bench {result.suite}: error versus time ({result.device or 'OpenCL'})", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path)
@@ -112,15 +115,12 @@ def plot_error_vs_time(result: BenchResult, path: str | Path) -> Path:
 
 def plot_efficiency(result: BenchResult, path: str | Path) -> Path:
     """Bars of efficiency relative to ``independent`` per problem (log scale)."""
-    probs = [p for p in result.problems if p.get("independent") is not None]
+    probs = [p for p in result.problems if p.get(p.reference) is not None]
     rows, cols = _grid(len(probs))
     fig = _figure(4.2 * cols, 2.8 * rows)
-    from matplotlib import colormaps
-
-    colors = _colors(result, colormaps["tab10"] if len({e.name for p in probs for e in p.estimators}) <= 10
-                     else colormaps["tab20"])
     for i, p in enumerate(probs):
         ax = fig.add_subplot(rows, cols, i + 1)
+        colors = _colors(p)
         bars = [(e.name, p.relative_efficiency(e)) for e in p.estimators if e.final and not e.failed]
         bars = [(n, r) for n, r in bars if math.isfinite(r) and r > 0]
         ax.barh([n for n, _ in bars], [r for _, r in bars], color=[colors[n] for n, _ in bars])
@@ -128,10 +128,10 @@ def plot_efficiency(result: BenchResult, path: str | Path) -> Path:
         ax.axvline(1.0, color="0.4", linewidth=0.8)
         ax.invert_yaxis()
         ax.set_title(p.name, fontsize=9)
-        ax.set_xlabel("efficiency / efficiency(independent)", fontsize=8)
+        ax.set_xlabel(f"efficiency / efficiency({p.reference})", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(True, axis="x", linewidth=0.3, alpha=0.5)
-    fig.suptitle(f"mcocl bench {result.suite}: efficiency relative to independent sampling", fontsize=10)
+    fig.suptitle(f"mcocl bench {result.suite}: efficiency relative to {result.reference}", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.96))
     fig.savefig(path)
     return Path(path)
@@ -146,6 +146,6 @@ def write_plots(result: BenchResult, out: str | Path) -> dict[str, Path]:
     d = Path(out)
     d.mkdir(parents=True, exist_ok=True)
     paths = {"error_plot": plot_error_vs_time(result, d / f"{result.suite}-error-vs-time.png")}
-    if any(p.get("independent") is not None for p in result.problems):
+    if any(p.get(p.reference) is not None for p in result.problems):
         paths["efficiency_plot"] = plot_efficiency(result, d / f"{result.suite}-efficiency.png")
     return paths

@@ -29,7 +29,8 @@ CSV_COLUMNS = ("suite", "problem", "estimator", "kind", "checkpoint", "seconds",
 SUMMARY_FIELDS = ("name", "kind", "description", "samples", "seconds", "samples_per_second", "estimate", "stderr",
                   "variance_per_sample", "efficiency", "relative_efficiency", "error", "z", "consistent", "z_rms",
                   "nonfinite", "failed", "interrupted", "info")
-TABLE_HEADER = ("estimator", "samples/s", "var/sample", "efficiency", "rel. eff.", "error at end", "|err| <= 4 se")
+TABLE_HEADER = ("estimator", "samples/s", "var/sample", "efficiency", "rel. eff.", "error at end", "|err| <= 4 se",
+                "rms z")
 
 
 def _si(v: float) -> str:
@@ -56,26 +57,30 @@ def _consistent(e: EstimatorRecord) -> str:
     return f"{'yes' if c else 'NO'} (z={_g(e.z, '+.2f')})"
 
 
-def problem_rows(p: ProblemRecord) -> list[tuple[str, ...]]:
+def problem_rows(p: ProblemRecord, error_kind: str = "signed") -> list[tuple[str, ...]]:
     """The table rows of one problem (header first)."""
     rows = [TABLE_HEADER]
+    efmt = "+.2e" if error_kind == "signed" else ".2e"
     for e in p.estimators:
         if e.failed:
-            rows.append((e.name, "failed", e.failed.splitlines()[0][:60], "", "", "", ""))
+            rows.append((e.name, "failed", e.failed.splitlines()[0][:60], "", "", "", "", ""))
             continue
         if e.final is None:
-            rows.append((e.name, "not run", "", "", "", "", ""))
+            rows.append((e.name, "not run", "", "", "", "", "", ""))
             continue
         name = e.name + (" (interrupted)" if e.interrupted else "")
         rows.append((name, _si(e.samples_per_second), _g(e.variance_per_sample, ".3e"), _g(e.efficiency, ".3e"),
-                     _g(p.relative_efficiency(e), ".3g"), _g(e.error, "+.2e"), _consistent(e)))
+                     _g(p.relative_efficiency(e), ".3g"), _g(e.error, efmt), _consistent(e), _g(e.z_rms, ".2f")))
     return rows
 
 
 def _heading(p: ProblemRecord) -> str:
     s = p.summary
     dim = f"{s['dim']}-D, " if "dim" in s else ""
-    exact = f"exact {s['exact']:.12g}" if isinstance(s.get("exact"), float) else ""
+    if isinstance(s.get("exact_values"), list):
+        exact = "exact " + ", ".join(f"{v:.8g}" for v in s["exact_values"]) + " at the query points"
+    else:
+        exact = f"exact {s['exact']:.12g}" if isinstance(s.get("exact"), float) else ""
     return f"{p.name} ({dim}{exact}): {p.description}"
 
 
@@ -83,12 +88,16 @@ def format_table(result: BenchResult) -> str:
     """The whole report as text (one table per problem)."""
     out = [f"mcocl bench {result.suite}: {result.budget:g} s per estimator, seed {result.options.seed}, "
            f"device {result.device or '?'}"]
-    out.append("efficiency = 1 / (variance per sample x seconds per sample); rel. eff. against 'independent'; "
-               f"consistent when |error| <= {Z_CONSISTENT:g} x reported stderr")
+    out.append(f"efficiency = 1 / (variance per sample x seconds per sample); rel. eff. against '{result.reference}'; "
+               f"consistent when |error| <= {Z_CONSISTENT:g} x reported stderr;")
+    out.append("rms z = root mean square of error/stderr over the checkpoints: about 1 when the stderr is honest, "
+               "<< 1 when it overstates the error, >> 1 when it understates it")
+    if result.error_kind == "rmse":
+        out.append("error and stderr are root mean squares over the query points (pixels); samples count them all")
     for p in result.problems:
         out.append("")
         out.append(_heading(p))
-        rows = problem_rows(p)
+        rows = problem_rows(p, result.error_kind)
         widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
         for j, r in enumerate(rows):
             cells = [r[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(r[1:], widths[1:])]
@@ -97,7 +106,7 @@ def format_table(result: BenchResult) -> str:
                 out.append("  " + "  ".join("-" * w for w in widths))
         sp = p.numpy_speedup
         if math.isfinite(sp):
-            out.append(f"  engine vs NumPy (plain estimator, samples/s, same process): {sp:.1f}x")
+            out.append(f"  engine vs NumPy ({p.reference}, samples/s, same process): {sp:.1f}x")
         elif p.baseline_unavailable:
             out.append(f"  NumPy baseline: {p.baseline_unavailable}")
         for name, why in p.skipped:
@@ -163,6 +172,7 @@ def summary(result: BenchResult) -> dict[str, Any]:
         "wall_seconds": result.wall_seconds,
         "interrupted": result.interrupted,
         "error_kind": result.error_kind,
+        "reference_estimator": result.reference,
         "machine": result.machine(),
         "options": asdict(result.options),
         "consistency_bound_z": Z_CONSISTENT,

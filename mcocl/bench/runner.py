@@ -142,6 +142,7 @@ class ProblemRecord:
     estimators: list[EstimatorRecord] = field(default_factory=list)
     skipped: list[tuple[str, str]] = field(default_factory=list)
     baseline_unavailable: str = ""
+    reference: str = "independent"
 
     def get(self, name: str) -> EstimatorRecord | None:
         """The record of an estimator (``numpy`` for the baseline), if it ran."""
@@ -151,16 +152,16 @@ class ProblemRecord:
         return None
 
     def relative_efficiency(self, e: EstimatorRecord) -> float:
-        """Efficiency of ``e`` over that of ``independent`` (NaN without it)."""
-        ref = self.get("independent")
+        """Efficiency of ``e`` over that of the reference estimator (NaN without it)."""
+        ref = self.get(self.reference)
         if ref is None or not math.isfinite(ref.efficiency) or ref.efficiency <= 0:
             return math.nan
         return e.efficiency / ref.efficiency
 
     @property
     def numpy_speedup(self) -> float:
-        """Samples/s of the engine's ``independent`` over the NumPy baseline's."""
-        ind, base = self.get("independent"), self.get("numpy")
+        """Samples/s of the engine's reference estimator over the NumPy baseline's (the same estimator)."""
+        ind, base = self.get(self.reference), self.get("numpy")
         if ind is None or base is None:
             return math.nan
         return ind.samples_per_second / base.samples_per_second
@@ -178,6 +179,7 @@ class BenchResult:
     wall_seconds: float = 0.0
     interrupted: bool = False
     error_kind: str = "signed"
+    reference: str = "independent"
 
     @property
     def failures(self) -> list[tuple[str, str, str]]:
@@ -264,11 +266,11 @@ def run_suite(suite: Suite, problems: Sequence[BenchProblem], budget: float, opt
     """
     t0 = time.perf_counter()
     result = BenchResult(suite.name, budget, options, started=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                         error_kind=suite.error_kind)
+                         error_kind=suite.error_kind, reference=suite.reference_estimator)
     plan: list[tuple[BenchProblem, ProblemRecord, list[Any]]] = []
     for prob in problems:
         chosen, missing = select_estimators(prob.estimators(), estimators)
-        rec = ProblemRecord(prob.name, prob.description, prob.summary())
+        rec = ProblemRecord(prob.name, prob.description, prob.summary(), reference=suite.reference_estimator)
         rec.skipped = [(m, f"not an estimator of {prob.name} (it offers {', '.join(s.name for s in prob.estimators())})")
                        for m in missing]
         runs: list[Any] = [(s.name, s.description, "engine", s.start) for s in chosen]

@@ -144,7 +144,8 @@ class Suite(Protocol):
     """A family of problems."""
 
     name: str
-    error_kind: str  # "signed" (scalar error) or "rmse" (image)
+    error_kind: str  # "signed" (scalar error) or "rmse" (over query points or pixels)
+    reference_estimator: str  # the plain estimator others are compared with (and NumPy against)
 
     def problems(self, options: BenchOptions) -> list[BenchProblem]:
         """The problems to run (a small fast subset when ``options.quick``).

@@ -30,6 +30,8 @@ actual error against the exact value).  It prints one table per problem:
   rel. eff.     efficiency over that of the 'independent' estimator
   error at end  estimate - exact
   |err|<=4 se   whether the actual error agrees with the reported stderr
+  rms z         root mean square of error/stderr over the checkpoints: about
+                1 when the stderr is honest (<< 1: overstated, >> 1: understated)
 
 and the engine's speed-up over a vectorised NumPy float64 version of the
 plain estimator, timed in the same process (the 'numpy' row).  Files in --out:
