@@ -19,7 +19,7 @@ from mcocl import runtime
 from mcocl.walks.codegen import generate
 from mcocl.walks.job import WalkJob
 from mcocl.walks.nystrom import ExpressionEvaluator
-from mcocl.walks.tabulate import DEFENSIVE, Q_FLOOR, build_tables, default_grid
+from mcocl.walks.tabulate import DEFENSIVE, Q_FLOOR, TOTAL, alias_words, build_tables, default_grid, mixture_counts
 
 P_MIN = 1e-4
 
@@ -107,3 +107,21 @@ def test_tabulated_density_follows_the_kernel():
     np.testing.assert_allclose(job.tables.transition_mass(cell), want, rtol=0.03, atol=2e-6)
     # survival = the row integral, for a row integral below 1
     assert job.tables.survival(cell) == pytest.approx(np.mean(w), rel=0.01)
+
+
+def test_alias_tables_are_exact():
+    # the probability of every bin must be exactly counts / 2^23, for peaked,
+    # flat and random rows, down to 1 bin and up to 4096
+    rng = np.random.default_rng(7)
+    for nb in (1, 2, 8, 256, 4096):
+        w = np.vstack([rng.random(nb), np.ones(nb), np.eye(1, nb, nb // 2)[0], rng.random(nb) ** 8])
+        counts = mixture_counts(w)
+        assert np.all(counts.sum(axis=1) == TOTAL) and np.all(counts >= 1)
+        words = alias_words(counts).astype(np.int64)
+        thr, alias = words // nb, words % nb
+        m = TOTAL // nb
+        implied = thr.copy()
+        for r in range(len(w)):
+            np.add.at(implied[r], alias[r], m - thr[r])
+        assert np.array_equal(implied, counts)
+        assert np.all((thr >= 0) & (thr <= m))

@@ -33,6 +33,7 @@ from .tabulate import TableGrid, WalkTables
 
 STATS = 6
 WALKS_PER_BLOCK = 1024
+MAX_LANES = 16  # dummy scratch slots per work-item (walk.cl, WALK_MAX_LANES)
 
 # Tabulation weights by (program, kind, grid); a program is cached by the
 # runtime for the life of the process, so its handle identifies K and g.
@@ -126,6 +127,7 @@ class WalkRunner:
         self._tables: cl.Buffer | None = None
         self._tables_of: WalkTables | None = None
         self._empty: WalkTables | None = None
+        self._pool: list[cl.Buffer] = []
 
     @property
     def lanes(self) -> int:
@@ -144,16 +146,26 @@ class WalkRunner:
             self._tables_of = tabs
         return self._tables, tabs.kernel_args()
 
-    def _launch(self, first_block: int, nblocks: int, shifts: np.ndarray) -> tuple[cl.Event, np.ndarray]:
+    def _scratch(self, nbytes: int) -> cl.Buffer:
+        """A scratch buffer of at least ``nbytes``, reused across launches.
+
+        Fresh buffers of tens of MiB per chunk cost page faults on first touch;
+        a few are kept (two chunks are in flight at once) and handed back by
+        :meth:`collect`.
+        """
+        for k, b in enumerate(self._pool):
+            if b.size >= nbytes:
+                return self._pool.pop(k)
+        return cl.Buffer(self.ctx.context, cl.mem_flags.READ_WRITE | cl.mem_flags.HOST_NO_ACCESS, nbytes)
+
+    def _launch(self, first_block: int, nblocks: int, shifts: np.ndarray) -> tuple[cl.Event, np.ndarray, cl.Buffer]:
         job = self.job
         nwork = nblocks * job.nq
         ctxt = self.ctx.context
         mf = cl.mem_flags
         out = np.empty((nblocks, job.nq, STATS), dtype=np.float64)
         bout = cl.Buffer(ctxt, mf.WRITE_ONLY, out.nbytes)
-        scratch = nwork * job.walks_per_block * 4
-        bvals = cl.Buffer(ctxt, mf.READ_WRITE | mf.HOST_NO_ACCESS, scratch)
-        blens = cl.Buffer(ctxt, mf.READ_WRITE | mf.HOST_NO_ACCESS, scratch)
+        bvals = self._scratch(nwork * (job.walks_per_block + MAX_LANES) * 4)
         sh = np.ascontiguousarray(shifts, dtype=np.float64)
         bshift = cl.Buffer(ctxt, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=sh)
         tab, targs = self._table_buffer()
@@ -163,29 +175,30 @@ class WalkRunner:
             np.uint64(first_block), np.uint32(nwork), np.uint32(job.nq), np.uint32(job.walks_per_block),
             np.uint64(job.walk_limit), np.uint64(job.seed), self.queries, bshift,
             np.float32(job.survival), np.uint32(job.depth), np.uint32(job.max_len),
-            tab, *targs, bvals, blens, bout,
+            tab, *targs, bvals, bout,
         )
         ev = cl.enqueue_copy(self.ctx.queue, out, bout, is_blocking=False)
-        return ev, out
+        return ev, out, bvals
 
     def pilot(self) -> np.ndarray:
         """Statistics of block 0 computed with zero shifts, ``(nq, STATS)``.
 
         The API derives the shifts from it (and stops early on a guard hit).
         """
-        ev, out = self._launch(0, 1, np.zeros(self.job.nq))
-        ev.wait()
-        return out[0]
+        handle = self._launch(0, 1, np.zeros(self.job.nq))
+        return self.collect(handle)[0]
 
-    def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, np.ndarray]:
+    def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, np.ndarray, cl.Buffer]:
         """Launch blocks ``first_block .. first_block + nblocks - 1`` (non-blocking)."""
         shifts = self.job.shifts if self.job.shifts is not None else np.zeros(self.job.nq)
         return self._launch(first_block, nblocks, shifts)
 
-    def collect(self, handle: tuple[cl.Event, np.ndarray]) -> np.ndarray:
+    def collect(self, handle: tuple[cl.Event, np.ndarray, cl.Buffer]) -> np.ndarray:
         """Wait for a launch; its ``(nblocks, nq, STATS)`` statistics."""
-        ev, out = handle
+        ev, out, scratch = handle
         ev.wait()
+        self._pool.append(scratch)
+        del self._pool[:-3]
         return out
 
     # -- tabulation and sampler checks -------------------------------------

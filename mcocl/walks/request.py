@@ -189,6 +189,8 @@ def validate(
         raise InputError(f"depth ({depth}) exceeds max_walk_length ({max_len})")
     cells = positive_int("table_cells", table_cells, 1) if table_cells is not None else None
     bins = positive_int("table_bins", table_bins, 1) if table_bins is not None else None
+    if bins is not None and bins & (bins - 1):
+        raise InputError(f"table_bins must be a power of two (the tables are exact alias tables), got {bins}")
     grid = default_grid(dim, cells, bins)
     if grid.ncells > MAX_CELLS:
         raise InputError(f"table_cells: {grid.cells}^{dim} = {grid.ncells} cells; at most {MAX_CELLS} are supported")

@@ -20,12 +20,12 @@
 /* Sample zeta (into z) from the uniforms u; returns g(zeta) / p(zeta). */
 inline floatv walk_source_sample(const floatv *u, floatv *z, walk_tables t) {
 #if WALK_SRC == WALK_SRC_TABLE
-    floatv p = wt_sample(t.tab, (uintv)(t.src_off), t.nya, t.nb, t.top, u[WALK_U_ZBIN], u + WALK_U_Z, z);
+    floatv p = wt_sample(t.tab, (uintv)(t.src_off), t.nya, t.nb, t.lognb, u[WALK_U_ZBIN], u + WALK_U_Z, z);
     return walk_g(z) / p;
 #else
     walk_Z_all(u + WALK_U_Z, z);
     floatv gz = walk_g(z);
-    return sign(gz) * (float)WALK_SOURCE_INTEGRAL + (gz - gz);
+    return wl_sign(gz) * (float)WALK_SOURCE_INTEGRAL + (gz - gz);
 #endif
 }
 

@@ -9,16 +9,16 @@
  */
 #include "walks/walk_rng.cl"
 #include "walks/next_event.cl"
-#include "walks/lane_store.cl"
+#include "walks/lane_ops.cl"
 
 kernel void walk_sample_check(uint n, ulong seed, global const float *xs, global const uint *tab, uint nxa,
-                              uint nya, uint nb, uint top, uint trans_off, uint q_off, uint src_off,
+                              uint nya, uint nb, uint lognb, uint trans_off, uint q_off, uint src_off,
                               global float *ys, global float *ms, global float *qs, global float *zs,
                               global float *es) {
     const uint gid = get_global_id(0);
     if (gid * LANES >= n) return;
     walk_tables t;
-    t.tab = tab; t.nxa = nxa; t.nya = nya; t.nb = nb; t.top = top;
+    t.tab = tab; t.nxa = nxa; t.nya = nya; t.nb = nb; t.lognb = lognb;
     t.trans_off = trans_off; t.q_off = q_off; t.src_off = src_off;
     const uintv idx = (uintv)(gid * LANES) + LANE_IOTA;
     floatv u[WALK_NU];
@@ -33,17 +33,17 @@ kernel void walk_sample_check(uint n, ulong seed, global const float *xs, global
     floatv e = (floatv)(0.0f);
     for (int k = 0; k < DIM; ++k) z[k] = (floatv)(0.0f);
 #endif
-    float a[LANES];
+    wl_float_lanes a;
     for (int k = 0; k < DIM; ++k) {
-        WALK_STORE(y[k], a);
-        for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) ys[(gid * LANES + l) * DIM + k] = a[l];
-        WALK_STORE(z[k], a);
-        for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) zs[(gid * LANES + l) * DIM + k] = a[l];
+        a.v = y[k];
+        for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) ys[(gid * LANES + l) * DIM + k] = a.a[l];
+        a.v = z[k];
+        for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) zs[(gid * LANES + l) * DIM + k] = a.a[l];
     }
-    WALK_STORE(m, a);
-    for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) ms[gid * LANES + l] = a[l];
-    WALK_STORE(q, a);
-    for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) qs[gid * LANES + l] = a[l];
-    WALK_STORE(e, a);
-    for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) es[gid * LANES + l] = a[l];
+    a.v = m;
+    for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) ms[gid * LANES + l] = a.a[l];
+    a.v = q;
+    for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) qs[gid * LANES + l] = a.a[l];
+    a.v = e;
+    for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) es[gid * LANES + l] = a.a[l];
 }

@@ -29,7 +29,7 @@ typedef struct {
     uint nxa;       /* cells of x per axis */
     uint nya;       /* bins of y per axis */
     uint nb;        /* bins, nya^DIM */
-    uint top;       /* largest power of two <= nb */
+    uint lognb;     /* log2(nb) */
     uint trans_off; /* first transition CDF (cell 0) */
     uint q_off;     /* survival probabilities, one float per cell */
     uint src_off;   /* the source CDF (next-event estimation) */
@@ -45,16 +45,16 @@ inline floatv walk_transition(const floatv *x, const floatv *u, floatv *y, float
     return walk_K(x, y);
 #elif WALK_TRANS == WALK_TRANS_TABLE
     uintv cell = wt_cell(x, t.nxa);
-    *q = as_floatv(gather_uint(t.tab, t.q_off + cell));
-    floatv p = wt_sample(t.tab, (uintv)(t.trans_off) + cell * (t.nb + 1u), t.nya, t.nb, t.top, u[WALK_U_TBIN],
+    *q = wl_as_float(gather_uint(t.tab, t.q_off + cell));
+    floatv p = wt_sample(t.tab, (uintv)(t.trans_off) + cell * (2u * t.nb), t.nya, t.nb, t.lognb, u[WALK_U_TBIN],
                          u + WALK_U_Y, y);
     return walk_K(x, y) / p;
 #else
     walk_T_all(x, u + WALK_U_Y, y);
     floatv a = walk_A(x);
-    *q = fmin(a, (floatv)(1.0f));
+    *q = wl_min(a, (floatv)(1.0f));
     floatv k = walk_K(x, y);
-    return sign(k) * a + (k - k);
+    return wl_sign(k) * a + (k - k);
 #endif
 }
 
