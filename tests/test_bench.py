@@ -15,6 +15,7 @@ import importlib.util
 import json
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -108,7 +109,7 @@ def test_quick_reports_honest_numbers(quick, quick_solve):
             assert e["consistent"] is True, (p["name"], e["name"], e["z"])
             v, sps = e["variance_per_sample"], e["samples_per_second"]
             assert e["efficiency"] == pytest.approx(sps / v, rel=1e-9)
-            assert v == pytest.approx(e["stderr"] ** 2 * e["samples"], rel=1e-9)
+            assert v == pytest.approx(e["stderr"] ** 2 * e["samples"] / e["points"], rel=1e-9)
 
 
 # -- the lecture's orderings, as the bench measures them ---------------------------
@@ -312,3 +313,38 @@ def test_missing_matplotlib_is_a_clear_error_after_the_data_is_written(tmp_path,
     assert status == 2
     assert "matplotlib" in capsys.readouterr().err
     assert (out / "integrate-checkpoints.csv").exists() and (out / "integrate-summary.json").exists()
+
+
+# -- render suite ----------------------------------------------------------------------
+
+FURNACE = Path(__file__).resolve().parent.parent / "scenes" / "furnace.json"
+
+
+def test_render_bench_against_a_cached_reference(tmp_path, capsys):
+    out = tmp_path / "out"
+    args = ["bench", "render", str(FURNACE), "--budget", "0.1", "--reference-time", "0.5", "--out", str(out),
+            "--no-plot"]
+    assert main(args) == 0
+    first = capsys.readouterr()
+    assert "rendering the reference" in first.err
+    s = json.loads((out / "render-summary.json").read_text())
+    (prob,) = s["problems"]
+    assert [e["name"] for e in prob["estimators"]] == ["path", "nee", "mis"]
+    assert prob["baseline_unavailable"]  # said, not silently missing
+    for e in prob["estimators"]:
+        assert e["points"] == prob["width"] * prob["height"] and e["error"] >= 0 and e["failed"] is None
+    assert len(list((out / "cache").glob("render-reference-*.exr"))) == 1
+    assert main(args) == 0  # the second bench reuses the cached reference
+    assert "rendering the reference" not in capsys.readouterr().err
+
+
+def test_render_bench_reference_of_the_wrong_size(tmp_path, capsys):
+    import mcocl
+
+    other = mcocl.render(str(Path(__file__).resolve().parent.parent / "scenes" / "furnace_sphere.json"), spp=1)
+    ref = tmp_path / "ref.exr"
+    other.save_exr(ref)
+    status = main(["bench", "render", str(FURNACE), "--reference", str(ref), "--budget", "0.05",
+                   "--out", str(tmp_path / "o")])
+    assert status == 2
+    assert "--reference" in capsys.readouterr().err

@@ -53,6 +53,7 @@ def run_bench(suite: str, budget: float, options: BenchOptions | None = None,
     from .report import write_reports
 
     options = options or BenchOptions()
+    options.budget = budget
     s = load_suite(suite)
     problems = s.problems(options)
     if estimators is not None:

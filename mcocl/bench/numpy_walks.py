@@ -114,14 +114,15 @@ class NumpyWalkRun:
         """Cumulative state aggregated over the query points (RMS error and stderr)."""
         n = self.n
         if n.min() < 2:
-            return Observation(self.seconds, int(n.sum()), math.nan, math.nan, math.nan, self.nonfinite)
+            return Observation(self.seconds, int(n.sum()), math.nan, math.nan, math.nan, self.nonfinite,
+                               points=len(self.at))
         mean_d = self.s1 / n
         var = np.maximum(self.s2 / n - mean_d**2, 0.0) * n / (n - 1)
         values = self.shift + mean_d
         stderr = np.sqrt(var / n)
         return Observation(self.seconds, int(n.sum()) + self.nonfinite, float(values.mean()),
                            float(np.sqrt(np.mean(stderr**2))), float(np.sqrt(np.mean((values - self.exact) ** 2))),
-                           self.nonfinite)
+                           self.nonfinite, points=len(self.at))
 
     def advance(self, seconds: float, tick: Tick | None = None) -> Observation:
         """Run chunks (every query point) for about ``seconds`` (at least one chunk)."""

@@ -25,9 +25,10 @@ import numpy as np
 from .runner import Z_CONSISTENT, BenchResult, EstimatorRecord, ProblemRecord
 
 CSV_COLUMNS = ("suite", "problem", "estimator", "kind", "checkpoint", "seconds", "samples", "estimate", "stderr",
-               "error", "nonfinite")
-SUMMARY_FIELDS = ("name", "kind", "description", "samples", "seconds", "samples_per_second", "estimate", "stderr",
-                  "variance_per_sample", "efficiency", "relative_efficiency", "error", "z", "consistent", "z_rms",
+               "error", "nonfinite", "points")
+SUMMARY_FIELDS = ("name", "kind", "description", "samples", "points", "seconds", "samples_per_second", "estimate", "stderr",
+                  "variance_per_sample", "efficiency", "relative_efficiency", "efficiency_from_error", "error", "z",
+                  "consistent", "z_rms",
                   "nonfinite", "failed", "interrupted", "info")
 TABLE_HEADER = ("estimator", "samples/s", "var/sample", "efficiency", "rel. eff.", "error at end", "|err| <= 4 se",
                 "rms z")
@@ -77,6 +78,8 @@ def problem_rows(p: ProblemRecord, error_kind: str = "signed") -> list[tuple[str
 def _heading(p: ProblemRecord) -> str:
     s = p.summary
     dim = f"{s['dim']}-D, " if "dim" in s else ""
+    if "width" in s and "reference" in s:
+        return f"{p.name} ({s['width']}x{s['height']}, reference: {s['reference']}): {p.description}"
     if isinstance(s.get("exact_values"), list):
         exact = "exact " + ", ".join(f"{v:.8g}" for v in s["exact_values"]) + " at the query points"
     else:
@@ -93,7 +96,8 @@ def format_table(result: BenchResult) -> str:
     out.append("rms z = root mean square of error/stderr over the checkpoints: about 1 when the stderr is honest, "
                "<< 1 when it overstates the error, >> 1 when it understates it")
     if result.error_kind == "rmse":
-        out.append("error and stderr are root mean squares over the query points (pixels); samples count them all")
+        out.append("error and stderr are root mean squares over the query points (pixels); samples count them all, "
+                   "var/sample = stderr^2 x samples per point")
     for p in result.problems:
         out.append("")
         out.append(_heading(p))
@@ -134,7 +138,8 @@ def write_csv(result: BenchResult, path: str | Path) -> None:
             for e in p.estimators:
                 for i, c in enumerate(e.checkpoints):
                     w.writerow([result.suite, p.name, e.name, e.kind, i, repr(float(c.seconds)), int(c.samples),
-                                repr(float(c.estimate)), repr(float(c.stderr)), repr(float(c.error)), int(c.nonfinite)])
+                                repr(float(c.estimate)), repr(float(c.stderr)), repr(float(c.error)), int(c.nonfinite),
+                                int(c.points)])
 
 
 def _clean(v: Any) -> Any:
@@ -154,10 +159,12 @@ def estimator_summary(p: ProblemRecord, e: EstimatorRecord) -> dict[str, Any]:
     f = e.final
     return {
         "name": e.name, "kind": e.kind, "description": e.description, "samples": e.samples,
+        "points": f.points if f else None,
         "seconds": e.seconds, "samples_per_second": e.samples_per_second,
         "estimate": f.estimate if f else None, "stderr": e.stderr,
         "variance_per_sample": e.variance_per_sample, "efficiency": e.efficiency,
-        "relative_efficiency": p.relative_efficiency(e), "error": e.error, "z": e.z, "consistent": e.consistent,
+        "relative_efficiency": p.relative_efficiency(e), "efficiency_from_error": e.efficiency_from_error,
+        "error": e.error, "z": e.z, "consistent": e.consistent,
         "z_rms": e.z_rms, "nonfinite": e.nonfinite, "failed": e.failed or None, "interrupted": e.interrupted,
         "info": e.info,
     }

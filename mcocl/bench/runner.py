@@ -90,17 +90,17 @@ class EstimatorRecord:
 
     @property
     def variance_per_sample(self) -> float:
-        """stderr^2 * samples: the honest variance of one sample's contribution."""
+        """stderr^2 * samples / points: the honest variance of one sample's contribution."""
         f = self.final
-        return f.stderr**2 * f.samples if f else math.nan
+        return f.stderr**2 * f.samples / f.points if f else math.nan
 
     @property
     def efficiency(self) -> float:
-        """1 / (variance per sample * seconds per sample)."""
+        """1 / (variance per sample * seconds per sample) = points / (stderr^2 * seconds)."""
         f = self.final
         if not f or not f.seconds > 0 or not math.isfinite(f.stderr):
             return math.nan
-        w = f.stderr**2 * f.seconds
+        w = f.stderr**2 * f.seconds / f.points
         return 1.0 / w if w > 0 else math.inf
 
     @property
@@ -118,6 +118,15 @@ class EstimatorRecord:
         """|error| <= 4 stderr at the end (None when there is nothing to judge)."""
         z = self.z
         return None if math.isnan(z) else bool(abs(z) <= Z_CONSISTENT)
+
+    @property
+    def efficiency_from_error(self) -> float:
+        """points / (error^2 * seconds): the efficiency the actual error implies (noisy; the cross-check)."""
+        f = self.final
+        if not f or not f.seconds > 0 or not math.isfinite(f.error):
+            return math.nan
+        w = f.error**2 * f.seconds / f.points
+        return 1.0 / w if w > 0 else math.inf
 
     @property
     def z_rms(self) -> float:

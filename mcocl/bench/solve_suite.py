@@ -113,7 +113,7 @@ class WalkRun:
         values, stderr = np.asarray(r.values, dtype=np.float64), np.asarray(r.stderr, dtype=np.float64)
         err = float(np.sqrt(np.mean((values - p.exact) ** 2)))
         return Observation(self.seconds, int(r.walks) * len(values), float(values.mean()),
-                           float(np.sqrt(np.mean(stderr**2))), err, int(sum(r.nonfinite)), r.stopped_by)
+                           float(np.sqrt(np.mean(stderr**2))), err, int(sum(r.nonfinite)), r.stopped_by, len(values))
 
     def info(self) -> dict[str, Any]:
         """Facts from the last result."""

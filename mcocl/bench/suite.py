@@ -46,6 +46,9 @@ class Observation:
             RMSE for images).
         nonfinite: NaN/Inf samples left out so far.
         stopped_by: why the last step ended (``time``, ``interrupt``, ...).
+        points: independent estimates the scalar figures aggregate (query
+            points, pixels; 1 for an integral): a sample contributes to one
+            of them, so the variance per sample is stderr^2 * samples / points.
     """
 
     seconds: float
@@ -55,6 +58,7 @@ class Observation:
     error: float
     nonfinite: int = 0
     stopped_by: str = "time"
+    points: int = 1
 
 
 # progress callback: (seconds of this run so far) -> None
@@ -126,7 +130,10 @@ class BenchOptions:
         only: names (or shell patterns) of built-in problems to run.
         inputs: positional inputs of the suite (the scene of ``render``).
         reference: a reference file given by the user (``render``).
+        reference_seconds: time for a reference the bench renders itself
+            (``render``; default 8x the budget).
         cache_dir: where references computed by the bench are cached.
+        budget: seconds per estimator (set by :func:`mcocl.bench.run_bench`).
     """
 
     quick: bool = False
@@ -137,7 +144,9 @@ class BenchOptions:
     only: list[str] | None = None
     inputs: list[str] = field(default_factory=list)
     reference: str | None = None
+    reference_seconds: float | None = None
     cache_dir: str | None = None
+    budget: float | None = None
 
 
 class Suite(Protocol):

@@ -100,7 +100,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     pr = modes.add_parser("render", help="integrators on a scene against a reference image (RMSE)")
     _common(pr, top=False)
     pr.add_argument("scene", nargs="?", default=None, help="scene file")
-    pr.add_argument("--reference", default=None, help="reference image (default: rendered at high spp and cached)")
+    pr.add_argument("--reference", default=None, metavar="EXR",
+                    help="reference image of the scene (default: rendered by mis and cached in OUT/cache)")
+    pr.add_argument("--reference-time", type=positive, default=None, metavar="SECONDS",
+                    help="render time of the cached reference (default 8x the budget)")
     pr.add_argument("--list", action="store_true", help="list the integrators, run nothing")
     p.set_defaults(func=run)
 
@@ -111,6 +114,7 @@ def _options(args: argparse.Namespace) -> BenchOptions:
         quick=args.quick, seed=args.seed, device=args.device, lanes=args.lanes,
         problem_files=list(getattr(args, "problem", []) or []), only=getattr(args, "only", None),
         inputs=[args.scene] if getattr(args, "scene", None) else [], reference=getattr(args, "reference", None),
+        reference_seconds=getattr(args, "reference_time", None),
         cache_dir=str(Path(out) / "cache"),
     )
 
