@@ -11,8 +11,14 @@ A placement names its devices in one of these ways (see
   partitioned into N sub-devices with ``CL_DEVICE_PARTITION_EQUALLY`` (OpenCL
   1.2, section 4.3: *each* part gets the given number of compute units, so N
   parts of a device with C units get C // N units each).  On one PoCL CPU this
-  gives N devices on disjoint cores, which is how a single machine (and CI)
-  runs the multi-device path for real.
+  gives N devices, each with its own context and queue, which is how a single
+  machine (and CI) runs the multi-device path for real.
+
+  Measured (bench/scaling.py, PoCL 3.0 pthread driver): PoCL keeps one thread
+  pool for all its devices, so a sub-device of one compute unit still runs
+  its kernels on every core, and N sub-devices together are as fast as the
+  whole device, not N times one part.  To give each core its own worker, run
+  Dask workers with ``POCL_MAX_PTHREAD_COUNT=1`` (:mod:`mcocl.distributed`).
 
 Sub-devices are cached per (parent, N): creating them again would leak
 OpenCL handles, and the build cache in :mod:`mcocl.runtime` is keyed by the
