@@ -48,7 +48,7 @@ import numpy as np
 
 from .accumulate import Accumulator
 from .errors import DeviceError, InputError, MCOCLError
-from .multidevice import ChunkQueue
+from .multidevice import MAX_CHUNK_BLOCKS, ChunkQueue, chunk_block_limit
 from .schedule import (
     BlockJob,
     DeviceFailureWarning,
@@ -60,7 +60,6 @@ from .schedule import (
     _Interrupt,
 )
 
-MAX_CHUNK_BLOCKS = 1 << 20
 # A chunk that failed for a reason other than its worker's device (the task
 # raised, or its workers kept dying) is retried this many times at most.
 MAX_CHUNK_RETRIES = 3
@@ -284,7 +283,8 @@ def run_dask(
         chunk_seconds: compute time of one task on one worker (long enough
             that Dask's per-task cost, a few ms, does not matter).
         first_chunk: blocks of the first tasks (the rate is unknown).
-        max_chunk: the largest task in blocks.
+        max_chunk: the largest task in blocks (and at most
+            ``multidevice.MAX_CHUNK_BYTES`` of statistics: they travel back).
         tasks_per_worker: tasks kept submitted per worker, so a worker has
             the next task before it finishes the current one.
 
@@ -316,7 +316,7 @@ def _run(distributed: Any, client: Any, job: BlockJob, acc: Accumulator, halting
     t0 = time.perf_counter()
     start_blocks = acc.blocks_done
     chunks = ChunkQueue(start_blocks, halting.max_blocks)
-    sizer = _Sizer(chunks, halting, chunk_seconds, first_chunk, max_chunk, t0)
+    sizer = _Sizer(chunks, halting, chunk_seconds, first_chunk, chunk_block_limit(job.stat_shape, max_chunk), t0)
     stats: dict[str, DeviceStats] = {}
     bad: dict[str, str] = {}  # worker address -> why it gets no more chunks
     failures: list[str] = []

@@ -55,6 +55,15 @@ from .schedule import (
 )
 
 MAX_CHUNK_BLOCKS = 1 << 20
+# A chunk's statistics (float64, one array per block) stay under this size: a
+# render's block is a whole film, and a chunk of them must not fill the memory.
+MAX_CHUNK_BYTES = 256 << 20
+
+
+def chunk_block_limit(stat_shape: tuple[int, ...], max_chunk: int | None = None) -> int:
+    """The most blocks one chunk may hold: ``max_chunk``, and at most ``MAX_CHUNK_BYTES`` of statistics."""
+    per_block = 8 * max(int(np.prod(stat_shape)), 1)
+    return max(1, min(max_chunk or MAX_CHUNK_BLOCKS, MAX_CHUNK_BLOCKS, MAX_CHUNK_BYTES // per_block))
 
 
 class ChunkQueue:
@@ -324,7 +333,8 @@ def run_devices(
         runners: runners already built, by index into ``contexts``.
         chunk_seconds: the work one chunk should be for the device taking it.
         first_chunk: blocks in a device's first chunk (its rate is unknown).
-        max_chunk: the largest chunk in blocks (tests use it to force many chunks).
+        max_chunk: the largest chunk in blocks (tests use it to force many chunks);
+            chunks also hold at most ``MAX_CHUNK_BYTES`` of statistics.
 
     Returns:
         a :class:`~mcocl.schedule.RunReport` with ``per_device`` statistics
@@ -347,7 +357,8 @@ def run_devices(
     start_blocks = acc.blocks_done
     chunks = ChunkQueue(start_blocks, halting.max_blocks)
     states = [_DeviceState(c.name, first_chunk) for c in contexts]
-    sizer = _Sizer(states, chunks, halting, chunk_seconds, max_chunk, time.perf_counter())
+    sizer = _Sizer(states, chunks, halting, chunk_seconds, chunk_block_limit(job.stat_shape, max_chunk),
+                   time.perf_counter())
     results: queue.Queue = queue.Queue()
     go = threading.Event()
     feeders = [_Feeder(k, c, job, runners.get(k), chunks, sizer, results, go) for k, c in enumerate(contexts)]
