@@ -49,7 +49,7 @@ def add_device_args(p: argparse.ArgumentParser) -> None:
                    help="OpenCL device: index from `mcocl devices` or a name substring (default: PYOPENCL_CTX, else the first device)")
     g.add_argument("--devices", default=None, metavar="LIST",
                    help="run on several devices at once: 'all', or a comma-separated list of indices/names (e.g. 0,2); "
-                        "the result is bit-identical to a one-device run")
+                        "on devices of one kind the result is bit-identical to a one-device run")
     g.add_argument("--split", type=split_count, default=None, metavar="N",
                    help="partition each CPU device into N sub-devices (OpenCL device fission) and use them as devices; "
                         "`mcocl devices --split N` shows the parts")
