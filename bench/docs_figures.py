@@ -32,6 +32,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scene", default=str(ROOT / "scenes" / "veach_mis.json"), help="scene of the render suite")
     ap.add_argument("--out", default=str(ROOT / "docs" / "bench"), help="output folder (default docs/bench)")
     ap.add_argument("--device", default=None, help="OpenCL device")
+    ap.add_argument("--cache", default=str(ROOT / "bench-out" / "cache"),
+                    help="cache of rendered references, kept out of docs/ (default bench-out/cache)")
     args = ap.parse_args(argv)
 
     extra = ["--device", args.device] if args.device else []
@@ -42,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
             status = max(status, mcocl_main(["bench", suite, "--budget", args.budget, "--out", args.out, *extra]))
     if "render" in suites and Path(args.scene).exists():
         status = max(status, mcocl_main(["bench", "render", args.scene, "--budget", args.render_budget,
-                                         "--out", args.out, *extra]))
+                                         "--out", args.out, "--cache", args.cache, *extra]))
     elif "render" in suites:
         print(f"render suite skipped: no scene at {args.scene}", file=sys.stderr)
     print(f"figures in {args.out}", file=sys.stderr)

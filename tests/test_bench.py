@@ -348,3 +348,11 @@ def test_render_bench_reference_of_the_wrong_size(tmp_path, capsys):
                    "--out", str(tmp_path / "o")])
     assert status == 2
     assert "--reference" in capsys.readouterr().err
+
+
+def test_example_problem_file_parses():
+    probs = load_problem_file(Path(__file__).resolve().parent.parent / "docs" / "bench" / "example_problems.json")
+    assert [p.name for p in probs] == ["bump-2d", "inverse-sqrt-1d", "two-bumps-1d"]
+    assert list(probs[2].estimator_options()) == ["independent", "stratified", "nrooks", "left", "right", "average",
+                                                  "max", "balance", "power", "roulette-half"]
+    assert probs[0].baseline().start is not None  # NumPy twin translated from the OpenCL C expression

@@ -85,18 +85,18 @@ def _panel_errors(ax: Any, p: ProblemRecord, colors: dict[str, Any], error_label
 
 # Fixed colours for the estimators most panels share; the others take the
 # remaining tab10 colours in panel order.
-FIXED_COLORS = {"independent": "C0", "stratified": "C1", "nrooks": "C2", "numpy": "black",
-                "roulette": "C0", "truncated": "C7", "subcritical": "C1", "nee": "C2",
-                "path": "C0", "nee_render": "C1", "mis": "C2"}
+FIXED_COLORS = {
+    "integrate": {"independent": "C0", "stratified": "C1", "nrooks": "C2", "numpy": "black"},
+    "solve": {"roulette": "C0", "subcritical": "C1", "nee": "C2", "truncated": "C7", "numpy": "black"},
+    "render": {"path": "C0", "nee": "C3", "mis": "C2"},
+}
 OTHER_COLORS = ("C3", "C4", "C5", "C6", "C8", "C9", "C7")
 
 
-def _colors(p: ProblemRecord) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    others = iter(OTHER_COLORS * 4)
-    for e in p.estimators:
-        out[e.name] = FIXED_COLORS.get(e.name) or next(others)
-    return out
+def _colors(p: ProblemRecord, suite: str) -> dict[str, Any]:
+    fixed = FIXED_COLORS.get(suite, {})
+    others = iter([c for c in OTHER_COLORS if c not in fixed.values()] * 4)
+    return {e.name: fixed.get(e.name) or next(others) for e in p.estimators}
 
 
 def plot_error_vs_time(result: BenchResult, path: str | Path) -> Path:
@@ -106,7 +106,7 @@ def plot_error_vs_time(result: BenchResult, path: str | Path) -> Path:
     fig = _figure(4.2 * cols, 3.3 * rows)
     label = "|error| (—), reported stderr (··)" if result.error_kind == "signed" else "RMSE (—), stderr (··)"
     for i, p in enumerate(probs):
-        _panel_errors(fig.add_subplot(rows, cols, i + 1), p, _colors(p), label)
+        _panel_errors(fig.add_subplot(rows, cols, i + 1), p, _colors(p, result.suite), label)
     fig.suptitle(f"mcocl bench {result.suite}: error versus time ({result.device or 'OpenCL'})", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path)
@@ -120,7 +120,7 @@ def plot_efficiency(result: BenchResult, path: str | Path) -> Path:
     fig = _figure(4.2 * cols, 2.8 * rows)
     for i, p in enumerate(probs):
         ax = fig.add_subplot(rows, cols, i + 1)
-        colors = _colors(p)
+        colors = _colors(p, result.suite)
         bars = [(e.name, p.relative_efficiency(e)) for e in p.estimators if e.final and not e.failed]
         bars = [(n, r) for n, r in bars if math.isfinite(r) and r > 0]
         ax.barh([n for n, _ in bars], [r for _, r in bars], color=[colors[n] for n, _ in bars])

@@ -192,6 +192,8 @@ def _cached_reference(cs: CompiledScene, seconds: float, cache_dir: str, options
     print(f"bench render: rendering the reference (mis, {seconds:g} s) into {path}", file=sys.stderr)
     r = render(cs, None, time=seconds, integrator="mis", seed=REFERENCE_SEED, device=options.device,
                lanes=options.lanes, progress=True)
+    if r.stopped_by == "interrupt":
+        raise KeyboardInterrupt  # a cut-short reference must not be cached as a finished one
     path.parent.mkdir(parents=True, exist_ok=True)
     r.save_exr(path)
     return Reference(r.mean.astype(np.float64), r.variance.astype(np.float64),

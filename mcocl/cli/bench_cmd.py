@@ -25,16 +25,20 @@ actual error against the exact value).  It prints one table per problem:
   samples/s     throughput
   var/sample    the estimator's honest variance per sample, stderr^2 x samples
                 (for stratified and N-rooks designs the variance of the
-                design means, not the plain sample variance of f)
+                design means, not the plain sample variance of f); solve and
+                render: per query point or pixel
   efficiency    1 / (variance per sample x seconds per sample)
-  rel. eff.     efficiency over that of the 'independent' estimator
-  error at end  estimate - exact
+  rel. eff.     efficiency over that of the suite's plain estimator
+                (integrate: independent, solve: roulette, render: path)
+  error at end  estimate - exact (solve, render: RMS over the query points
+                or pixels against the exact values or the reference image)
   |err|<=4 se   whether the actual error agrees with the reported stderr
   rms z         root mean square of error/stderr over the checkpoints: about
                 1 when the stderr is honest (<< 1: overstated, >> 1: understated)
 
 and the engine's speed-up over a vectorised NumPy float64 version of the
-plain estimator, timed in the same process (the 'numpy' row).  Files in --out:
+plain estimator, timed in the same process (the 'numpy' row; integrate and
+solve).  Files in --out:
 SUITE-table.txt, SUITE-checkpoints.csv (one row per checkpoint),
 SUITE-summary.json, SUITE-error-vs-time.png and SUITE-efficiency.png.
 
@@ -43,14 +47,18 @@ Modes:
               discontinuous, singular, additive, two-peak, the six Genz
               families, 1 to 10 dimensions), or your own from --problem FILE
   solve       random-walk estimators on integral equations with known solutions
-  render      integrators on a scene against a reference image
-  --quick     a few seconds in all: the problems behind the lecture's orderings
+  render      path, nee and mis on a scene against a reference image (given
+              with --reference, or rendered by mis for 8x the budget and cached)
+  --quick     the problems behind the lecture's orderings, a few seconds each
+              suite (integrate and solve; with a mode, that mode's subset)
 """
 
 EXAMPLES = """\
 examples:
   mcocl bench --quick
   mcocl bench integrate --budget 5 --out bench-out/
+  mcocl bench solve --budget 5 --out bench-out/
+  mcocl bench render scenes/veach_mis.json --budget 30 --out bench-out/
   mcocl bench integrate --problem my_problems.json --estimators independent stratified nrooks
   mcocl bench integrate --only 'genz-*' two-peak-2d --budget 2
   mcocl bench integrate --list
@@ -104,6 +112,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="reference image of the scene (default: rendered by mis and cached in OUT/cache)")
     pr.add_argument("--reference-time", type=positive, default=None, metavar="SECONDS",
                     help="render time of the cached reference (default 8x the budget)")
+    pr.add_argument("--cache", default=None, metavar="DIR", help="where rendered references are cached (default OUT/cache)")
     pr.add_argument("--list", action="store_true", help="list the integrators, run nothing")
     p.set_defaults(func=run)
 
@@ -115,11 +124,17 @@ def _options(args: argparse.Namespace) -> BenchOptions:
         problem_files=list(getattr(args, "problem", []) or []), only=getattr(args, "only", None),
         inputs=[args.scene] if getattr(args, "scene", None) else [], reference=getattr(args, "reference", None),
         reference_seconds=getattr(args, "reference_time", None),
-        cache_dir=str(Path(out) / "cache"),
+        cache_dir=getattr(args, "cache", None) or str(Path(out) / "cache"),
     )
 
 
 def _list(suite: str, options: BenchOptions) -> None:
+    if suite == "render":  # listing must not render a reference
+        from ..bench.render_suite import DESCRIPTIONS
+
+        for name, text in DESCRIPTIONS.items():
+            print(f"{name}: {text}")
+        return
     for prob in load_suite(suite).problems(options):
         names = " ".join(s.name for s in prob.estimators())
         print(f"{prob.name}: {prob.description}\n    estimators: {names}")
