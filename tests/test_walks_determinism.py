@@ -22,7 +22,7 @@ from mcocl.walks.codegen import generate
 from mcocl.walks.job import WalkJob
 from mcocl.walks.tabulate import build_tables, default_grid
 
-WPB = 1024
+WPB = 4096
 
 
 def _solve(p, estimator="nee", walks=8 * WPB, **kw):

@@ -32,8 +32,7 @@ from .codegen import WalkCode
 from .tabulate import TableGrid, WalkTables
 
 STATS = 6
-WALKS_PER_BLOCK = 1024
-MAX_LANES = 16  # dummy scratch slots per work-item (walk.cl, WALK_MAX_LANES)
+WALKS_PER_BLOCK = 4096
 
 # Tabulation weights by (program, kind, grid); a program is cached by the
 # runtime for the life of the process, so its handle identifies K and g.
@@ -127,7 +126,6 @@ class WalkRunner:
         self._tables: cl.Buffer | None = None
         self._tables_of: WalkTables | None = None
         self._empty: WalkTables | None = None
-        self._pool: list[cl.Buffer] = []
 
     @property
     def lanes(self) -> int:
@@ -146,26 +144,13 @@ class WalkRunner:
             self._tables_of = tabs
         return self._tables, tabs.kernel_args()
 
-    def _scratch(self, nbytes: int) -> cl.Buffer:
-        """A scratch buffer of at least ``nbytes``, reused across launches.
-
-        Fresh buffers of tens of MiB per chunk cost page faults on first touch;
-        a few are kept (two chunks are in flight at once) and handed back by
-        :meth:`collect`.
-        """
-        for k, b in enumerate(self._pool):
-            if b.size >= nbytes:
-                return self._pool.pop(k)
-        return cl.Buffer(self.ctx.context, cl.mem_flags.READ_WRITE | cl.mem_flags.HOST_NO_ACCESS, nbytes)
-
-    def _launch(self, first_block: int, nblocks: int, shifts: np.ndarray) -> tuple[cl.Event, np.ndarray, cl.Buffer]:
+    def _launch(self, first_block: int, nblocks: int, shifts: np.ndarray) -> tuple[cl.Event, np.ndarray]:
         job = self.job
         nwork = nblocks * job.nq
         ctxt = self.ctx.context
         mf = cl.mem_flags
         out = np.empty((nblocks, job.nq, STATS), dtype=np.float64)
         bout = cl.Buffer(ctxt, mf.WRITE_ONLY, out.nbytes)
-        bvals = self._scratch(nwork * (job.walks_per_block + MAX_LANES) * 4)
         sh = np.ascontiguousarray(shifts, dtype=np.float64)
         bshift = cl.Buffer(ctxt, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=sh)
         tab, targs = self._table_buffer()
@@ -175,10 +160,10 @@ class WalkRunner:
             np.uint64(first_block), np.uint32(nwork), np.uint32(job.nq), np.uint32(job.walks_per_block),
             np.uint64(job.walk_limit), np.uint64(job.seed), self.queries, bshift,
             np.float32(job.survival), np.uint32(job.depth), np.uint32(job.max_len),
-            tab, *targs, bvals, bout,
+            tab, *targs, bout,
         )
         ev = cl.enqueue_copy(self.ctx.queue, out, bout, is_blocking=False)
-        return ev, out, bvals
+        return ev, out
 
     def pilot(self) -> np.ndarray:
         """Statistics of block 0 computed with zero shifts, ``(nq, STATS)``.
@@ -188,17 +173,15 @@ class WalkRunner:
         handle = self._launch(0, 1, np.zeros(self.job.nq))
         return self.collect(handle)[0]
 
-    def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, np.ndarray, cl.Buffer]:
+    def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, np.ndarray]:
         """Launch blocks ``first_block .. first_block + nblocks - 1`` (non-blocking)."""
         shifts = self.job.shifts if self.job.shifts is not None else np.zeros(self.job.nq)
         return self._launch(first_block, nblocks, shifts)
 
-    def collect(self, handle: tuple[cl.Event, np.ndarray, cl.Buffer]) -> np.ndarray:
+    def collect(self, handle: tuple[cl.Event, np.ndarray]) -> np.ndarray:
         """Wait for a launch; its ``(nblocks, nq, STATS)`` statistics."""
-        ev, out, scratch = handle
+        ev, out = handle
         ev.wait()
-        self._pool.append(scratch)
-        del self._pool[:-3]
         return out
 
     # -- tabulation and sampler checks -------------------------------------

@@ -49,6 +49,11 @@ WL_INLINE floatv wl_min(floatv a, floatv b) { return wl_self(b, a, a < b); }
 
 WL_INLINE uintv wl_minu(uintv a, uintv b) { return wl_selu(b, a, a < b); }
 
+/* |a| with the sign of b */
+WL_INLINE floatv wl_copysign(floatv a, floatv b) {
+    return wl_as_float((wl_as_int(a) & 0x7fffffff) | (wl_as_int(b) & (int)0x80000000));
+}
+
 /* -1, 0 or +1 with the sign of x (0 for +-0 and NaN, as sign()) */
 WL_INLINE floatv wl_sign(floatv x) {
     const floatv one = wl_as_float((wl_as_int(x) & (int)0x80000000) | 0x3f800000);
@@ -85,5 +90,6 @@ WL_INLINE int wl_any(intv m) {
 typedef union { floatv v; float a[LANES]; } wl_float_lanes;
 typedef union { uintv v; uint a[LANES]; } wl_uint_lanes;
 typedef union { intv v; int a[LANES]; } wl_int_lanes;
+typedef union { doublev v; double a[LANES]; } wl_double_lanes;
 
 #endif

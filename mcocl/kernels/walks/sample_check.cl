@@ -21,7 +21,7 @@ kernel void walk_sample_check(uint n, ulong seed, global const float *xs, global
     t.tab = tab; t.nxa = nxa; t.nya = nya; t.nb = nb; t.lognb = lognb;
     t.trans_off = trans_off; t.q_off = q_off; t.src_off = src_off;
     const uintv idx = (uintv)(gid * LANES) + LANE_IOTA;
-    floatv u[WALK_NU];
+    floatv u[WALK_NUI]; /* the first step's uniforms come first */
     walk_step_uniforms(idx, (uintv)(0u), (uintv)(0u), (uint)(seed & 0xffffffffu), (uint)(seed >> 32), WALK_STREAM,
                        u);
     floatv x[DIM], y[DIM], z[DIM], q;

@@ -23,20 +23,19 @@
  * not held up by its longest walk).  Which lane runs a walk changes nothing:
  * its numbers depend on (seed, q, w, step) alone (walk_rng.cl).
  *
- * Determinism.  Every walk stores its value in scratch memory at its own
- * index; at the end the work-item adds the values up in a fixed order
- * (walk i into partial sum i mod 16, the 16 partial sums in order), in
- * double.  The block's sums are therefore the same bits for any LANES, any
- * work-group size and any split of blocks into launches.  Counts and walk
- * lengths are integers, exact in any order, and are summed in the lanes.
+ * Lane l runs walks l, l + LANES, l + 2 LANES, ... of the block, in this
+ * order (a static hand-over: walks are short, a lane finishes one in most
+ * iterations, and a shared counter would need a prefix count across lanes
+ * and data-dependent branches).  The lanes' shares differ only by the random
+ * walk lengths, a few per cent of a block of 1024 walks.
  *
- * Cost.  Walks are short (often one or two moves), so a lane finishes a walk
- * in most iterations.  Lane l runs walks l, l + LANES, l + 2 LANES, ... of
- * the block (a static hand-over: no prefix count across lanes, no
- * data-dependent branch), and every lane stores its value when any lane
- * finishes, unfinished lanes into a dummy slot past the block's walks.  The
- * lanes' shares differ only by the random walk lengths, a few per cent of a
- * block of 1024 walks.
+ * Determinism.  Walk j's value is added, in double, to virtual partial sum
+ * j mod 16 (lane j mod LANES, accumulator (j / LANES) mod (16 / LANES)), and
+ * each lane meets its walks in increasing j; at the end the 16 partial sums
+ * are added in order.  So every partial sum adds the same walks in the same
+ * order for any LANES (as in integrate/integrate.cl), and the block's sums
+ * are the same bits for any lane width, work-group size and split of blocks
+ * into launches.  Counts and walk lengths are integers, exact in any order.
  *
  * Guard.  A walk that survives `max_len` moves, or whose weight grows beyond
  * WALK_WEIGHT_GUARD (finite factors multiplying up: the terms of the series
@@ -56,7 +55,8 @@
 
 #define WALK_STATS 6
 #define WALK_WEIGHT_GUARD 1e30f
-#define WALK_MAX_LANES 16 /* dummy slots per work-item: the widest build */
+#define WALK_VLANES 16 /* virtual partial sums */
+#define WALK_NACC (WALK_VLANES / LANES)
 
 inline ulong lane_sum_ul(ulongv v) {
 #if LANES == 1
@@ -74,8 +74,7 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
                         global const float *queries, global const double *shifts,
                         float survival, uint depth, uint max_len,
                         global const uint *tab, uint nxa, uint nya, uint nb, uint lognb,
-                        uint trans_off, uint q_off, uint src_off,
-                        global float *vals, global double *out) {
+                        uint trans_off, uint q_off, uint src_off, global double *out) {
     const uint gid = get_global_id(0);
     if (gid >= nwork) return;
     const uint qi = gid % nq;
@@ -86,8 +85,8 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
     t.trans_off = trans_off; t.q_off = q_off; t.src_off = src_off;
     const uint k0 = (uint)(seed & 0xffffffffu), k1 = (uint)(seed >> 32);
     const uint stream = WALK_STREAM + qi;
-    /* wpb values, then LANES dummy slots for the lanes that did not finish */
-    global float *V = vals + (size_t)gid * (wpb + WALK_MAX_LANES);
+    const double shift = shifts[qi];
+    const uint w0_lo = (uint)(w0 & 0xffffffffu), w0_hi = (uint)(w0 >> 32);
 
     floatv x0[DIM];
     for (int k = 0; k < DIM; ++k) x0[k] = (floatv)(queries[qi * DIM + k]);
@@ -101,57 +100,97 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
     for (int k = 0; k < DIM; ++k) x[k] = x0[k];
     floatv W = (floatv)(1.0f), S = s0;
     uintv n = (uintv)(0u);
+    /* statistics: integer counts in the lanes, double sums in WALK_VLANES partial sums */
     ulongv moves = (ulongv)(0ul);
-    uintv guards = (uintv)(0u);
+    uintv guards = (uintv)(0u), nbad = (uintv)(0u), nok = (uintv)(0u);
+    doublev s1[WALK_NACC], s2[WALK_NACC];
+    for (int a = 0; a < WALK_NACC; ++a) {
+        s1[a] = (doublev)(0.0);
+        s2[a] = (doublev)(0.0);
+    }
 
     while (wl_any(active)) {
-        const ulongv w = (ulongv)(w0) + to_ulongv(j);
-        floatv u[WALK_NU];
-        walk_step_uniforms(to_uintv(w & (ulong)0xffffffffu), to_uintv(w >> 32), n, k0, k1, stream, u);
+        /* walk index w0 + j as two 32-bit words (w0 is a multiple of wpb, j < wpb) */
+        const uintv w_lo = (uintv)(w0_lo) + j;
+        const uintv w_hi = (uintv)(w0_hi) + to_uintv(mask_bit(w_lo < j));
+        floatv uu[WALK_NUI];
+        walk_step_uniforms(w_lo, w_hi, n / (uint)WALK_SPB, k0, k1, stream, uu);
+        /* up to WALK_SPB steps (every lane starts the iteration at a step that is
+         * a multiple of WALK_SPB: walks restart at 0 and advance WALK_SPB at a time) */
+        intv going = active, finished = (intv)(0), guard = (intv)(0);
+#pragma unroll
+        for (int sub = 0; sub < WALK_SPB; ++sub) {
+            const floatv *u = uu + sub * WALK_NU;
 #if WALK_EST == WALK_EST_NEE
-        S += W * walk_next_event(x, u, t);
+            S = wl_self(S, S + W * walk_next_event(x, u, t), going);
 #endif
-        floatv y[DIM], q;
-        const floatv m = walk_transition(x, u, y, &q, t);
+            floatv y[DIM], q;
+            const floatv m = walk_transition(x, u, y, &q, t);
 #if WALK_EST == WALK_EST_TRUNCATED
-        const floatv Wn = W * m;
-        intv go = n < (uintv)(depth);
+            const floatv Wn = W * m;
+            intv go = n < (uintv)(depth);
 #elif WALK_EST == WALK_EST_ROULETTE
-        floatv Wn = W * m;
-        const floatv P = survival > 0.0f ? (floatv)(survival) : wl_min(wl_abs(Wn), (floatv)(1.0f));
-        intv go = u[WALK_U_SURV] < P;
-        Wn = Wn / P;
+            floatv Wn = W * m;
+            intv go;
+            if (survival > 0.0f) {
+                go = u[WALK_U_SURV] < survival;
+                Wn = Wn / survival;
+            } else {
+                /* P = min(1, |Wn|) and Wn / P = sign(Wn) max(1, |Wn|), exactly (x / |x| = +-1) */
+                const floatv a = wl_abs(Wn);
+                go = u[WALK_U_SURV] < a;
+                Wn = wl_copysign(wl_self(a, (floatv)(1.0f), a < 1.0f), Wn);
+            }
 #else
-        intv go = u[WALK_U_SURV] < q;
-        const floatv Wn = W * m / q;
+            intv go = u[WALK_U_SURV] < q;
+            const floatv Wn = W * m / q;
 #endif
-        go = go & active;
-        const intv guard = go & ((n >= (uintv)(max_len)) | ((wl_abs(Wn) > WALK_WEIGHT_GUARD) & wl_finite(Wn)));
-        go = go & !guard;
-        for (int k = 0; k < DIM; ++k) x[k] = wl_self(x[k], y[k], go);
-        W = wl_self(W, Wn, go);
-        n += to_uintv(mask_bit(go));
+            go = go & going;
+            const intv g = go & ((n >= (uintv)(max_len)) | ((wl_abs(Wn) > WALK_WEIGHT_GUARD) & wl_finite(Wn)));
+            guard = guard | g;
+            go = go & !g;
+            for (int k = 0; k < DIM; ++k) x[k] = wl_self(x[k], y[k], go);
+            W = wl_self(W, Wn, go);
+            n += to_uintv(mask_bit(go));
 #if WALK_EST != WALK_EST_NEE
-        S = wl_self(S, S + Wn * walk_g(y), go);
+            S = wl_self(S, S + Wn * walk_g(y), go);
 #endif
-        /* A walk ends when it does not move on, when its weight is 0 (nothing
-         * more to add) or when its weight or value is no longer finite. */
-        S = wl_self(S, (floatv)(NAN), go & !wl_finite(W));
-        intv finished = active & (!go | (W == 0.0f) | !wl_finite(S));
+            /* A walk ends when it does not move on, when its weight is 0 (nothing
+             * more to add) or when its weight or value is no longer finite. */
+            S = wl_self(S, (floatv)(NAN), go & !wl_finite(W));
+            intv ends = going & (!go | (W == 0.0f) | !wl_finite(S));
 #if WALK_EST == WALK_EST_TRUNCATED
-        finished = finished | (active & (n >= (uintv)(depth)));
+            ends = ends | (going & (n >= (uintv)(depth)));
 #endif
+            finished = finished | ends;
+            going = going & !ends;
+        }
         if (wl_any(finished)) {
             moves += to_ulongv(wl_selu((uintv)(0u), n, finished));
             guards += to_uintv(mask_bit(guard));
-            /* a guard-stopped walk is stored as NaN and counted as a guard hit */
-            wl_float_lanes rec;
-            rec.v = wl_self(S, (floatv)(NAN), guard);
-            wl_uint_lanes dst;
-            dst.v = wl_selu((uintv)(wpb) + LANE_IOTA, j, finished);
-            for (int l = 0; l < LANES; ++l) V[dst.a[l]] = rec.a[l];
+            const intv ok = finished & !guard & wl_finite(S);
+            nbad += to_uintv(mask_bit(finished & !guard & !wl_finite(S)));
+            nok += to_uintv(mask_bit(ok));
+            /* add v - shift to partial sum j mod 16: lane j mod LANES of accumulator
+             * (j / LANES) mod WALK_NACC.  Lanes that add nothing add 0 (or -0),
+             * selected by multiplying with exact 0/1 factors (cheaper than masks). */
+            const doublev okf = to_doublev(to_intv(mask_bit(ok)));
+            const doublev d = (to_doublev(wl_self((floatv)(0.0f), S, ok)) - shift) * okf;
+            const doublev dd = d * d;
+#if WALK_NACC == 1
+            s1[0] += d;
+            s2[0] += dd;
+#else
+            const uintv acc = (j / (uint)LANES) % (uint)WALK_NACC;
+#pragma unroll
+            for (int a = 0; a < WALK_NACC; ++a) {
+                const doublev in_a = to_doublev(to_intv(mask_bit(acc == (uint)a)));
+                s1[a] += d * in_a;
+                s2[a] += dd * in_a;
+            }
+#endif
             stop |= wl_any(guard);
-            /* lane l runs walks l, l + LANES, l + 2 LANES, ...; after a guard hit, none */
+            /* the lane's next walk; after a guard hit, none (the run will raise) */
             j = wl_selu(j, stop ? (uintv)(nwalks) : j + (uint)LANES, finished);
             for (int k = 0; k < DIM; ++k) x[k] = wl_self(x[k], x0[k], finished);
             W = wl_self(W, (floatv)(1.0f), finished);
@@ -161,41 +200,22 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
         }
     }
 
-    /* the block's statistics (see "Determinism" above); after a guard hit some
-     * walks never ran: only the guard count is reported, the run will raise */
-    const uint started = stop ? 0u : nwalks;
-    const double shift = shifts[qi];
-    double16 a1 = (double16)(0.0), a2 = (double16)(0.0), an = (double16)(0.0), ab = (double16)(0.0);
-    for (uint i = 0; i < started; i += 16) {
-        const int16 in_range = convert_int16((uint16)(i) + (uint16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
-                                             < (uint16)(started));
-        const float16 v = vload16(0, V + i);
-        const long16 ok = convert_long16(in_range & isfinite(v));
-        const long16 bad = convert_long16(in_range & !isfinite(v));
-        const double16 d = select((double16)(0.0), convert_double16(v) - shift, ok);
-        a1 += d;
-        a2 += d * d;
-        an += select((double16)(0.0), (double16)(1.0), ok);
-        ab += select((double16)(0.0), (double16)(1.0), bad);
+    /* the 16 partial sums in order: virtual lane r = lane r mod LANES of accumulator r / LANES */
+    double t1 = 0.0, t2 = 0.0;
+    for (int a = 0; a < WALK_NACC; ++a) {
+        wl_double_lanes v1, v2;
+        v1.v = s1[a];
+        v2.v = s2[a];
+        for (int l = 0; l < LANES; ++l) {
+            t1 += v1.a[l];
+            t2 += v2.a[l];
+        }
     }
-    double nv = 0.0, nbad = 0.0, s1 = 0.0, s2 = 0.0;
-    double t1[16], t2[16], tn[16], tb[16];
-    vstore16(a1, 0, t1);
-    vstore16(a2, 0, t2);
-    vstore16(an, 0, tn);
-    vstore16(ab, 0, tb);
-    for (int k = 0; k < 16; ++k) {
-        s1 += t1[k];
-        s2 += t2[k];
-        nv += tn[k];
-        nbad += tb[k];
-    }
-    const double nguard = (double)lane_sum_u(guards);
     global double *o = out + (size_t)gid * WALK_STATS;
-    o[0] = nv;
-    o[1] = nbad - nguard;
-    o[2] = s1;
-    o[3] = s2;
+    o[0] = (double)lane_sum_u(nok);
+    o[1] = (double)lane_sum_u(nbad);
+    o[2] = t1;
+    o[3] = t2;
     o[4] = (double)lane_sum_ul(moves);
-    o[5] = nguard;
+    o[5] = (double)lane_sum_u(guards);
 }
