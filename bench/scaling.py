@@ -28,8 +28,12 @@ processes, each with its own one-thread pool: there 1 -> 2 is a real doubling
 of the cores used.
 
 Rates are reported per wall second and per CPU second of the processes that
-computed (the machine may be shared: a CPU-second rate that stays constant
-while the wall rate drops means the cores were busy with someone else).
+computed, and "cores" is CPU seconds / wall seconds: what the run really got.
+On a shared machine a CPU-second rate that stays constant while the wall rate
+and "cores" drop means the cores were busy with someone else; compare wall
+rates only between runs that got the cores they asked for.  An idle Dask
+worker process itself uses about 4 % of a core (measured), which shows in
+its CPU-second rate.
 
 The scheduling overhead per chunk is measured with a job whose launches cost
 nothing (a null runner): wall time per chunk of the multi-device scheduler,
@@ -203,6 +207,14 @@ def _fmt_rate(v: float) -> str:
     return f"{v / 1e6:8.1f} M/s"
 
 
+def _row(name: str, r: dict) -> str:
+    # cores = CPU seconds / wall seconds: what the run actually got; well under
+    # the cores it asked for means the machine was busy with other work.
+    return (f"{name:<9} {_fmt_rate(r['samples_per_second']):>17} {r['seconds']:8.2f} "
+            f"{_fmt_rate(r['samples_per_cpu_second']):>15} {r['cpu_seconds']:8.2f} "
+            f"{r['cpu_seconds'] / r['seconds']:6.2f}  {r['what']}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seconds", type=float, default=30.0, help="duration of the one-core baseline (default 30)")
@@ -245,16 +257,15 @@ def main() -> int:
     print(f"machine: {os.cpu_count()} cores, load average before {load0[0]:.2f}")
     print()
     runs: dict[str, list[dict]] = {n: [] for n in names}
-    header = f"{'config':<9} {'samples/s (wall)':>17} {'wall s':>8} {'samples/cpu-s':>15} {'cpu s':>8}  what"
+    header = (f"{'config':<9} {'samples/s (wall)':>17} {'wall s':>8} {'samples/cpu-s':>15} {'cpu s':>8} "
+              f"{'cores':>6}  what")
     print(header)
     for rep in range(max(a.repeat, 1)):
         # Round robin, so a busy spell of the machine hits every configuration alike.
         for n in names:
             r = _child(["--run", n, "--samples", str(samples)], _env_for(n))
             runs[n].append(r)
-            print(f"{n:<9} {_fmt_rate(r['samples_per_second']):>17} {r['seconds']:8.2f} "
-                  f"{_fmt_rate(r['samples_per_cpu_second']):>15} {r['cpu_seconds']:8.2f}  "
-                  f"{r['what']}{f'  [run {rep + 1}]' if a.repeat > 1 else ''}")
+            print(f"{_row(n, r)}{f'  [run {rep + 1}]' if a.repeat > 1 else ''}")
             if len(r["device_rates"]) > 1:
                 for dn, blocks_per_s in r["device_rates"]:
                     print(f"{'':<9}   {dn}: {blocks_per_s:.0f} blocks/s")
@@ -263,8 +274,7 @@ def main() -> int:
         print(f"\nbest of {a.repeat} runs:")
         print(header)
         for n, r in results.items():
-            print(f"{n:<9} {_fmt_rate(r['samples_per_second']):>17} {r['seconds']:8.2f} "
-                  f"{_fmt_rate(r['samples_per_cpu_second']):>15} {r['cpu_seconds']:8.2f}  {r['what']}")
+            print(_row(n, r))
     estimates = {r["estimate"] for rs in runs.values() for r in rs}
     print(f"\nsame estimate in every configuration (bit-identical sums): {len(estimates) == 1}")
 
