@@ -209,6 +209,9 @@ def resolve_devices(device: Any = None, devices: Any = None, split: Any = None) 
     for d in chosen:
         if parts > 1 and can_split(d) and d.max_compute_units >= parts:
             contexts.extend(sub_device_contexts(d, parts))
+            if "pocl" in d.platform.version.lower():
+                notes.append(f"{d.name.strip()}: PoCL runs every sub-device on one shared thread pool, "
+                             "so --split adds queues, not cores (see mcocl devices --split)")
         else:
             if parts > 1:
                 why = "no device fission" if not can_split(d) else f"only {d.max_compute_units} compute units"
