@@ -36,7 +36,6 @@ from .codegen import generate
 from .job import STATS, WalkJob, WalkRunner, estimates
 from .nystrom import spectral_radius
 from .request import WalkRequest, positive_int, validate
-from .tabulate import build_tables
 
 
 @dataclass
@@ -136,16 +135,15 @@ def _tabulate(req: WalkRequest, job: WalkJob, runner: WalkRunner) -> list[str]:
     code = job.code
     if not (code.needs_transition_table or code.needs_source_table):
         return []
-    kw = runner.tabulate_kernel(req.grid) if code.needs_transition_table else None
-    sw = runner.tabulate_source(req.grid) if code.needs_source_table else None
-    tabs = build_tables(kw, sw, req.grid)
+    tabs = runner.tables(req.grid, code.needs_transition_table, code.needs_source_table)
     job.tables = tabs
     notes = []
+    g = req.grid
     if tabs.nonfinite_kernel:
-        notes.append(f"the kernel was NaN/Inf at {tabs.nonfinite_kernel} of {kw.size} tabulation weights; "
+        notes.append(f"the kernel was NaN/Inf at {tabs.nonfinite_kernel} of {g.ncells * g.nbins} tabulation weights; "
                      "those bins are sampled by the defensive mixture only")
     if tabs.nonfinite_source:
-        notes.append(f"the source was NaN/Inf at {tabs.nonfinite_source} of {sw.size} tabulation weights; "
+        notes.append(f"the source was NaN/Inf at {tabs.nonfinite_source} of {g.nbins} tabulation weights; "
                      "those bins are sampled by the defensive mixture only")
     return notes
 

@@ -29,23 +29,17 @@ import pyopencl as cl
 from .. import runtime
 from ..accumulate import mean_and_variance
 from .codegen import WalkCode
-from .tabulate import TableGrid, WalkTables
+from .tabulate import TableGrid, WalkTables, build_tables
 
 STATS = 6
 WALKS_PER_BLOCK = 4096
 
-# Tabulation weights by (program, kind, grid); a program is cached by the
-# runtime for the life of the process, so its handle identifies K and g.
-_TABLE_CACHE: dict[tuple[int, str, TableGrid], np.ndarray] = {}
-_TABLE_CACHE_SIZE = 32
-
-
-def _remember(key: tuple[int, str, TableGrid], value: np.ndarray) -> np.ndarray:
-    if len(_TABLE_CACHE) >= _TABLE_CACHE_SIZE:
-        _TABLE_CACHE.pop(next(iter(_TABLE_CACHE)))
-    value.setflags(write=False)
-    _TABLE_CACHE[key] = value
-    return value
+# Built tables by (program, grid, kernel table?, source table?); a program is
+# cached by the runtime for the life of the process, so its handle identifies
+# K and g on one device.  Repeated solves of one problem (other seeds, more
+# walks) tabulate once.
+_TABLE_CACHE: dict[tuple[int, TableGrid, bool, bool], WalkTables] = {}
+_TABLE_CACHE_SIZE = 16
 
 
 @dataclass
@@ -186,15 +180,22 @@ class WalkRunner:
 
     # -- tabulation and sampler checks -------------------------------------
 
-    def tabulate_kernel(self, grid: TableGrid) -> np.ndarray:
-        """``(ncells, nbins)`` mean |K| per cell of x and bin of y (NaN where not finite).
+    def tables(self, grid: TableGrid, kernel: bool, source: bool) -> WalkTables:
+        """The walk's tables on ``grid``: |K(x, .)| when ``kernel``, |g| when ``source`` (remembered)."""
+        key = (self.program.program.int_ptr, grid, kernel, source)
+        tabs = _TABLE_CACHE.get(key)
+        if tabs is None:
+            kw = self.tabulate_kernel(grid) if kernel else None
+            sw = self.tabulate_source(grid) if source else None
+            tabs = build_tables(kw, sw, grid)
+            tabs.data.setflags(write=False)
+            if len(_TABLE_CACHE) >= _TABLE_CACHE_SIZE:
+                _TABLE_CACHE.pop(next(iter(_TABLE_CACHE)))
+            _TABLE_CACHE[key] = tabs
+        return tabs
 
-        Remembered per program and grid: repeated solves of one problem (other
-        seeds, more walks) tabulate once.
-        """
-        key = (self.program.program.int_ptr, "kernel", grid)
-        if key in _TABLE_CACHE:
-            return _TABLE_CACHE[key]
+    def tabulate_kernel(self, grid: TableGrid) -> np.ndarray:
+        """``(ncells, nbins)`` mean |K| per cell of x and bin of y (NaN where not finite)."""
         n = grid.ncells * grid.nbins
         out = np.empty(n, np.float32)
         buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
@@ -204,13 +205,10 @@ class WalkRunner:
             np.uint32(grid.bins), np.uint32(grid.sub_x), np.uint32(grid.sub_y), buf,
         )
         cl.enqueue_copy(self.ctx.queue, out, buf)
-        return _remember(key, out.reshape(grid.ncells, grid.nbins))
+        return out.reshape(grid.ncells, grid.nbins)
 
     def tabulate_source(self, grid: TableGrid) -> np.ndarray:
-        """``(nbins,)`` mean |g| per bin of y (NaN where not finite); remembered like the kernel's."""
-        key = (self.program.program.int_ptr, "source", grid)
-        if key in _TABLE_CACHE:
-            return _TABLE_CACHE[key]
+        """``(nbins,)`` mean |g| per bin of y (NaN where not finite)."""
         n = grid.nbins
         out = np.empty(n, np.float32)
         buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
@@ -219,7 +217,7 @@ class WalkRunner:
             self.ctx.queue, gsize, lsize, np.uint32(n), np.uint32(grid.bins), np.uint32(grid.sub_y), buf,
         )
         cl.enqueue_copy(self.ctx.queue, out, buf)
-        return _remember(key, out)
+        return out
 
     def sample_check(self, x: np.ndarray, n: int, seed: int = 0) -> dict[str, np.ndarray]:
         """The walk's own samplers at vertex ``x``, ``n`` times (for goodness-of-fit tests).
