@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from walk_problems import CLOSED_FORM, CONST1, ROWGT1, SEP1, SEP2, UNBIASED, Problem
 
-from mcocl import solve_fredholm
+from mcocl import ConvergenceError, solve_fredholm
 
 Z = 5.0
 
@@ -82,3 +82,17 @@ def test_truncated_bias_is_the_missing_tail_and_shrinks_with_depth():
     # the roulette walk on the same problem is not biased
     r = solve(CONST1, "roulette", 200_000)
     assert np.all(np.abs((r.values - truth) / r.stderr) < Z)
+
+
+def test_truncated_needs_only_the_series_of_k_to_converge():
+    # K = 1.8 cos(6 pi (x - y)), g = cos(6 pi x): T g = 0.9 g, so the series of K
+    # converges (spectral radius 0.9) though that of |K| does not (about 1.15).
+    # Cut after D moves: f_D = (1 - 0.9^(D+1)) / 0.1 g.
+    k, g = "1.8f*cos(6.0f*M_PI_F*(x[0] - y[0]))", "cos(6.0f*M_PI_F*x[0])"
+    at = np.array([0.05, 0.3, 0.5])
+    r = solve_fredholm(k, g, at=at, walks=200_000, estimator="truncated", depth=6, seed=4)
+    expected = (1 - 0.9**7) / 0.1 * np.cos(6 * np.pi * at)
+    assert np.all(np.abs((r.values - expected) / r.stderr) < Z)
+    # a walk with a constant survival probability has no expectation here
+    with pytest.raises(ConvergenceError, match=r"\|K\| has spectral radius"):
+        solve_fredholm(k, g, at=at, walks=1000, estimator="roulette", survival=0.5)

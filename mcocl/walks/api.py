@@ -120,12 +120,17 @@ def _divergence_message(guards: float, walks: float, max_len: int) -> str:
 
 
 def _check_spectral_radius(req: WalkRequest, device: Any) -> list[str]:
-    rho = spectral_radius(req.kernel, req.dim, device=device)
+    # truncated: the cut series approximates f only when the series of K
+    # converges (spectral radius of K < 1); roulette with a constant P: the
+    # walk's expectation exists only when the series of |K| converges.
+    absolute = req.estimator != "truncated"
+    rho = spectral_radius(req.kernel, req.dim, device=device, absolute=absolute)
     if not math.isfinite(rho):
         return ["the kernel is not finite at some Gauss-Legendre node; the convergence check was skipped"]
     if rho >= 1.0:
+        what = "|K|" if absolute else "K"
         raise ConvergenceError(
-            f"the Neumann series appears not to converge: the discretised |K| has spectral radius about "
+            f"the Neumann series appears not to converge: the discretised {what} has spectral radius about "
             f"{rho:.4g} >= 1, so the {req.estimator} estimator would return a meaningless finite number"
         )
     return []
