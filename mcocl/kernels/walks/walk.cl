@@ -27,7 +27,9 @@
  * order (a static hand-over: walks are short, a lane finishes one in most
  * iterations, and a shared counter would need a prefix count across lanes
  * and data-dependent branches).  The lanes' shares differ only by the random
- * walk lengths, a few per cent of a block of 1024 walks.
+ * walk lengths, a few per cent of a block of 4096 walks.  An iteration makes
+ * WALK_SPB steps of every lane when one Philox block holds the uniforms of
+ * several steps (walk_rng.cl): Philox is about half of a step's cost.
  *
  * Determinism.  Walk j's value is added, in double, to virtual partial sum
  * j mod 16 (lane j mod LANES, accumulator (j / LANES) mod (16 / LANES)), and
