@@ -340,6 +340,7 @@ def integrate(
     if checkpoint:
         acc.save(checkpoint)
 
+    notes += list(getattr(report, "notes", []) or [])
     est, var, n = estimate_from_totals(acc.totals, design, shift)
     if req.control:
         est += req.control_integral
@@ -361,7 +362,7 @@ def integrate(
         variance=var * samples_used if math.isfinite(var) else math.nan,
         samples=samples_used,
         seconds=report.seconds,
-        device=ctx.name,
+        device=", ".join(report.devices) if report.devices else ctx.name,
         sampler=req.sampler,
         seed=req.seed,
         nonfinite=nonfinite,
