@@ -265,6 +265,9 @@ def solve_fredholm(
         if acc.meta.get("tables") != (job.tables.digest() if job.tables is not None else None):
             raise InputError(f"checkpoint {resume} was made with different tabulated densities "
                              "(another device or version); it cannot be resumed here")
+        if acc.meta.get("walks_per_block") != job.walks_per_block:
+            raise InputError(f"checkpoint {resume} has blocks of {acc.meta.get('walks_per_block')} walks, this "
+                             f"version uses {job.walks_per_block}; it cannot be resumed here")
         if acc.meta.get("partial_tail") and acc.meta.get("walk_limit") != limit:
             raise InputError(f"checkpoint {resume} ends in a partial block of {job.walks_per_block} walks; "
                              f"resume it with the same walks ({acc.meta.get('walk_limit')}) or start runs with a "

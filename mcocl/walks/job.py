@@ -13,7 +13,7 @@ col   meaning
 2     sum (v - shift)
 3     sum (v - shift)^2
 4     sum of walk lengths (moves), all walks
-5     guard hits (walks stopped at max_walk_length)
+5     guard hits (walks stopped at max_walk_length or a weight beyond 1e30)
 ====  ==============================================
 """
 
@@ -56,7 +56,7 @@ class WalkJob:
         max_len: the walk-length guard.
         tables: tabulated densities (set by the API after tabulation).
         shifts: per query point, subtracted before summing (set after the pilot).
-        lanes: vector width override (None: the walk default, see api.py).
+        lanes: vector width override (None: the device's default, 8 with AVX2).
     """
 
     code: WalkCode
