@@ -110,7 +110,7 @@ class WalkRunner:
             job.code.users,
             tail=job.code.tail,
             options=job.code.options,
-            what="the integral equation's code",
+            what="integral equation",
             lanes=job.lanes,
         )
         self.build_seconds = time.perf_counter() - t0

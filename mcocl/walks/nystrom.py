@@ -65,7 +65,7 @@ class ExpressionEvaluator:
         users = (kernel_user(kernel, self.dim), source_user(source, self.dim))
         src = runtime.compose([], "", users, vector_users=False, tail=["walks/evaluate.cl"])
         self.program = runtime.build(self.ctx, src, ["-DLANES=1", f"-DDIM={self.dim}"], users,
-                                     what="the integral equation's code")
+                                     what="integral equation")
 
     def _points(self, p: np.ndarray) -> np.ndarray:
         a = np.ascontiguousarray(np.asarray(p, dtype=np.float32).reshape(-1, self.dim))
