@@ -356,3 +356,12 @@ def test_example_problem_file_parses():
     assert list(probs[2].estimator_options()) == ["independent", "stratified", "nrooks", "left", "right", "average",
                                                   "max", "balance", "power", "roulette-half"]
     assert probs[0].baseline().start is not None  # NumPy twin translated from the OpenCL C expression
+
+
+def test_problem_file_bad_extra_estimator_names_it(tmp_path):
+    from mcocl.bench.integrate_suite import SUITE
+    from mcocl.bench.suite import BenchOptions
+
+    f = _write(tmp_path, [{**GOOD, "estimators": {"rr": {"roulette": 2.0}}}])
+    with pytest.raises(InputError, match=r"'bump'.*'estimators\.rr'.*roulette"):
+        SUITE.problems(BenchOptions(problem_files=[str(f)]))

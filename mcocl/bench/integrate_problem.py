@@ -155,7 +155,7 @@ class IntegrationProblem:
 
         Raises:
             InputError: naming the problem and the field (``expression``,
-                ``proposals[i]``, ``control``, ``extra.<name>``, ``numpy``).
+                ``proposals[i]``, ``control``, ``estimators.<name>`` (the extra estimators), ``numpy``).
         """
         where = f"problem {self.name!r} ({self.source})"
         if self.numpy is not None:
@@ -169,7 +169,7 @@ class IntegrationProblem:
             parts.append(("shares", {"proposals": list(self.proposals), "shares": self.shares}))
         if self.control is not None:
             parts.append(("control", {"control": self.control, "control_integral": self.control_integral}))
-        parts += [(f"extra.{n}", kw) for n, kw in self.extra.items()]
+        parts += [(f"estimators.{n}", kw) for n, kw in self.extra.items()]
         for fld, kw in parts:
             try:
                 integrate(self.expression, self.dim, 1, seed=self.seed, device=self.device, lanes=self.lanes, **kw)

@@ -118,6 +118,8 @@ def plot_efficiency(result: BenchResult, path: str | Path) -> Path:
     probs = [p for p in result.problems if p.get(p.reference) is not None]
     rows, cols = _grid(len(probs))
     fig = _figure(4.2 * cols, 2.8 * rows)
+    from matplotlib.ticker import NullFormatter
+
     for i, p in enumerate(probs):
         ax = fig.add_subplot(rows, cols, i + 1)
         colors = _colors(p, result.suite)
@@ -125,6 +127,7 @@ def plot_efficiency(result: BenchResult, path: str | Path) -> Path:
         bars = [(n, r) for n, r in bars if math.isfinite(r) and r > 0]
         ax.barh([n for n, _ in bars], [r for _, r in bars], color=[colors[n] for n, _ in bars])
         ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.axvline(1.0, color="0.4", linewidth=0.8)
         ax.invert_yaxis()
         ax.set_title(p.name, fontsize=9)

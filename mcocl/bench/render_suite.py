@@ -60,11 +60,12 @@ REFERENCE_SEED = 0x5EED_0F_2EF
 
 @dataclass
 class Reference:
-    """The reference image and where it came from."""
+    """The reference image, how it was made, and its file."""
 
     mean: np.ndarray
     variance: np.ndarray | None
     how: str
+    file: str = ""
 
 
 def image_rmse(mean: np.ndarray, ref: Reference) -> float:
@@ -167,6 +168,7 @@ class RenderProblem:
         cs = self.scene
         return {"name": self.name, "scene": self.path, "width": cs.width, "height": cs.height,
                 "max_depth": cs.max_depth, "rr_depth": cs.rr_depth, "reference": self.reference.how,
+                "reference_file": self.reference.file,
                 "exact": float(np.nanmean(self.reference.mean)), "description": self.description}
 
 
@@ -177,18 +179,32 @@ def _reference_from_file(path: str, cs: CompiledScene) -> Reference:
         raise InputError(f"--reference {path}: the image is {img.mean.shape[1]}x{img.mean.shape[0]}, "
                          f"the scene renders {cs.width}x{cs.height}")
     var = None if img.variance is None else img.variance.astype(np.float64)
-    how = f"{path}" + (" (its variance subtracted from the MSE)" if var is not None else " (no variance layer)")
-    return Reference(img.mean.astype(np.float64), var, how)
+    how = f"{Path(path).name}" + (" (its variance subtracted from the MSE)" if var is not None else " (no variance layer)")
+    return Reference(img.mean.astype(np.float64), var, how, str(path))
+
+
+def _kernel_digest() -> str:
+    """A digest of the renderer's OpenCL sources: a cached reference is stale once they change."""
+    h = hashlib.sha256()
+    root = Path(__file__).resolve().parent.parent / "kernels" / "render"
+    for f in sorted(root.glob("*.cl")):
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()
 
 
 def _cached_reference(cs: CompiledScene, seconds: float, cache_dir: str, options: BenchOptions) -> Reference:
     key = hashlib.sha256(repr((tables_digest(scene_tables(cs)), cs.width, cs.height, cs.max_depth, cs.rr_depth,
-                               round(seconds, 3), REFERENCE_SEED, __version__)).encode()).hexdigest()[:16]
+                               round(seconds, 3), REFERENCE_SEED, __version__, _kernel_digest())).encode()).hexdigest()[:16]
     path = Path(cache_dir) / f"render-reference-{key}.exr"
     if path.is_file():
         img = read_exr(path)
+        try:
+            secs = f"{float(img.metadata.get('seconds', 'nan')):.4g}"
+        except ValueError:
+            secs = "?"
         return Reference(img.mean.astype(np.float64), None if img.variance is None else img.variance.astype(np.float64),
-                         f"cached mis reference {path} ({img.metadata.get('spp', '?')} spp)")
+                         f"mis, {secs} s, {img.metadata.get('spp', '?')} spp (cached)", str(path))
     print(f"bench render: rendering the reference (mis, {seconds:g} s) into {path}", file=sys.stderr)
     r = render(cs, None, time=seconds, integrator="mis", seed=REFERENCE_SEED, device=options.device,
                lanes=options.lanes, progress=True)
@@ -197,7 +213,7 @@ def _cached_reference(cs: CompiledScene, seconds: float, cache_dir: str, options
     path.parent.mkdir(parents=True, exist_ok=True)
     r.save_exr(path)
     return Reference(r.mean.astype(np.float64), r.variance.astype(np.float64),
-                     f"mis reference rendered for {r.seconds:.3g} s ({r.spp} spp), cached at {path}")
+                     f"mis, {r.seconds:.4g} s, {r.spp} spp (rendered now)", str(path))
 
 
 class RenderSuite:
