@@ -83,8 +83,8 @@ class LightKernels:
         src = runtime.compose(["render/light_sample_test.cl"])
         self.prg = runtime.build(self.ctx, src, [f"-DLANES={lanes}"], what="light test kernels")
         mf = cl.mem_flags
-        names = ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_emitter",
-                 "emitter_radiance", "light_prims", "light_cdf", "prim_pmf")
+        names = ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
+                 "emitter_radiance", "light_rec", "light_cdf")
         self.buf = {k: cl.Buffer(self.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.t[k]) for k in names}
 
     def _args(self) -> list:
@@ -92,8 +92,8 @@ class LightKernels:
         nl, top = (int(x) for x in t["light_scalars"])
         thr, env_pmf = (float(x) for x in t["env_choice"])
         return [b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
-                np.uint32(self.cs.num_triangles), np.uint32(self.cs.num_spheres), b["prim_emitter"],
-                b["emitter_radiance"], b["light_prims"], b["light_cdf"], b["prim_pmf"], np.uint32(nl),
+                np.uint32(self.cs.num_triangles), np.uint32(self.cs.num_spheres), b["prim_rec"],
+                b["emitter_radiance"], b["light_rec"], b["light_cdf"], np.uint32(nl),
                 np.uint32(top), np.float32(thr), np.float32(env_pmf), t["env"]]
 
     def sample(self, p: np.ndarray, n: int = N, seed: int = 7) -> dict[str, np.ndarray]:
@@ -262,7 +262,10 @@ def test_pdf_of_a_hit_equals_pdf_of_the_sample(outside) -> None:
     k, s = outside
     area = s["valid"] & ~s["env"]
     pdf, prim, escaped = k.pdf(P, s["wo"][area])
-    assert np.all(prim == s["prim"][area])
+    other = prim != s["prim"][area]
+    # a sample on the diagonal of the rectangle may be found on its twin triangle (same shape, same pdf)
+    shape = k.cs.prim_shape
+    assert other.sum() < 1e-4 * area.sum() and np.all(shape[prim[other]] == shape[s["prim"][area][other]])
     np.testing.assert_allclose(pdf, s["pdf"][area], rtol=2e-3)
     env = s["env"]
     _, prim_e, esc_e = k.pdf(P, s["wo"][env][:4096])

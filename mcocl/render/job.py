@@ -39,6 +39,9 @@ GRID = 1 << 23  # the uniforms' grid (kernels/rng/uniform.cl): u = (m + 1/2) / 2
 # work (copying and folding (H, W, STATS) per block) stays small.
 PATHS_PER_BLOCK = 1 << 18
 TILE_PIXELS = 64
+# The scene arrays the render kernel takes, in its argument order.
+KERNEL_BUFFERS = ("camera", "bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
+                  "materials", "emitter_radiance", "light_rec", "light_cdf")
 
 
 def _cells_below(x: np.ndarray) -> np.ndarray:
@@ -86,13 +89,59 @@ def light_tables(cs: CompiledScene) -> dict[str, np.ndarray | float | int]:
     return {"prim_pmf": prim_pmf, "env_threshold": float(threshold), "env_pmf": env_pmf, "light_top": top}
 
 
+def prim_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
+    """One record of 8 floats per primitive for the shading of a hit (layout in kernels/render/prims.cl)."""
+    nt, ns = cs.num_triangles, cs.num_spheres
+    rec = np.zeros((max(nt + ns, 1), 8), np.float32)
+    if nt:
+        v = cs.tri_vertices[:, :, :3].astype(np.float64)
+        cr = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+        length = np.linalg.norm(cr, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rec[:nt, 0:3] = np.where(length[:, None] > 0, cr / length[:, None], 0.0)
+        rec[:nt, 3] = 0.5 * length
+    if ns:
+        rec[nt:nt + ns, 3] = 4.0 * math.pi * cs.spheres[:, 3].astype(np.float64) ** 2
+        rec[nt:nt + ns, 7] = cs.sphere_flip.astype(np.float32)
+    if nt + ns:
+        shape = np.asarray(cs.prim_shape, np.int64)
+        rec[:nt + ns, 4] = cs.shape_material[shape].astype(np.uint32).view(np.float32)
+        rec[:nt + ns, 5] = cs.shape_emitter[shape].astype(np.int32).view(np.float32)
+        rec[:nt + ns, 6] = prim_pmf[:nt + ns]
+    return rec
+
+
+def light_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
+    """Four float4 per light primitive for light sampling (layout in kernels/render/lights.cl)."""
+    nl, nt = cs.num_lights, cs.num_triangles
+    rec = np.zeros((max(nl, 1), 4, 4), np.float32)
+    if nl:
+        prims = np.asarray(cs.light_prims, np.int64)
+        emit = cs.shape_emitter[cs.prim_shape[prims]]
+        rec[:nl, 3, :3] = cs.emitter_radiance[emit, :3]
+        rec[:nl, 3, 3] = prims.astype(np.uint32).view(np.float32)
+        rec[:nl, 2, 3] = prim_pmf[prims]
+        tri = prims < nt
+        v = cs.tri_vertices[prims[tri], :, :3].astype(np.float64)
+        rec[:nl][tri, 0, :3] = v[:, 0]
+        rec[:nl][tri, 1, :3] = v[:, 1] - v[:, 0]
+        rec[:nl][tri, 2, :3] = v[:, 2] - v[:, 0]
+        rec[:nl][tri, 0, 3] = 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
+        s = prims[~tri] - nt
+        c = cs.spheres[s].astype(np.float64)
+        rec[:nl][~tri, 0, :3] = c[:, :3]
+        rec[:nl][~tri, 0, 3] = 4.0 * math.pi * c[:, 3] ** 2
+        rec[:nl][~tri, 1, 0] = c[:, 3]
+        rec[:nl][~tri, 1, 3] = np.where(cs.sphere_flip[s] != 0, 2.0, 1.0)
+    return rec.reshape(-1, 4)
+
+
 def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     """Every array the kernel reads, as plain NumPy arrays (never empty: OpenCL has no empty buffers)."""
-    def nonempty(a: np.ndarray, dtype: type) -> np.ndarray:
+    def nonempty(a: np.ndarray, dtype: type, width: int = 4) -> np.ndarray:
         a = np.ascontiguousarray(a, dtype=dtype)
-        return a if a.size else np.zeros(4, dtype)
+        return a if a.size else np.zeros(width, dtype)
 
-    prim_shape = np.asarray(cs.prim_shape, np.int64)
     lt = light_tables(cs)
     return {
         "camera": nonempty(cs.camera, np.float32),
@@ -101,11 +150,10 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         "tri_vertices": nonempty(cs.tri_vertices, np.float32),
         "spheres": nonempty(cs.spheres, np.float32),
         "sphere_flip": nonempty(cs.sphere_flip, np.uint32),
-        "prim_material": nonempty(cs.shape_material[prim_shape] if len(prim_shape) else [], np.uint32),
-        "materials": nonempty(cs.materials, np.float32),
-        "prim_emitter": nonempty(cs.shape_emitter[prim_shape] if len(prim_shape) else [], np.int32),
+        "prim_rec": prim_records(cs, lt["prim_pmf"]),
+        "materials": nonempty(cs.materials, np.float32, 8),
         "emitter_radiance": nonempty(cs.emitter_radiance, np.float32),
-        "light_prims": nonempty(cs.light_prims, np.uint32),
+        "light_rec": light_records(cs, lt["prim_pmf"]),
         "light_cdf": nonempty(cs.light_cdf, np.float32),
         "prim_pmf": nonempty(lt["prim_pmf"], np.float32),
         "env": np.array([*cs.env_radiance[:3], 0.0], np.float32),
@@ -203,9 +251,7 @@ class RenderRunner:
         t = job.tables
         self.buffers = {
             name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(t[name]))
-            for name in ("camera", "bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip",
-                         "prim_material", "materials", "prim_emitter", "emitter_radiance", "light_prims",
-                         "light_cdf", "prim_pmf")
+            for name in KERNEL_BUFFERS
         }
 
     def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, np.ndarray, int]:
@@ -226,8 +272,7 @@ class RenderRunner:
             np.uint64(job.seed),
             b["camera"], b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
             np.uint32(ntris), np.uint32(nsph),
-            b["prim_material"], b["materials"], b["prim_emitter"], b["emitter_radiance"],
-            b["light_prims"], b["light_cdf"], b["prim_pmf"],
+            b["prim_rec"], b["materials"], b["emitter_radiance"], b["light_rec"], b["light_cdf"],
             np.uint32(nl), np.uint32(top), np.float32(thr), np.float32(env_pmf), t["env"],
             buf,
         )
@@ -241,5 +286,5 @@ class RenderRunner:
         return out
 
 
-__all__ = ["INTEGRATOR_CODES", "UNBOUNDED_SPP", "RenderJob", "RenderRunner", "default_spp_per_block",
-           "light_tables", "scene_tables", "tables_digest"]
+__all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "UNBOUNDED_SPP", "RenderJob", "RenderRunner",
+           "default_spp_per_block", "light_records", "light_tables", "prim_records", "scene_tables", "tables_digest"]

@@ -18,6 +18,7 @@
 
 #include "render/vec3.cl"
 #include "sampling/gather.cl"
+#include "render/lane_io.cl"
 #include "render/bsdf_diffuse.cl"
 #include "render/bsdf_conductor.cl"
 #include "render/bsdf_roughconductor.cl"
@@ -36,14 +37,15 @@ typedef struct {
     floatv eta;   /* int_ior / ext_ior */
 } material_v;
 
-/* The material record `index` of every lane. */
-RT_INLINE material_v material_load(global const float *mats, uintv index) {
-    uintv b = index * (uint)MAT_STRIDE;
+/* The material record `index` of every lane (the (M, 8) table read as 2 float4 per material). */
+RT_INLINE material_v material_load(global const float4 *mats, uintv index) {
+    rec4v a = gather_rec4(mats, index * 2u);
+    rec4v b = gather_rec4(mats, index * 2u + 1u);
     material_v m;
-    m.kind = to_intv(gather_float(mats, b));
-    m.color = v3(gather_float(mats, b + 1u), gather_float(mats, b + 2u), gather_float(mats, b + 3u));
-    m.alpha = gather_float(mats, b + 4u);
-    m.eta = gather_float(mats, b + 5u) / gather_float(mats, b + 6u);
+    m.kind = to_intv(a.x);
+    m.color = v3(a.y, a.z, a.w);
+    m.alpha = b.x;
+    m.eta = b.y / b.z;
     return m;
 }
 

@@ -17,7 +17,7 @@
 RT_INLINE vec3v square_to_cosine_hemisphere(floatv u1, floatv u2, floatv *pdf) {
     floatv r = rt_sqrt(u1);
     floatv c;
-    floatv s = sincos(2.0f * RT_PI * u2, &c);
+    floatv s = rt_sincos_2pi(u2, &c);
     floatv z = rt_sqrt(1.0f - u1);
     *pdf = z * RT_INV_PI;
     return v3(r * c, r * s, z);

@@ -45,7 +45,7 @@ RT_INLINE vec3v ggx_sample_visible_normal(vec3v wi, floatv alpha, floatv u1, flo
     /* a point of the projected area: a disk whose lower half is squashed (§4.2) */
     floatv r = rt_sqrt(u1);
     floatv c;
-    floatv s = sincos(2.0f * RT_PI * u2, &c);
+    floatv s = rt_sincos_2pi(u2, &c);
     floatv t1 = r * c, t2 = r * s;
     floatv h = 0.5f * (1.0f + vh.z);
     t2 = (1.0f - h) * rt_sqrt(rt_max(1.0f - t1 * t1, 0.0f)) + h * t2;

@@ -10,7 +10,7 @@
 #define RNG_STREAM_BSDF_TEST 9u
 
 /* out: wo.xyz, pdf, weight.rgb, delta, eta (9 components) */
-kernel void bsdf_sample_dirs(global const float *mats, float4 wi4, ulong seed, uint n, global float *out) {
+kernel void bsdf_sample_dirs(global const float4 *mats, float4 wi4, ulong seed, uint n, global float *out) {
     uint base = (uint)get_global_id(0) * LANES;
     if (base >= n) return;
     material_v m = material_load(mats, (uintv)(0u));
@@ -30,7 +30,7 @@ kernel void bsdf_sample_dirs(global const float *mats, float4 wi4, ulong seed, u
 }
 
 /* wo: x, y, z components (3 n); out: (f cos).rgb, pdf (4 components) */
-kernel void bsdf_eval_dirs(global const float *mats, float4 wi4, uint n, global const float *wo, global float *out) {
+kernel void bsdf_eval_dirs(global const float4 *mats, float4 wi4, uint n, global const float *wo, global float *out) {
     uint base = (uint)get_global_id(0) * LANES;
     if (base >= n) return;
     material_v m = material_load(mats, (uintv)(0u));

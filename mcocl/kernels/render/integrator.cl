@@ -153,9 +153,8 @@ kernel void render_blocks(
     global const float4 *bvh_nodes, global const uint *bvh_prims,
     global const float4 *tri_vertices, global const float4 *spheres, global const uint *sphere_flip,
     uint ntris, uint nspheres,
-    global const uint *prim_material, global const float *materials,
-    global const int *prim_emitter, global const float *emitter_radiance,
-    global const uint *light_prims, global const float *light_cdf, global const float *prim_pmf,
+    global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance,
+    global const float4 *light_rec, global const float *light_cdf,
     uint nlights, uint light_top, float env_threshold, float env_pmf, float4 env_radiance,
     global film_t *out)
 {
@@ -183,16 +182,13 @@ kernel void render_blocks(
     geom.ntris = ntris;
     geom.nspheres = nspheres;
     prim_tables pt;
-    pt.tris = (global const float *)tri_vertices;
-    pt.spheres = (global const float *)spheres;
-    pt.sphere_flip = sphere_flip;
+    pt.spheres = spheres;
+    pt.prim_rec = prim_rec;
     pt.ntris = ntris;
     pt.nspheres = nspheres;
     light_tables lt;
-    lt.light_prims = light_prims;
+    lt.light_rec = light_rec;
     lt.light_cdf = light_cdf;
-    lt.prim_pmf = prim_pmf;
-    lt.prim_emitter = prim_emitter;
     lt.emitter_radiance = emitter_radiance;
     lt.nlights = nlights;
     lt.light_top = light_top;
@@ -255,16 +251,15 @@ kernel void render_blocks(
             L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, env_le), w)), miss);
         }
 
-        vec3v n;
-        vec3v p = prim_hit_point(&pt, h.prim, h.b1, h.b2, o, d, h.t, hit, &n);
+        surface_v sf = surface_at(&pt, h.prim, h.t, o, d, hit);
+        vec3v p = sf.p, n = sf.n;
 
         /* ---- emission of the surface hit (one-sided: front = normal) ---- */
-        intv em = prim_emitter_of(&lt, h.prim, hit);
-        intv emitting = hit & (em >= 0) & (v3_dot(n, d) < 0.0f);
+        intv emitting = hit & (sf.emitter >= 0) & (v3_dot(n, d) < 0.0f);
         if (rt_any(emitting)) {
-            vec3v le = emitter_radiance_of(&lt, em);
+            vec3v le = emitter_radiance_of(&lt, sf.emitter);
 #if INTEGRATOR == INTEGRATOR_MIS
-            floatv lp = light_pdf_hit(&lt, &pt, prev_p, h.prim, p, n, emitting & !unsampled);
+            floatv lp = light_pdf_hit(&lt, &pt, prev_p, h.prim, &sf, emitting & !unsampled);
 #else
             floatv lp = (floatv)(0.0f);
 #endif
@@ -281,8 +276,7 @@ kernel void render_blocks(
         cont = cont & (depth + 1u < (uintv)(DEPTH_GUARD));
         intv next_alive = (intv)(0);
         if (rt_any(cont)) {
-            uintv mi = GATHER(uint, prim_material, rt_select((uintv)(0u), h.prim, cont));
-            material_v m = material_load(materials, mi);
+            material_v m = material_load(materials, rt_select((uintv)(0u), sf.mat, cont));
             frame3v fr = frame_from_normal(n);
             vec3v wi = frame_to_local(fr, v3_neg(d));
             philox_ctr ca = rng_block_lanes(rng, 1u + 2u * depth);

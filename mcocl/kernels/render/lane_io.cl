@@ -1,5 +1,16 @@
-/* lane_io.cl — loading and storing whole lane vectors from and to
- * structure-of-arrays buffers (component c of item i at c * n + i). */
+/* lane_io.cl — moving lane vectors to and from memory.
+ *
+ * - store_floatv / load_floatv: whole vectors to and from structure-of-arrays
+ *   buffers (component c of item i at c * n + i);
+ * - floatv_u, uintv_u, intv_u: a vector and its lanes as an array, for the
+ *   few per-lane loops (unions, not vstore/vload: PoCL's wheel makes those
+ *   library calls);
+ * - gather_rec4 / gather_rec8: every lane's record of 4 or 8 floats from an
+ *   array of records, loaded as whole float4s and transposed into lane
+ *   vectors.  Scalar gathers (one insert per lane per float) cost several
+ *   instructions per float; a record load costs one per four floats plus a
+ *   shuffle network the compiler builds.
+ */
 #ifndef MCOCL_RENDER_LANE_IO_CL
 #define MCOCL_RENDER_LANE_IO_CL
 
@@ -11,6 +22,69 @@
 #else
 #define store_floatv(v, p) MC_CAT(vstore, LANE_SUFFIX)((v), 0, (p))
 #define load_floatv(p) MC_CAT(vload, LANE_SUFFIX)(0, (p))
+typedef union {
+    floatv v;
+    float s[LANES];
+} floatv_u;
+typedef union {
+    uintv v;
+    uint s[LANES];
+} uintv_u;
+typedef union {
+    intv v;
+    int s[LANES];
+} intv_u;
 #endif
+
+/* A record of 4 floats per lane: a[i] = t[idx][i] (lanes must hold valid indices). */
+typedef struct {
+    floatv x, y, z, w;
+} rec4v;
+
+#if LANES == 1
+inline __attribute__((always_inline)) rec4v gather_rec4(global const float4 *t, uintv idx) {
+    float4 r = t[idx];
+    rec4v o;
+    o.x = r.x; o.y = r.y; o.z = r.z; o.w = r.w;
+    return o;
+}
+#elif LANES == 4
+inline __attribute__((always_inline)) rec4v gather_rec4(global const float4 *t, uintv idx) {
+    float4 r0 = t[idx.s0], r1 = t[idx.s1], r2 = t[idx.s2], r3 = t[idx.s3];
+    rec4v o;
+    o.x = (float4)(r0.x, r1.x, r2.x, r3.x);
+    o.y = (float4)(r0.y, r1.y, r2.y, r3.y);
+    o.z = (float4)(r0.z, r1.z, r2.z, r3.z);
+    o.w = (float4)(r0.w, r1.w, r2.w, r3.w);
+    return o;
+}
+#elif LANES == 8
+inline __attribute__((always_inline)) rec4v gather_rec4(global const float4 *t, uintv idx) {
+    float4 r0 = t[idx.s0], r1 = t[idx.s1], r2 = t[idx.s2], r3 = t[idx.s3];
+    float4 r4 = t[idx.s4], r5 = t[idx.s5], r6 = t[idx.s6], r7 = t[idx.s7];
+    rec4v o;
+    o.x = (float8)(r0.x, r1.x, r2.x, r3.x, r4.x, r5.x, r6.x, r7.x);
+    o.y = (float8)(r0.y, r1.y, r2.y, r3.y, r4.y, r5.y, r6.y, r7.y);
+    o.z = (float8)(r0.z, r1.z, r2.z, r3.z, r4.z, r5.z, r6.z, r7.z);
+    o.w = (float8)(r0.w, r1.w, r2.w, r3.w, r4.w, r5.w, r6.w, r7.w);
+    return o;
+}
+#else
+inline __attribute__((always_inline)) rec4v gather_rec4(global const float4 *t, uintv idx) {
+    uintv_u iu;
+    iu.v = idx;
+    floatv_u x, y, z, w;
+    for (int k = 0; k < LANES; ++k) {
+        float4 r = t[iu.s[k]];
+        x.s[k] = r.x; y.s[k] = r.y; z.s[k] = r.z; w.s[k] = r.w;
+    }
+    rec4v o;
+    o.x = x.v; o.y = y.v; o.z = z.v; o.w = w.v;
+    return o;
+}
+#endif
+
+/* The record `idx` of an array of records of `stride` float4s, part `part`. */
+#define gather_rec4_part(t, idx, stride, part) gather_rec4((t), (idx) * (uint)(stride) + (uint)(part))
 
 #endif

@@ -14,21 +14,19 @@
 #define LIGHT_TEST_PARAMS                                                                                      \
     global const float4 *bvh_nodes, global const uint *bvh_prims, global const float4 *tri_vertices,        \
     global const float4 *spheres, global const uint *sphere_flip, uint ntris, uint nspheres,                  \
-    global const int *prim_emitter, global const float *emitter_radiance, global const uint *light_prims,    \
-    global const float *light_cdf, global const float *prim_pmf, uint nlights, uint light_top,                \
-    float env_threshold, float env_pmf, float4 env_radiance
+    global const float4 *prim_rec, global const float4 *emitter_radiance, global const float4 *light_rec,    \
+    global const float *light_cdf, uint nlights, uint light_top, float env_threshold, float env_pmf,          \
+    float4 env_radiance
 
 #define LIGHT_TEST_SETUP                                                                                       \
     scene_geom geom;                                                                                           \
     geom.nodes = bvh_nodes; geom.prims = bvh_prims; geom.tris = tri_vertices; geom.spheres = spheres;        \
     geom.sphere_flip = sphere_flip; geom.ntris = ntris; geom.nspheres = nspheres;                             \
     prim_tables pt;                                                                                            \
-    pt.tris = (global const float *)tri_vertices; pt.spheres = (global const float *)spheres;                 \
-    pt.sphere_flip = sphere_flip; pt.ntris = ntris; pt.nspheres = nspheres;                                   \
+    pt.spheres = spheres; pt.prim_rec = prim_rec; pt.ntris = ntris; pt.nspheres = nspheres;                   \
     light_tables lt;                                                                                           \
-    lt.light_prims = light_prims; lt.light_cdf = light_cdf; lt.prim_pmf = prim_pmf;                           \
-    lt.prim_emitter = prim_emitter; lt.emitter_radiance = emitter_radiance; lt.nlights = nlights;             \
-    lt.light_top = light_top; lt.env_threshold = env_threshold; lt.env_pmf = env_pmf;                         \
+    lt.light_rec = light_rec; lt.light_cdf = light_cdf; lt.emitter_radiance = emitter_radiance;               \
+    lt.nlights = nlights; lt.light_top = light_top; lt.env_threshold = env_threshold; lt.env_pmf = env_pmf;   \
     lt.env_radiance = env_radiance
 
 /* out: wo.xyz, pdf, radiance.rgb, valid, env, prim, pos.xyz (13 components) */
@@ -67,11 +65,9 @@ kernel void light_pdf_dirs(LIGHT_TEST_PARAMS, float4 p4, uint n, global const fl
     vec3v d = v3(load_floatv(wo + 0 * n + base), load_floatv(wo + 1 * n + base), load_floatv(wo + 2 * n + base));
     intv all = (intv)(0) == (intv)(0);
     hitv h = trace_closest_v(&geom, p, d, all);
-    vec3v nrm;
-    vec3v y = prim_hit_point(&pt, h.prim, h.b1, h.b2, p, d, h.t, h.hit, &nrm);
-    intv em = prim_emitter_of(&lt, h.prim, h.hit);
-    intv emitting = h.hit & (em >= 0) & (v3_dot(nrm, d) < 0.0f);
-    floatv pdf = light_pdf_hit(&lt, &pt, p, h.prim, y, nrm, emitting);
+    surface_v sf = surface_at(&pt, h.prim, h.t, p, d, h.hit);
+    intv emitting = h.hit & (sf.emitter >= 0) & (v3_dot(sf.n, d) < 0.0f);
+    floatv pdf = light_pdf_hit(&lt, &pt, p, h.prim, &sf, emitting);
     store_floatv(pdf, out + 0 * n + base);
     store_floatv(rt_select((floatv)(-1.0f), to_floatv(h.prim), emitting), out + 1 * n + base);
     store_floatv(to_floatv(mask_bit(!h.hit)), out + 2 * n + base);

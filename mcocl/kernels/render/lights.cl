@@ -23,31 +23,29 @@
 #define MCOCL_RENDER_LIGHTS_CL
 
 #include "render/prims.cl"
+#include "sampling/gather.cl"
 
+/* Lights are flattened by the host (mcocl/render/job.py, light_records) into
+ * records of 4 float4 per light primitive k:
+ *   [0] triangle v0 or sphere centre; w: area
+ *   [1] triangle e1 = v1 - v0, or (radius, 0, 0); w: 0 triangle, 1 sphere, 2 sphere with inward normals
+ *   [2] triangle e2 = v2 - v0; w: choice probability (exact, on the uniforms' grid)
+ *   [3] radiance RGB; w: primitive id (uint bit pattern) */
 typedef struct {
-    global const uint *light_prims;       /* L emitting primitives */
-    global const float *light_cdf;        /* L + 1 */
-    global const float *prim_pmf;         /* T + S: probability that the area-light choice gives the primitive */
-    global const int *prim_emitter;       /* T + S: emitter index, -1 if the primitive does not emit */
-    global const float *emitter_radiance; /* E * 4 */
-    uint nlights, light_top;              /* light_top: largest power of two <= nlights (0 if none) */
-    float env_threshold;                  /* the environment is chosen when u < env_threshold */
-    float env_pmf;                        /* ... which happens with this exact probability */
+    global const float4 *light_rec;        /* 4 per light primitive */
+    global const float *light_cdf;         /* L + 1 */
+    global const float4 *emitter_radiance; /* E */
+    uint nlights, light_top;               /* light_top: largest power of two <= nlights (0 if none) */
+    float env_threshold;                   /* the environment is chosen when u < env_threshold */
+    float env_pmf;                         /* ... which happens with this exact probability */
     float4 env_radiance;
 } light_tables;
 
 /* Radiance of emitter e (lanes with e < 0 get black). */
 RT_INLINE vec3v emitter_radiance_of(const light_tables *lt, intv e) {
     intv has = e >= 0;
-    uintv b = to_uintv(rt_select((intv)(0), e, has)) * 4u;
-    vec3v le = v3(gather_float(lt->emitter_radiance, b), gather_float(lt->emitter_radiance, b + 1u),
-                  gather_float(lt->emitter_radiance, b + 2u));
-    return v3_select(v3s(0.0f), le, has);
-}
-
-RT_INLINE intv prim_emitter_of(const light_tables *lt, uintv prim, intv active) {
-    intv e = to_intv(GATHER(int, lt->prim_emitter, rt_select((uintv)(0u), prim, active)));
-    return rt_select((intv)(-1), e, active);
+    rec4v r = gather_rec4(lt->emitter_radiance, RT_AS_UINTV(rt_select((intv)(0), e, has)));
+    return v3_select(v3s(0.0f), v3(r.x, r.y, r.z), has);
 }
 
 /* Largest k in [0, nlights - 1] with light_cdf[k] <= u (light_cdf[0] = 0). */
@@ -92,7 +90,7 @@ RT_INLINE vec3v square_to_uniform_sphere(floatv u1, floatv u2) {
     floatv z = 1.0f - 2.0f * u1;
     floatv r = safe_sqrt(1.0f - z * z);
     floatv c;
-    floatv s = sincos(2.0f * RT_PI * u2, &c);
+    floatv s = rt_sincos_2pi(u2, &c);
     return v3(r * c, r * s, z);
 }
 
@@ -109,42 +107,39 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
     s.prim = (uintv)(0u);
     intv area = active & !s.env;
     if (lt->nlights > 0u && rt_any(area)) {
-        uintv k = light_find(lt, u_sel);
-        uintv prim = GATHER(uint, lt->light_prims, k);
-        floatv pmf = gather_float(lt->prim_pmf, prim) * (1.0f - lt->env_pmf);
-        intv sph = prim_is_sphere(pt, prim);
+        uintv k = light_find(lt, u_sel) * 4u;
+        rec4v r0 = gather_rec4(lt->light_rec, k), r1 = gather_rec4(lt->light_rec, k + 1u);
+        rec4v r2 = gather_rec4(lt->light_rec, k + 2u), r3 = gather_rec4(lt->light_rec, k + 3u);
+        vec3v base = v3(r0.x, r0.y, r0.z);
+        floatv pmf = r2.w * (1.0f - lt->env_pmf);
         vec3v y = p, ny = s.wo;
         floatv pdf = (floatv)(0.0f);
-        intv tri_l = area & !sph;
-        if (pt->ntris > 0u && rt_any(tri_l)) {
-            /* uniform point of the triangle: b0 = 1 - rt_sqrt(u1), b1 = u2 rt_sqrt(u1) (pbrt-v3 §13.6.5) */
-            uintv t = rt_select((uintv)(0u), prim, tri_l);
-            vec3v v0 = tri_vertex(pt, t, 0), v1 = tri_vertex(pt, t, 1), v2 = tri_vertex(pt, t, 2);
+        intv tri_l = area & (r1.w == 0.0f);
+        if (rt_any(tri_l)) {
+            /* uniform point of the triangle: barycentrics (1 - sqrt(u1), u2 sqrt(u1)) of (v1, v2) (pbrt-v3 §13.6.5) */
+            vec3v e1 = v3(r1.x, r1.y, r1.z), e2 = v3(r2.x, r2.y, r2.z);
             floatv su = rt_sqrt(u1);
-            floatv b0 = 1.0f - su, b1 = u2 * su;
-            vec3v yt = v3_add(v3_add(v3_scale(v0, b0), v3_scale(v1, b1)), v3_scale(v2, 1.0f - b0 - b1));
-            floatv a;
-            vec3v nt = tri_normal_area(v0, v1, v2, &a);
+            vec3v yt = v3_madd(v3_madd(base, 1.0f - su, e1), u2 * su, e2);
+            vec3v nt = v3_normalize(v3_cross(e1, e2));
             vec3v dv = v3_sub(yt, p);
             floatv d2 = v3_len2(dv);
             floatv cosl = -v3_dot(nt, dv) * rt_rsqrt(d2);
             y = v3_select(y, yt, tri_l);
             ny = v3_select(ny, nt, tri_l);
-            pdf = rt_select(pdf, pmf * d2 / (a * cosl), tri_l);
+            pdf = rt_select(pdf, pmf * d2 / (r0.w * cosl), tri_l);
         }
-        intv sph_l = area & sph;
-        if (pt->nspheres > 0u && rt_any(sph_l)) {
-            uintv si = rt_select((uintv)(0u), prim - pt->ntris, sph_l);
-            floatv r;
-            vec3v c = sphere_center(pt, si, &r);
-            intv flip = to_intv(GATHER(uint, pt->sphere_flip, si)) != 0;
+        intv sph_l = area & (r1.w != 0.0f);
+        if (rt_any(sph_l)) {
+            vec3v c = base;
+            floatv r = r1.x;
+            intv flip = r1.w == 2.0f;
             floatv omc, s2max, dc;
             vec3v wc;
             intv cone = sphere_cone(p, c, r, flip, &omc, &s2max, &wc, &dc);
             floatv cph;
-            floatv sph_ = sincos(2.0f * RT_PI * u2, &cph);
+            floatv sph_ = rt_sincos_2pi(u2, &cph);
             /* cone: cos(theta) uniform in [cos theta_max, 1]; the point follows from the angle alpha at
-             * the centre, cos alpha = sin^2 theta / sin theta_max + cos theta rt_sqrt(1 - sin^2 theta / sin^2 theta_max)
+             * the centre, cos alpha = sin^2 theta / sin theta_max + cos theta sqrt(1 - sin^2 theta / sin^2 theta_max)
              * (pbrt-v4 §6.2.4) */
             floatv ct = 1.0f - u1 * omc;
             floatv s2t = u1 * omc * (2.0f - u1 * omc);
@@ -161,7 +156,7 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
             vec3v dv = v3_sub(ys, p);
             floatv d2 = v3_len2(dv);
             floatv cosl = -v3_dot(nf, dv) * rt_rsqrt(d2);
-            floatv pdf_area = d2 / (4.0f * RT_PI * r * r * cosl);
+            floatv pdf_area = d2 / (r0.w * cosl);
             floatv pdf_cone = RT_INV_2PI / omc;
             y = v3_select(y, ys, sph_l);
             ny = v3_select(ny, nf, sph_l);
@@ -172,13 +167,12 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
         vec3v wo = v3_scale(dv, 1.0f / dist);
         intv front = v3_dot(ny, wo) < 0.0f;
         intv ok = area & front & (pdf > 0.0f) & rt_isfinite(pdf);
-        vec3v le = emitter_radiance_of(lt, prim_emitter_of(lt, prim, area));
         s.wo = v3_select(s.wo, wo, area);
-        s.prim = rt_select(s.prim, prim, area);
+        s.prim = rt_select(s.prim, RT_AS_UINTV(r3.w), area);
         s.pos = v3_select(s.pos, y, area);
         s.n = v3_select(s.n, ny, area);
         s.pdf = rt_select(s.pdf, pdf, ok);
-        s.radiance = v3_select(s.radiance, le, ok);
+        s.radiance = v3_select(s.radiance, v3(r3.x, r3.y, r3.z), ok);
         s.valid = s.valid | ok;
     }
     intv envl = active & s.env;
@@ -192,35 +186,24 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
     return s;
 }
 
-/* The solid-angle pdf with which sample_light, called at p, picks the point y
- * (normal n_y) of emitting primitive `prim` — the same choices as above. */
-RT_INLINE floatv light_pdf_hit(const light_tables *lt, const prim_tables *pt, vec3v p, uintv prim, vec3v y, vec3v ny,
+/* The solid-angle pdf with which sample_light, called at p, picks the point
+ * y of surface sf (an emitter hit) — the same choices as above. */
+RT_INLINE floatv light_pdf_hit(const light_tables *lt, const prim_tables *pt, vec3v p, uintv prim, const surface_v *sf,
                                intv active) {
-    uintv pr = rt_select((uintv)(0u), prim, active);
-    floatv pmf = gather_float(lt->prim_pmf, pr) * (1.0f - lt->env_pmf);
-    vec3v dv = v3_sub(y, p);
+    floatv pmf = sf->pmf * (1.0f - lt->env_pmf);
+    vec3v dv = v3_sub(sf->p, p);
     floatv d2 = v3_len2(dv);
-    floatv cosl = rt_abs(v3_dot(ny, dv)) * rt_rsqrt(d2);
-    intv sph = prim_is_sphere(pt, pr);
-    floatv pdf = (floatv)(0.0f);
-    intv tri_l = active & !sph;
-    if (pt->ntris > 0u && rt_any(tri_l)) {
-        uintv t = rt_select((uintv)(0u), pr, tri_l);
-        floatv a;
-        tri_normal_area(tri_vertex(pt, t, 0), tri_vertex(pt, t, 1), tri_vertex(pt, t, 2), &a);
-        pdf = rt_select(pdf, pmf * d2 / (a * cosl), tri_l);
-    }
-    intv sph_l = active & sph;
+    floatv cosl = rt_abs(v3_dot(sf->n, dv)) * rt_rsqrt(d2);
+    floatv pdf = pmf * d2 / (sf->area * cosl);
+    intv sph_l = active & prim_is_sphere(pt, prim);
     if (pt->nspheres > 0u && rt_any(sph_l)) {
-        uintv si = rt_select((uintv)(0u), pr - pt->ntris, sph_l);
-        floatv r;
-        vec3v c = sphere_center(pt, si, &r);
-        intv flip = to_intv(GATHER(uint, pt->sphere_flip, si)) != 0;
+        rec4v c = gather_rec4(pt->spheres, rt_select((uintv)(0u), prim - pt->ntris, sph_l));
+        /* the record's normal points inwards for a flipped sphere: the centre lies on its side */
+        intv flip = v3_dot(sf->n, v3_sub(v3(c.x, c.y, c.z), sf->p)) > 0.0f;
         floatv omc, s2max, dc;
         vec3v wc;
-        intv cone = sphere_cone(p, c, r, flip, &omc, &s2max, &wc, &dc);
-        floatv pdf_area = d2 / (4.0f * RT_PI * r * r * cosl);
-        pdf = rt_select(pdf, pmf * rt_select(pdf_area, RT_INV_2PI / omc, cone), sph_l);
+        intv cone = sphere_cone(p, v3(c.x, c.y, c.z), c.w, flip, &omc, &s2max, &wc, &dc);
+        pdf = rt_select(pdf, pmf * RT_INV_2PI / omc, sph_l & cone);
     }
     return rt_select((floatv)(0.0f), pdf, active);
 }

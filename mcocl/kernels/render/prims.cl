@@ -1,80 +1,70 @@
-/* prims.cl — per-lane access to the scene's primitives, read straight from
- * the CompiledScene arrays whose layout is the renderer's contract:
- *   tri_vertices float (T, 3, 4): v0, v1, v2 (w unused), front = CCW,
- *                                 n = normalize(cross(v1 - v0, v2 - v0));
- *   spheres      float (S, 4): centre xyz, radius; sphere_flip uint (S,);
- *   primitive p < T is triangle p, p >= T is sphere p - T.
- * (The BVH and ray traversal are bvh.cl's; everything a shading point or a
- * light sample needs besides the traversal is here, over lanes.)
+/* prims.cl — what a shading point needs to know about the primitive a ray hit.
+ *
+ * The geometry is the CompiledScene contract's (primitive p < T is triangle
+ * p, p >= T is sphere p - T; spheres float (S, 4) centre and radius); the
+ * BVH and the traversal are bvh.cl's.  For shading, the host
+ * (mcocl/render/job.py, prim_records) flattens every primitive into one
+ * record of 8 floats, so that a packet of hits costs two record loads per
+ * lane instead of a dozen scalar gathers:
+ *   [0..2] front unit normal of a triangle (0 for spheres)   [3] area
+ *   [4] material index   [5] emitter index, -1 if none  (uint / int bit patterns)
+ *   [6] probability that light sampling chooses the primitive (0: not a light)
+ *   [7] 1 when the primitive is a sphere whose normals point inwards
  */
 #ifndef MCOCL_RENDER_PRIMS_CL
 #define MCOCL_RENDER_PRIMS_CL
 
 #include "render/vec3.cl"
-#include "sampling/gather.cl"
+#include "render/lane_io.cl"
+
+#if LANES == 1
+#define RT_AS_INTV as_int
+#else
+#define RT_AS_INTV MC_CAT(as_int, LANE_SUFFIX)
+#endif
 
 typedef struct {
-    global const float *tris;       /* T * 12 floats */
-    global const float *spheres;    /* S * 4 floats */
-    global const uint *sphere_flip; /* S */
+    global const float4 *spheres;  /* S: centre, radius */
+    global const float4 *prim_rec; /* 2 float4 per primitive */
     uint ntris, nspheres;
 } prim_tables;
 
 RT_INLINE intv prim_is_sphere(const prim_tables *pt, uintv prim) { return prim >= (uintv)(pt->ntris); }
 
-/* Vertex k of triangle `tri` (lanes must hold valid triangle ids). */
-RT_INLINE vec3v tri_vertex(const prim_tables *pt, uintv tri, uint k) {
-    uintv b = tri * 12u + 4u * k;
-    return v3(gather_float(pt->tris, b), gather_float(pt->tris, b + 1u), gather_float(pt->tris, b + 2u));
-}
+/* A surface point hit by a ray, with its primitive's record. */
+typedef struct {
+    vec3v p;       /* position */
+    vec3v n;       /* unit front normal */
+    floatv area;   /* primitive area */
+    uintv mat;     /* material index */
+    intv emitter;  /* emitter index, -1 if the primitive does not emit */
+    floatv pmf;    /* light-choice probability of the primitive */
+} surface_v;
 
-/* Centre and radius of sphere `sph` (an index among spheres). */
-RT_INLINE vec3v sphere_center(const prim_tables *pt, uintv sph, floatv *radius) {
-    uintv b = sph * 4u;
-    *radius = gather_float(pt->spheres, b + 3u);
-    return v3(gather_float(pt->spheres, b), gather_float(pt->spheres, b + 1u), gather_float(pt->spheres, b + 2u));
-}
-
-/* Triangle area and unit front normal. */
-RT_INLINE vec3v tri_normal_area(vec3v v0, vec3v v1, vec3v v2, floatv *area) {
-    vec3v c = v3_cross(v3_sub(v1, v0), v3_sub(v2, v0));
-    floatv l = rt_sqrt(v3_len2(c));
-    *area = 0.5f * l;
-    return v3_scale(c, 1.0f / l);
-}
-
-/* Position and unit front normal of a ray hit.  Triangles interpolate the
- * vertices with the barycentrics (b1, b2) of v1, v2, which is more accurate
- * than o + t d; sphere hits are projected back onto the sphere (pbrt-v4
- * §6.8.5 does the same to bound the error). */
-RT_INLINE vec3v prim_hit_point(const prim_tables *pt, uintv prim, floatv b1, floatv b2, vec3v o, vec3v d, floatv t,
-                               intv active, vec3v *n) {
-    vec3v p = v3_madd(o, t, d);
-    vec3v nn = v3(0.0f, 0.0f, 1.0f);
-    intv sph = prim_is_sphere(pt, prim);
-    intv tri_lanes = active & !sph;
-    if (pt->ntris > 0u && rt_any(tri_lanes)) {
-        uintv tri = rt_select((uintv)(0u), prim, tri_lanes);
-        vec3v v0 = tri_vertex(pt, tri, 0), v1 = tri_vertex(pt, tri, 1), v2 = tri_vertex(pt, tri, 2);
-        vec3v e1 = v3_sub(v1, v0), e2 = v3_sub(v2, v0);
-        vec3v pt_ = v3_madd(v3_madd(v0, b1, e1), b2, e2);
-        vec3v c = v3_cross(e1, e2);
-        p = v3_select(p, pt_, tri_lanes);
-        nn = v3_select(nn, v3_scale(c, rt_rsqrt(v3_len2(c))), tri_lanes);
+/* The surfaces hit by the active lanes.  Positions are o + t d: their float
+ * error (~1e-7 t) is far below the spawn offset (prims.cl, offset_origin);
+ * sphere hits are projected back onto the sphere (pbrt-v4 §6.8.5). */
+RT_INLINE surface_v surface_at(const prim_tables *pt, uintv prim, floatv t, vec3v o, vec3v d, intv active) {
+    uintv pr = rt_select((uintv)(0u), prim, active);
+    rec4v a = gather_rec4(pt->prim_rec, pr * 2u);
+    rec4v b = gather_rec4(pt->prim_rec, pr * 2u + 1u);
+    surface_v s;
+    s.p = v3_madd(o, rt_select((floatv)(0.0f), t, active), d);
+    s.n = v3(a.x, a.y, a.z);
+    s.area = a.w;
+    s.mat = RT_AS_UINTV(b.x);
+    s.emitter = rt_select((intv)(-1), RT_AS_INTV(b.y), active);
+    s.pmf = b.z;
+    intv sph = active & prim_is_sphere(pt, pr);
+    if (pt->nspheres > 0u && rt_any(sph)) {
+        rec4v c = gather_rec4(pt->spheres, rt_select((uintv)(0u), pr - pt->ntris, sph));
+        vec3v cc = v3(c.x, c.y, c.z);
+        vec3v dn = v3_normalize(v3_sub(s.p, cc));
+        s.p = v3_select(s.p, v3_madd(cc, c.w, dn), sph);
+        s.n = v3_select(s.n, v3_select(dn, v3_neg(dn), b.w != 0.0f), sph);
     }
-    intv sph_lanes = active & sph;
-    if (pt->nspheres > 0u && rt_any(sph_lanes)) {
-        uintv s = rt_select((uintv)(0u), prim - pt->ntris, sph_lanes);
-        floatv r;
-        vec3v c = sphere_center(pt, s, &r);
-        vec3v dn = v3_normalize(v3_sub(p, c));
-        vec3v ps = v3_madd(c, r, dn);
-        intv flip = to_intv(GATHER(uint, pt->sphere_flip, s)) != 0;
-        p = v3_select(p, ps, sph_lanes);
-        nn = v3_select(nn, v3_select(dn, v3_neg(dn), flip), sph_lanes);
-    }
-    *n = nn;
-    return p;
+    s.n = v3_select(v3(0.0f, 0.0f, 1.0f), s.n, active);
+    return s;
 }
 
 /* Self-intersection guard (Mitsuba 3's spawn_ray): move a ray origin off the

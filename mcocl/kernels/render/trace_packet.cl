@@ -118,8 +118,22 @@ RT_INLINE intv packet_leaf_any(const scene_geom *g, uint first, uint count, vec3
     return occ;
 }
 
-/* Number of true lanes of a mask. */
-RT_INLINE uint mask_count(intv m) { return lane_sum_u(to_uintv(mask_bit(m))); }
+/* Number of true lanes of a mask, by adding vector halves (lane_sum_u stores
+ * the vector to memory through a library call on PoCL's wheel). */
+#if LANES == 1
+#define mask_count(m) ((uint)((m) != 0))
+#elif LANES == 2
+#define mask_count(m) ((uint)(-((m).x + (m).y)))
+#elif LANES == 4
+RT_INLINE uint mask_count(int4 m) { int2 a = m.lo + m.hi; return (uint)(-(a.x + a.y)); }
+#elif LANES == 8
+RT_INLINE uint mask_count(int8 m) { int4 b = m.lo + m.hi; int2 a = b.lo + b.hi; return (uint)(-(a.x + a.y)); }
+#else
+RT_INLINE uint mask_count(int16 m) {
+    int8 c = m.lo + m.hi; int4 b = c.lo + c.hi; int2 a = b.lo + b.hi;
+    return (uint)(-(a.x + a.y));
+}
+#endif
 
 /* Closest hits of the active lanes (t = INFINITY where none). */
 RT_INLINE void packet_closest(const scene_geom *g, vec3v o, vec3v d, intv active, floatv *t_out, uintv *prim,

@@ -127,6 +127,28 @@ RT_INLINE intv v3_isfinite(vec3v a) { return rt_isfinite(a.x) & rt_isfinite(a.y)
 /* Rec. 709 luminance, the "power" of an RGB radiance. */
 RT_INLINE floatv v3_luminance(vec3v c) { return 0.212671f * c.x + 0.715160f * c.y + 0.072169f * c.z; }
 
+/* sin and cos of 2 pi u for u in [0, 1), as polynomials in vector registers
+ * (the built-in sincos is a library call on PoCL's wheel).  The angle is
+ * reduced to r in [-pi/4, pi/4] around the nearest quarter turn q; the Taylor
+ * series of sin r to r^9 and cos r to r^10 are accurate to 3e-10, below
+ * float rounding. */
+RT_INLINE floatv rt_sincos_2pi(floatv u, floatv *cosine) {
+    floatv t = u - rt_select((floatv)(0.0f), (floatv)(1.0f), u > 0.5f); /* t in (-0.5, 0.5] */
+    floatv q = t * 4.0f;
+    floatv qr = rt_select(rt_select(rt_select((floatv)(0.0f), (floatv)(1.0f), q > 0.5f), (floatv)(2.0f), q > 1.5f),
+                          rt_select((floatv)(-1.0f), (floatv)(-2.0f), q < -1.5f), q < -0.5f);
+    floatv r = (t - 0.25f * qr) * (2.0f * RT_PI);
+    floatv r2 = r * r;
+    floatv sr = r * (1.0f + r2 * (-1.0f / 6.0f + r2 * (1.0f / 120.0f + r2 * (-1.0f / 5040.0f + r2 * (1.0f / 362880.0f)))));
+    floatv cr = 1.0f + r2 * (-0.5f + r2 * (1.0f / 24.0f + r2 * (-1.0f / 720.0f + r2 * (1.0f / 40320.0f + r2 * (-1.0f / 3628800.0f)))));
+    /* rotate by q quarter turns: q = 0 (s, c), 1 (c, -s), +-2 (-s, -c), -1 (-c, s) */
+    intv q1 = qr == 1.0f, q2 = (qr == 2.0f) | (qr == -2.0f), qm = qr == -1.0f;
+    floatv s = rt_select(rt_select(rt_select(sr, cr, q1), -sr, q2), -cr, qm);
+    floatv c = rt_select(rt_select(rt_select(cr, -sr, q1), -cr, q2), sr, qm);
+    *cosine = c;
+    return s;
+}
+
 /* An orthonormal frame (s, t, n). */
 typedef struct {
     vec3v s, t, n;

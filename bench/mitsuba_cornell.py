@@ -1,0 +1,68 @@
+"""Render Mitsuba 3's Cornell box the way bench/render_throughput.py renders ours.
+
+Run with the Python of a separate virtual environment that has ``mitsuba``
+(it is not a dependency of mcocl):
+
+    python3 -m venv /work/venv-mitsuba && /work/venv-mitsuba/bin/pip install mitsuba numpy
+    /work/venv-mitsuba/bin/python bench/mitsuba_cornell.py --spp 64 --repeats 3 --out bench-out/render/mitsuba
+
+``llvm_ad_rgb`` needs an LLVM that works on the CPU (Debian's LLVM 15 crashes
+here; LLVM 19 works): ``apt-get download libllvm19; dpkg -x libllvm19_*.deb DIR``
+and ``DRJIT_LIBLLVM_PATH=DIR/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1``.
+
+The scene is ``mitsuba.cornell_box()`` with two changes so that both renderers
+estimate the same image: a box pixel filter (the dictionary's default is a
+Gaussian) and the path integrator with max_depth 8, rr_depth 5.  Writes
+``mitsuba_<spp>spp_<k>.npy`` (H, W, 3) images and ``mitsuba_times.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--max-depth", type=int, default=8)
+    ap.add_argument("--rr-depth", type=int, default=5)
+    ap.add_argument("--out", default="bench-out/render/mitsuba")
+    args = ap.parse_args()
+
+    import drjit as dr
+    import mitsuba as mi
+
+    mi.set_variant(args.variant)
+    d = mi.cornell_box()
+    d["sensor"]["film"]["rfilter"] = {"type": "box"}
+    d["integrator"] = {"type": "path", "max_depth": args.max_depth, "rr_depth": args.rr_depth}
+    scene = mi.load_dict(d)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    img = mi.render(scene, spp=args.spp, seed=10_000)  # first call: JIT compilation
+    np.asarray(img)
+    first = time.perf_counter() - t0
+    times = []
+    for k in range(args.repeats):
+        t0 = time.perf_counter()
+        img = mi.render(scene, spp=args.spp, seed=k)
+        dr.eval(img)
+        a = np.array(img, dtype=np.float32)
+        times.append(time.perf_counter() - t0)
+        np.save(out / f"mitsuba_{args.spp}spp_{k}.npy", a[..., :3])
+    info = {"variant": args.variant, "version": mi.__version__, "spp": args.spp, "times": times,
+            "first_call_seconds": first, "width": int(a.shape[1]), "height": int(a.shape[0])}
+    (out / "mitsuba_times.json").write_text(json.dumps(info, indent=2))
+    print(json.dumps(info))
+
+
+if __name__ == "__main__":
+    main()
