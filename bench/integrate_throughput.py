@@ -10,8 +10,10 @@ NumPy spellings measured).  The two alternate ``--repeats`` times so that
 both see the same machine load; the best repeat of each is reported.
 
 Printed per side: samples/s of wall time (the figure the ratio uses), and
-samples per CPU-second of the process (PoCL's threads are in the process),
-which is steadier on a shared machine.  Goal on a 2-core CPU: >= 20x.
+samples per CPU-second, which is steadier on a shared machine: for the
+engine the CPU time of the whole process (PoCL's threads are in it), for
+NumPy that of the calling thread (the process's would count idle PoCL
+threads too).  Goal on a 2-core CPU: >= 20x.
 
     python bench/integrate_throughput.py                 # 1e8 samples each, 2 repeats
     python bench/integrate_throughput.py --samples 1e9 --numpy-samples 1e8 --repeats 3
