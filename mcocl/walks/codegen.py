@@ -50,7 +50,7 @@ class WalkCode:
     transition: int
     source_mode: int | None  # SRC_TABLE / SRC_GIVEN for nee, else None
     uniforms: int  # uniforms per step
-    includes: list[str] = field(default_factory=lambda: ["walks/lane_ops.cl"])
+    includes: list[str] = field(default_factory=lambda: ["lane_ops.cl"])
     tail: list[str] = field(default_factory=lambda: list(WALK_TAIL))
 
     @property
@@ -155,7 +155,7 @@ def generate(
         # (counted as a non-finite walk) rather than being clamped silently
         lines += [
             "inline floatv walk_unit_or_nan(floatv v) {",
-            "    return wl_self(wl_open01(v), (floatv)(NAN), (v < 0.0f) | (v > 1.0f));",
+            "    return lane_select(lane_open01(v), (floatv)(NAN), (v < 0.0f) | (v > 1.0f));",
             "}",
         ]
     if trans == TRANS_GIVEN:

@@ -27,6 +27,7 @@
 #include "rng/uniform.cl"
 #include "sampling/stratified.cl"
 #include "sampling/nrooks.cl"
+#include "lane_ops.cl"
 
 #define SAMPLER_INDEPENDENT 0
 #define SAMPLER_STRATIFIED 1
@@ -104,14 +105,14 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
                     tau[a] = cell_to_unit(cell[a % DIM], tau[a], (double)STRATA_M);
                 v2[t] = unit_value(tau, tables);
             }
-            const intv fin0 = isfinite(v2[0]), fin1 = isfinite(v2[1]);
+            const intv fin0 = lane_finite(v2[0]), fin1 = lane_finite(v2[1]);
             const intv ok = valid & fin0 & fin1;
             nbad += to_uintv(mask_bit(valid & !fin0)) + to_uintv(mask_bit(valid & !fin1));
-            const floatv a0 = select((floatv)(0.0f), v2[0], ok), a1 = select((floatv)(0.0f), v2[1], ok);
-            const floatv okf = select((floatv)(0.0f), (floatv)(1.0f), ok);
+            const floatv a0 = lane_select((floatv)(0.0f), v2[0], ok), a1 = lane_select((floatv)(0.0f), v2[1], ok);
+            const floatv okf = lane_select((floatv)(0.0f), (floatv)(1.0f), ok);
             f1[acc] += (a0 - fshift + a1 - fshift) * okf;
             f2[acc] += (a0 - a1) * (a0 - a1);
-            fabsv[acc] += fabs(a0) + fabs(a1);
+            fabsv[acc] += lane_abs(a0) + lane_abs(a1);
             fpairs[acc] += okf;
             nvalid += 2u * to_uintv(mask_bit(ok));
 #else
@@ -123,13 +124,13 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             }
 #endif
             const floatv v = unit_value(tau, tables);
-            const intv fin = isfinite(v);
+            const intv fin = lane_finite(v);
             const intv ok = valid & fin;
             nbad += to_uintv(mask_bit(valid & !fin));
-            const floatv d = select((floatv)(0.0f), v - fshift, ok);
+            const floatv d = lane_select((floatv)(0.0f), v - fshift, ok);
             f1[acc] += d;
             f2[acc] += d * d;
-            fabsv[acc] += fabs(select((floatv)(0.0f), v, ok));
+            fabsv[acc] += lane_abs(lane_select((floatv)(0.0f), v, ok));
             nvalid += to_uintv(mask_bit(ok));
 #endif
         }

@@ -25,7 +25,7 @@ inline floatv walk_source_sample(const floatv *u, floatv *z, walk_tables t) {
 #else
     walk_Z_all(u + WALK_U_Z, z);
     floatv gz = walk_g(z);
-    return wl_sign(gz) * (float)WALK_SOURCE_INTEGRAL + (gz - gz);
+    return lane_sign(gz) * (float)WALK_SOURCE_INTEGRAL + (gz - gz);
 #endif
 }
 

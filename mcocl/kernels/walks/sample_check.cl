@@ -9,7 +9,7 @@
  */
 #include "walks/walk_rng.cl"
 #include "walks/next_event.cl"
-#include "walks/lane_ops.cl"
+#include "lane_ops.cl"
 
 kernel void walk_sample_check(uint n, ulong seed, global const float *xs, global const uint *tab, uint nxa,
                               uint nya, uint nb, uint lognb, uint trans_off, uint q_off, uint src_off,
@@ -33,7 +33,7 @@ kernel void walk_sample_check(uint n, ulong seed, global const float *xs, global
     floatv e = (floatv)(0.0f);
     for (int k = 0; k < DIM; ++k) z[k] = (floatv)(0.0f);
 #endif
-    wl_float_lanes a;
+    float_lanes a;
     for (int k = 0; k < DIM; ++k) {
         a.v = y[k];
         for (int l = 0; l < LANES; ++l) if (gid * LANES + l < n) ys[(gid * LANES + l) * DIM + k] = a.a[l];

@@ -23,7 +23,7 @@
 #define MCOCL_WALK_TABLE_CL
 
 #include "sampling/gather.cl"
-#include "walks/lane_ops.cl"
+#include "lane_ops.cl"
 
 #define WT_TOTAL 8388608.0f /* 2^23 */
 #define WT_INV_TOTAL 0x1p-23f
@@ -32,18 +32,18 @@
  * ux[0..DIM-1] (position inside the bin's box); writes y and returns p(y). */
 inline floatv wt_sample(global const uint *tab, uintv base, uint nya, uint nb, uint k, floatv ub,
                         const floatv *ux, floatv *y) {
-    const uintv c = wl_minu(to_uintv_rtz(ub * WT_TOTAL), (uintv)(8388607u));
+    const uintv c = lane_min_u(to_uintv_rtz(ub * WT_TOTAL), (uintv)(8388607u));
     const uintv col = c >> (23u - k);
     const uintv rest = c & (uintv)((8388608u >> k) - 1u);
     const uintv word = gather_uint(tab, base + col);
-    const uintv b = wl_selu(word & (uintv)(nb - 1u), col, rest < (word >> k));
+    const uintv b = lane_select_u(word & (uintv)(nb - 1u), col, rest < (word >> k));
     const floatv cnt = to_floatv(gather_uint(tab, base + nb + b));
     uintv left = b;
     const float inv = 1.0f / (float)nya;
     for (int d = DIM - 1; d >= 0; --d) {
         const uintv digit = left % (uintv)(nya);
         left = left / (uintv)(nya);
-        y[d] = wl_open01((to_floatv(digit) + ux[d]) * inv);
+        y[d] = lane_open01((to_floatv(digit) + ux[d]) * inv);
     }
     return cnt * (WT_INV_TOTAL * (float)nb);
 }
@@ -52,7 +52,7 @@ inline floatv wt_sample(global const uint *tab, uintv base, uint nya, uint nb, u
 inline uintv wt_cell(const floatv *x, uint nxa) {
     uintv c = (uintv)(0u);
     for (int d = 0; d < DIM; ++d)
-        c = c * nxa + wl_minu(to_uintv_rtz(x[d] * (float)nxa), (uintv)(nxa - 1u));
+        c = c * nxa + lane_min_u(to_uintv_rtz(x[d] * (float)nxa), (uintv)(nxa - 1u));
     return c;
 }
 

@@ -45,16 +45,16 @@ inline floatv walk_transition(const floatv *x, const floatv *u, floatv *y, float
     return walk_K(x, y);
 #elif WALK_TRANS == WALK_TRANS_TABLE
     uintv cell = wt_cell(x, t.nxa);
-    *q = wl_as_float(gather_uint(t.tab, t.q_off + cell));
+    *q = lane_as_float(gather_uint(t.tab, t.q_off + cell));
     floatv p = wt_sample(t.tab, (uintv)(t.trans_off) + cell * (2u * t.nb), t.nya, t.nb, t.lognb, u[WALK_U_TBIN],
                          u + WALK_U_Y, y);
     return walk_K(x, y) / p;
 #else
     walk_T_all(x, u + WALK_U_Y, y);
     floatv a = walk_A(x);
-    *q = wl_min(a, (floatv)(1.0f));
+    *q = lane_min(a, (floatv)(1.0f));
     floatv k = walk_K(x, y);
-    return wl_sign(k) * a + (k - k);
+    return lane_sign(k) * a + (k - k);
 #endif
 }
 

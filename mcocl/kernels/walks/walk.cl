@@ -53,7 +53,7 @@
  */
 #include "walks/walk_rng.cl"
 #include "walks/next_event.cl"
-#include "walks/lane_ops.cl"
+#include "lane_ops.cl"
 
 #define WALK_STATS 6
 #define WALK_WEIGHT_GUARD 1e30f
@@ -111,7 +111,7 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
         s2[a] = (doublev)(0.0);
     }
 
-    while (wl_any(active)) {
+    while (lane_any(active)) {
         /* walk index w0 + j as two 32-bit words (w0 is a multiple of wpb, j < wpb) */
         const uintv w_lo = (uintv)(w0_lo) + j;
         const uintv w_hi = (uintv)(w0_hi) + to_uintv(mask_bit(w_lo < j));
@@ -124,7 +124,7 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
         for (int sub = 0; sub < WALK_SPB; ++sub) {
             const floatv *u = uu + sub * WALK_NU;
 #if WALK_EST == WALK_EST_NEE
-            S = wl_self(S, S + W * walk_next_event(x, u, t), going);
+            S = lane_select(S, S + W * walk_next_event(x, u, t), going);
 #endif
             floatv y[DIM], q;
             const floatv m = walk_transition(x, u, y, &q, t);
@@ -139,45 +139,45 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
                 Wn = Wn / survival;
             } else {
                 /* P = min(1, |Wn|) and Wn / P = sign(Wn) max(1, |Wn|), exactly (x / |x| = +-1) */
-                const floatv a = wl_abs(Wn);
+                const floatv a = lane_abs(Wn);
                 go = u[WALK_U_SURV] < a;
-                Wn = wl_copysign(wl_self(a, (floatv)(1.0f), a < 1.0f), Wn);
+                Wn = lane_copysign(lane_select(a, (floatv)(1.0f), a < 1.0f), Wn);
             }
 #else
             intv go = u[WALK_U_SURV] < q;
             const floatv Wn = W * m / q;
 #endif
             go = go & going;
-            const intv g = go & ((n >= (uintv)(max_len)) | ((wl_abs(Wn) > WALK_WEIGHT_GUARD) & wl_finite(Wn)));
+            const intv g = go & ((n >= (uintv)(max_len)) | ((lane_abs(Wn) > WALK_WEIGHT_GUARD) & lane_finite(Wn)));
             guard = guard | g;
             go = go & !g;
-            for (int k = 0; k < DIM; ++k) x[k] = wl_self(x[k], y[k], go);
-            W = wl_self(W, Wn, go);
+            for (int k = 0; k < DIM; ++k) x[k] = lane_select(x[k], y[k], go);
+            W = lane_select(W, Wn, go);
             n += to_uintv(mask_bit(go));
 #if WALK_EST != WALK_EST_NEE
-            S = wl_self(S, S + Wn * walk_g(y), go);
+            S = lane_select(S, S + Wn * walk_g(y), go);
 #endif
             /* A walk ends when it does not move on, when its weight is 0 (nothing
              * more to add) or when its weight or value is no longer finite. */
-            S = wl_self(S, (floatv)(NAN), go & !wl_finite(W));
-            intv ends = going & (!go | (W == 0.0f) | !wl_finite(S));
+            S = lane_select(S, (floatv)(NAN), go & !lane_finite(W));
+            intv ends = going & (!go | (W == 0.0f) | !lane_finite(S));
 #if WALK_EST == WALK_EST_TRUNCATED
             ends = ends | (going & (n >= (uintv)(depth)));
 #endif
             finished = finished | ends;
             going = going & !ends;
         }
-        if (wl_any(finished)) {
-            moves += to_ulongv(wl_selu((uintv)(0u), n, finished));
+        if (lane_any(finished)) {
+            moves += to_ulongv(lane_select_u((uintv)(0u), n, finished));
             guards += to_uintv(mask_bit(guard));
-            const intv ok = finished & !guard & wl_finite(S);
-            nbad += to_uintv(mask_bit(finished & !guard & !wl_finite(S)));
+            const intv ok = finished & !guard & lane_finite(S);
+            nbad += to_uintv(mask_bit(finished & !guard & !lane_finite(S)));
             nok += to_uintv(mask_bit(ok));
             /* add v - shift to partial sum j mod 16: lane j mod LANES of accumulator
              * (j / LANES) mod WALK_NACC.  Lanes that add nothing add 0 (or -0),
              * selected by multiplying with exact 0/1 factors (cheaper than masks). */
             const doublev okf = to_doublev(to_intv(mask_bit(ok)));
-            const doublev d = (to_doublev(wl_self((floatv)(0.0f), S, ok)) - shift) * okf;
+            const doublev d = (to_doublev(lane_select((floatv)(0.0f), S, ok)) - shift) * okf;
             const doublev dd = d * d;
 #if WALK_NACC == 1
             s1[0] += d;
@@ -191,13 +191,13 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
                 s2[a] += dd * in_a;
             }
 #endif
-            stop |= wl_any(guard);
+            stop |= lane_any(guard);
             /* the lane's next walk; after a guard hit, none (the run will raise) */
-            j = wl_selu(j, stop ? (uintv)(nwalks) : j + (uint)LANES, finished);
-            for (int k = 0; k < DIM; ++k) x[k] = wl_self(x[k], x0[k], finished);
-            W = wl_self(W, (floatv)(1.0f), finished);
-            S = wl_self(S, s0, finished);
-            n = wl_selu(n, (uintv)(0u), finished);
+            j = lane_select_u(j, stop ? (uintv)(nwalks) : j + (uint)LANES, finished);
+            for (int k = 0; k < DIM; ++k) x[k] = lane_select(x[k], x0[k], finished);
+            W = lane_select(W, (floatv)(1.0f), finished);
+            S = lane_select(S, s0, finished);
+            n = lane_select_u(n, (uintv)(0u), finished);
             active = j < (uintv)(nwalks);
         }
     }
@@ -205,7 +205,7 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
     /* the 16 partial sums in order: virtual lane r = lane r mod LANES of accumulator r / LANES */
     double t1 = 0.0, t2 = 0.0;
     for (int a = 0; a < WALK_NACC; ++a) {
-        wl_double_lanes v1, v2;
+        double_lanes v1, v2;
         v1.v = s1[a];
         v2.v = s2[a];
         for (int l = 0; l < LANES; ++l) {
