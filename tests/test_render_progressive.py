@@ -54,6 +54,15 @@ def test_film_does_not_depend_on_how_blocks_are_launched() -> None:
     assert films[0][..., 6].min() == 16  # every pixel got its 16 samples
 
 
+def test_sub_devices_give_the_same_image() -> None:
+    """Blocks computed on two sub-devices are folded in block order: the same film as one device."""
+    cs = small_cornell(12)
+    one = render(cs, spp=8, seed=4, spp_per_block=2)
+    two = render(cs, spp=8, seed=4, spp_per_block=2, split=2)
+    np.testing.assert_array_equal(one.mean, two.mean)
+    np.testing.assert_array_equal(one.variance, two.variance)
+
+
 def test_resumed_render_is_identical(tmp_path: Path) -> None:
     cs = small_cornell()
     whole = render(cs, spp=12, seed=7, spp_per_block=2)
