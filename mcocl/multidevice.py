@@ -195,7 +195,7 @@ class _Sizer:
         self.t0 = t0
 
     def size(self, k: int, inflight: int) -> tuple[int, bool]:
-        """(chunk size, whether new blocks may be taken) for device ``k``."""
+        """(chunk size, whether new blocks may be taken) for device ``k`` with ``inflight`` blocks in flight."""
         st = self.states[k]
         if st.rate <= 0:
             # Throughput not measured yet: small chunks, doubling, as in schedule.run.
@@ -217,7 +217,7 @@ class _Sizer:
             left = budget - (time.perf_counter() - self.t0)
             allow_new = left > 0
             if st.rate > 0:
-                left -= inflight * self.chunk_seconds
+                left -= inflight / st.rate  # the blocks already in flight take this long
                 n = max(1, min(n, int(st.rate * max(left, 0.0)) + 1))
         return min(n, self.max_chunk), allow_new
 
@@ -254,7 +254,7 @@ class _Feeder(threading.Thread):
             self.go.wait()
             while True:
                 while len(inflight) < 2:
-                    size, allow_new = self.sizer.size(self.k, len(inflight))
+                    size, allow_new = self.sizer.size(self.k, sum(c[1] for c in inflight))
                     taken = self.chunks.take(size, allow_new, wait=not inflight)
                     if taken is None:
                         break

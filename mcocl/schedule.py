@@ -238,7 +238,8 @@ def run(
                 if rate > 0:
                     n = max(1, int(rate * chunk_seconds))
                     if halting.time_budget is not None:
-                        left = halting.time_budget - (now - t0) - len(inflight) * chunk_seconds
+                        # the blocks already in flight take inflight / rate seconds
+                        left = halting.time_budget - (now - t0) - sum(c[1] for c in inflight) / rate
                         n = max(1, min(n, int(rate * max(left, 0.0)) + 1))
                 n = int(min(n, remaining_blocks()))
                 handle = runner.enqueue(next_block, n)
