@@ -16,7 +16,7 @@ from ..schedule import Halting, Placement, Progress, execute
 from ..usercode import UserFunction
 from .codegen import HEURISTICS, generate
 from .design import Design, plan, total_granules
-from .job import IntegrationJob, estimate_from_totals
+from .job import IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
 
 SAMPLERS = ("independent", "stratified", "nrooks")
@@ -46,6 +46,9 @@ class IntegrationResult:
         designs: complete designs (stratified, nrooks), else 0.
         stopped_by: ``samples``, ``time``, ``stderr`` or ``interrupt``.
         build_seconds: kernel build time (0 when cached).
+        rounding_floor: the part of ``stderr`` that stands for float32
+            rounding of the integrand (2^-24 times the mean |value|), added in
+            quadrature; when it dominates, more samples no longer help.
         notes: anything the user should know (scalar fallback, rounding).
     """
 
@@ -65,6 +68,7 @@ class IntegrationResult:
     designs: int = 0
     stopped_by: str = "samples"
     build_seconds: float = 0.0
+    rounding_floor: float = 0.0
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -342,6 +346,9 @@ def integrate(
 
     notes += list(getattr(report, "notes", []) or [])
     est, var, n = estimate_from_totals(acc.totals, design, shift)
+    floor = rounding_floor(acc.totals)
+    if math.isfinite(var) and floor * floor > 0.5 * var:
+        notes.append("the standard error is mostly the float32 rounding floor (see rounding_floor)")
     if req.control:
         est += req.control_integral
     samples_used = _samples_used(acc, design, unit_limit)
@@ -369,6 +376,7 @@ def integrate(
         dim=req.dim,
         estimator=req.describe(),
         variance_method=method,
+        rounding_floor=floor,
         lanes=runner.lanes,
         designs=int(acc.blocks_done) if design.sampler != "independent" else 0,
         stopped_by={"blocks": "samples", "target": "stderr"}.get(report.stopped_by, report.stopped_by),

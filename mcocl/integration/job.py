@@ -159,9 +159,14 @@ def estimate_from_totals(t: np.ndarray, design: Design, shift: float) -> tuple[f
     Each variance gets (ROUNDING_FLOOR * mean |v|)^2 added: the float32 evaluation floor.
     """
     est, var, n = _statistical(t, design, shift)
-    if n > 0 and math.isfinite(var):
-        var = var + (ROUNDING_FLOOR * t[8] / n) ** 2
+    if math.isfinite(var):
+        var = var + rounding_floor(t) ** 2
     return est, var, n
+
+
+def rounding_floor(t: np.ndarray) -> float:
+    """The float32 rounding term of the standard error: ROUNDING_FLOOR times the mean |v|."""
+    return ROUNDING_FLOOR * t[8] / t[0] if t[0] > 0 else 0.0
 
 
 def _statistical(t: np.ndarray, design: Design, shift: float) -> tuple[float, float, float]:
