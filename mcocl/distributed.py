@@ -421,15 +421,8 @@ def _run(distributed: Any, client: Any, job: BlockJob, acc: Accumulator, halting
                     if halting.checkpoint and now - last_ckpt >= halting.checkpoint_every:
                         acc.save(halting.checkpoint)
                         last_ckpt = now
-                    if not stopped_by and halting.target is not None and halting.target(acc):
-                        stopped_by = "target"
                 if not stopped_by:
-                    if intr.flag:
-                        stopped_by = "interrupt"
-                    elif halting.max_blocks is not None and acc.blocks_done >= halting.max_blocks:
-                        stopped_by = "blocks"
-                    elif halting.time_budget is not None and el >= halting.time_budget:
-                        stopped_by = "time"
+                    stopped_by = halting.reason(acc, el, intr.flag, folded=res is not None and res.error is None)
                 if stopped_by:
                     chunks.close()
                 submit_more()

@@ -395,8 +395,6 @@ def run_devices(
                     if halting.checkpoint and now - last_ckpt >= halting.checkpoint_every:
                         acc.save(halting.checkpoint)
                         last_ckpt = now
-                    if not stopped_by and halting.target is not None and halting.target(acc):
-                        stopped_by = "target"
                 elif isinstance(msg, _Failed):
                     alive -= 1
                     st = states[msg.device]
@@ -409,12 +407,7 @@ def run_devices(
                         DeviceFailureWarning, stacklevel=2,
                     )
                 if not stopped_by:
-                    if intr.flag:
-                        stopped_by = "interrupt"
-                    elif halting.max_blocks is not None and acc.blocks_done >= halting.max_blocks:
-                        stopped_by = "blocks"
-                    elif halting.time_budget is not None and el >= halting.time_budget:
-                        stopped_by = "time"
+                    stopped_by = halting.reason(acc, el, intr.flag, folded=isinstance(msg, _Done))
                 if stopped_by:
                     chunks.close()
                 if chunks.drained() and acc.blocks_done >= chunks.next_block:

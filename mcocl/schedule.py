@@ -72,6 +72,19 @@ class Halting:
     checkpoint: str | None = None
     checkpoint_every: float = 30.0
 
+    def reason(self, acc: Accumulator, elapsed: float, interrupted: bool, folded: bool = True) -> str:
+        """Why to stop now, or "" to go on: ``interrupt``, ``target`` (asked only
+        right after a fold, the target being the costly rule), ``blocks`` or ``time``."""
+        if interrupted:
+            return "interrupt"
+        if folded and self.target is not None and self.target(acc):
+            return "target"
+        if self.max_blocks is not None and acc.blocks_done >= self.max_blocks:
+            return "blocks"
+        if self.time_budget is not None and elapsed >= self.time_budget:
+            return "time"
+        return ""
+
 
 @dataclass
 class Progress:
@@ -262,14 +275,7 @@ def run(
                 acc.save(halting.checkpoint)
                 last_ckpt = now
             if not stopped_by:
-                if intr.flag:
-                    stopped_by = "interrupt"
-                elif halting.target is not None and halting.target(acc):
-                    stopped_by = "target"
-                elif halting.max_blocks is not None and done >= halting.max_blocks:
-                    stopped_by = "blocks"
-                elif halting.time_budget is not None and el >= halting.time_budget:
-                    stopped_by = "time"
+                stopped_by = halting.reason(acc, el, intr.flag)
         if not stopped_by:
             stopped_by = "interrupt" if intr.flag else ("blocks" if remaining_blocks() <= 0 else "time")
     if halting.checkpoint:
