@@ -14,6 +14,7 @@ from ..errors import InputError
 from ..progress import ProgressBar
 from ..schedule import Halting, Placement, Progress, execute
 from ..usercode import UserFunction
+from ..validate import positive_number, whole_number
 from .codegen import HEURISTICS, generate
 from .design import Design, plan, total_granules
 from .job import IntegrationJob, estimate_from_totals, rounding_floor
@@ -89,18 +90,6 @@ class IntegrationResult:
         return s
 
 
-def _positive_int(name: str, v: Any, minimum: int = 1) -> int:
-    if isinstance(v, bool):
-        raise InputError(f"{name} must be an integer >= {minimum}, got {v!r}")
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be an integer >= {minimum}, got {v!r}") from None
-    if not math.isfinite(f) or f != int(f) or f < minimum:
-        raise InputError(f"{name} must be an integer >= {minimum}, got {v!r}")
-    return int(f)
-
-
 @dataclass
 class _Request:
     integrand: str
@@ -150,12 +139,12 @@ def _validate(
 ) -> _Request:
     if not isinstance(integrand, str) or not integrand.strip():
         raise InputError(f"integrand must be OpenCL C code (an expression or a body that returns), got {integrand!r}")
-    dim = _positive_int("dim", dim)
+    dim = whole_number("dim", dim)
     if dim > 64:
         raise InputError(f"dim must be <= 64, got {dim}")
     if sampler not in SAMPLERS:
         raise InputError(f"sampler: unknown sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
-    seed = _positive_int("seed", seed, 0)
+    seed = whole_number("seed", seed, 0)
     if seed >= 2**64:
         raise InputError(f"seed must be below 2**64, got {seed}")
     if proposal is not None and proposals is not None:
@@ -172,7 +161,7 @@ def _validate(
             shares = [1] * len(props)
         if not isinstance(shares, Sequence) or len(shares) != len(props):
             raise InputError(f"shares must list one sample count per proposal ({len(props)}), got {shares!r}")
-        shares = [_positive_int(f"shares[{i}]", s) for i, s in enumerate(shares)]
+        shares = [whole_number(f"shares[{i}]", s) for i, s in enumerate(shares)]
         if sum(shares) > 64:
             raise InputError(f"shares add up to {sum(shares)} samples per unit; at most 64 are supported")
         if heuristic not in HEURISTICS:
@@ -277,14 +266,15 @@ def integrate(
     req = _validate(integrand, dim, sampler, seed, proposal, proposals, shares, heuristic, beta,
                     control, control_integral, roulette)
     if samples is not None:
-        samples = _positive_int("samples", samples)
-    for name, v in (("time_budget", time_budget), ("target_stderr", target_stderr)):
-        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise InputError(f"{name} must be a positive number of {'seconds' if name == 'time_budget' else 'units'}, got {v!r}")
+        samples = whole_number("samples", samples)
+    if time_budget is not None:
+        positive_number("time_budget", time_budget, "seconds")
+    if target_stderr is not None:
+        positive_number("target_stderr", target_stderr)
     if samples is None and time_budget is None and target_stderr is None:
         raise InputError("samples=None needs time_budget= or target_stderr= to know when to stop")
     if design_samples is not None:
-        design_samples = _positive_int("design_samples", design_samples)
+        design_samples = whole_number("design_samples", design_samples)
 
     users = UserFunction("integrand", req.integrand, "integrand", (("x", req.dim),))
     control_fn = UserFunction("control", req.control, "control", (("x", req.dim),)) if req.control else None

@@ -32,10 +32,11 @@ from ..errors import ConvergenceError, InputError
 from ..integration.api import NonFiniteWarning
 from ..progress import ProgressBar
 from ..schedule import Halting, Placement, Progress, execute
+from ..validate import whole_number
 from .codegen import generate
 from .job import STATS, WalkJob, WalkRunner, estimates
 from .nystrom import spectral_radius
-from .request import WalkRequest, positive_int, validate
+from .request import WalkRequest, validate
 
 
 @dataclass
@@ -228,7 +229,7 @@ def solve_fredholm(
     req = validate(kernel, source, dim, at, estimator, seed, depth, survival, row_integral, transition_sampler,
                    source_integral, source_sampler, max_walk_length, table_cells, table_bins)
     if walks is not None:
-        walks = positive_int("walks", walks, 1, 1 << 62)
+        walks = whole_number("walks", walks, 1, 1 << 62)
     for name, v in (("time_budget", time_budget), ("target_stderr", target_stderr)):
         if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
             raise InputError(f"{name} must be a positive number, got {v!r}")

@@ -10,26 +10,13 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..validate import whole_number
 from .codegen import ESTIMATORS
 from .tabulate import MAX_BINS, MAX_CELLS, TableGrid, default_grid
 
 MAX_DIM = 8
 MAX_WALK_LENGTH = (1 << 31) - 1
 MAX_TABLE = 1 << 24  # entries of the transition tables (64 MiB)
-
-
-def positive_int(name: str, v: Any, minimum: int = 1, maximum: int | None = None) -> int:
-    """``v`` as an int >= minimum (1e6 and 1_000_000.0 accepted), else InputError naming ``name``."""
-    bound = f">= {minimum}" + (f" and <= {maximum}" if maximum is not None else "")
-    if isinstance(v, bool):
-        raise InputError(f"{name} must be an integer {bound}, got {v!r}")
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be an integer {bound}, got {v!r}") from None
-    if not math.isfinite(f) or f != int(f) or f < minimum or (maximum is not None and f > maximum):
-        raise InputError(f"{name} must be an integer {bound}, got {v!r}")
-    return int(f)
 
 
 def _code(name: str, v: Any) -> str:
@@ -144,14 +131,14 @@ def validate(
     """Check every argument; raise :class:`InputError` naming the first bad one."""
     kernel = _code("kernel", kernel)
     source = _code("source", source)
-    dim = positive_int("dim", dim, 1, MAX_DIM)
+    dim = whole_number("dim", dim, 1, MAX_DIM)
     pts = query_points(at, dim)
     if estimator not in ESTIMATORS:
         raise InputError(f"estimator: unknown estimator {estimator!r}; choose one of {', '.join(ESTIMATORS)}")
-    seed = positive_int("seed", seed, 0)
+    seed = whole_number("seed", seed, 0)
     if seed >= 2**64:
         raise InputError(f"seed must be below 2**64, got {seed}")
-    depth = positive_int("depth", depth, 0, 1 << 20)
+    depth = whole_number("depth", depth, 0, 1 << 20)
     if estimator != "roulette" and survival not in (None, "weight"):
         raise InputError(f"survival applies to estimator='roulette' only (got estimator={estimator!r})")
     if survival is None or survival == "weight":
@@ -184,11 +171,11 @@ def validate(
         if not (math.isfinite(source_integral) and source_integral > 0):
             raise InputError(f"source_integral must be a positive number, got {source_integral!r}")
         source_sampler = _samplers("source_sampler", source_sampler, dim)
-    max_len = positive_int("max_walk_length", max_walk_length, 1, MAX_WALK_LENGTH)
+    max_len = whole_number("max_walk_length", max_walk_length, 1, MAX_WALK_LENGTH)
     if estimator == "truncated" and depth > max_len:
         raise InputError(f"depth ({depth}) exceeds max_walk_length ({max_len})")
-    cells = positive_int("table_cells", table_cells, 1) if table_cells is not None else None
-    bins = positive_int("table_bins", table_bins, 1) if table_bins is not None else None
+    cells = whole_number("table_cells", table_cells, 1) if table_cells is not None else None
+    bins = whole_number("table_bins", table_bins, 1) if table_bins is not None else None
     if bins is not None and bins & (bins - 1):
         raise InputError(f"table_bins must be a power of two (the tables are exact alias tables), got {bins}")
     grid = default_grid(dim, cells, bins)
