@@ -108,4 +108,16 @@ MC_INLINE uint lane_sum_u(uintv v) {
 #endif
 }
 
+MC_INLINE ulong lane_sum_ul(ulongv v) {
+#if LANES == 1
+    return v;
+#else
+    ulong s = 0;
+    ulong t[LANES];
+    MC_CAT(vstore, LANE_SUFFIX)(v, 0, t);
+    for (int k = 0; k < LANES; ++k) s += t[k];
+    return s;
+#endif
+}
+
 #endif

@@ -60,18 +60,6 @@
 #define WALK_VLANES 16 /* virtual partial sums */
 #define WALK_NACC (WALK_VLANES / LANES)
 
-inline ulong lane_sum_ul(ulongv v) {
-#if LANES == 1
-    return v;
-#else
-    ulong s = 0;
-    ulong t[LANES];
-    MC_CAT(vstore, LANE_SUFFIX)(v, 0, t);
-    for (int k = 0; k < LANES; ++k) s += t[k];
-    return s;
-#endif
-}
-
 kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong walk_limit, ulong seed,
                         global const float *queries, global const double *shifts,
                         float survival, uint depth, uint max_len,
