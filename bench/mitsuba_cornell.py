@@ -33,6 +33,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--max-depth", type=int, default=8)
     ap.add_argument("--rr-depth", type=int, default=5)
+    ap.add_argument("--seed", type=int, default=0, help="seed of the first timed render (then seed + 1, ...)")
     ap.add_argument("--out", default="bench-out/render/mitsuba")
     args = ap.parse_args()
 
@@ -47,18 +48,19 @@ def main() -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    img = mi.render(scene, spp=args.spp, seed=10_000)  # first call: JIT compilation
+    img = mi.render(scene, spp=args.spp, seed=1_000_000 + args.seed)  # first call: JIT compilation
     np.asarray(img)
     first = time.perf_counter() - t0
-    times = []
+    times, cpu = [], []
     for k in range(args.repeats):
-        t0 = time.perf_counter()
-        img = mi.render(scene, spp=args.spp, seed=k)
+        t0, c0 = time.perf_counter(), time.process_time()
+        img = mi.render(scene, spp=args.spp, seed=args.seed + k)
         dr.eval(img)
         a = np.array(img, dtype=np.float32)
         times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
         np.save(out / f"mitsuba_{args.spp}spp_{k}.npy", a[..., :3])
-    info = {"variant": args.variant, "version": mi.__version__, "spp": args.spp, "times": times,
+    info = {"variant": args.variant, "version": mi.__version__, "spp": args.spp, "times": times, "cpu_seconds": cpu,
             "first_call_seconds": first, "width": int(a.shape[1]), "height": int(a.shape[0])}
     (out / "mitsuba_times.json").write_text(json.dumps(info, indent=2))
     print(json.dumps(info))
