@@ -25,7 +25,7 @@ LE = np.array([0.2, 0.5, 0.8])
 
 
 def closed_form(max_depth: int) -> np.ndarray:
-    """L = Le (1 - rho^D) / (1 - rho), or Le / (1 - rho) for D = -1."""
+    """L = Le (1 - rho^D) / (1 - rho) (0 for D = 0, a black image as in Mitsuba), or Le / (1 - rho) for D = -1."""
     if max_depth < 0:
         return LE / (1 - RHO)
     return LE * (1 - RHO**max_depth) / (1 - RHO)
@@ -40,7 +40,7 @@ def image_mean(r) -> tuple[np.ndarray, np.ndarray]:
 
 @pytest.mark.parametrize("scene", ["furnace.json", "furnace_sphere.json"])
 @pytest.mark.parametrize("integrator", ["path", "nee", "mis"])
-@pytest.mark.parametrize("max_depth", [-1, 1, 3])
+@pytest.mark.parametrize("max_depth", [-1, 0, 1, 3])
 def test_furnace_closed_form(scene: str, integrator: str, max_depth: int) -> None:
     r = render(SCENES / scene, spp=16, integrator=integrator, max_depth=max_depth, seed=11)
     assert r.spp == 16 and r.nonfinite == 0

@@ -223,8 +223,7 @@ class RenderJob:
 
     def options(self, lanes: int) -> list[str]:
         """The build's -D options."""
-        return [f"-DLANES={lanes}", f"-DINTEGRATOR={INTEGRATOR_CODES[self.integrator]}",
-                f"-DMAX_DEPTH={self.max_depth}", f"-DRR_DEPTH={self.rr_depth}"]
+        return [f"-DLANES={lanes}", f"-DINTEGRATOR={INTEGRATOR_CODES[self.integrator]}"]
 
     def spp_done(self, blocks: int) -> int:
         """Samples per pixel contained in the first ``blocks`` blocks."""
@@ -271,7 +270,7 @@ class RenderRunner:
             self.ctx.queue, g, lsz,
             np.uint64(first_block), np.uint32(nblocks), np.uint32(job.spp_per_block), np.uint32(job.spp_limit),
             np.uint32(job.width), np.uint32(job.height), np.uint32(job.tile_pixels), np.uint32(job.ntiles),
-            np.uint64(job.seed),
+            np.uint64(job.seed), np.int32(job.max_depth), np.uint32(job.rr_depth),
             b["camera"], b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
             np.uint32(ntris), np.uint32(nsph),
             b["prim_rec"], b["materials"], b["emitter_radiance"], b["light_rec"], b["light_cdf"],

@@ -14,9 +14,10 @@
  *                    Guibas 1995; Veach's thesis eq. 9.13).
  * Depths follow Mitsuba 3's path integrator: the camera ray's hit has depth 0;
  * emission is collected at every hit, a vertex scatters (light sample and
- * BSDF sample) only while depth + 1 < MAX_DEPTH (MAX_DEPTH < 0: unbounded),
+ * BSDF sample) only while depth + 1 < max_depth (max_depth < 0: unbounded),
  * and Russian roulette (survival min(max(throughput) eta^2, 0.95)) starts once
- * depth >= RR_DEPTH (lecture: "Ruská ruleta pro integrální rovnice").
+ * depth >= rr_depth (lecture: "Ruská ruleta pro integrální rovnice").  The
+ * depths are kernel arguments, so changing them does not rebuild the kernel.
  *
  * Random numbers.  Sample (pixel, s) has the 64-bit index s * W * H + pixel
  * and reads Philox block 0 (dims 0-3: pixel jitter) and, at depth d, blocks
@@ -49,12 +50,6 @@
 #define INTEGRATOR_MIS 2
 #ifndef INTEGRATOR
 #define INTEGRATOR INTEGRATOR_MIS
-#endif
-#ifndef MAX_DEPTH
-#define MAX_DEPTH 8
-#endif
-#ifndef RR_DEPTH
-#define RR_DEPTH 5
 #endif
 /* A guard against endless paths (max_depth -1 with roulette switched off in a
  * closed white scene): the random-number dimension of a vertex must fit 32 bits. */
@@ -148,7 +143,7 @@ RT_INLINE intv assign_samples(intv need, uint *next, uint total, uintv *j) {
 
 kernel void render_blocks(
     ulong first_block, uint nblocks, uint spp_per_block, uint spp_limit,
-    uint width, uint height, uint tile_pixels, uint ntiles, ulong seed,
+    uint width, uint height, uint tile_pixels, uint ntiles, ulong seed, int max_depth, uint rr_depth,
     global const float4 *camera,
     global const float4 *bvh_nodes, global const uint *bvh_prims,
     global const float4 *tri_vertices, global const float4 *spheres, global const uint *sphere_flip,
@@ -246,7 +241,7 @@ kernel void render_blocks(
         intv miss = alive & !h.hit;
 
         /* ---- the environment, seen by a ray that escaped ---- */
-        if (has_env && rt_any(miss)) {
+        if (has_env && max_depth != 0 && rt_any(miss)) {
             floatv w = emission_weight(unsampled, prev_pdf, (floatv)(env_pmf * RT_INV_4PI));
             L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, env_le), w)), miss);
         }
@@ -255,7 +250,8 @@ kernel void render_blocks(
         vec3v p = sf.p, n = sf.n;
 
         /* ---- emission of the surface hit (one-sided: front = normal) ---- */
-        intv emitting = hit & (sf.emitter >= 0) & (v3_dot(n, d) < 0.0f);
+        /* (max_depth 0 renders black, as in Mitsuba 3) */
+        intv emitting = hit & (sf.emitter >= 0) & (v3_dot(n, d) < 0.0f) & (intv)(max_depth != 0 ? -1 : 0);
         if (rt_any(emitting)) {
             vec3v le = emitter_radiance_of(&lt, sf.emitter);
 #if INTEGRATOR == INTEGRATOR_MIS
@@ -268,12 +264,8 @@ kernel void render_blocks(
         }
 
         /* ---- scatter, while the path may grow ---- */
-#if MAX_DEPTH >= 0
-        intv cont = hit & (depth + 1u < (uintv)(MAX_DEPTH));
-#else
-        intv cont = hit;
-#endif
-        cont = cont & (depth + 1u < (uintv)(DEPTH_GUARD));
+        const uint depth_limit = max_depth >= 0 ? min((uint)max_depth, (uint)DEPTH_GUARD) : (uint)DEPTH_GUARD;
+        intv cont = hit & (depth + 1u < (uintv)(depth_limit));
         intv next_alive = (intv)(0);
         if (rt_any(cont)) {
             material_v m = material_load(materials, rt_select((uintv)(0u), sf.mat, cont));
@@ -330,7 +322,7 @@ kernel void render_blocks(
             /* -- Russian roulette (Mitsuba 3's rule) -- */
             floatv tmax_ = v3_maxc(thr);
             floatv q = rt_min(tmax_ * eta * eta, (floatv)(0.95f));
-            intv rr = depth >= (uintv)(RR_DEPTH);
+            intv rr = depth >= (uintv)(rr_depth);
             intv survive = u01(ca.v3) < q;
             thr = v3_select(thr, v3_scale(thr, 1.0f / q), cont & rr & survive);
             next_alive = cont & (!rr | survive) & (tmax_ > 0.0f);
