@@ -79,7 +79,7 @@ def test_resumed_render_is_identical(tmp_path: Path) -> None:
     assert 0 < part.spp < 12
     assert Accumulator.load(ckpt).blocks_done * 2 == part.spp
     rest = render(cs, spp=12, seed=7, resume=ckpt)
-    assert rest.spp == 12 and rest.stopped_by == "spp"
+    assert rest.spp == 12 and rest.stopped_by == "spp" and rest.spp_this_run == 12 - part.spp
     np.testing.assert_array_equal(rest.mean, whole.mean)
     np.testing.assert_array_equal(rest.variance, whole.variance)
     np.testing.assert_array_equal(rest.count, whole.count)

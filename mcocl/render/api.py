@@ -51,6 +51,8 @@ class RenderResult:
         relative_error: mean over pixels and channels of stderr / mean (the ``noise`` measure).
         integrator, max_depth, rr_depth, seed: the settings that ran.
         width, height, lanes, device, stopped_by, scene: as they were.
+        spp_this_run: samples per pixel computed by this call (less than ``spp``
+            when it resumed a checkpoint); ``samples_per_second`` counts these.
         notes: anything the user should know.
     """
 
@@ -73,6 +75,7 @@ class RenderResult:
     stopped_by: str
     scene: str = ""
     spp_per_block: int = 1
+    spp_this_run: int = -1
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -82,8 +85,9 @@ class RenderResult:
 
     @property
     def samples_per_second(self) -> float:
-        """Paths per second of sampling."""
-        return self.samples / self.seconds if self.seconds > 0 else math.nan
+        """Paths per second of the sampling done by this call."""
+        spp = self.spp if self.spp_this_run < 0 else self.spp_this_run
+        return spp * self.width * self.height / self.seconds if self.seconds > 0 else math.nan
 
     @property
     def stderr(self) -> np.ndarray:
@@ -94,7 +98,8 @@ class RenderResult:
         """Every scalar field (no image arrays) plus ``samples`` and ``samples_per_second``, JSON-ready."""
         d = {k: getattr(self, k) for k in (
             "spp", "nonfinite", "seconds", "build_seconds", "relative_error", "integrator", "max_depth", "rr_depth",
-            "seed", "width", "height", "lanes", "device", "stopped_by", "scene", "spp_per_block", "notes")}
+            "seed", "width", "height", "lanes", "device", "stopped_by", "scene", "spp_per_block", "spp_this_run",
+            "notes")}
         d["samples"] = self.samples
         d["samples_per_second"] = self.samples_per_second
         return d
@@ -266,6 +271,7 @@ def render(
     if acc is None:
         acc = Accumulator(job.stat_shape, {**meta, "spp_per_block": spp_per_block})
     acc.meta["spp_limit"] = spp_limit
+    spp_before = job.spp_done(acc.blocks_done)
 
     def target(a: Accumulator) -> bool:
         if noise is None or job.spp_done(a.blocks_done) < 2:
@@ -317,6 +323,7 @@ def render(
         stopped_by={"blocks": "spp", "target": "noise"}.get(report.stopped_by, report.stopped_by),
         scene=str(cs.source) if cs.source is not None else "",
         spp_per_block=spp_per_block,
+        spp_this_run=spp_done - spp_before,
         notes=notes,
     )
     if nonfinite:
