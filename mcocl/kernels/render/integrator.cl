@@ -105,14 +105,14 @@ RT_INLINE void flush_samples(global film_t *out, uintv pixel, vec3v L, intv done
 #if LANES == 1
     if (done) add_sample(out + (size_t)pixel * STATS, L.x, L.y, L.z);
 #else
-    float lx[LANES], ly[LANES], lz[LANES];
-    uint px[LANES];
-    int dn[LANES];
-    store_floatv(L.x, lx); store_floatv(L.y, ly); store_floatv(L.z, lz);
-    MC_CAT(vstore, LANE_SUFFIX)(pixel, 0, px);
-    MC_CAT(vstore, LANE_SUFFIX)(done, 0, dn);
+    floatv_u lx, ly, lz;
+    uintv_u px;
+    intv_u dn;
+    lx.v = L.x; ly.v = L.y; lz.v = L.z;
+    px.v = pixel;
+    dn.v = done;
     for (int k = 0; k < LANES; ++k)
-        if (dn[k]) add_sample(out + (size_t)px[k] * STATS, lx[k], ly[k], lz[k]);
+        if (dn.s[k]) add_sample(out + (size_t)px.s[k] * STATS, lx.s[k], ly.s[k], lz.s[k]);
 #endif
 }
 
@@ -125,19 +125,19 @@ RT_INLINE intv assign_samples(intv need, uint *next, uint total, uintv *j) {
     }
     return 0;
 #else
-    int nd[LANES], fr[LANES];
-    uint jj[LANES];
-    MC_CAT(vstore, LANE_SUFFIX)(need, 0, nd);
-    MC_CAT(vstore, LANE_SUFFIX)(*j, 0, jj);
+    intv_u nd, fr;
+    uintv_u jj;
+    nd.v = need;
+    jj.v = *j;
     for (int k = 0; k < LANES; ++k) {
-        fr[k] = 0;
-        if (nd[k] && *next < total) {
-            jj[k] = (*next)++;
-            fr[k] = -1;
+        fr.s[k] = 0;
+        if (nd.s[k] && *next < total) {
+            jj.s[k] = (*next)++;
+            fr.s[k] = -1;
         }
     }
-    *j = MC_CAT(vload, LANE_SUFFIX)(0, jj);
-    return MC_CAT(vload, LANE_SUFFIX)(0, fr);
+    *j = jj.v;
+    return fr.v;
 #endif
 }
 
