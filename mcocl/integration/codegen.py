@@ -135,12 +135,12 @@ def generate(
                 # a zero weight contributes nothing, even where f/p is not finite
                 body += [
                     f"        floatv c = w * {g} / (shares[{i}] * p);",
-                    "        v += select(c, (floatv)(0.0f), w <= 0.0f);",
+                    "        v += lane_select(c, (floatv)(0.0f), w <= 0.0f);",
                     "    }",
                 ]
                 point += 1
     if roulette is not None:
-        body.append(f"    v = select((floatv)(0.0f), v * {1.0 / float(roulette)!r}f, rr_live);")
+        body.append(f"    v = lane_select((floatv)(0.0f), v * {1.0 / float(roulette)!r}f, rr_live);")
     body += ["    return v;", "}"]
     generated = "".join(funcs) + "\n".join(body) + "\n"
     tab = np.concatenate(tables) if tables else np.zeros(1, np.uint32)

@@ -48,6 +48,12 @@ MC_INLINE floatv lane_min(floatv a, floatv b) { return lane_select(b, a, a < b);
 
 MC_INLINE uintv lane_min_u(uintv a, uintv b) { return lane_select_u(b, a, a < b); }
 
+/* max(a, b); b when a is NaN */
+MC_INLINE floatv lane_max(floatv a, floatv b) { return lane_select(b, a, a > b); }
+
+/* x clamped into [lo, hi] */
+MC_INLINE floatv lane_clamp(floatv x, float lo, float hi) { return lane_min(lane_max(x, (floatv)(lo)), (floatv)(hi)); }
+
 /* |a| with the sign of b */
 MC_INLINE floatv lane_copysign(floatv a, floatv b) {
     return lane_as_float((lane_as_int(a) & 0x7fffffff) | (lane_as_int(b) & (int)0x80000000));
@@ -90,5 +96,39 @@ typedef union { floatv v; float a[LANES]; } float_lanes;
 typedef union { uintv v; uint a[LANES]; } uint_lanes;
 typedef union { intv v; int a[LANES]; } int_lanes;
 typedef union { doublev v; double a[LANES]; } double_lanes;
+
+
+/* ---- doubles ---------------------------------------------------------- */
+#if LANES == 1
+#define lane_as_long(x) as_long(x)
+#define lane_as_double(x) as_double(x)
+#define lane_full_mask_l(m) (-(long)((m) != 0))
+#else
+#define lane_as_long(x) MC_CAT(as_long, LANE_SUFFIX)(x)
+#define lane_as_double(x) MC_CAT(as_double, LANE_SUFFIX)(x)
+#define lane_full_mask_l(m) (m)
+#endif
+
+/* m ? b : a, per lane, for doubles (m: a comparison of doubles) */
+MC_INLINE doublev lane_select_d(doublev a, doublev b, longv m) {
+    const longv f = lane_full_mask_l(m);
+    return lane_as_double((lane_as_long(a) & ~f) | (lane_as_long(b) & f));
+}
+
+/* 1.0 where m holds, else 0.0 (m: a comparison of doubles) */
+MC_INLINE doublev lane_indicator_d(longv m) {
+    return lane_as_double(lane_as_long((doublev)(1.0)) & lane_full_mask_l(m));
+}
+
+/* floor(y) for 0 <= y < 2^51, by rounding through 2^52 (no call to floor) */
+MC_INLINE doublev lane_floor_nonneg_d(doublev y) {
+    const doublev f = (y + 0x1p52) - 0x1p52;
+    return f - lane_indicator_d(f > y);
+}
+
+/* A positive finite float moved one float up (+1) or down (-1) where the mask holds. */
+MC_INLINE floatv lane_step_positive(floatv t, intv up, intv down) {
+    return lane_as_float(lane_as_int(t) + mask_bit(up) - mask_bit(down));
+}
 
 #endif

@@ -24,6 +24,7 @@ from ..accumulate import Accumulator
 from ..errors import InputError
 from ..progress import ProgressBar
 from ..schedule import Halting, Placement, Progress, execute
+from ..validate import positive_number, whole_number
 from .compiled import CompiledScene, compile_scene
 from .film import film_image, relative_error
 from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
@@ -128,24 +129,6 @@ class RenderResult:
         return s
 
 
-def _count(name: str, v: Any, minimum: int = 1) -> int:
-    if isinstance(v, bool) or v is None:
-        raise InputError(f"{name} must be an integer >= {minimum}, got {v!r}")
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be an integer >= {minimum}, got {v!r}") from None
-    if not math.isfinite(f) or f != int(f) or f < minimum:
-        raise InputError(f"{name} must be an integer >= {minimum}, got {v!r}")
-    return int(f)
-
-
-def _positive(name: str, v: Any, what: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-        raise InputError(f"{name} must be a positive number ({what}), got {v!r}")
-    return float(v)
-
-
 def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any) -> CompiledScene:
     """A compiled scene with the overrides applied (a given CompiledScene is not modified)."""
     if isinstance(scene, CompiledScene):
@@ -220,11 +203,11 @@ def render(
         raise InputError(f"seed must be an integer in [0, 2**64), got {seed!r}")
     seed = int(seed)
     if time is not None:
-        time = _positive("time", time, "seconds")
+        time = positive_number("time", time, "seconds")
     if noise is not None:
-        noise = _positive("noise", noise, "a target relative standard error such as 0.01")
+        noise = positive_number("noise", noise, "a target relative standard error such as 0.01")
     if spp is not None:
-        spp = _count("spp", spp)
+        spp = whole_number("spp", spp)
     elif time is None and noise is None:
         spp = int(cs.spp)
     if spp is not None and spp >= UNBOUNDED_SPP:
@@ -248,7 +231,7 @@ def render(
     if resume is not None:
         acc = Accumulator.load(resume, expect_meta=meta)
         saved_block = int(acc.meta.get("spp_per_block", 0))
-        if spp_per_block is not None and _count("spp_per_block", spp_per_block) != saved_block:
+        if spp_per_block is not None and whole_number("spp_per_block", spp_per_block) != saved_block:
             raise InputError(f"checkpoint {resume} uses spp_per_block={saved_block}, not {spp_per_block}")
         spp_per_block = saved_block
         saved_limit = int(acc.meta.get("spp_limit", UNBOUNDED_SPP))
@@ -261,7 +244,7 @@ def render(
         if spp is not None:
             spp_per_block = max(1, min(spp_per_block, spp))
     else:
-        spp_per_block = _count("spp_per_block", spp_per_block)
+        spp_per_block = whole_number("spp_per_block", spp_per_block)
 
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
                     spp_per_block, spp_limit, lanes)

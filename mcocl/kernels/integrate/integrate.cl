@@ -102,7 +102,7 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             for (int t = 0; t < 2; ++t) {
                 sample_uniforms(2ul * ubase + (ulong)t, 2u, seed, tau);
                 for (uint a = 0; a < NCOORD; ++a)
-                    tau[a] = cell_to_unit(cell[a % DIM], tau[a], (double)STRATA_M);
+                    tau[a] = cell_to_unit(cell[a % DIM], tau[a], (double)STRATA_M, 1.0 / (double)STRATA_M);
                 v2[t] = unit_value(tau, tables);
             }
             const intv fin0 = lane_finite(v2[0]), fin1 = lane_finite(v2[1]);
@@ -120,7 +120,7 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
 #if SAMPLER == SAMPLER_NROOKS
             for (uint a = 0; a < NCOORD; ++a) {
                 uintv cell = nrooks_permute(in_design, DESIGN_UNITS, NROOKS_MASK, NROOKS_S1, NROOKS_S2, keys[a]);
-                tau[a] = cell_to_unit(to_doublev(cell), tau[a], (double)DESIGN_UNITS);
+                tau[a] = cell_to_unit(to_doublev(cell), tau[a], (double)DESIGN_UNITS, 1.0 / (double)DESIGN_UNITS);
             }
 #endif
             const floatv v = unit_value(tau, tables);

@@ -18,7 +18,7 @@ kernel void nrooks_points(uint n, ulong design, ulong seed, global float *out) {
     rng_uniforms(r, 0u, DIM, u);
     for (uint a = 0; a < DIM; ++a) {
         uint cell = nrooks_permute(i, n, mask, s1, s2, nrooks_key(seed, design, a));
-        out[i * DIM + a] = cell_to_unit((double)cell, u[a], (double)n);
+        out[i * DIM + a] = cell_to_unit((double)cell, u[a], (double)n, 1.0 / (double)n);
     }
 }
 
@@ -33,6 +33,6 @@ kernel void stratified_points(uint m, uint strata, ulong design, ulong seed, glo
         float u[DIM];
         rng_t r = rng_init(2ul * (design * (ulong)strata + h) + t, seed, RNG_STREAM_SAMPLE);
         rng_uniforms(r, 0u, DIM, u);
-        for (uint a = 0; a < DIM; ++a) out[(2 * h + t) * DIM + a] = cell_to_unit(cell[a], u[a], (double)m);
+        for (uint a = 0; a < DIM; ++a) out[(2 * h + t) * DIM + a] = cell_to_unit(cell[a], u[a], (double)m, 1.0 / (double)m);
     }
 }

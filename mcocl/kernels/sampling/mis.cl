@@ -9,7 +9,7 @@
 #ifndef MCOCL_MIS_CL
 #define MCOCL_MIS_CL
 
-#include "lanes.cl"
+#include "lane_ops.cl"
 
 #define MIS_AVERAGE 0
 #define MIS_MAX 1
@@ -28,7 +28,7 @@ MC_INLINE floatv mis_weight_max(int i, const floatv *q, int k) {
         if (j == i) continue;
         /* i loses to a strictly larger q_j, or to an equal q_j with lower index */
         intv lose = (j < i) ? (q[j] >= q[i]) : (q[j] > q[i]);
-        w = select(w, (floatv)(0.0f), lose);
+        w = lane_select(w, (floatv)(0.0f), lose);
     }
     return w;
 }
@@ -36,13 +36,13 @@ MC_INLINE floatv mis_weight_max(int i, const floatv *q, int k) {
 MC_INLINE floatv mis_weight_balance(int i, const floatv *q, int k) {
     floatv s = (floatv)(0.0f);
     for (int j = 0; j < k; ++j) s += q[j];
-    return select(q[i] / s, (floatv)(0.0f), s <= 0.0f);
+    return lane_select(q[i] / s, (floatv)(0.0f), s <= 0.0f);
 }
 
 /* Powers are taken of q / max(q) so that large densities do not overflow. */
 MC_INLINE floatv mis_weight_power(int i, const floatv *q, int k, float beta) {
     floatv m = q[0];
-    for (int j = 1; j < k; ++j) m = fmax(m, q[j]);
+    for (int j = 1; j < k; ++j) m = lane_max(m, q[j]);
     floatv s = (floatv)(0.0f), qi = (floatv)(0.0f);
     for (int j = 0; j < k; ++j) {
         floatv r = q[j] / m;
@@ -50,18 +50,18 @@ MC_INLINE floatv mis_weight_power(int i, const floatv *q, int k, float beta) {
         s += t;
         if (j == i) qi = t;
     }
-    return select(qi / s, (floatv)(0.0f), m <= 0.0f);
+    return lane_select(qi / s, (floatv)(0.0f), m <= 0.0f);
 }
 
 /* The rendering special case: two techniques, beta = 2 (Veach eq. 9.13), for
  * the technique whose (count-weighted) pdf is a against the other's b. */
 MC_INLINE floatv power_heuristic(floatv a, floatv b) {
     floatv a2 = a * a, b2 = b * b;
-    return select(a2 / (a2 + b2), (floatv)(0.0f), (a2 + b2) <= 0.0f);
+    return lane_select(a2 / (a2 + b2), (floatv)(0.0f), (a2 + b2) <= 0.0f);
 }
 
 MC_INLINE floatv balance_heuristic(floatv a, floatv b) {
-    return select(a / (a + b), (floatv)(0.0f), (a + b) <= 0.0f);
+    return lane_select(a / (a + b), (floatv)(0.0f), (a + b) <= 0.0f);
 }
 
 #endif

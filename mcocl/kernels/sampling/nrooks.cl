@@ -18,6 +18,7 @@
 #define MCOCL_NROOKS_CL
 
 #include "rng/uniform.cl"
+#include "lane_ops.cl"
 
 #define RNG_STREAM_PERMUTATION 3u
 
@@ -62,8 +63,8 @@ MC_INLINE uintv nrooks_mix(uintv x, uint mask, uint s1, uint s2, perm_key k) {
 MC_INLINE uintv nrooks_permute(uintv i, uint n, uint mask, uint s1, uint s2, perm_key k) {
     uintv x = nrooks_mix(i, mask, s1, s2, k);
     intv out = x >= (uintv)(n);
-    while (mask_any(out)) {
-        x = select(x, nrooks_mix(x, mask, s1, s2, k), out);
+    while (lane_any(out)) {
+        x = lane_select_u(x, nrooks_mix(x, mask, s1, s2, k), out);
         out = x >= (uintv)(n);
     }
     return x;

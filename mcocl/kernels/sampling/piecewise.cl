@@ -26,9 +26,9 @@ MC_INLINE uintv pc_find(global const uint *cum, uint nbins, uint top, uintv c) {
     uintv b = (uintv)(0u);
     for (uint step = top; step > 0u; step >>= 1) {
         uintv cand = b + step;
-        uintv safe = min(cand, (uintv)(nbins - 1u));
+        uintv safe = lane_min_u(cand, (uintv)(nbins - 1u));
         intv take = (cand < (uintv)(nbins)) & (gather_uint(cum, safe) <= c);
-        b = select(b, cand, take);
+        b = lane_select_u(b, cand, take);
     }
     return b;
 }
@@ -38,27 +38,25 @@ MC_INLINE uintv pc_find(global const uint *cum, uint nbins, uint top, uintv c) {
  * was sampled (sampling and evaluation must agree for combined estimators). */
 MC_INLINE floatv pc_keep_in_bin(floatv x, uintv b, uint nbins) {
     uintv bx = to_uintv_rtz(x * (float)nbins);
-    x = select(x, nextafter(x, (floatv)(0.0f)), bx > b);
-    x = select(x, nextafter(x, (floatv)(1.0f)), bx < b);
-    return x;
+    return lane_step_positive(x, bx < b, bx > b);
 }
 
 /* Sample a 1-D table; returns x and writes its bin mass in *mass (probability, not density). */
 MC_INLINE floatv pc1_sample_mass(global const uint *cum, uint nbins, uint top, floatv u, floatv *mass) {
     floatv t = u * PC_TOTAL;
-    uintv c = min(to_uintv_rtz(t), (uintv)(8388607u));
+    uintv c = lane_min_u(to_uintv_rtz(t), (uintv)(8388607u));
     uintv b = pc_find(cum, nbins, top, c);
     uintv lo = gather_uint(cum, b);
     uintv hi = gather_uint(cum, b + 1u);
     floatv cnt = to_floatv(hi - lo);
-    floatv frac = clamp((t - to_floatv(lo)) / cnt, 0.0f, ONE_MINUS_EPS);
+    floatv frac = lane_clamp((t - to_floatv(lo)) / cnt, 0.0f, ONE_MINUS_EPS);
     *mass = cnt * PC_INV_TOTAL;
     return pc_keep_in_bin(clamp_open01((to_floatv(b) + frac) / (float)nbins), b, nbins);
 }
 
 /* The bin of x and its mass. */
 MC_INLINE floatv pc1_mass(global const uint *cum, uint nbins, floatv x) {
-    uintv b = min(to_uintv_rtz(x * (float)nbins), (uintv)(nbins - 1u));
+    uintv b = lane_min_u(to_uintv_rtz(x * (float)nbins), (uintv)(nbins - 1u));
     return to_floatv(gather_uint(cum, b + 1u) - gather_uint(cum, b)) * PC_INV_TOTAL;
 }
 
@@ -79,29 +77,29 @@ MC_INLINE void pc2_warp(global const uint *marg, global const uint *cond, uint n
                      floatv ua, floatv ub, floatv *xa, floatv *xb, floatv *pdf) {
     floatv ma;
     *xa = pc1_sample_mass(marg, na, topa, ua, &ma);
-    uintv row = min(to_uintv_rtz(*xa * (float)na), (uintv)(na - 1u));
+    uintv row = lane_min_u(to_uintv_rtz(*xa * (float)na), (uintv)(na - 1u));
     /* sample the conditional of that row: gather through a per-lane row offset */
     floatv t = ub * PC_TOTAL;
-    uintv c = min(to_uintv_rtz(t), (uintv)(8388607u));
+    uintv c = lane_min_u(to_uintv_rtz(t), (uintv)(8388607u));
     uintv base = row * (nb + 1u);
     uintv b = (uintv)(0u);
     for (uint step = topb; step > 0u; step >>= 1) {
         uintv cand = b + step;
-        uintv safe = min(cand, (uintv)(nb - 1u));
+        uintv safe = lane_min_u(cand, (uintv)(nb - 1u));
         intv take = (cand < (uintv)(nb)) & (gather_uint(cond, base + safe) <= c);
-        b = select(b, cand, take);
+        b = lane_select_u(b, cand, take);
     }
     uintv lo = gather_uint(cond, base + b);
     uintv hi = gather_uint(cond, base + b + 1u);
     floatv cnt = to_floatv(hi - lo);
-    floatv frac = clamp((t - to_floatv(lo)) / cnt, 0.0f, ONE_MINUS_EPS);
+    floatv frac = lane_clamp((t - to_floatv(lo)) / cnt, 0.0f, ONE_MINUS_EPS);
     *xb = pc_keep_in_bin(clamp_open01((to_floatv(b) + frac) / (float)nb), b, nb);
     *pdf = ma * cnt * PC_INV_TOTAL * (float)na * (float)nb;
 }
 
 MC_INLINE floatv pc2_pdf(global const uint *marg, global const uint *cond, uint na, uint nb, floatv xa, floatv xb) {
-    uintv row = min(to_uintv_rtz(xa * (float)na), (uintv)(na - 1u));
-    uintv col = min(to_uintv_rtz(xb * (float)nb), (uintv)(nb - 1u));
+    uintv row = lane_min_u(to_uintv_rtz(xa * (float)na), (uintv)(na - 1u));
+    uintv col = lane_min_u(to_uintv_rtz(xb * (float)nb), (uintv)(nb - 1u));
     uintv base = row * (nb + 1u);
     floatv ma = to_floatv(gather_uint(marg, row + 1u) - gather_uint(marg, row));
     floatv mb = to_floatv(gather_uint(cond, base + col + 1u) - gather_uint(cond, base + col));

@@ -25,20 +25,12 @@
 MC_INLINE void stratum_cells(uintv h, int d, double m, double inv_m, doublev *cell) {
     doublev rest = to_doublev(h);
     for (int j = 0; j < d; ++j) {
-        doublev q = floor(rest * inv_m);
+        doublev q = lane_floor_nonneg_d(rest * inv_m);
         doublev r = rest - q * m;
         /* the product rest * inv_m may land one below or above an integer */
-#if LANES == 1
-        if (r >= m) { r -= m; q += 1.0; }
-        if (r < 0.0) { r += m; q -= 1.0; }
-#else
-        longv hi = r >= (doublev)(m);
-        r = select(r, r - m, hi);
-        q = select(q, q + 1.0, hi);
-        longv lo = r < (doublev)(0.0);
-        r = select(r, r + m, lo);
-        q = select(q, q - 1.0, lo);
-#endif
+        const doublev hi = lane_indicator_d(r >= m), lo = lane_indicator_d(r < 0.0);
+        r += (lo - hi) * m;
+        q += hi - lo;
         cell[j] = r;
         rest = q;
     }

@@ -4,29 +4,23 @@
 #ifndef MCOCL_UNIT_INTERVAL_CL
 #define MCOCL_UNIT_INTERVAL_CL
 
-#include "lanes.cl"
+#include "lane_ops.cl"
 
 #define ONE_MINUS_EPS 0x1.fffffep-1f /* the largest float below 1 */
 #define TINY_POSITIVE 0x1p-24f
 
-MC_INLINE floatv clamp_open01(floatv x) { return fmin(fmax(x, (floatv)(TINY_POSITIVE)), (floatv)(ONE_MINUS_EPS)); }
+MC_INLINE floatv clamp_open01(floatv x) { return lane_open01(x); }
 
 /* (cell + u) / m in double, rounded once to float: cell may be large (up to
  * 2^22 strata per axis) and the jitter must not be lost in a float sum.  The
  * rounding can still carry the point onto a neighbouring slab's boundary (u
  * within 2^-24 of 0 or 1); one float step back keeps every point in its own
  * slab, which is what makes a design stratified or N-rooks. */
-MC_INLINE floatv cell_to_unit(doublev cell, floatv u, double m) {
-    floatv t = clamp_open01(to_floatv((cell + to_doublev(u)) / m));
-    doublev k = floor(to_doublev(t) * m); /* exact: 24-bit t times m < 2^23 */
-#if LANES == 1
-    if (k > cell) t = nextafter(t, 0.0f);
-    if (k < cell) t = nextafter(t, 1.0f);
-#else
-    t = select(t, nextafter(t, (floatv)(0.0f)), to_intv(k > cell));
-    t = select(t, nextafter(t, (floatv)(1.0f)), to_intv(k < cell));
-#endif
-    return t;
+MC_INLINE floatv cell_to_unit(doublev cell, floatv u, double m, double inv_m) {
+    floatv t = clamp_open01(to_floatv((cell + to_doublev(u)) * inv_m));
+    const doublev y = to_doublev(t) * m; /* exact: 24-bit t times m <= 2^22 */
+    /* floor(y) > cell: one float down; floor(y) < cell: one float up */
+    return lane_step_positive(t, to_intv(y < cell), to_intv(y >= cell + 1.0));
 }
 
 #endif

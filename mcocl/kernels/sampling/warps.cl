@@ -66,14 +66,14 @@ MC_INLINE doublev norm_quantile_d(doublev p) {
     doublev zc = (((((a0 * r + a1) * r + a2) * r + a3) * r + a4) * r + a5) * q /
                  (((((b0 * r + b1) * r + b2) * r + b3) * r + b4) * r + 1.0);
     /* tails, by symmetry on min(p, 1 - p) */
-    doublev pt = fmin(p, 1.0 - p);
+    doublev pt = lane_select_d(p, 1.0 - p, p > 0.5);
     doublev s = sqrt(-2.0 * log(pt));
     doublev zt = (((((c0 * s + c1) * s + c2) * s + c3) * s + c4) * s + c5) /
                  ((((d0 * s + d1) * s + d2) * s + d3) * s + 1.0);
 #if LANES == 1
     doublev z = (p < plow) ? zt : ((p > 1.0 - plow) ? -zt : zc);
 #else
-    doublev z = select(zc, select(-zt, zt, p < plow), (p < plow) | (p > 1.0 - plow));
+    doublev z = lane_select_d(zc, lane_select_d(-zt, zt, p < plow), (p < plow) | (p > 1.0 - plow));
 #endif
     /* Halley step: e = Phi(z) - p; z -= e / (phi(z) (1 + z e / (2 phi(z)))) */
     doublev e = norm_cdf_d(z) - p;
