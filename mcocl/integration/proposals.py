@@ -207,6 +207,7 @@ class TruncNormal(Factor):
         self._sign = -1.0 if alpha > 0 else 1.0
         lo, hi = (-beta, -alpha) if alpha > 0 else (alpha, beta)
         self._plo, self._phi = _phi_cdf(lo), _phi_cdf(hi)
+        self._qhi = _phi_cdf(-hi)  # 1 - Phi(hi), accurate in the upper tail
         self._z = self._phi - self._plo
         if not self._z > 1e-12:
             raise InputError(
@@ -220,8 +221,8 @@ class TruncNormal(Factor):
 
     def warp_code(self, tag, u, x, pdf, tabs):
         return (
-            f"{{ floatv p_; {x[0]} = warp_truncnorm({u[0]}, {_d(self.mu)}, {_d(self.sigma)}, {_d(self._sign)}, "
-            f"{_d(self._plo)}, {_d(self._phi)}, {_f(self._norm)}, &p_); {pdf} *= p_; }}"
+            f"{{ floatv p_; {x[0]} = warp_truncnorm({u[0]}, {_f(self.mu)}, {_f(self.sigma)}, {_f(self._sign)}, "
+            f"{_f(self._plo)}, {_f(self._qhi)}, {_f(self._z)}, {_f(self._norm)}, &p_); {pdf} *= p_; }}"
         )
 
     def pdf_code(self, tag, x, tabs):
