@@ -42,6 +42,14 @@ def split_count(text: str) -> int:
     return v
 
 
+def add_persistence_args(p: argparse.ArgumentParser, job: str, json_help: str = "print one JSON object") -> None:
+    """--checkpoint, --resume, --json and --quiet, the same for every long-running command."""
+    p.add_argument("--checkpoint", default=None, help="save progress to this file (periodically and at the end)")
+    p.add_argument("--resume", default=None, help=f"continue from a checkpoint of the same {job}")
+    p.add_argument("--json", action="store_true", help=json_help)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def add_device_args(p: argparse.ArgumentParser) -> None:
     """--device, --devices, --split, --dask and --lanes (read them back with :func:`placement_kwargs`)."""
     g = p.add_argument_group("devices")

@@ -11,7 +11,7 @@ from ..integration import NonFiniteWarning, integrate
 from ..integration.api import SAMPLERS
 from ..integration.codegen import HEURISTICS
 from ..schedule import DeviceFailureWarning
-from .common import add_device_args, count, placement_kwargs, positive, print_json
+from .common import add_device_args, add_persistence_args, count, placement_kwargs, positive, print_json
 
 DESCRIPTION = """\
 Estimate the integral of INTEGRAND over the unit cube [0,1]^dim.
@@ -85,10 +85,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--time", dest="time_budget", type=positive, default=None, help="stop after this many seconds")
     p.add_argument("--target-stderr", type=positive, default=None, help="stop once the standard error is this small")
     p.add_argument("--design-samples", type=count, default=None, help="samples per stratified / N-rooks design")
-    p.add_argument("--checkpoint", default=None, help="save progress to this file (periodically and at the end)")
-    p.add_argument("--resume", default=None, help="continue from a checkpoint of the same job")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_persistence_args(p, "job")
     add_device_args(p)
     p.set_defaults(func=run)
 

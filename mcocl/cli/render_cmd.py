@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..render.api import INTEGRATORS, NonFiniteSampleWarning, render
 from ..schedule import DeviceFailureWarning
-from .common import add_device_args, count, placement_kwargs, positive, print_json
+from .common import add_device_args, add_persistence_args, count, placement_kwargs, positive, print_json
 
 DESCRIPTION = """\
 Render SCENE (a JSON scene file, see scenes/README.md) by path tracing and
@@ -56,10 +56,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
     p.add_argument("--png", default=None, help="also write an sRGB PNG preview")
     p.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops (default 0)")
-    p.add_argument("--checkpoint", default=None, help="save progress to this file (periodically and at the end)")
-    p.add_argument("--resume", default=None, help="continue from a checkpoint of the same scene and settings")
-    p.add_argument("--json", action="store_true", help="print one JSON object describing the render")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_persistence_args(p, "scene and settings", "print one JSON object describing the render")
     add_device_args(p)
     p.set_defaults(func=run)
 

@@ -11,7 +11,7 @@ import numpy as np
 from ..integration import NonFiniteWarning
 from ..schedule import DeviceFailureWarning
 from ..walks import ESTIMATORS, nystrom, solve_fredholm
-from .common import add_device_args, count, placement_kwargs, positive, print_json
+from .common import add_device_args, add_persistence_args, count, placement_kwargs, positive, print_json
 
 DESCRIPTION = """\
 Solve f(x) = g(x) + integral over [0,1]^dim of K(x,y) f(y) dy at query points
@@ -92,10 +92,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--order", type=count, default=None, help="Gauss-Legendre nodes per axis of the reference")
     p.add_argument("--time", dest="time_budget", type=positive, default=None, help="stop after this many seconds")
     p.add_argument("--target-stderr", type=positive, default=None, help="stop once every standard error is this small")
-    p.add_argument("--checkpoint", default=None, help="save progress to this file (periodically and at the end)")
-    p.add_argument("--resume", default=None, help="continue from a checkpoint of the same problem")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_persistence_args(p, "problem")
     add_device_args(p)
     p.set_defaults(func=run)
 
