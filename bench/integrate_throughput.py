@@ -32,6 +32,7 @@ import numpy as np
 
 import mcocl
 from mcocl.bench.numpy_baseline import NumpyPlainRun
+from mcocl.cli.common import count
 
 INTEGRAND = "exp(-(x[0]*x[0] + x[1]*x[1] + x[2]*x[2] + x[3]*x[3]))"
 DIM = 4
@@ -63,20 +64,13 @@ def numpy_once(samples: int, chunk: int, seed: int) -> dict:
             "estimate": obs.estimate, "stderr": obs.stderr}
 
 
-def _count(text: str) -> int:
-    v = float(text)
-    if not v >= 1 or v != int(v):
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return int(v)
-
-
 def main(argv: list[str] | None = None) -> int:
     """Measure and print; exit status 0 (the goal is reported, not enforced)."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--samples", type=_count, default=10**8, help="engine samples per repeat (default 1e8)")
-    ap.add_argument("--numpy-samples", type=_count, default=10**8, help="NumPy samples per repeat (default 1e8)")
-    ap.add_argument("--chunk", type=_count, default=10**6, help="NumPy points per chunk (default 1e6)")
-    ap.add_argument("--repeats", type=_count, default=2, help="alternating repeats of each side (default 2)")
+    ap.add_argument("--samples", type=count, default=10**8, help="engine samples per repeat (default 1e8)")
+    ap.add_argument("--numpy-samples", type=count, default=10**8, help="NumPy samples per repeat (default 1e8)")
+    ap.add_argument("--chunk", type=count, default=10**6, help="NumPy points per chunk (default 1e6)")
+    ap.add_argument("--repeats", type=count, default=2, help="alternating repeats of each side (default 2)")
     ap.add_argument("--device", default=None, help="OpenCL device (index or name substring)")
     ap.add_argument("--lanes", type=int, default=None, help="kernel vector width override")
     ap.add_argument("--json", action="store_true", help="print one JSON object")

@@ -32,6 +32,7 @@ import time
 import numpy as np
 
 import mcocl
+from mcocl.cli.common import count
 
 KERNEL = "0.5f*(x[0] + y[0])"
 SOURCE = "x[0]*x[0] - x[0]/6.0f - 0.125f"
@@ -101,20 +102,13 @@ def engine_once(walks: int, estimator: str, lanes: int | None, device: object, s
             "lanes": r.lanes, "device": r.device, "estimator": estimator}
 
 
-def _count(text: str) -> int:
-    v = float(text)
-    if not v >= 1 or v != int(v):
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return int(v)
-
-
 def main(argv: list[str] | None = None) -> int:
     """Measure and print; exit status 0 (the goal is reported, not enforced)."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--walks", type=_count, default=10**7, help="engine walks per point per repeat (default 1e7)")
-    ap.add_argument("--numpy-walks", type=_count, default=10**6, help="NumPy walks per point per repeat (default 1e6)")
-    ap.add_argument("--chunk", type=_count, default=1 << 20, help="NumPy walks advanced together (default 2^20)")
-    ap.add_argument("--repeats", type=_count, default=2, help="alternating repeats of each side (default 2)")
+    ap.add_argument("--walks", type=count, default=10**7, help="engine walks per point per repeat (default 1e7)")
+    ap.add_argument("--numpy-walks", type=count, default=10**6, help="NumPy walks per point per repeat (default 1e6)")
+    ap.add_argument("--chunk", type=count, default=1 << 20, help="NumPy walks advanced together (default 2^20)")
+    ap.add_argument("--repeats", type=count, default=2, help="alternating repeats of each side (default 2)")
     ap.add_argument("--lanes", type=int, nargs="+", default=[0], help="engine lane widths to time (0: the default)")
     ap.add_argument("--estimators", nargs="+", default=["roulette"], choices=("truncated", "roulette", "subcritical", "nee"),
                     help="engine estimators to time (the ratio uses roulette)")

@@ -431,10 +431,7 @@ def _run(distributed: Any, client: Any, job: BlockJob, acc: Accumulator, halting
             raise
         finally:
             chunks.finish()
-    if not stopped_by:
-        stopped_by = "interrupt" if intr.flag else ("blocks" if chunks.exhausted else "time")
-    if halting.checkpoint:
-        acc.save(halting.checkpoint)
+    stopped_by = halting.conclude(acc, stopped_by, intr.flag, chunks.exhausted)
     return RunReport(
         seconds=time.perf_counter() - t0,
         blocks=acc.blocks_done,

@@ -425,10 +425,7 @@ def run_devices(
             go.set()
     for f in feeders:
         f.join(timeout=5.0)
-    if not stopped_by:
-        stopped_by = "interrupt" if intr.flag else ("blocks" if chunks.exhausted else "time")
-    if halting.checkpoint:
-        acc.save(halting.checkpoint)
+    stopped_by = halting.conclude(acc, stopped_by, intr.flag, chunks.exhausted)
     return RunReport(
         seconds=time.perf_counter() - t0,
         blocks=acc.blocks_done,

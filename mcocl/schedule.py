@@ -85,6 +85,14 @@ class Halting:
             return "time"
         return ""
 
+    def conclude(self, acc: Accumulator, stopped_by: str, interrupted: bool, exhausted: bool) -> str:
+        """Save the final checkpoint; return why the run stopped (derived when no rule fired yet)."""
+        if not stopped_by:
+            stopped_by = "interrupt" if interrupted else ("blocks" if exhausted else "time")
+        if self.checkpoint:
+            acc.save(self.checkpoint)
+        return stopped_by
+
 
 @dataclass
 class Progress:
@@ -276,10 +284,7 @@ def run(
                 last_ckpt = now
             if not stopped_by:
                 stopped_by = halting.reason(acc, el, intr.flag)
-        if not stopped_by:
-            stopped_by = "interrupt" if intr.flag else ("blocks" if remaining_blocks() <= 0 else "time")
-    if halting.checkpoint:
-        acc.save(halting.checkpoint)
+    stopped_by = halting.conclude(acc, stopped_by, intr.flag, remaining_blocks() <= 0)
     seconds = time.perf_counter() - t0
     return RunReport(
         seconds=seconds,

@@ -82,42 +82,22 @@ typedef MC_CAT(long, LANE_SUFFIX) longv;
 #define mask_true() ((intv)(-1))
 #endif
 
-/* Horizontal sum of a double lane vector in a fixed order (lane 0 first), so
- * that the result is the same however the work is split. */
-MC_INLINE double lane_sum_d(doublev v) {
+/* Horizontal sums of lane vectors in a fixed order (lane 0 first), so that
+ * the result is the same however the work is split. */
 #if LANES == 1
-    return v;
+#define MC_LANE_SUM(name, T, TV) MC_INLINE T name(TV v) { return v; }
 #else
-    double s = 0.0;
-    double t[LANES];
-    MC_CAT(vstore, LANE_SUFFIX)(v, 0, t);
-    for (int k = 0; k < LANES; ++k) s += t[k];
-    return s;
+#define MC_LANE_SUM(name, T, TV)                         \
+    MC_INLINE T name(TV v) {                             \
+        T t[LANES];                                      \
+        MC_CAT(vstore, LANE_SUFFIX)(v, 0, t);            \
+        T s = 0;                                         \
+        for (int k = 0; k < LANES; ++k) s += t[k];       \
+        return s;                                        \
+    }
 #endif
-}
-
-MC_INLINE uint lane_sum_u(uintv v) {
-#if LANES == 1
-    return v;
-#else
-    uint s = 0;
-    uint t[LANES];
-    MC_CAT(vstore, LANE_SUFFIX)(v, 0, t);
-    for (int k = 0; k < LANES; ++k) s += t[k];
-    return s;
-#endif
-}
-
-MC_INLINE ulong lane_sum_ul(ulongv v) {
-#if LANES == 1
-    return v;
-#else
-    ulong s = 0;
-    ulong t[LANES];
-    MC_CAT(vstore, LANE_SUFFIX)(v, 0, t);
-    for (int k = 0; k < LANES; ++k) s += t[k];
-    return s;
-#endif
-}
+MC_LANE_SUM(lane_sum_d, double, doublev)
+MC_LANE_SUM(lane_sum_u, uint, uintv)
+MC_LANE_SUM(lane_sum_ul, ulong, ulongv)
 
 #endif
