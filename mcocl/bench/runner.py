@@ -98,11 +98,7 @@ class EstimatorRecord:
     @property
     def efficiency(self) -> float:
         """1 / (variance per sample * seconds per sample) = points / (stderr^2 * seconds)."""
-        f = self.final
-        if not f or not f.seconds > 0 or not math.isfinite(f.stderr):
-            return math.nan
-        w = f.stderr**2 * f.seconds / f.points
-        return 1.0 / w if w > 0 else math.inf
+        return self._efficiency(self.final.stderr if self.final else math.nan)
 
     @property
     def z(self) -> float:
@@ -123,10 +119,14 @@ class EstimatorRecord:
     @property
     def efficiency_from_error(self) -> float:
         """points / (error^2 * seconds): the efficiency the actual error implies (noisy; the cross-check)."""
+        return self._efficiency(self.final.error if self.final else math.nan)
+
+    def _efficiency(self, spread: float) -> float:
+        """points / (spread^2 * seconds) at the end, for spread = the stderr or the actual error."""
         f = self.final
-        if not f or not f.seconds > 0 or not math.isfinite(f.error):
+        if not f or not f.seconds > 0 or not math.isfinite(spread):
             return math.nan
-        w = f.error**2 * f.seconds / f.points
+        w = spread**2 * f.seconds / f.points
         return 1.0 / w if w > 0 else math.inf
 
     @property
