@@ -145,9 +145,7 @@ kernel void render_blocks(
     ulong first_block, uint nblocks, uint spp_per_block, uint spp_limit,
     uint width, uint height, uint tile_pixels, uint ntiles, ulong seed, int max_depth, uint rr_depth,
     global const float4 *camera,
-    global const float4 *bvh_nodes, global const uint *bvh_prims,
-    global const float4 *tri_vertices, global const float4 *spheres, global const uint *sphere_flip,
-    uint ntris, uint nspheres,
+    SCENE_GEOM_PARAMS,
     global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance,
     global const float4 *light_rec, global const float *light_cdf,
     uint nlights, uint light_top, float env_threshold, float env_pmf, float4 env_radiance,
@@ -168,19 +166,12 @@ kernel void render_blocks(
     for (uint k = 0; k < npix * STATS; ++k) acc[(size_t)pix0 * STATS + k] = 0;
     if (total == 0u) return;
 
-    scene_geom geom;
-    geom.nodes = bvh_nodes;
-    geom.prims = bvh_prims;
-    geom.tris = tri_vertices;
-    geom.spheres = spheres;
-    geom.sphere_flip = sphere_flip;
-    geom.ntris = ntris;
-    geom.nspheres = nspheres;
+    SCENE_GEOM_MAKE(geom);
     prim_tables pt;
-    pt.spheres = spheres;
+    pt.spheres = scene_spheres;
     pt.prim_rec = prim_rec;
-    pt.ntris = ntris;
-    pt.nspheres = nspheres;
+    pt.ntris = scene_ntris;
+    pt.nspheres = scene_nspheres;
     light_tables lt;
     lt.light_rec = light_rec;
     lt.light_cdf = light_cdf;
