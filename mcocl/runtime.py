@@ -17,6 +17,7 @@ at ``rng/philox.cl:40`` instead of a temporary file.
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import os
 import re
 import threading
@@ -31,7 +32,25 @@ import pyopencl as cl
 from .errors import DeviceError, KernelBuildError
 from .usercode import UserFunction, explain_build_log, probe_source
 
-KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
+
+
+def _kernel_dir() -> Path:
+    """Where the ``.cl`` files are: the package data ``mcocl/kernels`` of an
+    installed wheel, the top-level ``kernels/`` of an editable install (both
+    through the import system), or ``kernels/`` beside a source checkout run
+    without installing."""
+    try:
+        spec = importlib.util.find_spec("mcocl.kernels")
+    except ImportError:
+        spec = None
+    if spec is not None and spec.submodule_search_locations:
+        for loc in spec.submodule_search_locations:
+            if Path(loc, "lanes.cl").is_file():
+                return Path(loc).resolve()
+    return Path(__file__).resolve().parent.parent / "kernels"
+
+
+KERNEL_DIR = _kernel_dir()
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 
 # Options every engine build gets.  No fast-math: -cl-finite-math-only would
@@ -251,7 +270,7 @@ def _read_kernel(rel: str) -> str:
 def kernel_source(rel: str, _seen: set[str] | None = None) -> str:
     """A kernel file with its ``#include "..."`` lines resolved (once each).
 
-    Paths are relative to ``mcocl/kernels``.  ``#line`` markers keep compiler
+    Paths are relative to the kernel folder (:data:`KERNEL_DIR`).  ``#line`` markers keep compiler
     diagnostics pointing at the original file and line.
     """
     seen = _seen if _seen is not None else set()

@@ -186,7 +186,9 @@ def _reference_from_file(path: str, cs: CompiledScene) -> Reference:
 def _kernel_digest() -> str:
     """A digest of the renderer's OpenCL sources: a cached reference is stale once they change."""
     h = hashlib.sha256()
-    root = Path(__file__).resolve().parent.parent / "kernels" / "render"
+    from ..runtime import KERNEL_DIR
+
+    root = KERNEL_DIR / "render"
     for f in sorted(root.glob("*.cl")):
         h.update(f.name.encode())
         h.update(f.read_bytes())
