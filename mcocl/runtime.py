@@ -8,7 +8,8 @@ The runtime is the only module that talks to pyopencl's platform layer:
   build cache keyed by (source, options, device), and turns compiler errors into
   :class:`~mcocl.errors.KernelBuildError` quoting the user's own lines.
 
-Kernel sources live in ``mcocl/kernels`` (shipped inside the wheel).  Includes
+Kernel sources live in the top-level ``kernels/`` (the package data
+``mcocl/kernels`` of a wheel, see :data:`KERNEL_DIR`).  Includes
 are resolved here, not by the OpenCL compiler, so that the flattened text is a
 complete cache key and so that ``#line`` markers make compiler messages point
 at ``rng/philox.cl:40`` instead of a temporary file.
@@ -35,19 +36,25 @@ from .usercode import UserFunction, explain_build_log, probe_source
 
 
 def _kernel_dir() -> Path:
-    """Where the ``.cl`` files are: the package data ``mcocl/kernels`` of an
-    installed wheel, the top-level ``kernels/`` of an editable install (both
-    through the import system), or ``kernels/`` beside a source checkout run
-    without installing."""
+    """Where the ``.cl`` files are.
+
+    A source checkout (run from it, or installed editable) has them in the
+    top-level ``kernels/`` beside ``mcocl/``; a wheel installs them as the
+    package data ``mcocl/kernels``, found through the import system.  The
+    checkout's folder comes first so that a second checkout on PYTHONPATH
+    uses its own kernels, not those of the checkout installed editable.
+    """
+    beside = Path(__file__).resolve().parent.parent / "kernels"
+    if (beside / "lanes.cl").is_file() and (beside / "__init__.py").is_file():
+        return beside
     try:
         spec = importlib.util.find_spec("mcocl.kernels")
     except ImportError:
         spec = None
-    if spec is not None and spec.submodule_search_locations:
-        for loc in spec.submodule_search_locations:
-            if Path(loc, "lanes.cl").is_file():
-                return Path(loc).resolve()
-    return Path(__file__).resolve().parent.parent / "kernels"
+    for loc in (spec.submodule_search_locations or []) if spec is not None else []:
+        if Path(loc, "lanes.cl").is_file():
+            return Path(loc).resolve()
+    return beside
 
 
 KERNEL_DIR = _kernel_dir()
