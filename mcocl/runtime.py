@@ -34,7 +34,6 @@ from .errors import DeviceError, KernelBuildError
 from .usercode import UserFunction, explain_build_log, probe_source
 
 
-
 def _kernel_dir() -> Path:
     """Where the ``.cl`` files are.
 
@@ -80,14 +79,16 @@ class DeviceInfo:
     global_mem_mb: int
     fp64: bool
     lanes: int
+    problem: str | None = None
 
     def describe(self) -> str:
         """A one-line human description."""
-        return (
+        text = (
             f"[{self.index}] {self.name} ({self.type}, {self.compute_units} compute units, "
             f"{self.global_mem_mb} MiB, fp64 {'yes' if self.fp64 else 'no'}, {self.lanes} lanes) "
             f"— {self.platform_version}"
         )
+        return text + (f"\n    unusable, builds fail: {self.problem}" if self.problem else "")
 
 
 def _type_name(t: int) -> str:
@@ -159,6 +160,7 @@ def list_devices() -> list[DeviceInfo]:
                 global_mem_mb=int(d.global_mem_size // (1 << 20)),
                 fp64=has_fp64(d),
                 lanes=default_lanes(d),
+                problem=device_problem(d),
             )
         )
     return infos
@@ -181,7 +183,8 @@ def select_device(spec: int | str | cl.Device | None = None) -> cl.Device:
             device found; an ``int`` or digit string — the global index shown
             by ``mcocl devices``; any other string — a case-insensitive
             substring of the device name, platform name or platform version;
-            a ``pyopencl.Device`` is returned as is.
+            a ``pyopencl.Device`` is returned as is.  The default skips
+            devices that cannot build a trivial kernel (:func:`device_problem`).
 
     Raises:
         DeviceError: nothing matches; the message lists what exists.
@@ -195,7 +198,7 @@ def select_device(spec: int | str | cl.Device | None = None) -> cl.Device:
     if spec is None:
         env = os.environ.get("PYOPENCL_CTX", "").strip()
         if not env:
-            return devs[0][2]
+            return _first_usable(devs)
         pspec, _, dspec = env.partition(":")
         platforms = sorted({pi for pi, _, _ in devs})
         plats = _match(platforms, pspec, lambda pi: _platform_text(devs, pi)) if pspec else platforms
@@ -215,6 +218,44 @@ def select_device(spec: int | str | cl.Device | None = None) -> cl.Device:
     return hits[0][2]
 
 
+_PROBE_SOURCE = "__kernel void mcocl_probe(__global float* a) { a[get_global_id(0)] = exp(1.0f); }"
+_problems: dict[int, str | None] = {}
+
+
+def device_problem(device: cl.Device) -> str | None:
+    """Why ``device`` cannot build OpenCL C, or None when it can (cached per device).
+
+    An OpenCL implementation can list a device that builds nothing: the PoCL
+    wheel's LLVM 14 does not know CPUs newer than it (AMD Zen 5 among them)
+    and fails every build with "unknown target CPU 'generic'".  A trivial
+    build tells such a device apart before a job is placed on it.
+    """
+    key = device.int_ptr
+    if key not in _problems:
+        try:
+            ctx = cl.Context([device])
+            cl.Program(ctx, _PROBE_SOURCE).build(options=list(BASE_OPTIONS))
+            _problems[key] = None
+        except cl.Error as e:
+            lines = [ln.strip() for ln in str(e).splitlines() if "error" in ln.lower() and ln.strip()]
+            _problems[key] = (lines[-1] if lines else str(e).splitlines()[0])[:200]
+    return _problems[key]
+
+
+def _first_usable(devs: list[tuple[int, int, cl.Device]]) -> cl.Device:
+    """The first device that builds a trivial kernel (the default device)."""
+    problems = []
+    for _, _, d in devs:
+        why = device_problem(d)
+        if why is None:
+            return d
+        problems.append(f"{d.name.strip()} ({d.platform.version.strip()}): {why}")
+    raise DeviceError(
+        "no OpenCL device can build kernels:\n  " + "\n  ".join(problems)
+        + "\nOn Debian or Ubuntu, `apt-get install pocl-opencl-icd` gives a PoCL that knows newer CPUs."
+    )
+
+
 def _platform_text(devs: list, pi: int) -> str:
     for qi, _, d in devs:
         if qi == pi:
@@ -227,7 +268,7 @@ class DeviceContext:
 
     ``group`` is the work-group size every launch uses.  It is fixed per
     device because PoCL compiles a kernel anew for every new work-group size
-    (about 0.2 s each, ../shared/POCL-NOTES.md) and would otherwise choose one
+    (about 0.2 s each, measured on PoCL 3.0) and would otherwise choose one
     per global size.  CPUs get 1 (a work-item is already a block of thousands
     of samples); GPUs get 64.
     """

@@ -40,3 +40,19 @@ def test_build_cache_returns_the_same_program() -> None:
 def test_include_markers_point_at_the_engine_file() -> None:
     src = runtime.kernel_source("rng/uniform.cl")
     assert '#line 1 "rng/philox.cl"' in src and '#line 1 "rng/uniform.cl"' in src
+
+
+def test_default_device_skips_devices_that_cannot_build(monkeypatch) -> None:
+    """A listed device whose builds all fail (the PoCL wheel on a CPU its LLVM
+    does not know) is passed over by the default choice, and a machine with no
+    usable device gets an error that says why and what to install."""
+    monkeypatch.delenv("PYOPENCL_CTX", raising=False)
+    devs = [d for _, _, d in runtime._all_devices()]
+    assert runtime.select_device() == next(d for d in devs if runtime.device_problem(d) is None)
+    monkeypatch.setattr(runtime, "_problems", {d.int_ptr: "error: unknown target CPU 'generic'" for d in devs})
+    with pytest.raises(DeviceError, match=r"(?s)no OpenCL device can build.*unknown target CPU.*pocl-opencl-icd"):
+        runtime.select_device()
+    if len(devs) > 1:
+        monkeypatch.setitem(runtime._problems, devs[1].int_ptr, None)
+        assert runtime.select_device() == devs[1]
+    assert "unusable" in runtime.list_devices()[0].describe()
