@@ -24,8 +24,6 @@ relative standard error over a render's pixels.
 
 from __future__ import annotations
 
-import math
-import os
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -34,15 +32,11 @@ from typing import Any
 from .errors import InputError
 from .progress import ProgressBar
 from .schedule import Halting, Placement, Progress
-from .validate import positive_number, whole_number
+from .validate import exact_integer, file_path, positive_number, whole_number
 
 # Vector widths the kernels' lane dialect implements (kernels/lanes.cl: LANES 1, 2, 4, 8, 16).
 SUPPORTED_LANES = (1, 2, 4, 8, 16)
 SEED_LIMIT = 2**64
-
-# old keyword -> new keyword, for every API (a keyword an API never had is not accepted there).
-RENAMED = {"time": "time_budget", "noise": "target_error", "target_stderr": "target_error"}
-
 
 def renamed_keyword(api: str, new: str, new_value: Any, old: str, old_value: Any) -> Any:
     """The value of option ``new``, given either as ``new=`` or as its deprecated name ``old=``.
@@ -58,25 +52,6 @@ def renamed_keyword(api: str, new: str, new_value: Any, old: str, old_value: Any
     return old_value
 
 
-def check_seed(v: Any) -> int:
-    """``v`` as a 64-bit seed, exactly (no float rounding of large seeds)."""
-    message = f"seed must be an integer in [0, 2**64), got {v!r}"
-    if isinstance(v, bool):
-        raise InputError(message)
-    if isinstance(v, float):
-        # integral floats (7.0, 1e6) were accepted before; they are exact below 2^53.
-        if not (math.isfinite(v) and v == int(v)):
-            raise InputError(message)
-        v = int(v)
-    try:
-        seed = int(v.__index__())
-    except (AttributeError, TypeError):
-        raise InputError(message) from None
-    if not 0 <= seed < SEED_LIMIT:
-        raise InputError(message)
-    return seed
-
-
 def check_lanes(v: Any) -> int | None:
     """``v`` as a lane width the kernels implement, or None (the device's default)."""
     if v is None:
@@ -85,14 +60,6 @@ def check_lanes(v: Any) -> int | None:
         raise InputError(f"lanes must be {', '.join(map(str, SUPPORTED_LANES[:-1]))} or {SUPPORTED_LANES[-1]}, "
                          f"got {v!r}")
     return int(v)
-
-
-def _path(name: str, v: Any) -> str | None:
-    if v is None:
-        return None
-    if not isinstance(v, (str, os.PathLike)) or not os.fspath(v):
-        raise InputError(f"{name} must be a file path, got {v!r}")
-    return str(os.fspath(v))
 
 
 @dataclass(frozen=True)
@@ -129,7 +96,7 @@ class RunOptions:
         def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
 
-        put("seed", check_seed(self.seed))
+        put("seed", exact_integer("seed", self.seed, 0, SEED_LIMIT, "2**64"))
         if self.time_budget is not None:
             put("time_budget", positive_number("time_budget", self.time_budget, "seconds"))
         if self.target_error is not None:
@@ -137,8 +104,8 @@ class RunOptions:
         if self.split is not None:
             put("split", whole_number("split", self.split, 1))
         put("lanes", check_lanes(self.lanes))
-        put("checkpoint", _path("checkpoint", self.checkpoint))
-        put("resume", _path("resume", self.resume))
+        put("checkpoint", file_path("checkpoint", self.checkpoint))
+        put("resume", file_path("resume", self.resume))
         if not (isinstance(self.progress, bool) or callable(self.progress)):
             raise InputError(f"progress must be True, False or a callable, got {self.progress!r}")
 

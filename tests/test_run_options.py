@@ -128,6 +128,8 @@ def test_every_sampler_is_one_registered_spec() -> None:
         assert len({s.kernel_code for s in SAMPLER_SPECS.values()}) == len(SAMPLER_SPECS)
     with pytest.raises(InputError, match="unknown sampler 'sobol'; choose one of independent, stratified, nrooks"):
         sampler_spec("sobol")
+    with pytest.raises(InputError, match="design points exist for stratified, nrooks, not 'independent'"):
+        SAMPLER_SPECS["independent"].design_point_launch(8, 2)
 
 
 def test_sample_rounding_per_sampler() -> None:

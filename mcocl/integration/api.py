@@ -19,7 +19,7 @@ from .codegen import HEURISTICS, generate
 from .design import Design
 from .job import IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
-from .samplers import SAMPLER_SPECS, SamplerSpec, plan, sampler_spec, spec_of
+from .samplers import SAMPLER_SPECS, SamplerSpec, sampler_spec, spec_of
 
 # The registered sampler names, for --help and error messages (mcocl/integration/samplers.py).
 SAMPLERS = tuple(SAMPLER_SPECS)
@@ -288,7 +288,7 @@ def integrate(
         design = Design(**acc.meta["design"])
         shift = float(acc.meta["shift"])
     else:
-        design = plan(req.sampler.name, req.dim, code.points, samples, design_samples)
+        design = req.sampler.plan(req.dim, code.points, samples, design_samples)
         shift = None
     spec = spec_of(design)
     max_blocks, unit_limit = spec.granules(design, samples)

@@ -110,6 +110,13 @@ class SamplerSpec:
         """What the result reports about the design."""
         return []
 
+    def design_point_launch(self, size: int, dim: int) -> tuple[str, int, int, tuple[int, ...]]:
+        """How kernels/sampling/design_points.cl draws one design of ``size`` for tests.
+
+        Returns ``(kernel name, points, work-items, leading uint arguments)``.
+        """
+        raise InputError(f"sampler: design points exist for {', '.join(designed_samplers())}, not {self.name!r}")
+
 
 SAMPLER_SPECS: dict[str, SamplerSpec] = {}
 
@@ -126,6 +133,12 @@ def sampler_spec(name: object) -> SamplerSpec:
     if spec is None:
         raise InputError(f"sampler: unknown sampler {name!r}; choose one of {', '.join(SAMPLER_SPECS)}")
     return spec
+
+
+def designed_samplers() -> list[str]:
+    """The samplers whose designs :func:`mcocl.integration.sampling.design_points` can draw."""
+    return [name for name, spec in SAMPLER_SPECS.items()
+            if type(spec).design_point_launch is not SamplerSpec.design_point_launch]
 
 
 def spec_of(design: Design) -> SamplerSpec:
@@ -241,6 +254,11 @@ class Stratified(SamplerSpec):
         """The strata of a design."""
         return [f"{design.strata_m}^{dim} strata per design, 2 samples each"]
 
+    def design_point_launch(self, size: int, dim: int) -> tuple[str, int, int, tuple[int, ...]]:
+        """``size`` = strata per axis m: 2 m^dim points, one work-item per stratum."""
+        strata = size**dim
+        return "stratified_points", 2 * strata, strata, (size, strata)
+
 
 @register
 class NRooks(SamplerSpec):
@@ -296,6 +314,10 @@ class NRooks(SamplerSpec):
     def notes(self, design: Design, dim: int) -> list[str]:
         """The size of a design."""
         return [f"Latin hypercube designs of {design.units} points"]
+
+    def design_point_launch(self, size: int, dim: int) -> tuple[str, int, int, tuple[int, ...]]:
+        """``size`` = points n, one work-item per point."""
+        return "nrooks_points", size, size, (size,)
 
 
 def _int_root(target: float, dim: int) -> int:
