@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 from .errors import InputError
@@ -28,3 +29,34 @@ def positive_number(name: str, v: Any, what: str = "") -> float:
         unit = f" ({what})" if what else ""
         raise InputError(f"{name} must be a positive number{unit}, got {v!r}")
     return float(v)
+
+
+def exact_integer(name: str, v: Any, minimum: int, below: int, below_text: str) -> int:
+    """``v`` as an int in [minimum, below), kept exact (a large int is never rounded through a float).
+
+    Integral floats (``7.0``) are accepted, as :func:`whole_number` accepts them;
+    ``below_text`` is how the message writes the bound (e.g. ``2**64``).
+    """
+    message = f"{name} must be an integer in [{minimum}, {below_text}), got {v!r}"
+    if isinstance(v, bool):
+        raise InputError(message)
+    if isinstance(v, float):
+        if not (math.isfinite(v) and v == int(v)):
+            raise InputError(message)
+        v = int(v)
+    try:
+        n = int(v.__index__())
+    except (AttributeError, TypeError):
+        raise InputError(message) from None
+    if not minimum <= n < below:
+        raise InputError(message)
+    return n
+
+
+def file_path(name: str, v: Any) -> str | None:
+    """``v`` (a str or path-like, or None) as a str path, else InputError naming ``name``."""
+    if v is None:
+        return None
+    if not isinstance(v, (str, os.PathLike)) or not os.fspath(v):
+        raise InputError(f"{name} must be a file path, got {v!r}")
+    return str(os.fspath(v))

@@ -10,8 +10,8 @@ from mcocl import runtime
 from mcocl.accumulate import Accumulator
 from mcocl.errors import InputError
 from mcocl.integration.codegen import generate
-from mcocl.integration.design import plan
 from mcocl.integration.job import IntegrationJob
+from mcocl.integration.samplers import plan
 from mcocl.usercode import UserFunction
 
 # A polynomial: no transcendental built-ins, so the scalar and the vector
@@ -118,8 +118,8 @@ def test_time_budget_stops_and_reports() -> None:
     assert abs(r.estimate - exact) <= 5 * r.stderr
 
 
-def test_target_stderr_stops_when_reached() -> None:
-    r = mcocl.integrate(POLY, dim=3, samples=10**9, target_stderr=2e-4, seed=1)
+def test_target_error_stops_when_reached() -> None:
+    r = mcocl.integrate(POLY, dim=3, samples=10**9, target_error=2e-4, seed=1)
     assert r.stopped_by == "stderr"
     assert r.stderr <= 2e-4
     assert r.samples < 10**9

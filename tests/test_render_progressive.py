@@ -102,12 +102,12 @@ def test_checkpoint_of_another_render_is_refused(tmp_path: Path) -> None:
 
 
 def test_time_and_noise_halting() -> None:
-    r = render(SCENES / "furnace.json", noise=0.02, seed=3)
+    r = render(SCENES / "furnace.json", target_error=0.02, seed=3)
     assert r.stopped_by == "noise"
     assert r.relative_error <= 0.02
-    r = render(SCENES / "furnace.json", noise=1e-9, spp=8, seed=3)
+    r = render(SCENES / "furnace.json", target_error=1e-9, spp=8, seed=3)
     assert r.stopped_by == "spp" and r.spp == 8
-    r = render(small_cornell(32), time=0.5, seed=3)
+    r = render(small_cornell(32), time_budget=0.5, seed=3)
     assert r.stopped_by == "time" and r.spp >= 1 and r.seconds < 5
 
 
@@ -116,8 +116,8 @@ def test_time_and_noise_halting() -> None:
     [
         ({"spp": 0}, "spp"),
         ({"spp": 2.5}, "spp"),
-        ({"time": -1.0}, "time"),
-        ({"noise": 0}, "noise"),
+        ({"time_budget": -1.0}, "time_budget"),
+        ({"target_error": 0}, "target_error"),
         ({"integrator": "bdpt"}, "integrator"),
         ({"max_depth": -2}, "max_depth"),
         ({"rr_depth": 0}, "rr_depth"),

@@ -111,7 +111,7 @@ class RenderRun:
         kw: dict[str, Any] = {"resume": self.checkpoint} if self.last is not None else {}
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", NonFiniteSampleWarning)  # counted, reported by the bench
-            r = render(p.scene, spp, time=max(4 * seconds, 1.0), integrator=self.integrator, seed=p.seed,
+            r = render(p.scene, spp, time_budget=max(4 * seconds, 1.0), integrator=self.integrator, seed=p.seed,
                        device=p.device, lanes=p.lanes, checkpoint=self.checkpoint, progress=progress,
                        spp_per_block=self.block, **kw)
         self.last = r
@@ -208,7 +208,7 @@ def _cached_reference(cs: CompiledScene, seconds: float, cache_dir: str, options
         return Reference(img.mean.astype(np.float64), None if img.variance is None else img.variance.astype(np.float64),
                          f"mis, {secs} s, {img.metadata.get('spp', '?')} spp (cached)", str(path))
     print(f"bench render: rendering the reference (mis, {seconds:g} s) into {path}", file=sys.stderr)
-    r = render(cs, None, time=seconds, integrator="mis", seed=REFERENCE_SEED, device=options.device,
+    r = render(cs, None, time_budget=seconds, integrator="mis", seed=REFERENCE_SEED, device=options.device,
                lanes=options.lanes, progress=True)
     if r.stopped_by == "interrupt":
         raise KeyboardInterrupt  # a cut-short reference must not be cached as a finished one

@@ -1,4 +1,10 @@
-"""Arguments and parsing shared by several sub-commands."""
+"""Arguments and parsing shared by several sub-commands.
+
+The options every job shares are parsed here as plain numbers and checked by
+:class:`mcocl.run_options.RunOptions` (through the API each command calls), so
+a bad ``--time``, ``--target-error``, ``--seed``, ``--split`` or ``--lanes``
+gets the same message as the same bad value given to the Python API.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +13,8 @@ import json
 import math
 import sys
 from typing import Any
+
+from ..errors import InputError
 
 
 def count(text: str) -> int:
@@ -51,21 +59,58 @@ def add_persistence_args(p: argparse.ArgumentParser, job: str, json_help: str = 
 
 
 def add_device_args(p: argparse.ArgumentParser) -> None:
-    """--device, --devices, --split, --dask and --lanes (read them back with :func:`placement_kwargs`)."""
+    """--device, --devices, --split, --dask and --lanes (read them back with :func:`run_option_kwargs`)."""
     g = p.add_argument_group("devices")
     g.add_argument("--device", default=None,
                    help="OpenCL device: index from `mcocl devices` or a name substring (default: PYOPENCL_CTX, else the first device)")
     g.add_argument("--devices", default=None, metavar="LIST",
                    help="run on several devices at once: 'all', or a comma-separated list of indices/names (e.g. 0,2); "
                         "on devices of one kind the result is bit-identical to a one-device run")
-    g.add_argument("--split", type=split_count, default=None, metavar="N",
+    g.add_argument("--split", type=int, default=None, metavar="N",
                    help="partition each CPU device into N sub-devices (OpenCL device fission) and use them as devices; "
                         "`mcocl devices --split N` shows the parts")
     g.add_argument("--dask", default=None, metavar="ADDRESS",
                    help="run the chunks as tasks on a Dask cluster (scheduler address, e.g. tcp://host:8786); "
                         "needs pip install 'mcocl[dask]' here and mcocl on the workers")
-    g.add_argument("--lanes", type=int, choices=(1, 2, 4, 8, 16), default=None,
-                   help="samples per vector instruction in the kernel (default: the device's preferred float width; 1 = scalar)")
+    g.add_argument("--lanes", type=int, default=None,
+                   help="samples per vector instruction in the kernel: 1, 2, 4, 8 or 16 "
+                        "(default: the device's preferred float width; 1 = scalar)")
+
+
+class _DeprecatedFlag(argparse.Action):
+    """An old spelling of an option: stores its value aside and says which flag replaces it."""
+
+    def __init__(self, option_strings: list[str], dest: str, new: str = "", **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, **kwargs)
+        self.new = new
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        print(f"mcocl: {option_string} is deprecated; use {self.new} instead", file=sys.stderr)
+        setattr(namespace, self.dest, (option_string, values))
+
+
+def add_halting_args(p: argparse.ArgumentParser, target_help: str, deprecated_target: str) -> None:
+    """--time and --target-error (and the deprecated spelling ``deprecated_target`` of the latter).
+
+    Read them back with :func:`halting_kwargs`.
+    """
+    p.add_argument("--time", dest="time_budget", type=float, default=None, metavar="SECONDS",
+                   help="stop after this many seconds")
+    p.add_argument("--target-error", type=float, default=None, metavar="E", help=target_help)
+    p.add_argument(deprecated_target, dest="deprecated_target_error", type=float, default=None,
+                   action=_DeprecatedFlag, new="--target-error", help=argparse.SUPPRESS)
+
+
+def halting_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """The ``time_budget`` and ``target_error`` keyword arguments of the APIs, from parsed options."""
+    target = args.target_error
+    if args.deprecated_target_error is not None:
+        old, value = args.deprecated_target_error
+        if target is not None:
+            raise InputError(f"give --target-error only ({old} is its deprecated name), not both")
+        target = value
+    return {"time_budget": args.time_budget, "target_error": target}
 
 
 def placement_kwargs(args: argparse.Namespace) -> dict[str, Any]:
@@ -75,6 +120,23 @@ def placement_kwargs(args: argparse.Namespace) -> dict[str, Any]:
         "devices": getattr(args, "devices", None),
         "split": getattr(args, "split", None),
         "client": getattr(args, "dask", None),
+    }
+
+
+def run_option_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """Every option :class:`mcocl.run_options.RunOptions` holds, as the APIs' keyword arguments.
+
+    Halting, placement, seed, lanes, checkpoint, resume and the progress bar
+    (shown unless ``--quiet`` or ``--json``).
+    """
+    return {
+        "seed": args.seed,
+        **halting_kwargs(args),
+        **placement_kwargs(args),
+        "lanes": args.lanes,
+        "checkpoint": args.checkpoint,
+        "resume": args.resume,
+        "progress": not args.quiet and not args.json,
     }
 
 

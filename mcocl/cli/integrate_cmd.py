@@ -8,10 +8,18 @@ import sys
 import warnings
 
 from ..integration import NonFiniteWarning, integrate
-from ..integration.api import SAMPLERS
 from ..integration.codegen import HEURISTICS
+from ..integration.samplers import SAMPLER_SPECS
 from ..schedule import DeviceFailureWarning
-from .common import add_device_args, add_persistence_args, count, placement_kwargs, positive, print_json
+from .common import (
+    add_device_args,
+    add_halting_args,
+    add_persistence_args,
+    count,
+    positive,
+    print_json,
+    run_option_kwargs,
+)
 
 DESCRIPTION = """\
 Estimate the integral of INTEGRAND over the unit cube [0,1]^dim.
@@ -47,7 +55,7 @@ examples:
   mcocl integrate "exp(-3*x[0])" --proposal exponential:rate=3
   mcocl integrate "1/sqrt(x[0])" --proposal power:a=-0.5
   mcocl integrate "exp(-x[0])" --control "1 - x[0]" --control-integral 0.5
-  mcocl integrate "exp(-x[0]*x[0])" --samples 1e12 --time 10 --target-stderr 1e-7
+  mcocl integrate "exp(-x[0]*x[0])" --samples 1e12 --time 10 --target-error 1e-7
   mcocl integrate "exp(-x[0]*x[0])" --samples 1e10 --devices all
   mcocl integrate "exp(-x[0]*x[0])" --samples 1e10 --split 2
   mcocl integrate "exp(-x[0]*x[0])" --samples 1e12 --dask tcp://scheduler:8786
@@ -71,8 +79,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("integrand", help="OpenCL C over float x[dim]")
     p.add_argument("--dim", type=int, default=1, help="dimension of the cube (default 1)")
     p.add_argument("--samples", type=count, default=None,
-                   help="integrand evaluations (default 1e6, or unlimited with --time/--target-stderr)")
-    p.add_argument("--sampler", choices=SAMPLERS, default="independent", help="point placement (default independent)")
+                   help="integrand evaluations (default 1e6, or unlimited with --time/--target-error)")
+    p.add_argument("--sampler", choices=tuple(SAMPLER_SPECS), default="independent",
+                   help="point placement (default independent)")
     p.add_argument("--seed", type=int, default=0, help="64-bit seed (default 0)")
     p.add_argument("--proposal", type=_spec, default=None, help="importance-sampling density (see above)")
     p.add_argument("--proposals", type=_spec, nargs="+", default=None, help="densities of a combined estimator")
@@ -82,8 +91,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--control", default=None, help="control variate g(x), OpenCL C")
     p.add_argument("--control-integral", type=float, default=None, help="exact integral J of g")
     p.add_argument("--roulette", type=float, default=None, help="Russian roulette survival probability P in (0, 1]")
-    p.add_argument("--time", dest="time_budget", type=positive, default=None, help="stop after this many seconds")
-    p.add_argument("--target-stderr", type=positive, default=None, help="stop once the standard error is this small")
+    add_halting_args(p, "stop once the standard error is at most this", "--target-stderr")
     p.add_argument("--design-samples", type=count, default=None, help="samples per stratified / N-rooks design")
     add_persistence_args(p, "job")
     add_device_args(p)
@@ -92,8 +100,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run an integration and print the result."""
+    shared = run_option_kwargs(args)
     samples = args.samples
-    if samples is None and args.time_budget is None and args.target_stderr is None:
+    if samples is None and shared["time_budget"] is None and shared["target_error"] is None:
         samples = 1_000_000
     proposal = proposals = None
     if args.proposals:
@@ -103,12 +112,10 @@ def run(args: argparse.Namespace) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", NonFiniteWarning)
         r = integrate(
-            args.integrand, dim=args.dim, samples=samples, sampler=args.sampler, seed=args.seed,
+            args.integrand, dim=args.dim, samples=samples, sampler=args.sampler,
             proposal=proposal, proposals=proposals, shares=args.shares, heuristic=args.heuristic, beta=args.beta,
             control=args.control, control_integral=args.control_integral, roulette=args.roulette,
-            time_budget=args.time_budget, target_stderr=args.target_stderr, design_samples=args.design_samples,
-            lanes=args.lanes, **placement_kwargs(args), checkpoint=args.checkpoint, resume=args.resume,
-            progress=not args.quiet and not args.json,
+            design_samples=args.design_samples, **shared,
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteWarning, DeviceFailureWarning)):

@@ -9,7 +9,14 @@ from pathlib import Path
 
 from ..render.api import INTEGRATORS, NonFiniteSampleWarning, render
 from ..schedule import DeviceFailureWarning
-from .common import add_device_args, add_persistence_args, count, placement_kwargs, positive, print_json
+from .common import (
+    add_device_args,
+    add_halting_args,
+    add_persistence_args,
+    count,
+    print_json,
+    run_option_kwargs,
+)
 
 DESCRIPTION = """\
 Render SCENE (a JSON scene file, see scenes/README.md) by path tracing and
@@ -21,9 +28,10 @@ Integrators (one megakernel, chosen at build time):
   nee   light sampling at every vertex, BSDF sampling to continue
   mis   both, combined by the power heuristic (default)
 
-Stopping: --spp N samples per pixel, --time S seconds, --noise R (mean
-relative standard error over the pixels), whichever comes first; with none
-of them, the scene's spp.  Ctrl-C stops after the current batch, writes the
+Stopping: --spp N samples per pixel, --time S seconds, --target-error R
+(mean relative standard error over the pixels), whichever comes first; with
+none of them, the scene's spp.  (--noise is the deprecated name of
+--target-error.)  Ctrl-C stops after the current batch, writes the
 image so far and exits with status 130.  The image depends only on the
 scene, the settings and --seed: --checkpoint / --resume continue a render
 and give the same image as an uninterrupted one.
@@ -34,7 +42,7 @@ examples:
   mcocl render scenes/cornell.json --spp 256 --out cornell.exr
   mcocl render scenes/cornell.json --time 60 --integrator mis --out cornell.exr --png cornell.png
   mcocl render scenes/veach_mis.json --integrator nee --spp 64 --out nee.exr
-  mcocl render scenes/cornell.json --noise 0.01 --checkpoint cornell.ckpt --out cornell.exr
+  mcocl render scenes/cornell.json --target-error 0.01 --checkpoint cornell.ckpt --out cornell.exr
   mcocl render scenes/cornell.json --resume cornell.ckpt --spp 1024 --out cornell.exr
 """
 
@@ -44,10 +52,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("render", help="path-trace a scene into an OpenEXR image", description=DESCRIPTION,
                        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("scene", help="scene file (JSON)")
-    p.add_argument("--spp", type=count, default=None, help="samples per pixel (default: the scene's, unless --time/--noise)")
-    p.add_argument("--time", dest="time_budget", type=positive, default=None, help="stop after this many seconds")
-    p.add_argument("--noise", type=positive, default=None,
-                   help="stop once the mean relative standard error of the pixels is at most this (e.g. 0.01)")
+    p.add_argument("--spp", type=count, default=None, help="samples per pixel (default: the scene's, unless --time/--target-error)")
+    add_halting_args(p, "stop once the mean relative standard error of the pixels is at most this (e.g. 0.01)",
+                     "--noise")
     p.add_argument("--integrator", choices=INTEGRATORS, default=None, help="light transport estimator (default: the scene's)")
     p.add_argument("--max-depth", type=int, default=None,
                    help="longest path in segments, Mitsuba's convention (-1 unbounded, 1 emitters only, 2 direct light)")
@@ -68,10 +75,8 @@ def run(args: argparse.Namespace) -> int:
         warnings.simplefilter("always", NonFiniteSampleWarning)
         warnings.simplefilter("always", DeviceFailureWarning)
         r = render(
-            args.scene, spp=args.spp, time=args.time_budget, noise=args.noise, integrator=args.integrator,
-            max_depth=args.max_depth, rr_depth=args.rr_depth, seed=args.seed, checkpoint=args.checkpoint,
-            resume=args.resume, progress=not args.quiet and not args.json, lanes=args.lanes,
-            **placement_kwargs(args),
+            args.scene, spp=args.spp, integrator=args.integrator, max_depth=args.max_depth,
+            rr_depth=args.rr_depth, **run_option_kwargs(args),
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteSampleWarning, DeviceFailureWarning)):

@@ -11,7 +11,14 @@ import numpy as np
 from ..integration import NonFiniteWarning
 from ..schedule import DeviceFailureWarning
 from ..walks import ESTIMATORS, nystrom, solve_fredholm
-from .common import add_device_args, add_persistence_args, count, placement_kwargs, positive, print_json
+from .common import (
+    add_device_args,
+    add_halting_args,
+    add_persistence_args,
+    count,
+    print_json,
+    run_option_kwargs,
+)
 
 DESCRIPTION = """\
 Solve f(x) = g(x) + integral over [0,1]^dim of K(x,y) f(y) dy at query points
@@ -73,7 +80,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--at", type=_point, nargs="+", required=True, metavar="POINT",
                    help="query points; in 2-D and higher each is x0,x1,...")
     p.add_argument("--walks", type=count, default=None,
-                   help="walks per query point (default 1e6, or unlimited with --time/--target-stderr)")
+                   help="walks per query point (default 1e6, or unlimited with --time/--target-error)")
     p.add_argument("--estimator", choices=tuple(ESTIMATORS), default="nee", help="(default nee)")
     p.add_argument("--seed", type=int, default=0, help="64-bit seed (default 0)")
     p.add_argument("--depth", type=int, default=8, help="moves of the truncated estimator (default 8)")
@@ -90,8 +97,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--table-bins", type=count, default=None, help="tabulation bins of y per axis")
     p.add_argument("--reference", action="store_true", help="also compute the Nyström solution at the points")
     p.add_argument("--order", type=count, default=None, help="Gauss-Legendre nodes per axis of the reference")
-    p.add_argument("--time", dest="time_budget", type=positive, default=None, help="stop after this many seconds")
-    p.add_argument("--target-stderr", type=positive, default=None, help="stop once every standard error is this small")
+    add_halting_args(p, "stop once every point's standard error is at most this", "--target-stderr")
     add_persistence_args(p, "problem")
     add_device_args(p)
     p.set_defaults(func=run)
@@ -99,19 +105,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Solve and print the result."""
+    shared = run_option_kwargs(args)
     walks = args.walks
-    if walks is None and args.time_budget is None and args.target_stderr is None:
+    if walks is None and shared["time_budget"] is None and shared["target_error"] is None:
         walks = 1_000_000
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", NonFiniteWarning)
         r = solve_fredholm(
             args.kernel, args.source, dim=args.dim, at=args.at, walks=walks, estimator=args.estimator,
-            seed=args.seed, depth=args.depth, survival=args.survival, row_integral=args.row_integral,
+            depth=args.depth, survival=args.survival, row_integral=args.row_integral,
             transition_sampler=args.transition_sampler, source_integral=args.source_integral,
             source_sampler=args.source_sampler, max_walk_length=args.max_walk_length,
-            table_cells=args.table_cells, table_bins=args.table_bins, time_budget=args.time_budget,
-            target_stderr=args.target_stderr, lanes=args.lanes, **placement_kwargs(args),
-            checkpoint=args.checkpoint, resume=args.resume, progress=not args.quiet and not args.json,
+            table_cells=args.table_cells, table_bins=args.table_bins, **shared,
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteWarning, DeviceFailureWarning)):

@@ -11,16 +11,18 @@ from typing import Any
 from .. import runtime
 from ..accumulate import Accumulator
 from ..errors import InputError
-from ..progress import ProgressBar
-from ..schedule import Halting, Placement, Progress, execute
+from ..run_options import RunOptions, renamed_keyword
+from ..schedule import Progress, execute
 from ..usercode import UserFunction
-from ..validate import positive_number, whole_number
+from ..validate import whole_number
 from .codegen import HEURISTICS, generate
-from .design import Design, plan, total_granules
+from .design import Design
 from .job import IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
+from .samplers import SAMPLER_SPECS, SamplerSpec, sampler_spec, spec_of
 
-SAMPLERS = ("independent", "stratified", "nrooks")
+# The registered sampler names, for --help and error messages (mcocl/integration/samplers.py).
+SAMPLERS = tuple(SAMPLER_SPECS)
 
 
 class NonFiniteWarning(RuntimeWarning):
@@ -94,7 +96,7 @@ class IntegrationResult:
 class _Request:
     integrand: str
     dim: int
-    sampler: str
+    sampler: SamplerSpec
     seed: int
     proposals: list[Proposal]
     shares: list[int]
@@ -109,7 +111,7 @@ class _Request:
             "kind": "integrate",
             "integrand": self.integrand,
             "dim": self.dim,
-            "sampler": self.sampler,
+            "sampler": self.sampler.name,
             "seed": self.seed,
             "proposals": [p.spec() for p in self.proposals],
             "shares": self.shares,
@@ -120,7 +122,7 @@ class _Request:
         }
 
     def describe(self) -> str:
-        parts = [f"{self.sampler} sampling"]
+        parts = [f"{self.sampler.name} sampling"]
         if len(self.proposals) == 1:
             parts.append("importance sampling (" + ", ".join(f["type"] for f in self.proposals[0].spec()) + ")")
         elif self.proposals:
@@ -134,7 +136,7 @@ class _Request:
 
 
 def _validate(
-    integrand: Any, dim: Any, sampler: Any, seed: Any, proposal: Any, proposals: Any, shares: Any,
+    integrand: Any, dim: Any, sampler: Any, seed: int, proposal: Any, proposals: Any, shares: Any,
     heuristic: Any, beta: Any, control: Any, control_integral: Any, roulette: Any,
 ) -> _Request:
     if not isinstance(integrand, str) or not integrand.strip():
@@ -142,11 +144,7 @@ def _validate(
     dim = whole_number("dim", dim)
     if dim > 64:
         raise InputError(f"dim must be <= 64, got {dim}")
-    if sampler not in SAMPLERS:
-        raise InputError(f"sampler: unknown sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
-    seed = whole_number("seed", seed, 0)
-    if seed >= 2**64:
-        raise InputError(f"seed must be below 2**64, got {seed}")
+    spec = sampler_spec(sampler)
     if proposal is not None and proposals is not None:
         raise InputError("give either proposal= (importance sampling) or proposals= (combined estimator), not both")
     props: list[Proposal] = []
@@ -194,7 +192,7 @@ def _validate(
             raise InputError(f"roulette (survival probability P) must be a number in (0, 1], got {roulette!r}") from None
         if not 0 < roulette <= 1:
             raise InputError(f"roulette (survival probability P) must be in (0, 1], got {roulette!r}")
-    return _Request(integrand, dim, sampler, seed, props, list(shares), heuristic, float(beta),
+    return _Request(integrand, dim, spec, seed, props, list(shares), heuristic, float(beta),
                     control, float(control_integral or 0.0), roulette)
 
 
@@ -214,7 +212,7 @@ def integrate(
     control_integral: float | None = None,
     roulette: float | None = None,
     time_budget: float | None = None,
-    target_stderr: float | None = None,
+    target_error: float | None = None,
     design_samples: int | None = None,
     device: Any = None,
     devices: Any = None,
@@ -224,6 +222,7 @@ def integrate(
     checkpoint: str | None = None,
     resume: str | None = None,
     progress: bool | Callable[[Progress], None] = False,
+    target_stderr: float | None = None,
 ) -> IntegrationResult:
     """Estimate the integral of ``integrand`` over the unit cube [0, 1]^dim.
 
@@ -231,9 +230,9 @@ def integrate(
         integrand: OpenCL C over ``float x[dim]``: an expression such as
             ``"exp(-x[0]*x[0])"`` or a function body that ``return``s.
         dim: dimension of the cube.
-        samples: integrand evaluations (at most; see ``design.py`` for how
+        samples: integrand evaluations (at most; see ``samplers.py`` for how
             stratified and N-rooks designs round it).  ``None``: no limit,
-            give ``time_budget`` or ``target_stderr``.
+            give ``time_budget`` or ``target_error``.
         sampler: ``independent`` (the secondary estimator), ``stratified``
             (jittered, 2 samples per stratum) or ``nrooks`` (Latin hypercube).
         seed: 64-bit seed; the result depends on nothing else.
@@ -245,8 +244,8 @@ def integrate(
         control: control variate g (OpenCL C over ``x``), with ``control_integral`` = its exact integral J.
         roulette: survival probability P of the single-integral Russian roulette.
         time_budget: stop after this many seconds.
-        target_stderr: stop once the standard error is at most this.
-        design_samples: samples per stratified / N-rooks design (default: see design.py).
+        target_error: stop once the standard error is at most this.
+        design_samples: samples per stratified / N-rooks design (default: see samplers.py).
         device: device index or name substring (``mcocl devices``).
         devices: several devices (a list of specs, or ``"all"``).
         split: partition each CPU device into this many sub-devices.
@@ -255,6 +254,10 @@ def integrate(
         checkpoint: save the accumulator to this file periodically and at the end.
         resume: continue from a checkpoint; the job must match.
         progress: True for a progress bar on stderr, or a callback.
+        target_stderr: deprecated name of ``target_error``.
+
+    The shared options (seed, time_budget, target_error, placement, lanes,
+    checkpoint, resume, progress) are checked by :class:`mcocl.run_options.RunOptions`.
 
     Returns:
         an :class:`IntegrationResult`.
@@ -263,16 +266,14 @@ def integrate(
         InputError: invalid arguments (the message names the argument).
         KernelBuildError: the integrand (or a proposal, control) does not compile.
     """
-    req = _validate(integrand, dim, sampler, seed, proposal, proposals, shares, heuristic, beta,
+    target_error = renamed_keyword("integrate", "target_error", target_error, "target_stderr", target_stderr)
+    opts = RunOptions(seed=seed, time_budget=time_budget, target_error=target_error, device=device, devices=devices,
+                      split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)
+    req = _validate(integrand, dim, sampler, opts.seed, proposal, proposals, shares, heuristic, beta,
                     control, control_integral, roulette)
     if samples is not None:
         samples = whole_number("samples", samples)
-    if time_budget is not None:
-        positive_number("time_budget", time_budget, "seconds")
-    if target_stderr is not None:
-        positive_number("target_stderr", target_stderr)
-    if samples is None and time_budget is None and target_stderr is None:
-        raise InputError("samples=None needs time_budget= or target_stderr= to know when to stop")
+    opts.require_stop("samples", samples)
     if design_samples is not None:
         design_samples = whole_number("design_samples", design_samples)
 
@@ -282,24 +283,24 @@ def integrate(
 
     meta = req.meta()
     acc: Accumulator | None = None
-    if resume is not None:
-        acc = Accumulator.load(resume, expect_meta=meta)
+    if opts.resume is not None:
+        acc = Accumulator.load(opts.resume, expect_meta=meta)
         design = Design(**acc.meta["design"])
         shift = float(acc.meta["shift"])
     else:
-        design = plan(req.sampler, req.dim, code.points, samples, design_samples)
+        design = req.sampler.plan(req.dim, code.points, samples, design_samples)
         shift = None
-    max_blocks, unit_limit = total_granules(design, samples)
+    spec = spec_of(design)
+    max_blocks, unit_limit = spec.granules(design, samples)
     if acc is not None and acc.meta.get("partial_tail") and acc.meta.get("unit_limit") != unit_limit:
         raise InputError(
-            f"checkpoint {resume} ends in a partial block of {design.units_per_block} units; "
+            f"checkpoint {opts.resume} ends in a partial block of {spec.units_per_block} units; "
             f"resume it with the same samples ({acc.meta.get('unit_limit') * design.samples_per_unit}) "
             "or start runs with a multiple of the block size"
         )
 
-    placement = Placement(device=device, devices=devices, split=split, client=client)
-    ctx = runtime.device_context(device)
-    job = IntegrationJob(code, req.dim, design, req.seed, unit_limit, lanes)
+    ctx = runtime.device_context(opts.device)
+    job = IntegrationJob(code, req.dim, design, req.seed, unit_limit, opts.lanes)
     runner = job.runner(ctx)
     if shift is None:
         shift = runner.pilot_shift()
@@ -309,30 +310,19 @@ def integrate(
     notes = [runner.program.note] if runner.program.note else []
 
     def target(a: Accumulator) -> bool:
-        if target_stderr is None:
-            return False
         est, var, n = estimate_from_totals(a.totals, design, shift)
-        enough = a.blocks_done >= 2 if design.sampler != "independent" else n >= 1000
-        return enough and math.isfinite(var) and math.sqrt(var) <= target_stderr
+        return spec.target_ready(a.blocks_done, n) and math.isfinite(var) and math.sqrt(var) <= opts.target_error
 
-    callback: Callable[[Progress], None] | None = None
-    bar: ProgressBar | None = None
-    if progress is True:
-        per_block = design.units_per_block * design.samples_per_unit * (design.granule_blocks if design.sampler != "independent" else 1)
-        bar = ProgressBar(f"integrate [{req.sampler}]", unit="samples", per_block=per_block)
-        callback = bar.update
-    elif callable(progress):
-        callback = progress
-
+    callback, bar = opts.progress_reporter(f"integrate [{req.sampler.name}]", "samples",
+                                           spec.samples_per_block(design))
     acc.meta["unit_limit"] = unit_limit
-    halting = Halting(max_blocks=max_blocks, time_budget=time_budget, target=target if target_stderr else None,
-                      checkpoint=checkpoint)
-    report = execute(job, acc, halting, placement, progress=callback, runner=runner, ctx=ctx)
+    halting = opts.halting(max_blocks, target if opts.target_error else None)
+    report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
     if bar is not None:
         bar.close()
-    acc.meta["partial_tail"] = bool(design.sampler == "independent" and acc.blocks_done * design.units_per_block > unit_limit)
-    if checkpoint:
-        acc.save(checkpoint)
+    acc.meta["partial_tail"] = bool(spec.partial_tail(design, acc.blocks_done, unit_limit))
+    if opts.checkpoint:
+        acc.save(opts.checkpoint)
 
     notes += list(getattr(report, "notes", []) or [])
     est, var, n = estimate_from_totals(acc.totals, design, shift)
@@ -341,18 +331,10 @@ def integrate(
         notes.append("the standard error is mostly the float32 rounding floor (see rounding_floor)")
     if req.control:
         est += req.control_integral
-    samples_used = _samples_used(acc, design, unit_limit)
+    samples_used = spec.samples_used(design, acc.blocks_done, unit_limit)
     nonfinite = int(acc.totals[1])
     stderr = math.sqrt(var) if var >= 0 else math.nan
-    method = {
-        "independent": "sample variance of the primary estimates / N",
-        "stratified": "sum over strata of (f1 - f2)^2 / (4 H^2), two samples per stratum",
-        "nrooks": "spread of the means of independent Latin hypercube designs",
-    }[design.sampler]
-    if design.sampler == "stratified":
-        notes.append(f"{design.strata_m}^{req.dim} strata per design, 2 samples each")
-    if design.sampler == "nrooks":
-        notes.append(f"Latin hypercube designs of {design.units} points")
+    notes += spec.notes(design, req.dim)
     result = IntegrationResult(
         estimate=est,
         stderr=stderr,
@@ -360,15 +342,15 @@ def integrate(
         samples=samples_used,
         seconds=report.seconds,
         device=", ".join(report.devices) if report.devices else ctx.name,
-        sampler=req.sampler,
+        sampler=req.sampler.name,
         seed=req.seed,
         nonfinite=nonfinite,
         dim=req.dim,
         estimator=req.describe(),
-        variance_method=method,
+        variance_method=spec.variance_method,
         rounding_floor=floor,
         lanes=runner.lanes,
-        designs=int(acc.blocks_done) if design.sampler != "independent" else 0,
+        designs=spec.designs_done(acc.blocks_done),
         stopped_by={"blocks": "samples", "target": "stderr"}.get(report.stopped_by, report.stopped_by),
         build_seconds=runner.build_seconds,
         notes=notes,
@@ -380,11 +362,3 @@ def integrate(
             stacklevel=2,
         )
     return result
-
-
-def _samples_used(acc: Accumulator, design: Design, unit_limit: int) -> int:
-    if design.sampler == "independent":
-        units = min(acc.blocks_done * design.units_per_block, unit_limit)
-    else:
-        units = acc.blocks_done * design.units
-    return int(units * design.samples_per_unit)

@@ -32,10 +32,10 @@ import numpy as np
 import pyopencl as cl
 
 from .. import runtime
-from ..accumulate import mean_and_variance
 from ..usercode import UserFunction
 from .codegen import EstimatorCode
 from .design import Design
+from .samplers import spec_of
 
 KERNEL_STATS = 6
 ROW = 9
@@ -85,7 +85,7 @@ class IntegrationRunner:
             job.code.generated,
             job.code.users,
             tail=["integrate/integrate.cl"],
-            options=job.design.defines(job.dim, job.code.points),
+            options=spec_of(job.design).defines(job.design, job.dim, job.code.points),
             what="integrand",
             lanes=job.lanes,
         )
@@ -140,25 +140,18 @@ def reduce_blocks(out: np.ndarray, nblocks: int, design: Design) -> np.ndarray:
     rows = np.zeros((nblocks, ROW), dtype=np.float64)
     rows[:, :5] = per[:, :5]
     rows[:, 8] = per[:, 5]
-    if design.sampler == "nrooks":
-        n = per[:, 0]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            m = np.where(n > 0, per[:, 2] / np.where(n > 0, n, 1), 0.0)
-        rows[:, 5] = (n > 0).astype(np.float64)
-        rows[:, 6] = m
-        rows[:, 7] = m * m
+    spec_of(design).fill_rows(per, rows)
     return rows
 
 
 def estimate_from_totals(t: np.ndarray, design: Design, shift: float) -> tuple[float, float, float]:
     """(estimate, variance of the estimate, samples used) from accumulator totals.
 
-    independent  sample mean; variance = sample variance / n (lecture: sigma_sec^2 = sigma_prim^2 / N)
-    stratified   variance = sum over pairs (v1 - v2)^2 / (4 pairs^2) (sampling/stratified.cl)
-    nrooks       mean of design means; variance = their sample variance / designs
-    Each variance gets (ROUNDING_FLOOR * mean |v|)^2 added: the float32 evaluation floor.
+    The sampler's spec gives the estimate and its variance
+    (:meth:`mcocl.integration.samplers.SamplerSpec.statistics`); each variance
+    gets (ROUNDING_FLOOR * mean |v|)^2 added: the float32 evaluation floor.
     """
-    est, var, n = _statistical(t, design, shift)
+    est, var, n = spec_of(design).statistics(t, shift)
     if math.isfinite(var):
         var = var + rounding_floor(t) ** 2
     return est, var, n
@@ -167,20 +160,3 @@ def estimate_from_totals(t: np.ndarray, design: Design, shift: float) -> tuple[f
 def rounding_floor(t: np.ndarray) -> float:
     """The float32 rounding term of the standard error: ROUNDING_FLOOR times the mean |v|."""
     return ROUNDING_FLOOR * t[8] / t[0] if t[0] > 0 else 0.0
-
-
-def _statistical(t: np.ndarray, design: Design, shift: float) -> tuple[float, float, float]:
-    n = t[0]
-    if design.sampler == "independent":
-        mean, var = mean_and_variance(n, t[2], t[3], shift)
-        return mean, (var / n if n > 1 else math.nan), n
-    if design.sampler == "stratified":
-        pairs = t[4]
-        if pairs <= 0:
-            return math.nan, math.nan, n
-        return shift + t[2] / n, t[3] / (4.0 * pairs * pairs), n
-    r = t[5]
-    if r <= 0:
-        return math.nan, math.nan, n
-    mean, var = mean_and_variance(r, t[6], t[7], shift)
-    return mean, (var / r if r > 1 else math.nan), n

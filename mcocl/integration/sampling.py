@@ -12,6 +12,7 @@ from ..errors import InputError
 from ..usercode import UserFunction
 from .codegen import generate
 from .proposals import Proposal
+from .samplers import sampler_spec
 
 
 def sample_proposal(proposal: Any, dim: int, n: int, seed: int = 0, device: Any = None,
@@ -59,21 +60,13 @@ def design_points(sampler: str, dim: int, size: int, design: int = 0, seed: int 
     Returns:
         ``(points, dim)`` float32 array.
     """
-    if sampler not in ("nrooks", "stratified"):
-        raise InputError(f"sampler: design points exist for nrooks and stratified, not {sampler!r}")
+    name, points, items, counts = sampler_spec(sampler).design_point_launch(size, dim)
     ctx = runtime.device_context(device)
     src = runtime.compose(["sampling/design_points.cl"])
     prg = runtime.build(ctx, src, ["-DLANES=1", f"-DDIM={dim}"], what="design points")
-    mf = cl.mem_flags
-    if sampler == "nrooks":
-        out = np.empty((size, dim), np.float32)
-        buf = cl.Buffer(ctx.context, mf.WRITE_ONLY, out.nbytes)
-        runtime.kernel(prg, "nrooks_points")(ctx.queue, (size,), None, np.uint32(size), np.uint64(design), np.uint64(seed), buf)
-    else:
-        strata = size**dim
-        out = np.empty((2 * strata, dim), np.float32)
-        buf = cl.Buffer(ctx.context, mf.WRITE_ONLY, out.nbytes)
-        runtime.kernel(prg, "stratified_points")(ctx.queue, (strata,), None, np.uint32(size), np.uint32(strata),
-                                                 np.uint64(design), np.uint64(seed), buf)
+    out = np.empty((points, dim), np.float32)
+    buf = cl.Buffer(ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+    runtime.kernel(prg, name)(ctx.queue, (items,), None, *(np.uint32(c) for c in counts), np.uint64(design),
+                              np.uint64(seed), buf)
     cl.enqueue_copy(ctx.queue, out, buf)
     return out

@@ -3,7 +3,7 @@
 One call compiles the scene (:mod:`mcocl.render.compiled`), builds the
 megakernel for the chosen integrator (``kernels/render/integrator.cl``) and
 runs blocks of samples per pixel through :func:`mcocl.schedule.execute`
-until the spp count, the time budget or the noise target is reached (or
+until the spp count, the time budget or the target error is reached (or
 Ctrl-C): checkpoints, resuming and several devices work as for integration,
 and the image depends only on the scene, the settings and the seed.
 """
@@ -22,9 +22,9 @@ import numpy as np
 from .. import runtime
 from ..accumulate import Accumulator
 from ..errors import InputError
-from ..progress import ProgressBar
-from ..schedule import Halting, Placement, Progress, execute
-from ..validate import positive_number, whole_number
+from ..run_options import RunOptions, renamed_keyword
+from ..schedule import Progress, execute
+from ..validate import whole_number
 from .compiled import CompiledScene, compile_scene
 from .film import film_image, relative_error
 from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
@@ -49,7 +49,7 @@ class RenderResult:
         nonfinite: NaN/Inf samples, counted and left out of the image.
         seconds: wall time of the sampling (build excluded).
         build_seconds: kernel build time of this run (small when cached).
-        relative_error: mean over pixels and channels of stderr / mean (the ``noise`` measure).
+        relative_error: mean over pixels and channels of stderr / mean (what ``target_error`` bounds).
         integrator, max_depth, rr_depth, seed: the settings that ran.
         width, height, lanes, device, stopped_by, scene: as they were.
         spp_this_run: samples per pixel computed by this call (less than ``spp``
@@ -150,8 +150,8 @@ def render(
     scene: str | os.PathLike[str] | Scene | CompiledScene,
     spp: int | None = None,
     *,
-    time: float | None = None,
-    noise: float | None = None,
+    time_budget: float | None = None,
+    target_error: float | None = None,
     integrator: str | None = None,
     max_depth: int | None = None,
     rr_depth: int | None = None,
@@ -165,6 +165,8 @@ def render(
     progress: bool | Callable[[Progress], None] = False,
     lanes: int | None = None,
     spp_per_block: int | None = None,
+    time: float | None = None,
+    noise: float | None = None,
 ) -> RenderResult:
     """Render a scene by path tracing.
 
@@ -172,10 +174,10 @@ def render(
         scene: a scene file (``scenes/README.md``), a loaded :class:`Scene`
             or a :class:`CompiledScene`.
         spp: samples per pixel.  Default: the scene's ``spp``, unless
-            ``time`` or ``noise`` is given (then unbounded).  With ``time``
-            or ``noise`` it is an upper bound.
-        time: stop after this many seconds of sampling.
-        noise: stop once the relative error (mean over pixels of
+            ``time_budget`` or ``target_error`` is given (then unbounded).
+            With either of them it is an upper bound.
+        time_budget: stop after this many seconds of sampling.
+        target_error: stop once the relative error (mean over pixels of
             stderr / mean) is at most this, e.g. 0.01.
         integrator: ``path``, ``nee`` or ``mis`` (default: the scene's, else ``mis``).
         max_depth, rr_depth: Mitsuba 3's conventions (max_depth -1 unbounded,
@@ -188,6 +190,10 @@ def render(
         lanes: paths per vector instruction (default: the device's; 1 = scalar kernel).
         spp_per_block: samples per pixel in one scheduler block (default: about
             2^18 paths per block; taken from the checkpoint when resuming).
+        time, noise: deprecated names of ``time_budget`` and ``target_error``.
+
+    The shared options (seed, time_budget, target_error, placement, lanes,
+    checkpoint, resume, progress) are checked by :class:`mcocl.run_options.RunOptions`.
 
     Returns:
         a :class:`RenderResult`.
@@ -198,22 +204,18 @@ def render(
     """
     if integrator is not None and integrator not in INTEGRATORS:
         raise InputError(f"integrator: unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
+    time_budget = renamed_keyword("render", "time_budget", time_budget, "time", time)
+    target_error = renamed_keyword("render", "target_error", target_error, "noise", noise)
     cs = _compile(scene, integrator, max_depth, rr_depth)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**64:
-        raise InputError(f"seed must be an integer in [0, 2**64), got {seed!r}")
-    seed = int(seed)
-    if time is not None:
-        time = positive_number("time", time, "seconds")
-    if noise is not None:
-        noise = positive_number("noise", noise, "a target relative standard error such as 0.01")
+    opts = RunOptions(seed=seed, time_budget=time_budget, target_error=target_error, device=device, devices=devices,
+                      split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)
+    seed = opts.seed
     if spp is not None:
         spp = whole_number("spp", spp)
-    elif time is None and noise is None:
+    elif opts.time_budget is None and opts.target_error is None:
         spp = int(cs.spp)
     if spp is not None and spp >= UNBOUNDED_SPP:
         raise InputError(f"spp must be below {UNBOUNDED_SPP}, got {spp}")
-    if lanes is not None and lanes not in (1, 2, 4, 8, 16):
-        raise InputError(f"lanes must be 1, 2, 4, 8 or 16, got {lanes!r}")
 
     tables = scene_tables(cs)
     meta = {
@@ -228,6 +230,7 @@ def render(
     }
     spp_limit = spp if spp is not None else UNBOUNDED_SPP
     acc: Accumulator | None = None
+    resume = opts.resume
     if resume is not None:
         acc = Accumulator.load(resume, expect_meta=meta)
         saved_block = int(acc.meta.get("spp_per_block", 0))
@@ -247,9 +250,8 @@ def render(
         spp_per_block = whole_number("spp_per_block", spp_per_block)
 
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
-                    spp_per_block, spp_limit, lanes)
-    placement = Placement(device=device, devices=devices, split=split, client=client)
-    ctx = runtime.device_context(device)
+                    spp_per_block, spp_limit, opts.lanes)
+    ctx = runtime.device_context(opts.device)
     runner = job.runner(ctx)
     if acc is None:
         acc = Accumulator(job.stat_shape, {**meta, "spp_per_block": spp_per_block})
@@ -257,28 +259,23 @@ def render(
     spp_before = job.spp_done(acc.blocks_done)
 
     def target(a: Accumulator) -> bool:
-        if noise is None or job.spp_done(a.blocks_done) < 2:
+        if opts.target_error is None or job.spp_done(a.blocks_done) < 2:
             return False
         img = film_image(a.totals)
         err = relative_error(img.mean, img.variance)
-        return math.isfinite(err) and err <= noise
+        return math.isfinite(err) and err <= opts.target_error
 
-    callback: Callable[[Progress], None] | None = None
-    bar: ProgressBar | None = None
-    if progress is True:
-        bar = ProgressBar(f"render [{cs.integrator}]", unit="spp", per_block=spp_per_block)
+    callback, bar = opts.progress_reporter(f"render [{cs.integrator}]", "spp", spp_per_block)
+    if bar is not None:
         pixels = cs.width * cs.height
 
         def callback(p: Progress) -> None:
             bar.extra = f", {p.blocks_per_second * spp_per_block * pixels / 1e6:.3g} M samples/s"
             bar.update(p)
-    elif callable(progress):
-        callback = progress
 
     max_blocks = -(-spp // spp_per_block) if spp is not None else None
-    halting = Halting(max_blocks=max_blocks, time_budget=time, target=target if noise is not None else None,
-                      checkpoint=str(checkpoint) if checkpoint is not None else None)
-    report = execute(job, acc, halting, placement, progress=callback, runner=runner, ctx=ctx)
+    halting = opts.halting(max_blocks, target if opts.target_error is not None else None)
+    report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
     if bar is not None:
         bar.close()
 

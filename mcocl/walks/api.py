@@ -30,8 +30,8 @@ from .. import runtime
 from ..accumulate import Accumulator
 from ..errors import ConvergenceError, InputError
 from ..integration.api import NonFiniteWarning
-from ..progress import ProgressBar
-from ..schedule import Halting, Placement, Progress, execute
+from ..run_options import RunOptions, renamed_keyword
+from ..schedule import Progress, execute
 from ..validate import whole_number
 from .codegen import generate
 from .job import STATS, WalkJob, WalkRunner, estimates
@@ -173,7 +173,7 @@ def solve_fredholm(
     table_cells: int | None = None,
     table_bins: int | None = None,
     time_budget: float | None = None,
-    target_stderr: float | None = None,
+    target_error: float | None = None,
     device: Any = None,
     devices: Any = None,
     split: int | None = None,
@@ -182,6 +182,7 @@ def solve_fredholm(
     checkpoint: str | None = None,
     resume: str | None = None,
     progress: bool | Callable[[Progress], None] = False,
+    target_stderr: float | None = None,
 ) -> FredholmResult:
     """Solve f(x) = g(x) + ∫_D K(x, y) f(y) dy, D = [0, 1]^dim, at query points by random walks.
 
@@ -191,7 +192,7 @@ def solve_fredholm(
         dim: dimension of the domain.
         at: query points: ``[[x0, x1, ...], ...]`` (a flat list for dim 1).
         walks: walks per query point (at most); ``None``: until ``time_budget``
-            or ``target_stderr``.
+            or ``target_error``.
         estimator: ``truncated`` (fixed ``depth``, biased), ``roulette``
             (uniform moves, Russian roulette), ``subcritical`` (moves ~ |K|,
             survival min(1, ∫|K|)) or ``nee`` (subcritical plus next-event
@@ -211,12 +212,16 @@ def solve_fredholm(
             stops the run with :class:`ConvergenceError`.
         table_cells, table_bins: tabulation grid per axis (see ``tabulate.py``).
         time_budget: stop after this many seconds.
-        target_stderr: stop once every point's standard error is at most this.
+        target_error: stop once every point's standard error is at most this.
         device, devices, split, client: where to run (see :class:`mcocl.schedule.Placement`).
         lanes: walks per vector instruction (1 forces the scalar kernel).
         checkpoint: save the sums to this file periodically and at the end.
         resume: continue from a checkpoint of the same problem.
         progress: True for a progress bar on stderr, or a callback.
+        target_stderr: deprecated name of ``target_error``.
+
+    The shared options (seed, time_budget, target_error, placement, lanes,
+    checkpoint, resume, progress) are checked by :class:`mcocl.run_options.RunOptions`.
 
     Returns:
         a :class:`FredholmResult`.
@@ -226,22 +231,20 @@ def solve_fredholm(
         KernelBuildError: the kernel, source or a sampler does not compile.
         ConvergenceError: the Neumann series appears not to converge.
     """
-    req = validate(kernel, source, dim, at, estimator, seed, depth, survival, row_integral, transition_sampler,
+    target_error = renamed_keyword("solve_fredholm", "target_error", target_error, "target_stderr", target_stderr)
+    opts = RunOptions(seed=seed, time_budget=time_budget, target_error=target_error, device=device, devices=devices,
+                      split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)
+    req = validate(kernel, source, dim, at, estimator, opts.seed, depth, survival, row_integral, transition_sampler,
                    source_integral, source_sampler, max_walk_length, table_cells, table_bins)
     if walks is not None:
         walks = whole_number("walks", walks, 1, 1 << 62)
-    for name, v in (("time_budget", time_budget), ("target_stderr", target_stderr)):
-        if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
-            raise InputError(f"{name} must be a positive number, got {v!r}")
-    if walks is None and time_budget is None and target_stderr is None:
-        raise InputError("walks=None needs time_budget= or target_stderr= to know when to stop")
-    if lanes is not None and lanes not in (1, 2, 4, 8, 16):
-        raise InputError(f"lanes must be 1, 2, 4, 8 or 16, got {lanes!r}")
+    opts.require_stop("walks", walks)
 
     code = generate(req.kernel, req.source, req.dim, req.estimator, req.row_integral, req.transition_sampler,
                     req.source_integral, req.source_sampler)
     meta = req.meta()
     acc: Accumulator | None = None
+    resume = opts.resume
     if resume is not None:
         acc = Accumulator.load(resume, expect_meta=meta)
         if acc.totals[:, 5].sum() > 0:
@@ -249,16 +252,15 @@ def solve_fredholm(
                                                        req.max_walk_length))
 
     notes: list[str] = []
-    placement = Placement(device=device, devices=devices, split=split, client=client)
-    ctx = runtime.device_context(device)
+    ctx = runtime.device_context(opts.device)
     limit = walks if walks is not None else (1 << 62)
     job = WalkJob(code, req.at, req.seed, limit, survival=req.survival, depth=req.depth,
-                  max_len=req.max_walk_length, lanes=lanes)
+                  max_len=req.max_walk_length, lanes=opts.lanes)
     runner = job.runner(ctx)
     if runner.program.note:
         notes.append(runner.program.note)
     if req.estimator == "truncated" or (req.estimator == "roulette" and req.survival > 0):
-        notes += _check_spectral_radius(req, device)
+        notes += _check_spectral_radius(req, opts.device)
 
     t0 = time.perf_counter()
     notes += _tabulate(req, job, runner)
@@ -293,30 +295,23 @@ def solve_fredholm(
     def target(a: Accumulator) -> bool:
         if a.totals[:, 5].sum() > 0:
             return True  # a guard hit: stop now, the run will raise
-        if target_stderr is None:
+        if opts.target_error is None:
             return False
         if a.totals[:, 0].min() < 1000:
             return False
         _, errs = estimates(a.totals, job.shifts)
-        return bool(np.all(np.isfinite(errs)) and np.max(errs) <= target_stderr)
+        return bool(np.all(np.isfinite(errs)) and np.max(errs) <= opts.target_error)
 
-    callback: Callable[[Progress], None] | None = None
-    bar: ProgressBar | None = None
-    if progress is True:
-        bar = ProgressBar(f"solve [{req.estimator}]", unit="walks", per_block=job.walks_per_block * job.nq)
-        callback = bar.update
-    elif callable(progress):
-        callback = progress
-
+    callback, bar = opts.progress_reporter(f"solve [{req.estimator}]", "walks", job.walks_per_block * job.nq)
     acc.meta["walk_limit"] = limit
     max_blocks = job.max_blocks if walks is not None else None
-    halting = Halting(max_blocks=max_blocks, time_budget=time_budget, target=target, checkpoint=checkpoint)
-    report = execute(job, acc, halting, placement, progress=callback, runner=runner, ctx=ctx)
+    report = execute(job, acc, opts.halting(max_blocks, target), opts.placement, progress=callback, runner=runner,
+                     ctx=ctx)
     if bar is not None:
         bar.close()
     acc.meta["partial_tail"] = bool(acc.blocks_done * job.walks_per_block > limit)
-    if checkpoint:
-        acc.save(checkpoint)
+    if opts.checkpoint:
+        acc.save(opts.checkpoint)
 
     t = acc.totals
     walks_run = min(acc.blocks_done * job.walks_per_block, limit)

@@ -124,7 +124,7 @@ class WalkRequest:
 
 
 def validate(
-    kernel: Any, source: Any, dim: Any, at: Any, estimator: Any, seed: Any, depth: Any, survival: Any,
+    kernel: Any, source: Any, dim: Any, at: Any, estimator: Any, seed: int, depth: Any, survival: Any,
     row_integral: Any, transition_sampler: Any, source_integral: Any, source_sampler: Any,
     max_walk_length: Any, table_cells: Any, table_bins: Any,
 ) -> WalkRequest:
@@ -135,9 +135,7 @@ def validate(
     pts = query_points(at, dim)
     if estimator not in ESTIMATORS:
         raise InputError(f"estimator: unknown estimator {estimator!r}; choose one of {', '.join(ESTIMATORS)}")
-    seed = whole_number("seed", seed, 0)
-    if seed >= 2**64:
-        raise InputError(f"seed must be below 2**64, got {seed}")
+    # seed: already checked by mcocl.run_options.RunOptions
     depth = whole_number("depth", depth, 0, 1 << 20)
     if estimator != "roulette" and survival not in (None, "weight"):
         raise InputError(f"survival applies to estimator='roulette' only (got estimator={estimator!r})")

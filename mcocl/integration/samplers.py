@@ -1,0 +1,330 @@
+"""The integration samplers: one class per way of placing the uniform points.
+
+The flat keyword ``integrate(sampler="nrooks")`` picks a spec from
+:data:`SAMPLER_SPECS` once; everything that depends on the sampler asks the
+spec instead of comparing names: the design size and how a sample budget is
+rounded (:meth:`SamplerSpec.plan`, :meth:`SamplerSpec.granules`), the kernel's
+``-D`` options, the reduction of kernel blocks to accumulator rows, the
+estimate and its standard error, and what the result reports.
+
+Adding a sampler is one class here, decorated with :func:`register`, plus its
+branch of ``SAMPLER`` in ``kernels/integrate/integrate.cl``.
+
+The accumulator row every spec reads and writes is described in
+:mod:`mcocl.integration.job`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import numpy as np
+
+from ..accumulate import mean_and_variance
+from ..errors import InputError
+from .design import MAX_AXIS_CELLS, UNBOUNDED_UNITS, Design
+
+
+class SamplerSpec:
+    """A sampler that runs in whole designs (the default behaviour of every method).
+
+    Class attributes:
+        name: the keyword users give (``sampler=name``); saved in checkpoints.
+        kernel_code: the value of ``-DSAMPLER`` (``SAMPLER_*`` in kernels/integrate/integrate.cl).
+        units_per_block: units one kernel work-item computes.
+        min_designs: designs a sample budget is rounded up to at least.
+        variance_method: how the reported standard error is obtained.
+    """
+
+    name: ClassVar[str]
+    kernel_code: ClassVar[int]
+    units_per_block: ClassVar[int]
+    min_designs: ClassVar[int] = 1
+    variance_method: ClassVar[str]
+
+    def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
+        """The design of a run of at most ``samples`` (``None``: unbounded) evaluations."""
+        raise NotImplementedError
+
+    def defines(self, design: Design, dim: int, points: int) -> list[str]:
+        """The ``-D`` options of the kernel skeleton (kernels/integrate/integrate.cl)."""
+        return [
+            f"-DDIM={dim}",
+            f"-DPOINTS={points}",
+            f"-DSAMPLER={self.kernel_code}",
+            f"-DDESIGN_UNITS={design.units}ul",
+            f"-DUNITS_PER_BLOCK={self.units_per_block}",
+            f"-DBLOCKS_PER_DESIGN={self.blocks_per_design(design)}ul",
+            f"-DSTRATA_M={max(design.strata_m, 1)}",
+            *self.extra_defines(design),
+        ]
+
+    def blocks_per_design(self, design: Design) -> int:
+        """Kernel blocks one design spans."""
+        return design.granule_blocks
+
+    def extra_defines(self, design: Design) -> list[str]:
+        """``-D`` options only this sampler's branch of the kernel reads."""
+        return []
+
+    def granules(self, design: Design, samples: int | None) -> tuple[int | None, int]:
+        """(scheduler blocks to run, unit limit of the last one) for a sample budget.
+
+        ``None`` blocks means unbounded (halting by time or target only).  A
+        budget is rounded down to whole designs, at least ``min_designs``.
+        """
+        if samples is None:
+            return None, design.units
+        per_design = design.units * design.samples_per_unit
+        return max(samples // per_design, self.min_designs), design.units
+
+    def samples_per_block(self, design: Design) -> int:
+        """Integrand evaluations in one scheduler block (what the progress bar counts)."""
+        return self.units_per_block * design.samples_per_unit * design.granule_blocks
+
+    def samples_used(self, design: Design, blocks_done: int, unit_limit: int) -> int:
+        """Integrand evaluations made by ``blocks_done`` scheduler blocks."""
+        return int(blocks_done * design.units * design.samples_per_unit)
+
+    def partial_tail(self, design: Design, blocks_done: int, unit_limit: int) -> bool:
+        """True when the last block done was cut short by ``unit_limit`` (designs never are)."""
+        return False
+
+    def designs_done(self, blocks_done: int) -> int:
+        """Complete designs in ``blocks_done`` scheduler blocks (0 for a sampler without designs)."""
+        return int(blocks_done)
+
+    def target_ready(self, blocks_done: int, samples: float) -> bool:
+        """True once the standard error is worth testing against a target (two designs give a spread)."""
+        return blocks_done >= 2
+
+    def fill_rows(self, per_block: np.ndarray, rows: np.ndarray) -> None:
+        """Write the sampler's own accumulator columns from the summed kernel statistics of each block."""
+
+    def statistics(self, t: np.ndarray, shift: float) -> tuple[float, float, float]:
+        """(estimate, variance of the estimate, samples) from accumulator totals, before the rounding floor."""
+        raise NotImplementedError
+
+    def notes(self, design: Design, dim: int) -> list[str]:
+        """What the result reports about the design."""
+        return []
+
+    def design_point_launch(self, size: int, dim: int) -> tuple[str, int, int, tuple[int, ...]]:
+        """How kernels/sampling/design_points.cl draws one design of ``size`` for tests.
+
+        Returns ``(kernel name, points, work-items, leading uint arguments)``.
+        """
+        raise InputError(f"sampler: design points exist for {', '.join(designed_samplers())}, not {self.name!r}")
+
+
+SAMPLER_SPECS: dict[str, SamplerSpec] = {}
+
+
+def register(cls: type[SamplerSpec]) -> type[SamplerSpec]:
+    """Class decorator: make ``cls`` available as ``sampler=cls.name``."""
+    SAMPLER_SPECS[cls.name] = cls()
+    return cls
+
+
+def sampler_spec(name: object) -> SamplerSpec:
+    """The registered spec called ``name``, else an InputError listing the choices."""
+    spec = SAMPLER_SPECS.get(name) if isinstance(name, str) else None
+    if spec is None:
+        raise InputError(f"sampler: unknown sampler {name!r}; choose one of {', '.join(SAMPLER_SPECS)}")
+    return spec
+
+
+def designed_samplers() -> list[str]:
+    """The samplers whose designs :func:`mcocl.integration.sampling.design_points` can draw."""
+    return [name for name, spec in SAMPLER_SPECS.items()
+            if type(spec).design_point_launch is not SamplerSpec.design_point_launch]
+
+
+def spec_of(design: Design) -> SamplerSpec:
+    """The spec of the sampler a design was planned for."""
+    return sampler_spec(design.sampler)
+
+
+def plan(sampler: str, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
+    """Choose the design of a run (each spec's docstring gives its rules)."""
+    return sampler_spec(sampler).plan(dim, points, samples, design_samples)
+
+
+def total_granules(design: Design, samples: int | None) -> tuple[int | None, int]:
+    """(scheduler blocks to run, unit limit of the last one) for a sample budget (``None``: unbounded)."""
+    return spec_of(design).granules(design, samples)
+
+
+@register
+class Independent(SamplerSpec):
+    """The plain secondary estimator (1/N) sum f(x_i), no design structure.
+
+    N samples -> N // points units (a unit is one point tuple; points > 1 only
+    for combined estimators).  Nothing else is rounded; any block may end a run.
+    Standard error: sample variance / N (lecture: sigma_sec^2 = sigma_prim^2 / N).
+    """
+
+    name = "independent"
+    kernel_code = 0
+    units_per_block = 4096
+    variance_method = "sample variance of the primary estimates / N"
+
+    def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
+        """One unbounded design of point tuples."""
+        return Design(self.name, UNBOUNDED_UNITS, points, 0, 1)
+
+    def blocks_per_design(self, design: Design) -> int:
+        """The unbounded design spans every block."""
+        return max(1, -(-design.units // self.units_per_block))
+
+    def granules(self, design: Design, samples: int | None) -> tuple[int | None, int]:
+        """Blocks of ``units_per_block`` units; the last is cut at ``samples // points`` units."""
+        if samples is None:
+            return None, design.units
+        units = max(samples // design.samples_per_unit, 1)
+        return -(-units // self.units_per_block), units
+
+    def samples_per_block(self, design: Design) -> int:
+        """One kernel block per scheduler block."""
+        return self.units_per_block * design.samples_per_unit
+
+    def samples_used(self, design: Design, blocks_done: int, unit_limit: int) -> int:
+        """Whole blocks, the last one cut at ``unit_limit``."""
+        return int(min(blocks_done * self.units_per_block, unit_limit) * design.samples_per_unit)
+
+    def partial_tail(self, design: Design, blocks_done: int, unit_limit: int) -> bool:
+        """True when ``unit_limit`` fell inside the last block."""
+        return blocks_done * self.units_per_block > unit_limit
+
+    def designs_done(self, blocks_done: int) -> int:
+        """No designs."""
+        return 0
+
+    def target_ready(self, blocks_done: int, samples: float) -> bool:
+        """The sample variance is trusted from 1000 samples on."""
+        return samples >= 1000
+
+    def statistics(self, t: np.ndarray, shift: float) -> tuple[float, float, float]:
+        """Sample mean; variance = sample variance / n."""
+        n = t[0]
+        mean, var = mean_and_variance(n, t[2], t[3], shift)
+        return mean, (var / n if n > 1 else math.nan), n
+
+
+@register
+class Stratified(SamplerSpec):
+    """Jittered stratified sampling, two samples per stratum.
+
+    A design is H = m^dim strata with 2 samples (units) in each:
+    m = floor((S / (2 points))^(1/dim)), S = ``design_samples`` (default
+    min(N, 2^24); 2^20 when unbounded); m is capped at 2^22 per axis (float
+    coordinates), H at 2^31.  N is rounded down to whole designs, at least one.
+    Standard error: sum over strata of (v1 - v2)^2 / (4 H^2) (sampling/stratified.cl).
+    """
+
+    name = "stratified"
+    kernel_code = 1
+    units_per_block = 2048
+    variance_method = "sum over strata of (f1 - f2)^2 / (4 H^2), two samples per stratum"
+    MAX_STRATA = 1 << 31
+    DEFAULT_DESIGN = 1 << 24
+    UNBOUNDED_DESIGN = 1 << 20
+
+    def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
+        """m^dim strata of ``2 * points`` samples, m as in the class docstring."""
+        per_unit = 2 * points
+        if design_samples is None:
+            design_samples = min(samples, self.DEFAULT_DESIGN) if samples else self.UNBOUNDED_DESIGN
+        m = _int_root(design_samples / per_unit, dim)
+        m = min(m, MAX_AXIS_CELLS)
+        while m > 1 and m**dim > self.MAX_STRATA:
+            m -= 1
+        units = m**dim
+        return Design(self.name, units, per_unit, m, -(-units // self.units_per_block))
+
+    def statistics(self, t: np.ndarray, shift: float) -> tuple[float, float, float]:
+        """Mean of all samples; variance from the stratum pairs."""
+        n, pairs = t[0], t[4]
+        if pairs <= 0:
+            return math.nan, math.nan, n
+        return shift + t[2] / n, t[3] / (4.0 * pairs * pairs), n
+
+    def notes(self, design: Design, dim: int) -> list[str]:
+        """The strata of a design."""
+        return [f"{design.strata_m}^{dim} strata per design, 2 samples each"]
+
+    def design_point_launch(self, size: int, dim: int) -> tuple[str, int, int, tuple[int, ...]]:
+        """``size`` = strata per axis m: 2 m^dim points, one work-item per stratum."""
+        strata = size**dim
+        return "stratified_points", 2 * strata, strata, (size, strata)
+
+
+@register
+class NRooks(SamplerSpec):
+    """Latin hypercube (N-rooks) designs.
+
+    A design is one Latin hypercube of n points: n = design_samples // points,
+    default clamp(N // (16 points), 1, 2^20) (2^16 when unbounded); N is
+    rounded down to whole designs, at least 2 (the standard error comes from
+    the spread of the design means).
+    """
+
+    name = "nrooks"
+    kernel_code = 2
+    units_per_block = 4096
+    min_designs = 2
+    variance_method = "spread of the means of independent Latin hypercube designs"
+    REPLICATES = 16
+    MAX_POINTS = 1 << 20
+    UNBOUNDED_POINTS = 1 << 16
+
+    def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
+        """One hypercube of n point tuples, n as in the class docstring."""
+        if design_samples is None:
+            n = min(max(samples // (self.REPLICATES * points), 1), self.MAX_POINTS) if samples else self.UNBOUNDED_POINTS
+        else:
+            n = design_samples // points
+        if not 1 <= n <= MAX_AXIS_CELLS:
+            raise InputError(f"design_samples: an N-rooks design holds 1 to {MAX_AXIS_CELLS} points, got {n}")
+        return Design(self.name, n, points, 0, -(-n // self.units_per_block))
+
+    def extra_defines(self, design: Design) -> list[str]:
+        """The bit width and shifts of the hashed permutation (sampling/nrooks.cl)."""
+        w = max((design.units - 1).bit_length(), 0)
+        return [f"-DNROOKS_MASK={(1 << w) - 1}u", f"-DNROOKS_S1={max(1, w // 2)}u", f"-DNROOKS_S2={max(1, (w + 2) // 3)}u"]
+
+    def fill_rows(self, per_block: np.ndarray, rows: np.ndarray) -> None:
+        """Columns 5-7: one design, its mean (shifted) and the mean squared."""
+        n = per_block[:, 0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m = np.where(n > 0, per_block[:, 2] / np.where(n > 0, n, 1), 0.0)
+        rows[:, 5] = (n > 0).astype(np.float64)
+        rows[:, 6] = m
+        rows[:, 7] = m * m
+
+    def statistics(self, t: np.ndarray, shift: float) -> tuple[float, float, float]:
+        """Mean of the design means; variance = their sample variance / designs."""
+        r = t[5]
+        if r <= 0:
+            return math.nan, math.nan, t[0]
+        mean, var = mean_and_variance(r, t[6], t[7], shift)
+        return mean, (var / r if r > 1 else math.nan), t[0]
+
+    def notes(self, design: Design, dim: int) -> list[str]:
+        """The size of a design."""
+        return [f"Latin hypercube designs of {design.units} points"]
+
+    def design_point_launch(self, size: int, dim: int) -> tuple[str, int, int, tuple[int, ...]]:
+        """``size`` = points n, one work-item per point."""
+        return "nrooks_points", size, size, (size,)
+
+
+def _int_root(target: float, dim: int) -> int:
+    """The largest m >= 1 with m^dim <= target."""
+    m = max(int(math.floor(target ** (1.0 / dim))), 1)
+    while (m + 1) ** dim <= target:
+        m += 1
+    while m > 1 and m**dim > target:
+        m -= 1
+    return m
