@@ -7,10 +7,10 @@ import json
 import sys
 import warnings
 
+from ..engine.contract import DeviceFailureWarning
 from ..integration import NonFiniteWarning, integrate
 from ..integration.api import SAMPLERS
 from ..integration.codegen import HEURISTICS
-from ..schedule import DeviceFailureWarning
 from .common import add_device_args, add_persistence_args, count, placement_kwargs, positive, print_json
 
 DESCRIPTION = """\

@@ -10,9 +10,10 @@ from typing import Any
 
 from .. import runtime
 from ..accumulate import Accumulator
+from ..engine.contract import Halting, Placement, Progress
+from ..engine.dispatch import execute
 from ..errors import InputError
 from ..progress import ProgressBar
-from ..schedule import Halting, Placement, Progress, execute
 from ..usercode import UserFunction
 from ..validate import positive_number, whole_number
 from .codegen import HEURISTICS, generate

@@ -21,9 +21,10 @@ import numpy as np
 
 from .. import runtime
 from ..accumulate import Accumulator
+from ..engine.contract import Halting, Placement, Progress
+from ..engine.dispatch import execute
 from ..errors import InputError
 from ..progress import ProgressBar
-from ..schedule import Halting, Placement, Progress, execute
 from ..validate import positive_number, whole_number
 from .compiled import CompiledScene, compile_scene
 from .film import film_image, relative_error

@@ -28,10 +28,11 @@ import numpy as np
 
 from .. import runtime
 from ..accumulate import Accumulator
+from ..engine.contract import Halting, Placement, Progress
+from ..engine.dispatch import execute
 from ..errors import ConvergenceError, InputError
 from ..integration.api import NonFiniteWarning
 from ..progress import ProgressBar
-from ..schedule import Halting, Placement, Progress, execute
 from ..validate import whole_number
 from .codegen import generate
 from .job import STATS, WalkJob, WalkRunner, estimates
