@@ -253,8 +253,10 @@ class Sizer:
             t.start_size = min(t.start_size * 2, MAX_CHUNK_BLOCKS)
         else:
             n = max(1, int(t.rate * p.chunk_seconds))
-            total = sum(o.rate for o in self.takers if o.alive and o.rate > 0)
-            share = t.rate / total / max(alike, 1)
+            share = 1.0
+            if len(self.takers) > 1 or alike > 1:
+                total = sum(o.rate for o in self.takers if o.alive and o.rate > 0)
+                share = t.rate / total / max(alike, 1)
             if self.chunks.max_blocks is not None and share < 1.0:
                 remaining = self.chunks.max_blocks - self.chunks.next_block
                 floor = max(1, n // p.tail_floor)

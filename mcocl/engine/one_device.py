@@ -30,6 +30,7 @@ class _DeviceStream:
         self.chunks = chunks
         self.sizer = sizer
         self.inflight: deque[tuple[int, int, Any, float]] = deque()
+        self.inflight_blocks = 0
         self.launched = 0
         self.finished = False
 
@@ -44,17 +45,19 @@ class _DeviceStream:
 
     def next(self, interrupt: InterruptFlag) -> FinishedChunk | None:
         while len(self.inflight) < IN_FLIGHT and not interrupt.requested:
-            size, allow_new = self.sizer.size(0, sum(c[1] for c in self.inflight))
+            size, allow_new = self.sizer.size(0, self.inflight_blocks)
             taken = self.chunks.take(size, allow_new, wait=False)
             if taken is None:
                 break
             handle = self.runner.enqueue(*taken)
             self.inflight.append((taken[0], taken[1], handle, time.perf_counter()))
+            self.inflight_blocks += taken[1]
             self.launched += 1
         if not self.inflight:
             self.finished = True
             return None
         first, n, handle, enqueued = self.inflight.popleft()
+        self.inflight_blocks -= n
         stats = self.runner.collect(handle)
         self.sizer.measure(0, n, self.sizer.busy_seconds(0, enqueued, time.perf_counter()))
         return FinishedChunk(first, stats)
