@@ -1,4 +1,4 @@
-"""The engine's shared layers without a device: the chunking policy, the fold loop, Ctrl-C.
+"""The engine's shared layers: the chunking policy, the fold loop, Ctrl-C, one context per device.
 
 The back ends run on real devices in test_multidevice.py and
 test_distributed.py; here the policy and the loop they share are checked
@@ -19,6 +19,8 @@ from mcocl.engine.chunking import MAX_CHUNK_BYTES, ChunkPolicy, ChunkQueue, Size
 from mcocl.engine.contract import Halting, InterruptFlag, Progress
 from mcocl.engine.fold import FinishedChunk, fold_chunks
 from mcocl.engine.one_device import run_one_device
+from mcocl.errors import DeviceError
+from mcocl.runtime import DeviceContext, device_context, register_context
 
 
 def _sizer(max_blocks: int | None, takers: int = 1, budget: float | None = None, **policy) -> Sizer:
@@ -213,3 +215,14 @@ def test_a_second_ctrl_c_raises_at_once():
         with pytest.raises(KeyboardInterrupt):
             os.kill(os.getpid(), signal.SIGINT)
     assert signal.getsignal(signal.SIGINT) is before
+
+
+# -- one context per device ------------------------------------------------------------
+
+
+def test_a_device_keeps_its_one_registered_context():
+    ctx = device_context(None)
+    assert register_context(ctx) is ctx  # registering the same context again is harmless
+    with pytest.raises(DeviceError, match="already has a context"):
+        register_context(DeviceContext(ctx.device))
+    assert device_context(ctx.device) is ctx
