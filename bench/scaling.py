@@ -158,13 +158,14 @@ def run_overhead(chunks: int, dask_chunks: int) -> dict:
     """Seconds per chunk of the schedulers with a null job (one block per chunk)."""
     from mcocl.accumulate import Accumulator
     from mcocl.devices import sub_device_contexts
-    from mcocl.multidevice import run_devices
+    from mcocl.engine.contract import Halting, Placement
+    from mcocl.engine.multi_device import run_devices
+    from mcocl.engine.one_device import run_one_device
     from mcocl.runtime import device_context
-    from mcocl.schedule import Halting, Placement, run
 
     out = {}
     acc = Accumulator((8,))
-    rep = run(NullJob(), acc, Halting(max_blocks=chunks), device_context(None), chunk_seconds=1e-12)
+    rep = run_one_device(NullJob(), acc, Halting(max_blocks=chunks), device_context(None), chunk_seconds=1e-12)
     out["single_device_s_per_chunk"] = rep.seconds / rep.chunks
     acc = Accumulator((8,))
     rep = run_devices(NullJob(), acc, Halting(max_blocks=chunks), sub_device_contexts(None, 2), max_chunk=1)
@@ -173,7 +174,7 @@ def run_overhead(chunks: int, dask_chunks: int) -> dict:
         import distributed  # noqa: F401
     except ImportError:
         return out
-    from mcocl.distributed import run_dask
+    from mcocl.engine.dask_cluster import run_dask
 
     cluster, client = _cluster(2)
     try:
@@ -300,7 +301,7 @@ def main() -> int:
 
     over = _child(["--overhead", "--overhead-chunks", str(a.overhead_chunks)], {})
     print("\nscheduling overhead per chunk (null job, one block per chunk):")
-    print(f"  one device, schedule.run           {1e6 * over['single_device_s_per_chunk']:8.1f} us")
+    print(f"  one device, run_one_device         {1e6 * over['single_device_s_per_chunk']:8.1f} us")
     print(f"  two sub-devices, run_devices       {1e6 * over['multi_device_s_per_chunk']:8.1f} us")
     if "dask_s_per_task" in over:
         print(f"  Dask task round trip, 2 workers    {1e3 * over['dask_s_per_task']:8.2f} ms")

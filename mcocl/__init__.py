@@ -5,6 +5,7 @@ buffers and progressive accumulation.  Start with :func:`integrate`.
 """
 
 from . import render, rng
+from .engine.contract import DeviceFailureWarning
 from .errors import ConvergenceError, DeviceError, InputError, KernelBuildError, MCOCLError
 from .integration import (
     IntegrationResult,
@@ -21,7 +22,6 @@ from .integration import (
 )
 from .render import RenderResult
 from .runtime import list_devices
-from .schedule import DeviceFailureWarning
 from .walks import FredholmResult, solve_fredholm
 
 __version__ = "0.1.0"

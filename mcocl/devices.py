@@ -1,7 +1,7 @@
 """Device lists and sub-devices: which devices a multi-device run uses.
 
 A placement names its devices in one of these ways (see
-:class:`~mcocl.schedule.Placement`):
+:class:`~mcocl.engine.contract.Placement`):
 
 - ``devices="all"``: every device found; a CPU that two installed PoCL
   platforms both list is the same cores, so it is taken once;
@@ -18,7 +18,7 @@ A placement names its devices in one of these ways (see
   pool for all its devices, so a sub-device of one compute unit still runs
   its kernels on every core, and N sub-devices together are as fast as the
   whole device, not N times one part.  To give each core its own worker, run
-  Dask workers with ``POCL_MAX_PTHREAD_COUNT=1`` (:mod:`mcocl.distributed`).
+  Dask workers with ``POCL_MAX_PTHREAD_COUNT=1`` (:mod:`mcocl.engine.dask_cluster`).
 
 Sub-devices are cached per (parent, N): creating them again would leak
 OpenCL handles, and the build cache in :mod:`mcocl.runtime` is keyed by the
@@ -34,9 +34,8 @@ from typing import Any
 
 import pyopencl as cl
 
-from . import runtime
 from .errors import DeviceError, InputError
-from .runtime import DeviceContext, device_context, list_devices, select_device
+from .runtime import DeviceContext, device_context, list_devices, register_context, select_device
 
 
 class SubDeviceContext(DeviceContext):
@@ -104,19 +103,10 @@ def sub_device_contexts(device: Any, parts: int) -> list[SubDeviceContext]:
                 raise DeviceError(f"device {name!r} could not be split into {parts} sub-devices: {e}") from None
             # C // N units each may allow more than N parts (C=8, N=3 -> 4 parts of 2):
             # the extra parts stay idle, as asked.
-            got = [_register(SubDeviceContext(s, dev, k, parts)) for k, s in enumerate(subs[:parts])]
+            # One context per sub-device, shared with the runtime's cache (see register_context).
+            got = [register_context(SubDeviceContext(s, dev, k, parts)) for k, s in enumerate(subs[:parts])]
             _subdevices[key] = got
         return got
-
-
-def _register(ctx: SubDeviceContext) -> SubDeviceContext:
-    # The runtime caches one context per device and keys its program cache by
-    # the device alone, so a sub-device must have exactly one context too:
-    # device_context(sub_device) has to return this object, never a second
-    # context (a program built in one context is INVALID_CONTEXT in another).
-    with runtime._contexts_lock:
-        runtime._contexts[ctx.device.int_ptr] = ctx
-    return ctx
 
 
 def parse_device_list(spec: Any) -> list[Any] | str:

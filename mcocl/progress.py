@@ -11,7 +11,7 @@ import sys
 import time
 from typing import TextIO
 
-from .schedule import Progress
+from .engine.contract import Progress
 
 
 def _si(v: float) -> str:
@@ -29,7 +29,7 @@ def _clock(s: float | None) -> str:
 
 
 class ProgressBar:
-    """Renders :class:`~mcocl.schedule.Progress` reports.
+    """Renders :class:`~mcocl.engine.contract.Progress` reports.
 
     Args:
         label: what runs (shown first).

@@ -29,9 +29,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from .engine.contract import Halting, Placement, Progress
 from .errors import InputError
 from .progress import ProgressBar
-from .schedule import Halting, Placement, Progress
 from .validate import exact_integer, file_path, positive_number, whole_number
 
 # Vector widths the kernels' lane dialect implements (kernels/lanes.cl: LANES 1, 2, 4, 8, 16).

@@ -307,6 +307,25 @@ def device_context(device: int | str | cl.Device | None = None) -> DeviceContext
         return ctx
 
 
+def register_context(ctx: DeviceContext) -> DeviceContext:
+    """Make ``ctx`` the cached context of its device, for contexts made outside this module.
+
+    The program cache is keyed by the device alone, so a device must have
+    exactly one context (a program built in one context is INVALID_CONTEXT
+    in another): after this, :func:`device_context` of ``ctx.device`` returns
+    ``ctx`` itself.  :mod:`mcocl.devices` registers each sub-device it creates.
+
+    Raises:
+        DeviceError: the device already has another context.
+    """
+    key = ctx.device.int_ptr
+    with _contexts_lock:
+        known = _contexts.setdefault(key, ctx)
+    if known is not ctx:
+        raise DeviceError(f"device {ctx.name!r} already has a context; it cannot get a second one")
+    return ctx
+
+
 @cache
 def _read_kernel(rel: str) -> str:
     path = KERNEL_DIR / rel
@@ -534,5 +553,6 @@ __all__ = [
     "kernel",
     "kernel_source",
     "list_devices",
+    "register_context",
     "select_device",
 ]

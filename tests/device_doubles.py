@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 import mcocl.integration.api as integration_api
+from mcocl.engine.dispatch import execute
 from mcocl.errors import DeviceError
-from mcocl.schedule import execute
 
 
 def small_cornell(size: int = 16) -> Any:

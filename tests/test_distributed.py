@@ -25,10 +25,10 @@ from device_doubles import FaultyJob, SlowJob, capture_job, small_cornell  # noq
 import mcocl  # noqa: E402
 from mcocl.accumulate import Accumulator  # noqa: E402
 from mcocl.cli import main as cli_main  # noqa: E402
-from mcocl.distributed import compute_chunk, job_fingerprint, run_dask  # noqa: E402
+from mcocl.engine.contract import DeviceFailureWarning, Halting, Placement  # noqa: E402
+from mcocl.engine.dask_cluster import compute_chunk, job_fingerprint, run_dask  # noqa: E402
 from mcocl.errors import DeviceError, InputError  # noqa: E402
 from mcocl.runtime import device_context  # noqa: E402
-from mcocl.schedule import DeviceFailureWarning, Halting, Placement  # noqa: E402
 
 F3 = "exp(-x[0]*x[0] - 0.5f*x[1]*x[1] - 0.25f*x[2]*x[2])"
 

@@ -17,10 +17,12 @@ import mcocl
 from mcocl.accumulate import Accumulator
 from mcocl.cli import main as cli_main
 from mcocl.devices import SubDeviceContext, parse_device_list, resolve_devices, sub_device_contexts
+from mcocl.engine.chunking import ChunkQueue
+from mcocl.engine.contract import DeviceFailureWarning, Halting, Placement
+from mcocl.engine.dispatch import execute
+from mcocl.engine.multi_device import run_devices
 from mcocl.errors import DeviceError, InputError, KernelBuildError
-from mcocl.multidevice import ChunkQueue, run_devices
 from mcocl.runtime import device_context
-from mcocl.schedule import DeviceFailureWarning, Halting, Placement, execute
 
 F3 = "exp(-x[0]*x[0] - 0.5f*x[1]*x[1] - 0.25f*x[2]*x[2])"
 

@@ -27,8 +27,8 @@ import tempfile
 import warnings
 from typing import Any
 
+from ..engine.contract import Progress
 from ..integration import IntegrationResult, NonFiniteWarning, integrate
-from ..schedule import Progress
 from .suite import Observation, Tick
 
 # samples of the independent sampler's smallest step: a multiple of its

@@ -41,11 +41,11 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
+from ..engine.contract import Progress
 from ..errors import InputError
 from ..render import CompiledScene, NonFiniteSampleWarning, RenderResult, compile_scene, render
 from ..render.image_io import read_exr
 from ..render.job import default_spp_per_block, scene_tables, tables_digest
-from ..schedule import Progress
 from .suite import BaselineSpec, BenchOptions, EstimatorSpec, Observation, Tick
 
 INTEGRATORS = ("path", "nee", "mis")

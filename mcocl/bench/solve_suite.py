@@ -39,9 +39,9 @@ from typing import Any
 
 import numpy as np
 
+from ..engine.contract import Progress
 from ..errors import InputError
 from ..integration import NonFiniteWarning
-from ..schedule import Progress
 from ..walks import FredholmResult, nystrom, solve_fredholm
 from ..walks.job import WALKS_PER_BLOCK
 from .genz import c_float

@@ -7,10 +7,10 @@ import json
 import sys
 import warnings
 
+from ..engine.contract import DeviceFailureWarning
 from ..integration import NonFiniteWarning, integrate
 from ..integration.codegen import HEURISTICS
 from ..integration.samplers import SAMPLER_SPECS
-from ..schedule import DeviceFailureWarning
 from .common import (
     add_device_args,
     add_halting_args,

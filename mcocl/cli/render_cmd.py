@@ -7,8 +7,8 @@ import sys
 import warnings
 from pathlib import Path
 
+from ..engine.contract import DeviceFailureWarning
 from ..render.api import INTEGRATORS, NonFiniteSampleWarning, render
-from ..schedule import DeviceFailureWarning
 from .common import (
     add_device_args,
     add_halting_args,

@@ -8,8 +8,8 @@ import warnings
 
 import numpy as np
 
+from ..engine.contract import DeviceFailureWarning
 from ..integration import NonFiniteWarning
-from ..schedule import DeviceFailureWarning
 from ..walks import ESTIMATORS, nystrom, solve_fredholm
 from .common import (
     add_device_args,

@@ -10,9 +10,10 @@ from typing import Any
 
 from .. import runtime
 from ..accumulate import Accumulator
+from ..engine.contract import Progress
+from ..engine.dispatch import execute
 from ..errors import InputError
 from ..run_options import RunOptions, renamed_keyword
-from ..schedule import Progress, execute
 from ..usercode import UserFunction
 from ..validate import whole_number
 from .codegen import HEURISTICS, generate

@@ -21,9 +21,10 @@ import numpy as np
 
 from .. import runtime
 from ..accumulate import Accumulator
+from ..engine.contract import Progress
+from ..engine.dispatch import execute
 from ..errors import InputError
 from ..run_options import RunOptions, renamed_keyword
-from ..schedule import Progress, execute
 from ..validate import whole_number
 from .compiled import CompiledScene, compile_scene
 from .film import film_image, relative_error

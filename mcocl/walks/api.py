@@ -28,10 +28,11 @@ import numpy as np
 
 from .. import runtime
 from ..accumulate import Accumulator
+from ..engine.contract import Progress
+from ..engine.dispatch import execute
 from ..errors import ConvergenceError, InputError
 from ..integration.api import NonFiniteWarning
 from ..run_options import RunOptions, renamed_keyword
-from ..schedule import Progress, execute
 from ..validate import whole_number
 from .codegen import generate
 from .job import STATS, WalkJob, WalkRunner, estimates

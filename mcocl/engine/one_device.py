@@ -1,0 +1,120 @@
+"""The one-device back end: a job's blocks through one device, in the calling thread.
+
+Two chunks are kept in flight (double buffering), so the device never waits
+for Python to fold, report progress or decide to stop: while the device
+computes chunk k+1, the loop of :mod:`mcocl.engine.fold` folds chunk k.
+Chunk sizes come from :mod:`mcocl.engine.chunking`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+from ..accumulate import Accumulator
+from ..runtime import DeviceContext
+from .chunking import ChunkPolicy, ChunkQueue, Sizer
+from .contract import BlockJob, BlockRunner, DeviceStats, Halting, InterruptFlag, Progress, RunReport
+from .fold import FinishedChunk, fold_chunks
+
+IN_FLIGHT = 2  # chunks enqueued at once: one computing, one waiting behind it
+
+
+class _DeviceStream:
+    """One device's chunks for the fold loop: launched here, collected in order."""
+
+    def __init__(self, runner: BlockRunner, chunks: ChunkQueue, sizer: Sizer) -> None:
+        self.runner = runner
+        self.chunks = chunks
+        self.sizer = sizer
+        self.inflight: deque[tuple[int, int, Any, float]] = deque()
+        self.inflight_blocks = 0
+        self.launched = 0
+        self.finished = False
+
+    @property
+    def exhausted(self) -> bool:
+        return self.chunks.exhausted
+
+    def start(self, interrupt: InterruptFlag) -> float:
+        t0 = time.perf_counter()
+        self.sizer.start_clock(t0)
+        return t0
+
+    def next(self, interrupt: InterruptFlag) -> FinishedChunk | None:
+        while len(self.inflight) < IN_FLIGHT and not interrupt.requested:
+            size, allow_new = self.sizer.size(0, self.inflight_blocks)
+            taken = self.chunks.take(size, allow_new, wait=False)
+            if taken is None:
+                break
+            handle = self.runner.enqueue(*taken)
+            self.inflight.append((taken[0], taken[1], handle, time.perf_counter()))
+            self.inflight_blocks += taken[1]
+            self.launched += 1
+        if not self.inflight:
+            self.finished = True
+            return None
+        first, n, handle, enqueued = self.inflight.popleft()
+        self.inflight_blocks -= n
+        stats = self.runner.collect(handle)
+        self.sizer.measure(0, n, self.sizer.busy_seconds(0, enqueued, time.perf_counter()))
+        return FinishedChunk(first, stats)
+
+    def stop(self) -> None:
+        self.chunks.close()
+
+    def done(self) -> bool:
+        return self.finished
+
+    def device_rates(self, elapsed: float) -> tuple[tuple[str, float], ...]:
+        return ()  # one device: the overall rate says it all
+
+    def close(self, failed: bool) -> None:
+        self.chunks.finish()
+
+
+def run_one_device(
+    job: BlockJob,
+    acc: Accumulator,
+    halting: Halting,
+    ctx: DeviceContext,
+    progress: Callable[[Progress], None] | None = None,
+    chunk_seconds: float = 0.15,
+    first_chunk: int = 1,
+    runner: BlockRunner | None = None,
+) -> RunReport:
+    """Compute blocks from ``acc.blocks_done`` on, on ``ctx``, until ``halting`` says stop.
+
+    Args:
+        job: the job; its runner is built for ``ctx``.
+        acc: the accumulator to fold into (may hold a resumed state).
+        halting: the stopping rules.
+        ctx: the device.
+        progress: called after every fold.
+        chunk_seconds: wall time one chunk should take once the rate is known.
+        first_chunk: blocks in the first chunk (small, to measure the rate).
+        runner: an already built runner of ``job`` on ``ctx`` (else built here).
+
+    Returns:
+        a :class:`~mcocl.engine.contract.RunReport`; the statistics are in ``acc``.
+    """
+    if runner is None:
+        runner = job.runner(ctx)
+    chunks = ChunkQueue(acc.blocks_done, halting.max_blocks)
+    sizer = Sizer(chunks, halting, ChunkPolicy(chunk_seconds=chunk_seconds, first_chunk=first_chunk), job.stat_shape)
+    stream = _DeviceStream(runner, chunks, sizer)
+    out = fold_chunks(stream, acc, halting, progress)
+    return RunReport(
+        seconds=out.seconds,
+        blocks=acc.blocks_done,
+        stopped_by=out.stopped_by,
+        devices=[ctx.name],
+        chunks=stream.launched,
+        per_device=[DeviceStats(ctx.name, acc.blocks_done - out.start_blocks, stream.launched, out.seconds,
+                                float(getattr(runner, "build_seconds", 0.0)))],
+    )
+
+
+__all__ = ["run_one_device"]

@@ -1,0 +1,228 @@
+"""The engine's shared layers: the chunking policy, the fold loop, Ctrl-C, one context per device.
+
+The back ends run on real devices in test_multidevice.py and
+test_distributed.py; here the policy and the loop they share are checked
+against hand-computed numbers, with jobs and streams that are plain Python.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from mcocl.accumulate import Accumulator
+from mcocl.engine.chunking import MAX_CHUNK_BYTES, ChunkPolicy, ChunkQueue, Sizer, chunk_block_limit
+from mcocl.engine.contract import Halting, InterruptFlag, Progress
+from mcocl.engine.fold import FinishedChunk, fold_chunks
+from mcocl.engine.one_device import run_one_device
+from mcocl.errors import DeviceError
+from mcocl.runtime import DeviceContext, device_context, register_context
+
+
+def _sizer(max_blocks: int | None, takers: int = 1, budget: float | None = None, **policy) -> Sizer:
+    return Sizer(ChunkQueue(0, max_blocks), Halting(max_blocks=max_blocks, time_budget=budget),
+                 ChunkPolicy(**policy), (4,), takers=takers)
+
+
+# -- the chunking policy ----------------------------------------------------------
+
+
+def test_an_unmeasured_taker_doubles_its_chunks_up_to_the_limit():
+    s = _sizer(None, first_chunk=3, max_chunk=20)
+    assert [s.size(0)[0] for _ in range(5)] == [3, 6, 12, 20, 20]
+
+
+def test_a_measured_taker_gets_chunk_seconds_of_work():
+    s = _sizer(None, chunk_seconds=0.5)
+    s.measure(0, 400, 2.0)  # 200 blocks/s
+    assert s.size(0) == (100, True)
+    s.measure(0, 100, 0.25)  # 400 blocks/s, smoothed half and half: 300
+    assert s.takers[0].rate == 300.0 and s.size(0) == (150, True)
+
+
+def test_the_guided_tail_gives_each_taker_half_its_share_of_what_is_left():
+    s = _sizer(1000, takers=2, chunk_seconds=1.0)
+    s.chunks.take(900, True, False)  # 100 blocks left
+    s.measure(0, 100, 1.0)  # 100 blocks/s: a quarter of the throughput
+    s.measure(1, 300, 1.0)  # 300 blocks/s
+    assert s.size(0)[0] == 13  # ceil(100 * 1/4 / 2); the floor is 100 // 8 = 12
+    assert s.size(1)[0] == 38  # ceil(100 * 3/4 / 2)
+    s.drop(1)  # a failed taker has no share: the survivor alone takes the rest
+    assert s.size(0)[0] == 100
+
+
+def test_the_guided_tail_never_goes_under_its_floor():
+    s = _sizer(10_000, takers=2, chunk_seconds=1.0)
+    s.chunks.take(9_990, True, False)  # 10 blocks left
+    s.measure(0, 800, 1.0)
+    s.measure(1, 800, 1.0)
+    assert s.size(0)[0] == 100  # 800 // 8, not ceil(10 / 4)
+
+
+def test_alike_workers_split_one_pooled_share():
+    s = _sizer(1000, takers=1, chunk_seconds=1.0, tail_floor=10)
+    s.chunks.take(600, True, False)  # 400 left
+    s.measure(0, 500, 1.0)
+    assert s.size(0, alike=4)[0] == 50  # ceil(400 / 4 / 2)
+    assert s.size(0, alike=1)[0] == 500  # one worker: no tail (the queue clips the chunk to the 400 left)
+    assert s.chunks.take(500, True, False) == (600, 400)
+
+
+def test_a_time_budget_shortens_chunks_and_then_stops_new_blocks():
+    s = _sizer(None, budget=1.0, chunk_seconds=10.0)
+    s.measure(0, 100, 1.0)  # 100 blocks/s
+    s.start_clock(time.perf_counter() - 0.5)  # half the budget is gone
+    n, allow = s.size(0, inflight_blocks=20)  # the blocks in flight take 0.2 s of the 0.5 s left
+    assert allow and 20 <= n <= 31  # 31 at once; 51 if the blocks in flight were forgotten
+    s.start_clock(time.perf_counter() - 2.0)
+    assert s.size(0)[1] is False
+
+
+def test_a_chunk_holds_at_most_max_chunk_bytes_of_statistics():
+    per_block = MAX_CHUNK_BYTES // 8 // 3  # three blocks fit
+    assert chunk_block_limit((per_block,)) == 3
+    assert chunk_block_limit((per_block,), max_chunk=2) == 2
+    assert chunk_block_limit((4 * MAX_CHUNK_BYTES,)) == 1
+
+
+# -- the fold loop ----------------------------------------------------------------
+
+
+class ScriptedStream:
+    """Delivers given chunks in the given (not block) order, one per call."""
+
+    def __init__(self, script: list[FinishedChunk]) -> None:
+        self.script = list(script)
+        self.stopped = False
+        self.closed: bool | None = None
+
+    exhausted = True
+
+    def start(self, interrupt: InterruptFlag) -> float:
+        return time.perf_counter()
+
+    def next(self, interrupt: InterruptFlag) -> FinishedChunk | None:
+        return self.script.pop(0) if self.script else None
+
+    def stop(self) -> None:
+        self.stopped = True
+
+    def done(self) -> bool:
+        return not self.script
+
+    def device_rates(self, elapsed: float) -> tuple[tuple[str, float], ...]:
+        return (("a", 1.0), ("b", 2.0))
+
+    def close(self, failed: bool) -> None:
+        self.closed = failed
+
+
+def _blocks(first: int, n: int) -> np.ndarray:
+    return np.arange(first, first + n, dtype=np.float64)[:, None] * np.array([1.0, 0.5])
+
+
+def test_the_fold_loop_folds_out_of_order_chunks_in_block_order(tmp_path):
+    ckpt = tmp_path / "run.npz"
+    stream = ScriptedStream([FinishedChunk(3, _blocks(3, 4)), FinishedChunk(0, _blocks(0, 3)),
+                             FinishedChunk(7, _blocks(7, 1))])
+    acc = Accumulator((2,))
+    reports: list[Progress] = []
+    out = fold_chunks(stream, acc, Halting(max_blocks=8, checkpoint=str(ckpt)), reports.append)
+    assert out.stopped_by == "blocks" and stream.stopped and stream.closed is False
+    assert [p.blocks_done for p in reports] == [0, 7, 8]  # blocks 3..6 wait for 0..2
+    assert reports[-1].device_rates == (("a", 1.0), ("b", 2.0))
+    expected = np.zeros(2)
+    for b in range(8):  # the reference: one block after the other
+        expected = expected + _blocks(b, 1)[0]
+    assert np.array_equal(acc.totals, expected)
+    assert Accumulator.load(ckpt).blocks_done == 8
+
+
+def test_the_fold_loop_stops_on_the_target_but_folds_what_is_in_flight():
+    stream = ScriptedStream([FinishedChunk(k, _blocks(k, 1)) for k in range(5)])
+    acc = Accumulator((2,))
+    out = fold_chunks(stream, acc, Halting(target=lambda a: a.blocks_done >= 2))
+    assert out.stopped_by == "target" and stream.stopped and acc.blocks_done == 5
+
+
+def test_the_fold_loop_closes_the_stream_on_a_failure():
+    class Failing(ScriptedStream):
+        def next(self, interrupt: InterruptFlag) -> FinishedChunk | None:
+            raise RuntimeError("device lost")
+
+    stream = Failing([FinishedChunk(0, _blocks(0, 1))])
+    with pytest.raises(RuntimeError, match="device lost"):
+        fold_chunks(stream, Accumulator((2,)), Halting())
+    assert stream.closed is True
+
+
+# -- one device, with a job that is plain NumPy -----------------------------------------
+
+
+class CountingRunner:
+    def enqueue(self, first_block: int, nblocks: int) -> tuple[int, int]:
+        return first_block, nblocks
+
+    def collect(self, handle: tuple[int, int]) -> np.ndarray:
+        return _blocks(*handle)
+
+
+class CountingJob:
+    stat_shape = (2,)
+
+    def runner(self, ctx: object) -> CountingRunner:
+        return CountingRunner()
+
+
+class FakeDevice:
+    name = "fake device"
+
+
+def test_one_device_resumes_to_the_same_sums_as_one_run():
+    whole = Accumulator((2,))
+    report = run_one_device(CountingJob(), whole, Halting(max_blocks=500), FakeDevice(), chunk_seconds=1e-4)
+    assert report.stopped_by == "blocks" and report.blocks == 500 and report.chunks > 1
+    assert report.per_device[0].blocks == 500
+    part = Accumulator((2,))
+    run_one_device(CountingJob(), part, Halting(max_blocks=123), FakeDevice(), first_chunk=7)
+    run_one_device(CountingJob(), part, Halting(max_blocks=500), FakeDevice())
+    assert np.array_equal(part.totals, whole.totals)
+
+
+def test_ctrl_c_stops_one_device_after_the_chunks_in_flight():
+    acc = Accumulator((2,))
+    before = signal.getsignal(signal.SIGINT)
+
+    def press_ctrl_c(p: Progress) -> None:
+        if p.blocks_done == 1:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    report = run_one_device(CountingJob(), acc, Halting(max_blocks=None), FakeDevice(), progress=press_ctrl_c)
+    assert report.stopped_by == "interrupt" and report.interrupted
+    assert acc.blocks_done == 3 and not acc.pending  # the first chunk (1 block) and the one behind it (2)
+    assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_a_second_ctrl_c_raises_at_once():
+    before = signal.getsignal(signal.SIGINT)
+    with InterruptFlag() as flag:
+        os.kill(os.getpid(), signal.SIGINT)
+        assert flag.requested
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+    assert signal.getsignal(signal.SIGINT) is before
+
+
+# -- one context per device ------------------------------------------------------------
+
+
+def test_a_device_keeps_its_one_registered_context():
+    ctx = device_context(None)
+    assert register_context(ctx) is ctx  # registering the same context again is harmless
+    with pytest.raises(DeviceError, match="already has a context"):
+        register_context(DeviceContext(ctx.device))
+    assert device_context(ctx.device) is ctx
