@@ -30,9 +30,9 @@ from pathlib import Path
 import numpy as np
 import pyopencl as cl
 
+from .build_output import build_log_requested, compiler_stderr_captured, show_build_log
 from .errors import DeviceError, KernelBuildError
 from .usercode import UserFunction, explain_build_log, probe_source
-
 
 
 def _kernel_dir() -> Path:
@@ -348,13 +348,18 @@ def build(
         prg = _programs.get(key)
     if prg is not None:
         return prg
-    with warnings.catch_warnings():
-        # PoCL prints ABI notes about wide vectors as warnings: not the user's business.
+    with warnings.catch_warnings(), compiler_stderr_captured():
+        # PoCL prints ABI notes about wide vectors as warnings, and its clang
+        # writes "N warnings generated." to descriptor 2: not the user's business
+        # unless build logs are requested (mcocl/build_output.py).
         warnings.simplefilter("ignore", cl.CompilerWarning)
         try:
             prg = cl.Program(ctx.context, source).build(options=list(opts))
         except cl.RuntimeError as e:
+            show_build_log(what, ctx.name, opts, str(e), failed=True)
             raise explain_build_log(str(e), list(users), what) from None
+    if build_log_requested():
+        show_build_log(what, ctx.name, opts, prg.get_build_info(ctx.device, cl.program_build_info.LOG))
     with _programs_lock:
         _programs[key] = prg
     return prg
