@@ -227,7 +227,7 @@ class DeviceContext:
 
     ``group`` is the work-group size every launch uses.  It is fixed per
     device because PoCL compiles a kernel anew for every new work-group size
-    (about 0.2 s each, ../shared/POCL-NOTES.md) and would otherwise choose one
+    (about 0.2 s each, docs/pocl-notes.md) and would otherwise choose one
     per global size.  CPUs get 1 (a work-item is already a block of thousands
     of samples); GPUs get 64.
     """
