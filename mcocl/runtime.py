@@ -324,7 +324,22 @@ def compose(
     return "\n".join(parts) + "\n"
 
 
-_programs: dict[tuple[int, str, tuple[str, ...]], cl.Program] = {}
+def build_digest(source: str, options: list[str] | tuple[str, ...] = ()) -> str:
+    """SHA-256 of everything a build depends on: the flattened source and every option.
+
+    ``source`` is the text :func:`compose` gives (every include resolved), so
+    an edit to any included file changes the digest; the options are
+    :data:`BASE_OPTIONS` followed by ``options``, as :func:`build` passes them.
+    Caches of built programs and of results computed by a kernel are keyed by it.
+    """
+    h = hashlib.sha256()
+    for part in (source, *BASE_OPTIONS, *options):
+        h.update(part.encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+_programs: dict[tuple[int, str], cl.Program] = {}
 _programs_lock = threading.Lock()
 
 
@@ -342,8 +357,7 @@ def build(
             the user snippet lines it complained about.
     """
     opts = tuple(BASE_OPTIONS) + tuple(options)
-    digest = hashlib.sha256(source.encode()).hexdigest()
-    key = (ctx.device.int_ptr, digest, opts)
+    key = (ctx.device.int_ptr, build_digest(source, options))
     with _programs_lock:
         prg = _programs.get(key)
     if prg is not None:
@@ -490,6 +504,7 @@ __all__ = [
     "KernelBuildError",
     "UserProgram",
     "build",
+    "build_digest",
     "build_user_program",
     "compose",
     "default_lanes",

@@ -10,7 +10,7 @@ from typing import Any
 
 from .. import runtime
 from ..accumulate import Accumulator
-from ..errors import InputError
+from ..errors import InputError, NonFiniteWarning
 from ..progress import ProgressBar
 from ..schedule import Halting, Placement, Progress, execute
 from ..usercode import UserFunction
@@ -21,10 +21,6 @@ from .job import IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
 
 SAMPLERS = ("independent", "stratified", "nrooks")
-
-
-class NonFiniteWarning(RuntimeWarning):
-    """Some samples were NaN or infinite and were left out of the estimate."""
 
 
 @dataclass

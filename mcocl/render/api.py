@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import runtime
 from ..accumulate import Accumulator
-from ..errors import InputError
+from ..errors import InputError, NonFiniteSampleWarning
 from ..progress import ProgressBar
 from ..schedule import Halting, Placement, Progress, execute
 from ..validate import positive_number, whole_number
@@ -31,10 +31,6 @@ from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, 
 from .scene import Scene, check_integrator_settings
 
 INTEGRATORS = ("path", "nee", "mis")
-
-
-class NonFiniteSampleWarning(RuntimeWarning):
-    """Some path samples were NaN or infinite and were left out of the image."""
 
 
 @dataclass

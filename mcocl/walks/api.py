@@ -28,8 +28,7 @@ import numpy as np
 
 from .. import runtime
 from ..accumulate import Accumulator
-from ..errors import ConvergenceError, InputError
-from ..integration.api import NonFiniteWarning
+from ..errors import ConvergenceError, InputError, NonFiniteWarning
 from ..progress import ProgressBar
 from ..schedule import Halting, Placement, Progress, execute
 from ..validate import whole_number
