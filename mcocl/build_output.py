@@ -62,16 +62,21 @@ def compiler_stderr_captured() -> Iterator[None]:
     with _lock:
         if _depth == 0:
             _flush_stderr()
-            _sink = tempfile.TemporaryFile()
-            _saved_fd = os.dup(2)
-            os.dup2(_sink.fileno(), 2)
+            try:
+                saved = os.dup(2)
+            except OSError:  # no descriptor 2 (a detached process): nothing reaches a terminal anyway
+                saved = None
+            if saved is not None:
+                _sink = tempfile.TemporaryFile()
+                os.dup2(_sink.fileno(), 2)
+            _saved_fd = saved
         _depth += 1
     try:
         yield
     finally:
         with _lock:
             _depth -= 1
-            if _depth == 0:
+            if _depth == 0 and _saved_fd is not None:
                 _flush_stderr()
                 os.dup2(_saved_fd, 2)
                 os.close(_saved_fd)

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import pytest
 
+from mcocl.cli import build_parser
+
 ROOT = Path(__file__).resolve().parent.parent
 NOISE = re.compile(r"warning|generated", re.IGNORECASE)
 FALLBACK = ["integrate", "x[0] < 0.5 ? 1 : 0", "--dim", "1", "--samples", "1e5", "--seed", "3"]
@@ -45,11 +47,18 @@ def test_a_cold_run_prints_no_compiler_output(args: list[str], tmp_path: Path) -
     assert _noise(r.stderr) == [], r.stderr
 
 
-@pytest.mark.parametrize("how", ["flag-before", "flag-after", "env"])
+@pytest.mark.parametrize("how", ["flag", "env"])
 def test_build_logs_are_shown_on_request(how: str, tmp_path: Path) -> None:
-    args = {"flag-before": ["--verbose", *FALLBACK], "flag-after": [*FALLBACK, "--verbose"], "env": FALLBACK}[how]
+    args = [*FALLBACK, "--verbose"] if how == "flag" else FALLBACK
     r = _run_cold(args, tmp_path, {"MCOCL_BUILD_LOG": "1"} if how == "env" else None)
     assert r.returncode == 0, r.stderr
     assert "build of the integrand" in r.stderr and "failed" in r.stderr, r.stderr
     # the compiler's complaint about the user's line is in the log shown
     assert "integrand:1:" in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("argv", [["--verbose", *FALLBACK], [*FALLBACK, "--verbose"], FALLBACK])
+def test_verbose_flag_before_or_after_the_command(argv: list[str]) -> None:
+    args = build_parser().parse_args(argv)
+    assert args.verbose is ("--verbose" in argv)
+    assert args.command == "integrate"
