@@ -1,6 +1,6 @@
 /* lane_ops.cl — inline lane operations for hot loops (walks, integration, rendering).
  *
- * The wheel's PoCL calls OpenCL built-ins out of line (../shared/POCL-NOTES.md:
+ * The wheel's PoCL calls OpenCL built-ins out of line (docs/pocl-notes.md:
  * "inlines OpenCL built-ins: no"); objdump of the walk kernel showed calls to
  * select, any, isfinite, fabs, fmin, min, vstore8 and vload8 in every
  * iteration, which cost more than the walk's arithmetic.  These replacements

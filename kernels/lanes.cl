@@ -3,7 +3,7 @@
  * Every estimator kernel is written once over the "lane" types below and built
  * with -DLANES=1 (scalar) or -DLANES=16 (a packet of 16 samples in the lanes of
  * OpenCL vector types).  PoCL's wheel build does not vectorise across
- * work-items (../shared/POCL-NOTES.md), so explicit 16-lane vectors are what
+ * work-items (docs/pocl-notes.md), so explicit 16-lane vectors are what
  * reaches the SIMD units; the scalar build exists for user code that is not
  * valid on vectors (an `if` on a coordinate, an int cast) and for devices
  * where vectors do not pay (GPUs vectorise across work-items themselves).

@@ -2,7 +2,9 @@
 
 Every error a user can cause derives from :class:`MCOCLError`, so a caller can
 catch the engine's complaints without catching its bugs; the command line turns
-them into one readable message and a non-zero exit status.
+them into one readable message and a non-zero exit status.  The warnings a run
+may emit about its result live here too, so that any module can raise or
+filter them without importing another module's API.
 """
 
 from __future__ import annotations
@@ -40,3 +42,18 @@ class DeviceError(MCOCLError):
 
 class ConvergenceError(MCOCLError):
     """A random walk did not terminate: the Neumann series appears not to converge."""
+
+
+class PlottingUnavailableError(MCOCLError):
+    """Plots were requested but matplotlib is not installed."""
+
+
+# Warnings: the run finished, but the user should know something about its result.
+
+
+class NonFiniteWarning(RuntimeWarning):
+    """Some samples were NaN or infinite and were left out of the estimate (integration, random walks)."""
+
+
+class NonFiniteSampleWarning(RuntimeWarning):
+    """Some path samples were NaN or infinite and were left out of the image (rendering)."""

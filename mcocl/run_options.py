@@ -73,7 +73,7 @@ class RunOptions:
         seed: 64-bit seed; the result depends on nothing else.
         time_budget: stop after this many seconds (``None``: no limit).
         target_error: stop once the job's error measure is at most this.
-        device, devices, split, client: where to run (:class:`mcocl.schedule.Placement`).
+        device, devices, split, client: where to run (:class:`mcocl.engine.contract.Placement`).
         lanes: samples per vector instruction (``None``: the device's; 1: scalar kernel).
         checkpoint: save the sums to this file periodically and at the end.
         resume: continue from this checkpoint.

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 import pyopencl as cl
 
+from .build_output import build_log_requested, compiler_stderr_captured, show_build_log
 from .errors import DeviceError, KernelBuildError
 from .usercode import UserFunction, explain_build_log, probe_source
 
@@ -268,7 +269,7 @@ class DeviceContext:
 
     ``group`` is the work-group size every launch uses.  It is fixed per
     device because PoCL compiles a kernel anew for every new work-group size
-    (about 0.2 s each, measured on PoCL 3.0) and would otherwise choose one
+    (about 0.2 s each, docs/pocl-notes.md) and would otherwise choose one
     per global size.  CPUs get 1 (a work-item is already a block of thousands
     of samples); GPUs get 64.
     """
@@ -384,7 +385,22 @@ def compose(
     return "\n".join(parts) + "\n"
 
 
-_programs: dict[tuple[int, str, tuple[str, ...]], cl.Program] = {}
+def build_digest(source: str, options: list[str] | tuple[str, ...] = ()) -> str:
+    """SHA-256 of everything a build depends on: the flattened source and every option.
+
+    ``source`` is the text :func:`compose` gives (every include resolved), so
+    an edit to any included file changes the digest; the options are
+    :data:`BASE_OPTIONS` followed by ``options``, as :func:`build` passes them.
+    Caches of built programs and of results computed by a kernel are keyed by it.
+    """
+    h = hashlib.sha256()
+    for part in (source, *BASE_OPTIONS, *options):
+        h.update(part.encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+_programs: dict[tuple[int, str], cl.Program] = {}
 _programs_lock = threading.Lock()
 
 
@@ -402,19 +418,23 @@ def build(
             the user snippet lines it complained about.
     """
     opts = tuple(BASE_OPTIONS) + tuple(options)
-    digest = hashlib.sha256(source.encode()).hexdigest()
-    key = (ctx.device.int_ptr, digest, opts)
+    key = (ctx.device.int_ptr, build_digest(source, options))
     with _programs_lock:
         prg = _programs.get(key)
     if prg is not None:
         return prg
-    with warnings.catch_warnings():
-        # PoCL prints ABI notes about wide vectors as warnings: not the user's business.
+    with warnings.catch_warnings(), compiler_stderr_captured():
+        # PoCL prints ABI notes about wide vectors as warnings, and its clang
+        # writes "N warnings generated." to descriptor 2: not the user's business
+        # unless build logs are requested (mcocl/build_output.py).
         warnings.simplefilter("ignore", cl.CompilerWarning)
         try:
             prg = cl.Program(ctx.context, source).build(options=list(opts))
         except cl.RuntimeError as e:
+            show_build_log(what, ctx.name, opts, str(e), failed=True)
             raise explain_build_log(str(e), list(users), what) from None
+    if build_log_requested():
+        show_build_log(what, ctx.name, opts, prg.get_build_info(ctx.device, cl.program_build_info.LOG))
     with _programs_lock:
         _programs[key] = prg
     return prg
@@ -545,6 +565,7 @@ __all__ = [
     "KernelBuildError",
     "UserProgram",
     "build",
+    "build_digest",
     "build_user_program",
     "compose",
     "default_lanes",

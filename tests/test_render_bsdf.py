@@ -14,13 +14,12 @@ from __future__ import annotations
 import numpy as np
 import pyopencl as cl
 import pytest
-from render_chi2 import chi2_pvalue, directions_to_bins, integrate_bins, quadrature_directions
-from scipy import stats
+from chi2 import Chi2Family
+from direction_bins import directions_to_bins, integrate_bins, quadrature_directions
 
 from mcocl import runtime
 
 N = 1 << 17
-ALPHA_SIGNIFICANCE = 1e-3  # per test; about a dozen cases run
 
 
 def _program(lanes: int):
@@ -82,6 +81,11 @@ SMOOTH_CASES = [
 ]
 
 
+DIELECTRIC_CASES = [(0.0, 1.5), (60.0, 1.5), (85.0, 1.33), (150.0, 1.5), (130.0, 1.5), (170.0, 2.4)]
+# the directions of every smooth case, and the lobe choice of every dielectric case
+FAMILY = Chi2Family("BSDF sampling", len(SMOOTH_CASES) + len(DIELECTRIC_CASES))
+
+
 @pytest.mark.parametrize("label,mat,theta", SMOOTH_CASES, ids=[c[0] for c in SMOOTH_CASES])
 def test_chi2_smooth_bsdfs(label: str, mat: np.ndarray, theta: float) -> None:
     wi = _unit(theta)
@@ -102,8 +106,7 @@ def test_chi2_smooth_bsdfs(label: str, mat: np.ndarray, theta: float) -> None:
     # the samples that failed (reflected below the horizon) form one more cell
     observed = np.append(obs, N - valid.sum())
     expected = np.append(mass2 * N, max(N * (1.0 - total), 0.0))
-    p, detail = chi2_pvalue(observed, expected)
-    assert p > ALPHA_SIGNIFICANCE, f"{label}: p = {p:.2e} ({detail})"
+    FAMILY.check(label, observed, expected)
 
 
 @pytest.mark.parametrize("label,mat,theta", SMOOTH_CASES, ids=[c[0] for c in SMOOTH_CASES])
@@ -204,7 +207,7 @@ def _fresnel_twin(cos_i: float, eta: float) -> float:
     return 0.5 * (rs * rs + rp * rp)
 
 
-@pytest.mark.parametrize("theta,eta", [(0.0, 1.5), (60.0, 1.5), (85.0, 1.33), (150.0, 1.5), (130.0, 1.5), (170.0, 2.4)])
+@pytest.mark.parametrize("theta,eta", DIELECTRIC_CASES)
 def test_dielectric_fresnel_and_snell(theta: float, eta: float) -> None:
     """theta > 90: the path arrives from inside the medium (130 deg is beyond the critical angle of 1.5)."""
     wi = _unit(theta, 45.0)
@@ -233,8 +236,7 @@ def test_dielectric_fresnel_and_snell(theta: float, eta: float) -> None:
     np.testing.assert_allclose(s["eta"][~refl], n2 / n1, rtol=1e-6)
     # chi-square (two cells) of the lobe choice against the Fresnel reflectance
     k = refl.sum()
-    p = stats.chisquare([k, N - k], [N * r, N * (1 - r)]).pvalue
-    assert p > ALPHA_SIGNIFICANCE, (k / N, r)
+    FAMILY.check(f"dielectric lobe choice, {theta:g} deg, eta {eta:g}", [k, N - k], [N * r, N * (1 - r)])
     np.testing.assert_allclose(s["pdf"][refl], r, rtol=1e-4)
     np.testing.assert_allclose(s["pdf"][~refl], 1 - r, rtol=1e-4)
 

@@ -22,7 +22,7 @@ import math
 import numpy as np
 import pyopencl as cl
 import pytest
-from render_chi2 import chi2_pvalue
+from chi2 import Chi2Family
 
 from mcocl import runtime
 from mcocl.render.compiled import LUMINANCE, compile_scene
@@ -30,7 +30,6 @@ from mcocl.render.job import scene_tables
 from mcocl.render.scene import parse_scene
 
 N = 1 << 17
-SIGNIFICANCE = 1e-3
 P = np.array([0.1, -0.2, 0.05])
 
 
@@ -60,6 +59,11 @@ def _outside_scene() -> dict:
              "emitter": {"type": "area", "radiance": [1.0, 1.0, 1.0]}},
         ],
     }
+
+
+# the emitter choice, the three triangles (the rectangle's two and "away") and the
+# two spheres of the outside scene, the environment, and the sphere seen from inside
+FAMILY = Chi2Family("light sampling", 1 + 3 + 2 + 1 + 1)
 
 
 def _inside_scene() -> dict:
@@ -158,8 +162,7 @@ def test_emitter_choice_is_proportional_to_power(outside) -> None:
     observed = [int(np.sum(~s["env"] & (s["prim"] == p))) for p in prims] + [int(s["env"].sum())]
     expected = list(N * probs) + [N * env_pmf]
     assert sum(observed) == N
-    p, detail = chi2_pvalue(np.array(observed, float), np.array(expected))
-    assert p > SIGNIFICANCE, detail
+    FAMILY.check("emitter choice", observed, expected)
     # the exact grid probabilities the kernel divides by agree with the powers
     pmf = k.t["prim_pmf"][prims].astype(np.float64)
     np.testing.assert_allclose(pmf, power / power.sum(), rtol=1e-5, atol=2.5e-7)
@@ -185,8 +188,7 @@ def test_triangle_area_sampling_is_uniform(outside) -> None:
         obs = np.bincount(i * kk + j, minlength=kk * kk).astype(float)
         ii, jj = np.meshgrid(np.arange(kk), np.arange(kk), indexing="ij")
         w = np.where(ii + jj < kk - 1, 1.0, np.where(ii + jj == kk - 1, 0.5, 0.0)).ravel()
-        p, detail = chi2_pvalue(obs, w / w.sum() * sel.sum())
-        assert p > SIGNIFICANCE, f"triangle {prim}: {detail}"
+        FAMILY.check(f"triangle {prim}", obs, w / w.sum() * sel.sum())
 
 
 def test_sphere_cone_sampling_is_uniform_in_solid_angle(outside) -> None:
@@ -212,8 +214,7 @@ def test_sphere_cone_sampling_is_uniform_in_solid_angle(outside) -> None:
         iu = np.clip(np.floor(u * nu), 0, nu - 1).astype(int)
         ip = np.clip(np.floor((phi + np.pi) / (2 * np.pi) * nphi), 0, nphi - 1).astype(int)
         obs = np.bincount(iu * nphi + ip, minlength=nu * nphi).astype(float)
-        p, detail = chi2_pvalue(obs, np.full(nu * nphi, sel.sum() / (nu * nphi)))
-        assert p > SIGNIFICANCE, f"sphere {sph}: {detail}"
+        FAMILY.check(f"sphere {sph}", obs, np.full(nu * nphi, sel.sum() / (nu * nphi)))
         # the pdf is the cone's, times the choice probability
         pmf = float(k.t["prim_pmf"][prim]) * (1 - float(k.t["env_choice"][1]))
         np.testing.assert_allclose(s["pdf"][sel], pmf / (2 * math.pi * omc), rtol=2e-3)
@@ -228,8 +229,7 @@ def test_environment_sampling_is_uniform(outside) -> None:
     i = np.clip(np.floor((wo[:, 2] + 1) / 2 * n_cos), 0, n_cos - 1).astype(int)
     j = np.clip(np.floor((np.arctan2(wo[:, 1], wo[:, 0]) + np.pi) / (2 * np.pi) * n_phi), 0, n_phi - 1).astype(int)
     obs = np.bincount(i * n_phi + j, minlength=n_cos * n_phi).astype(float)
-    p, detail = chi2_pvalue(obs, np.full(n_cos * n_phi, sel.sum() / (n_cos * n_phi)))
-    assert p > SIGNIFICANCE, detail
+    FAMILY.check("environment", obs, np.full(n_cos * n_phi, sel.sum() / (n_cos * n_phi)))
     np.testing.assert_allclose(s["pdf"][sel], float(k.t["env_choice"][1]) / (4 * math.pi), rtol=1e-6)
     np.testing.assert_allclose(s["radiance"][sel], np.tile([0.05, 0.1, 0.2], (sel.sum(), 1)), rtol=1e-6)
 
@@ -288,8 +288,7 @@ def test_sampling_a_sphere_from_inside() -> None:
     i = np.clip(np.floor((q[:, 2] + 1) / 2 * nz), 0, nz - 1).astype(int)
     j = np.clip(np.floor((np.arctan2(q[:, 1], q[:, 0]) + np.pi) / (2 * np.pi) * nphi), 0, nphi - 1).astype(int)
     obs = np.bincount(i * nphi + j, minlength=nz * nphi).astype(float)
-    pv, detail = chi2_pvalue(obs, np.full(nz * nphi, N / (nz * nphi)))
-    assert pv > SIGNIFICANCE, detail
+    FAMILY.check("sphere from inside", obs, np.full(nz * nphi, N / (nz * nphi)))
     # every point of the inner surface faces p: all valid, pdf = d^2 / (A cos)
     assert np.all(s["valid"])
     d = y - p

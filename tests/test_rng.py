@@ -10,19 +10,12 @@ import pytest
 from mcocl import rng
 from mcocl.errors import InputError
 
-KAT = Path(__file__).resolve().parents[2] / "shared" / "testdata" / "random123-philox4x32-10-kat.txt"
-
-# The three vectors of Random123's kat_vectors file, inlined so the test also
-# runs from a checkout that lacks ../shared.
-KAT_LINES = [
-    "philox4x32 10 00000000 00000000 00000000 00000000 00000000 00000000   6627e8d5 e169c58d bc57ac4c 9b00dbd8",
-    "philox4x32 10 ffffffff ffffffff ffffffff ffffffff ffffffff ffffffff   408f276d 41c83b0e a20bc7c6 6d5451fd",
-    "philox4x32 10 243f6a88 85a308d3 13198a2e 03707344 a4093822 299f31d0   d16cfe09 94fdcceb 5001e420 24126ea1",
-]
+# Random123's known-answer vectors for Philox4x32-10 (its tests/kat_vectors file)
+KAT = Path(__file__).resolve().parent / "data" / "random123-philox4x32-10-kat.txt"
 
 
 def _kat_vectors() -> list[list[int]]:
-    lines = KAT.read_text().splitlines() if KAT.exists() else KAT_LINES
+    lines = KAT.read_text().splitlines()
     out = []
     for line in lines:
         f = line.split()

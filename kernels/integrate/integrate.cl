@@ -54,7 +54,7 @@ MC_INLINE void sample_uniforms(ulong base, uint stride, ulong seed, floatv *u) {
 /* Float partial sums are flushed into the double accumulators every FLUSH
  * groups of 16 units: a float sum of at most 64 terms per lane loses nothing
  * that matters, and float lanes are twice as wide as double ones
- * (../shared/POCL-NOTES.md: "accumulating in float was fine up to 4096"). */
+ * (docs/pocl-notes.md: "accumulating in float was fine up to 4096"). */
 #define FLUSH 4
 
 kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit, ulong seed, double shift,

@@ -38,7 +38,7 @@
 
 /* Hand-written vector helpers for the hot paths: the PoCL wheel does not
  * inline OpenCL built-ins (dot, cross, fmin, fmax are out-of-line calls per
- * component there, ../shared/POCL-NOTES.md), which made traversal ~20x slower. */
+ * component there, docs/pocl-notes.md), which made traversal ~20x slower. */
 #define GEOM_INLINE inline __attribute__((always_inline))
 GEOM_INLINE float g3_dot(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 GEOM_INLINE float3 g3_cross(float3 a, float3 b)

@@ -3,7 +3,7 @@
  * The renderer's light-transport code is written once over `floatv` (see
  * lanes.cl): built with LANES=1 a vec3v is three floats, with LANES=8 it is
  * three float8 holding eight independent paths (structure of arrays), which
- * is what reaches the SIMD units on PoCL (../shared/POCL-NOTES.md, "Bounce
+ * is what reaches the SIMD units on PoCL (docs/pocl-notes.md, "Bounce
  * loops").  RGB colours are vec3v too.
  */
 #ifndef MCOCL_RENDER_VEC3_CL

@@ -12,7 +12,7 @@
  * Written over lane types (lanes.cl): with LANES=16 one call generates the
  * blocks of 16 samples at once.  The 32x32->64 high multiply is written out by
  * hand through a 64-bit product: PoCL's wheel does not inline mul_hi(), which
- * made it about 9x slower (../shared/POCL-NOTES.md).
+ * made it about 9x slower (docs/pocl-notes.md).
  */
 #ifndef MCOCL_PHILOX_CL
 #define MCOCL_PHILOX_CL

@@ -14,7 +14,7 @@
  *     floats, so inverse CDFs may take log(u), log(1 - u) and 1/u;
  *   - u is unbiased: E[u] = 1/2 exactly, and every cell has the same mass.
  * Truncation (b * 2^-32) would instead bias every coordinate low by half a
- * cell and can return 0 (../shared/POCL-NOTES.md, "Known bias trap").
+ * cell and can return 0 (docs/pocl-notes.md, "Known bias trap").
  * Only 23 bits are used because 24 bits plus the half-cell offset would need
  * a 25-bit significand.
  */

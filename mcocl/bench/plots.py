@@ -21,12 +21,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from ..errors import MCOCLError
+from ..errors import PlottingUnavailableError
 from .runner import BenchResult, ProblemRecord
-
-
-class PlottingUnavailableError(MCOCLError):
-    """matplotlib is not installed."""
 
 
 def _figure(width: float, height: float) -> Any:

@@ -40,12 +40,12 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, runtime
 from ..engine.contract import Progress
 from ..errors import InputError
 from ..render import CompiledScene, NonFiniteSampleWarning, RenderResult, compile_scene, render
 from ..render.image_io import read_exr
-from ..render.job import default_spp_per_block, scene_tables, tables_digest
+from ..render.job import INTEGRATOR_CODES, KERNEL_FILE, default_spp_per_block, scene_tables, tables_digest
 from .suite import BaselineSpec, BenchOptions, EstimatorSpec, Observation, Tick
 
 INTEGRATORS = ("path", "nee", "mis")
@@ -183,21 +183,24 @@ def _reference_from_file(path: str, cs: CompiledScene) -> Reference:
     return Reference(img.mean.astype(np.float64), var, how, str(path))
 
 
-def _kernel_digest() -> str:
-    """A digest of the renderer's OpenCL sources: a cached reference is stale once they change."""
-    h = hashlib.sha256()
-    from ..runtime import KERNEL_DIR
+def _kernel_digest(options: BenchOptions) -> str:
+    """Digest of the reference render's program: the full flattened source and the build options.
 
-    root = KERNEL_DIR / "render"
-    for f in sorted(root.glob("*.cl")):
-        h.update(f.name.encode())
-        h.update(f.read_bytes())
-    return h.hexdigest()
+    The source is the integrator kernel with every include resolved, so an
+    edit to any file it includes (RNG, MIS weights, BSDFs) makes a cached
+    reference stale; the options are those the render kernel is built with on
+    the bench's device (integrator, lanes, film precision).
+    """
+    ctx = runtime.device_context(options.device)
+    lanes = int(options.lanes) if options.lanes is not None else ctx.lanes
+    build_options = [f"-DLANES={lanes}", f"-DINTEGRATOR={INTEGRATOR_CODES['mis']}"]
+    build_options += ["-DFILM_DOUBLE"] if ctx.fp64 else []  # as RenderRunner adds it
+    return runtime.build_digest(runtime.compose([KERNEL_FILE]), build_options)
 
 
 def _cached_reference(cs: CompiledScene, seconds: float, cache_dir: str, options: BenchOptions) -> Reference:
     key = hashlib.sha256(repr((tables_digest(scene_tables(cs)), cs.width, cs.height, cs.max_depth, cs.rr_depth,
-                               round(seconds, 3), REFERENCE_SEED, __version__, _kernel_digest())).encode()).hexdigest()[:16]
+                               round(seconds, 3), REFERENCE_SEED, __version__, _kernel_digest(options))).encode()).hexdigest()[:16]
     path = Path(cache_dir) / f"render-reference-{key}.exr"
     if path.is_file():
         img = read_exr(path)

@@ -13,7 +13,10 @@ import importlib
 import sys
 import warnings
 
+from ..build_output import set_build_log
 from ..errors import MCOCLError
+
+VERBOSE_HELP = "show the OpenCL compiler's build logs (as MCOCL_BUILD_LOG=1 does)"
 
 # Sub-commands, in the order --help lists them.
 COMMANDS = ("devices", "integrate", "solve", "render", "bench")
@@ -41,6 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .. import __version__
 
     parser.add_argument("--version", action="version", version=f"mcocl {__version__}")
+    parser.add_argument("--verbose", action="store_true", help=VERBOSE_HELP)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
         try:
@@ -50,6 +54,10 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # command not part of this build
             raise
         mod.register(sub)
+    for cmd in sub.choices.values():
+        # also after the command (mcocl render ... --verbose); SUPPRESS keeps the
+        # sub-command's default from overwriting a --verbose given before it
+        cmd.add_argument("--verbose", action="store_true", default=argparse.SUPPRESS, help=VERBOSE_HELP)
     return parser
 
 
@@ -60,6 +68,8 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    if args.verbose:
+        set_build_log(True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         try:

@@ -12,7 +12,7 @@ from .. import runtime
 from ..accumulate import Accumulator
 from ..engine.contract import Progress
 from ..engine.dispatch import execute
-from ..errors import InputError
+from ..errors import InputError, NonFiniteWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..usercode import UserFunction
 from ..validate import whole_number
@@ -24,10 +24,6 @@ from .samplers import SAMPLER_SPECS, SamplerSpec, sampler_spec, spec_of
 
 # The registered sampler names, for --help and error messages (mcocl/integration/samplers.py).
 SAMPLERS = tuple(SAMPLER_SPECS)
-
-
-class NonFiniteWarning(RuntimeWarning):
-    """Some samples were NaN or infinite and were left out of the estimate."""
 
 
 @dataclass

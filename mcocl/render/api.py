@@ -2,7 +2,7 @@
 
 One call compiles the scene (:mod:`mcocl.render.compiled`), builds the
 megakernel for the chosen integrator (``kernels/render/integrator.cl``) and
-runs blocks of samples per pixel through :func:`mcocl.schedule.execute`
+runs blocks of samples per pixel through :func:`mcocl.engine.dispatch.execute`
 until the spp count, the time budget or the target error is reached (or
 Ctrl-C): checkpoints, resuming and several devices work as for integration,
 and the image depends only on the scene, the settings and the seed.
@@ -23,7 +23,7 @@ from .. import runtime
 from ..accumulate import Accumulator
 from ..engine.contract import Progress
 from ..engine.dispatch import execute
-from ..errors import InputError
+from ..errors import InputError, NonFiniteSampleWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
 from .compiled import CompiledScene, compile_scene
@@ -32,10 +32,6 @@ from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, 
 from .scene import Scene, check_integrator_settings
 
 INTEGRATORS = ("path", "nee", "mis")
-
-
-class NonFiniteSampleWarning(RuntimeWarning):
-    """Some path samples were NaN or infinite and were left out of the image."""
 
 
 @dataclass
@@ -184,7 +180,7 @@ def render(
         max_depth, rr_depth: Mitsuba 3's conventions (max_depth -1 unbounded,
             1 emitters seen directly, 2 direct light only); default: the scene's.
         seed: 64-bit seed; the image depends on nothing else.
-        device, devices, split, client: where to run (:class:`mcocl.schedule.Placement`).
+        device, devices, split, client: where to run (:class:`mcocl.engine.contract.Placement`).
         checkpoint: save the film here periodically and at the end.
         resume: continue from a checkpoint of the same scene and settings.
         progress: True for a progress bar on stderr, or a callback.

@@ -30,8 +30,7 @@ from .. import runtime
 from ..accumulate import Accumulator
 from ..engine.contract import Progress
 from ..engine.dispatch import execute
-from ..errors import ConvergenceError, InputError
-from ..integration.api import NonFiniteWarning
+from ..errors import ConvergenceError, InputError, NonFiniteWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
 from .codegen import generate
@@ -214,7 +213,7 @@ def solve_fredholm(
         table_cells, table_bins: tabulation grid per axis (see ``tabulate.py``).
         time_budget: stop after this many seconds.
         target_error: stop once every point's standard error is at most this.
-        device, devices, split, client: where to run (see :class:`mcocl.schedule.Placement`).
+        device, devices, split, client: where to run (see :class:`mcocl.engine.contract.Placement`).
         lanes: walks per vector instruction (1 forces the scalar kernel).
         checkpoint: save the sums to this file periodically and at the end.
         resume: continue from a checkpoint of the same problem.
