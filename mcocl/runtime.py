@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 import pyopencl as cl
 
+from . import heartbeat
 from .build_output import build_log_requested, compiler_stderr_captured, show_build_log
 from .errors import DeviceError, KernelBuildError
 from .usercode import UserFunction, explain_build_log, probe_source
@@ -428,11 +429,14 @@ def build(
         # writes "N warnings generated." to descriptor 2: not the user's business
         # unless build logs are requested (mcocl/build_output.py).
         warnings.simplefilter("ignore", cl.CompilerWarning)
+        heartbeat.beat("build")  # a supervisor does not count compile time against --time
         try:
             prg = cl.Program(ctx.context, source).build(options=list(opts))
         except cl.RuntimeError as e:
             show_build_log(what, ctx.name, opts, str(e), failed=True)
             raise explain_build_log(str(e), list(users), what) from None
+        finally:
+            heartbeat.beat("built")
     if build_log_requested():
         show_build_log(what, ctx.name, opts, prg.get_build_info(ctx.device, cl.program_build_info.LOG))
     with _programs_lock:

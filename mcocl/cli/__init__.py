@@ -15,6 +15,7 @@ import warnings
 
 from ..build_output import set_build_log
 from ..errors import MCOCLError
+from . import supervise
 
 VERBOSE_HELP = "show the OpenCL compiler's build logs (as MCOCL_BUILD_LOG=1 does)"
 
@@ -68,6 +69,8 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    if supervise.wanted(argv, args.command):
+        return supervise.run(sys.argv[1:], args.command, getattr(args, "time_budget", None))
     if args.verbose:
         set_build_log(True)
     with warnings.catch_warnings():

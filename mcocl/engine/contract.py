@@ -216,39 +216,59 @@ class Placement:
 
 
 class InterruptFlag:
-    """Ctrl-C as a flag: a context manager for the length of one run.
+    """Ctrl-C and SIGTERM as flags: a context manager for the length of one run.
 
     While it is active (and only when entered on the main thread, the one
-    Python delivers signals to), the first SIGINT sets :attr:`requested`
-    instead of raising :class:`KeyboardInterrupt`: the run stops handing out
-    new blocks, folds the blocks in flight, saves its checkpoint and reports
-    ``stopped_by="interrupt"``, so nothing computed is lost.  A second SIGINT
-    restores the previous handler and raises :class:`KeyboardInterrupt` at
-    once, for a user who does not want to wait.  Leaving the context restores
-    the previous handler.
+    Python delivers signals to), SIGINT and SIGTERM do not raise:
+
+    - the first sets :attr:`requested`: the run stops handing out new blocks,
+      folds the blocks in flight, saves its checkpoint and reports
+      ``stopped_by="interrupt"``, so nothing computed is lost;
+    - the second sets :attr:`urgent` as well: the run stops at once without
+      waiting to fold the blocks still in flight, and still saves and returns
+      everything folded so far (a user who presses Ctrl-C twice, or a service
+      manager that repeats SIGTERM, must not lose the image);
+    - a third restores the previous handlers and raises
+      :class:`KeyboardInterrupt`.
+
+    A terminating service manager sends SIGTERM where a user presses Ctrl-C;
+    both mean "stop and keep what you have".  Leaving the context restores
+    the previous handlers.
 
     Attributes:
-        requested: True once Ctrl-C was pressed.
+        requested: True once a stop was asked for.
+        urgent: True once it was asked for twice.
     """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self) -> None:
         self.requested = False
-        self._old: Any = None
+        self.urgent = False
+        self._count = 0
+        self._old: dict[int, Any] = {}
 
     def __enter__(self) -> InterruptFlag:
         if threading.current_thread() is threading.main_thread():
-            self._old = signal.signal(signal.SIGINT, self._handler)
+            for sig in self.SIGNALS:
+                self._old[sig] = signal.signal(sig, self._handler)
         return self
 
+    def _restore(self) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old = {}
+
     def _handler(self, signum: int, frame: Any) -> None:
-        if self.requested:  # second Ctrl-C: give up at once
-            signal.signal(signal.SIGINT, self._old)
+        self._count += 1
+        if self._count >= 3:  # a third request: give up at once
+            self._restore()
             raise KeyboardInterrupt
         self.requested = True
+        self.urgent = self._count >= 2
 
     def __exit__(self, *exc: object) -> None:
-        if self._old is not None:
-            signal.signal(signal.SIGINT, self._old)
+        self._restore()
 
 
 __all__ = [

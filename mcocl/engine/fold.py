@@ -17,7 +17,7 @@ feeder threads, Dask futures) and exposes them as a :class:`ChunkStream`;
    folded: nothing computed is dropped;
 6. end when the stream has nothing left; save the final checkpoint.
 
-Ctrl-C is caught for the length of the loop (:class:`~mcocl.engine.contract.InterruptFlag`).
+Ctrl-C and SIGTERM are caught for the length of the loop (:class:`~mcocl.engine.contract.InterruptFlag`).
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from typing import Protocol
 
 import numpy as np
 
+from .. import heartbeat
 from ..accumulate import Accumulator
 from .contract import Halting, InterruptFlag, Progress
 
@@ -115,6 +116,7 @@ def fold_chunks(
     with InterruptFlag() as interrupt:
         try:
             t0 = stream.start(interrupt)
+            heartbeat.beat("start")
             while True:
                 chunk = stream.next(interrupt)
                 now = time.perf_counter()
@@ -128,6 +130,10 @@ def fold_chunks(
                     if halting.checkpoint and now - last_ckpt >= halting.checkpoint_every:
                         acc.save(halting.checkpoint)
                         last_ckpt = now
+                    heartbeat.beat("fold")
+                if interrupt.urgent:  # asked twice: keep what is folded, abandon the blocks in flight
+                    stopped_by = "interrupt"
+                    break
                 if not stopped_by:
                     stopped_by = halting.reason(acc, elapsed, interrupt.requested, folded=chunk is not None)
                 if stopped_by:
@@ -137,7 +143,8 @@ def fold_chunks(
         except BaseException:
             stream.close(failed=True)
             raise
-        stream.close(failed=False)
+        stream.close(failed=interrupt.urgent)
+    heartbeat.beat("stop")
     stopped_by = halting.conclude(acc, stopped_by, interrupt.requested, stream.exhausted)
     return FoldOutcome(stopped_by, time.perf_counter() - t0, start_blocks)
 

@@ -1,0 +1,182 @@
+"""Run a command's device work in a child process that this process watches.
+
+User snippets (an integrand, a kernel K, a source g) are compiled to native
+code and run inside the process that launched them: an endless loop in one
+never returns from its kernel launch, so neither ``--time`` nor Ctrl-C can
+stop it from inside, and a wild write or a compiler crash kills the process
+with no message.  The command line therefore runs ``integrate``, ``solve``,
+``render`` and ``bench`` as a child (the same command, marked by the
+environment) and supervises it from here:
+
+- the child reports when it compiles a program (:mod:`mcocl.heartbeat`);
+  with ``--time T`` the child is stopped once it has run ``T + GRACE``
+  seconds not counting compilation, which it never does unless a kernel
+  launch (a sampling block, or the probe that checks the user's code) is
+  stuck;
+- Ctrl-C and SIGTERM are passed on to the child, which stops and saves what it
+  has (:class:`~mcocl.engine.contract.InterruptFlag`); a child that has not
+  ended ``STOP_WAIT`` seconds after the last request is killed;
+- a child killed by a signal (SIGSEGV, SIGBUS, SIGABRT, ...) is reported in
+  one line with exit status 2, instead of the shell's bare "Segmentation
+  fault".
+
+The child runs in its own session, so a terminal's Ctrl-C reaches only this
+process, which forwards it exactly once.  ``MCOCL_SUPERVISE=0`` turns the
+supervision off (the command then runs in this process, as the API does).
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+
+from ..heartbeat import ENV as HEARTBEAT_ENV
+
+# Commands whose work runs user code on a device.
+SUPERVISED = frozenset({"integrate", "solve", "render", "bench"})
+# Seconds a supervised run may outlive its --time before it is stopped.
+GRACE = 3.0
+# Seconds a child may take to stop after Ctrl-C or SIGTERM before it is killed.
+STOP_WAIT = 10.0
+# Exit status of a run stopped by the supervisor (as for any engine error).
+EXIT_ERROR = 2
+
+
+def wanted(argv: Sequence[str] | None, command: str | None) -> bool:
+    """True when ``command`` should run supervised: the console entry point
+    (``argv`` None), a supervised command, not already the child, not turned off."""
+    return (
+        argv is None
+        and command in SUPERVISED
+        and HEARTBEAT_ENV not in os.environ
+        and os.environ.get("MCOCL_SUPERVISE", "1") != "0"
+    )
+
+
+def _signal_name(num: int) -> str:
+    try:
+        return signal.Signals(num).name
+    except ValueError:
+        return f"signal {num}"
+
+
+def _crash_message(command: str, signum: int) -> str:
+    what = {"integrate": "the integrand", "solve": "the kernel or source", "render": "the renderer",
+            "bench": "a benchmarked snippet"}.get(command, "the device code")
+    return (
+        f"mcocl {command}: error: {what} crashed the device process ({_signal_name(signum)}); "
+        "checkpoints written before the crash are kept (--checkpoint), nothing else was saved"
+    )
+
+
+class _Child:
+    """The supervised child and what it has told us."""
+
+    def __init__(self, argv: Sequence[str]) -> None:
+        read_fd, write_fd = os.pipe()
+        env = dict(os.environ)
+        env[HEARTBEAT_ENV] = str(write_fd)
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "mcocl", *argv],
+            env=env,
+            pass_fds=(write_fd,),
+            start_new_session=True,
+        )
+        os.close(write_fd)
+        self.pipe = read_fd
+        self.launched = time.monotonic()
+        self.compiling = 0  # builds under way (several devices build at once)
+        self.compile_since = 0.0
+        self.compile_seconds = 0.0
+        self.stopping: float | None = None  # when the last stop was asked for
+        self.killed_for = ""
+
+    def read_beats(self, timeout: float) -> None:
+        ready, _, _ = select.select([self.pipe], [], [], timeout)
+        if not ready:
+            return
+        try:
+            data = os.read(self.pipe, 4096)
+        except OSError:
+            data = b""
+        if not data:  # the child closed its end (it is exiting)
+            time.sleep(min(timeout, 0.05))
+            return
+        now = time.monotonic()
+        for line in data.decode(errors="replace").split():
+            if line == "build":
+                if self.compiling == 0:
+                    self.compile_since = now
+                self.compiling += 1
+            elif line == "built" and self.compiling > 0:
+                self.compiling -= 1
+                if self.compiling == 0:
+                    self.compile_seconds += now - self.compile_since
+
+    def running_seconds(self, now: float) -> float:
+        """Seconds since launch, less the time spent compiling."""
+        compiling = now - self.compile_since if self.compiling else 0.0
+        return now - self.launched - self.compile_seconds - compiling
+
+    def kill(self, why: str) -> None:
+        self.killed_for = why
+        try:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
+def run(argv: Sequence[str], command: str, time_budget: float | None) -> int:
+    """Run ``mcocl <argv>`` as a supervised child; return its exit status."""
+    child = _Child(argv)
+    requests: list[int] = []
+
+    def forward(signum: int, frame: object) -> None:
+        requests.append(signum)
+
+    old = {s: signal.signal(s, forward) for s in (signal.SIGINT, signal.SIGTERM)}
+    forwarded = 0
+    try:
+        while child.proc.poll() is None:
+            child.read_beats(0.2)
+            now = time.monotonic()
+            while forwarded < len(requests):
+                sig = requests[forwarded]
+                forwarded += 1
+                child.stopping = now
+                if forwarded >= 3:
+                    child.kill("interrupted three times")
+                else:
+                    try:
+                        child.proc.send_signal(sig)
+                    except ProcessLookupError:
+                        pass
+            if child.killed_for:
+                continue
+            if child.stopping is not None and now - child.stopping > STOP_WAIT:
+                child.kill(f"it did not stop within {STOP_WAIT:g} s of the request (a kernel launch is stuck)")
+            elif time_budget is not None and child.running_seconds(now) > time_budget + GRACE:
+                child.kill(
+                    f"it outlived --time {time_budget:g} by {GRACE:g} s: a kernel launch did not return "
+                    "(an endless loop in the user code?)"
+                )
+        code = child.proc.wait()
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        os.close(child.pipe)
+    if child.killed_for:
+        print(f"mcocl {command}: error: stopped the run: {child.killed_for}; "
+              "checkpoints already written (--checkpoint) are kept", file=sys.stderr)
+        return 130 if requests else EXIT_ERROR
+    if code < 0:
+        if -code in (signal.SIGINT, signal.SIGTERM):
+            return 128 - code
+        print(_crash_message(command, -code), file=sys.stderr)
+        return EXIT_ERROR
+    return code
