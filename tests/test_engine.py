@@ -207,14 +207,37 @@ def test_ctrl_c_stops_one_device_after_the_chunks_in_flight():
     assert signal.getsignal(signal.SIGINT) is before
 
 
-def test_a_second_ctrl_c_raises_at_once():
-    before = signal.getsignal(signal.SIGINT)
+def test_a_second_request_stops_at_once_and_keeps_what_is_folded(tmp_path):
+    """Two SIGTERMs in a row: the loop stops without folding the chunks in
+    flight, but returns (and checkpoints) every block folded so far."""
+    ckpt = str(tmp_path / "c.ckpt")
+    stream = ScriptedStream([FinishedChunk(k, _blocks(k, 1)) for k in range(10)])
+    acc = Accumulator((2,))
+
+    def terminate_twice(p: Progress) -> None:
+        if p.blocks_done == 3:
+            os.kill(os.getpid(), signal.SIGTERM)
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    out = fold_chunks(stream, acc, Halting(checkpoint=ckpt), progress=terminate_twice)
+    assert out.stopped_by == "interrupt" and acc.blocks_done == 3 and stream.closed is True
+    assert Accumulator.load(ckpt).blocks_done == 3
+    assert np.array_equal(acc.totals, sum(_blocks(k, 1)[0] for k in range(3)))
+
+
+def test_stop_requests_escalate_and_sigterm_counts_as_ctrl_c():
+    """First request: stop after the blocks in flight; second: stop at once but
+    keep what is folded (urgent); third: KeyboardInterrupt.  SIGTERM is a request
+    like Ctrl-C, and both handlers are restored afterwards."""
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
     with InterruptFlag() as flag:
+        os.kill(os.getpid(), signal.SIGTERM)
+        assert flag.requested and not flag.urgent
         os.kill(os.getpid(), signal.SIGINT)
-        assert flag.requested
+        assert flag.urgent
         with pytest.raises(KeyboardInterrupt):
             os.kill(os.getpid(), signal.SIGINT)
-    assert signal.getsignal(signal.SIGINT) is before
+    assert {s: signal.getsignal(s) for s in before} == before
 
 
 # -- one context per device ------------------------------------------------------------
