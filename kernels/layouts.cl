@@ -33,15 +33,15 @@
 #define FILM_NONFINITE 7
 #define FILM_STATS 8
 
-/* A field of a float4-stored record gathered into rec4v q[<RECORD>_QUADS]:
- * REC_FIELD(q, PRIM_RECORD_AREA) is q[PRIM_RECORD_AREA_QUAD].w. */
-#define REC_FIELD(q, F) ((q)[F##_QUAD].F##_COMP)
+/* A field of a float4-stored record gathered by <RECORD>_GATHER(q, ...) into rec4v q0, q1, ...:
+ * REC_FIELD(q, PRIM_RECORD_AREA) is q0.w.  The gather macros read `index` once per float4:
+ * pass a variable, not a call (a search repeated per float4 cost the render kernel ~7 %). */
+#define REC_CAT_(a, b) a##b
+#define REC_CAT(a, b) REC_CAT_(a, b)
+#define REC_FIELD(q, F) (REC_CAT(q, F##_QUAD).F##_COMP)
 /* A float[3] field as a vec3v (render/vec3.cl); REC_FIELD gives its first component. */
-#define REC_VEC3(q, F) v3((q)[F##_QUAD].F##_COMP, (q)[F##_QUAD].F##_COMP1, (q)[F##_QUAD].F##_COMP2)
-/* Every lane's record `index` of record type R from a float4 table, into rec4v q[R##_QUADS]
- * (render/lane_io.cl's gather_rec4, one float4 at a time, in order). */
-#define GATHER_RECORD(q, table, index, R) \
-    for (uint q##_k = 0u; q##_k < R##_QUADS; ++q##_k) (q)[q##_k] = gather_rec4((table), (index) * R##_QUADS + q##_k)
+#define REC_VEC3(q, F) v3(REC_CAT(q, F##_QUAD).F##_COMP, REC_CAT(q, F##_QUAD).F##_COMP1, \
+                      REC_CAT(q, F##_QUAD).F##_COMP2)
 
 /* shading data of primitive p: front normal (0 for spheres), area, material, emitter */
 typedef struct {
@@ -53,19 +53,21 @@ typedef struct {
     float inward;
 } prim_record;
 #define PRIM_RECORD_QUADS 2u
-#define PRIM_RECORD_NORMAL_QUAD 0u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q1 (render/lane_io.cl's gather_rec4). */
+#define PRIM_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 2u + 0u), q##1 = gather_rec4((table), (index) * 2u + 1u)
+#define PRIM_RECORD_NORMAL_QUAD 0
 #define PRIM_RECORD_NORMAL_COMP x
 #define PRIM_RECORD_NORMAL_COMP1 y
 #define PRIM_RECORD_NORMAL_COMP2 z
-#define PRIM_RECORD_AREA_QUAD 0u
+#define PRIM_RECORD_AREA_QUAD 0
 #define PRIM_RECORD_AREA_COMP w
-#define PRIM_RECORD_MATERIAL_QUAD 1u
+#define PRIM_RECORD_MATERIAL_QUAD 1
 #define PRIM_RECORD_MATERIAL_COMP x
-#define PRIM_RECORD_EMITTER_QUAD 1u
+#define PRIM_RECORD_EMITTER_QUAD 1
 #define PRIM_RECORD_EMITTER_COMP y
-#define PRIM_RECORD_PMF_QUAD 1u
+#define PRIM_RECORD_PMF_QUAD 1
 #define PRIM_RECORD_PMF_COMP z
-#define PRIM_RECORD_INWARD_QUAD 1u
+#define PRIM_RECORD_INWARD_QUAD 1
 #define PRIM_RECORD_INWARD_COMP w
 
 /* emitting primitive k: triangle v0 and edges, or sphere centre and radius */
@@ -80,29 +82,31 @@ typedef struct {
     uint prim;
 } light_record;
 #define LIGHT_RECORD_QUADS 4u
-#define LIGHT_RECORD_BASE_QUAD 0u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
+#define LIGHT_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 4u + 0u), q##1 = gather_rec4((table), (index) * 4u + 1u), q##2 = gather_rec4((table), (index) * 4u + 2u), q##3 = gather_rec4((table), (index) * 4u + 3u)
+#define LIGHT_RECORD_BASE_QUAD 0
 #define LIGHT_RECORD_BASE_COMP x
 #define LIGHT_RECORD_BASE_COMP1 y
 #define LIGHT_RECORD_BASE_COMP2 z
-#define LIGHT_RECORD_AREA_QUAD 0u
+#define LIGHT_RECORD_AREA_QUAD 0
 #define LIGHT_RECORD_AREA_COMP w
-#define LIGHT_RECORD_EDGE1_QUAD 1u
+#define LIGHT_RECORD_EDGE1_QUAD 1
 #define LIGHT_RECORD_EDGE1_COMP x
 #define LIGHT_RECORD_EDGE1_COMP1 y
 #define LIGHT_RECORD_EDGE1_COMP2 z
-#define LIGHT_RECORD_SHAPE_QUAD 1u
+#define LIGHT_RECORD_SHAPE_QUAD 1
 #define LIGHT_RECORD_SHAPE_COMP w
-#define LIGHT_RECORD_EDGE2_QUAD 2u
+#define LIGHT_RECORD_EDGE2_QUAD 2
 #define LIGHT_RECORD_EDGE2_COMP x
 #define LIGHT_RECORD_EDGE2_COMP1 y
 #define LIGHT_RECORD_EDGE2_COMP2 z
-#define LIGHT_RECORD_PMF_QUAD 2u
+#define LIGHT_RECORD_PMF_QUAD 2
 #define LIGHT_RECORD_PMF_COMP w
-#define LIGHT_RECORD_RADIANCE_QUAD 3u
+#define LIGHT_RECORD_RADIANCE_QUAD 3
 #define LIGHT_RECORD_RADIANCE_COMP x
 #define LIGHT_RECORD_RADIANCE_COMP1 y
 #define LIGHT_RECORD_RADIANCE_COMP2 z
-#define LIGHT_RECORD_PRIM_QUAD 3u
+#define LIGHT_RECORD_PRIM_QUAD 3
 #define LIGHT_RECORD_PRIM_COMP w
 
 /* a material: its MaterialKind code (as a float) and parameters */
@@ -115,19 +119,21 @@ typedef struct {
     float pad;
 } material_record;
 #define MATERIAL_RECORD_QUADS 2u
-#define MATERIAL_RECORD_KIND_QUAD 0u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q1 (render/lane_io.cl's gather_rec4). */
+#define MATERIAL_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 2u + 0u), q##1 = gather_rec4((table), (index) * 2u + 1u)
+#define MATERIAL_RECORD_KIND_QUAD 0
 #define MATERIAL_RECORD_KIND_COMP x
-#define MATERIAL_RECORD_RGB_QUAD 0u
+#define MATERIAL_RECORD_RGB_QUAD 0
 #define MATERIAL_RECORD_RGB_COMP y
 #define MATERIAL_RECORD_RGB_COMP1 z
 #define MATERIAL_RECORD_RGB_COMP2 w
-#define MATERIAL_RECORD_ALPHA_QUAD 1u
+#define MATERIAL_RECORD_ALPHA_QUAD 1
 #define MATERIAL_RECORD_ALPHA_COMP x
-#define MATERIAL_RECORD_INT_IOR_QUAD 1u
+#define MATERIAL_RECORD_INT_IOR_QUAD 1
 #define MATERIAL_RECORD_INT_IOR_COMP y
-#define MATERIAL_RECORD_EXT_IOR_QUAD 1u
+#define MATERIAL_RECORD_EXT_IOR_QUAD 1
 #define MATERIAL_RECORD_EXT_IOR_COMP z
-#define MATERIAL_RECORD_PAD_QUAD 1u
+#define MATERIAL_RECORD_PAD_QUAD 1
 #define MATERIAL_RECORD_PAD_COMP w
 
 /* pinhole camera: origin and the right/up/forward axes (right, up scaled by the fov) */
@@ -142,29 +148,31 @@ typedef struct {
     float pad3;
 } camera_record;
 #define CAMERA_RECORD_QUADS 4u
-#define CAMERA_RECORD_ORIGIN_QUAD 0u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
+#define CAMERA_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 4u + 0u), q##1 = gather_rec4((table), (index) * 4u + 1u), q##2 = gather_rec4((table), (index) * 4u + 2u), q##3 = gather_rec4((table), (index) * 4u + 3u)
+#define CAMERA_RECORD_ORIGIN_QUAD 0
 #define CAMERA_RECORD_ORIGIN_COMP x
 #define CAMERA_RECORD_ORIGIN_COMP1 y
 #define CAMERA_RECORD_ORIGIN_COMP2 z
-#define CAMERA_RECORD_PAD0_QUAD 0u
+#define CAMERA_RECORD_PAD0_QUAD 0
 #define CAMERA_RECORD_PAD0_COMP w
-#define CAMERA_RECORD_RIGHT_QUAD 1u
+#define CAMERA_RECORD_RIGHT_QUAD 1
 #define CAMERA_RECORD_RIGHT_COMP x
 #define CAMERA_RECORD_RIGHT_COMP1 y
 #define CAMERA_RECORD_RIGHT_COMP2 z
-#define CAMERA_RECORD_PAD1_QUAD 1u
+#define CAMERA_RECORD_PAD1_QUAD 1
 #define CAMERA_RECORD_PAD1_COMP w
-#define CAMERA_RECORD_UP_QUAD 2u
+#define CAMERA_RECORD_UP_QUAD 2
 #define CAMERA_RECORD_UP_COMP x
 #define CAMERA_RECORD_UP_COMP1 y
 #define CAMERA_RECORD_UP_COMP2 z
-#define CAMERA_RECORD_PAD2_QUAD 2u
+#define CAMERA_RECORD_PAD2_QUAD 2
 #define CAMERA_RECORD_PAD2_COMP w
-#define CAMERA_RECORD_FORWARD_QUAD 3u
+#define CAMERA_RECORD_FORWARD_QUAD 3
 #define CAMERA_RECORD_FORWARD_COMP x
 #define CAMERA_RECORD_FORWARD_COMP1 y
 #define CAMERA_RECORD_FORWARD_COMP2 z
-#define CAMERA_RECORD_PAD3_QUAD 3u
+#define CAMERA_RECORD_PAD3_QUAD 3
 #define CAMERA_RECORD_PAD3_COMP w
 
 /* nodes[0] of a BVH: primitive count, internal nodes, depth */
@@ -175,13 +183,15 @@ typedef struct {
     uint pad;
 } bvh_header;
 #define BVH_HEADER_QUADS 1u
-#define BVH_HEADER_NPRIMS_QUAD 0u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q0 (render/lane_io.cl's gather_rec4). */
+#define BVH_HEADER_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 1u + 0u)
+#define BVH_HEADER_NPRIMS_QUAD 0
 #define BVH_HEADER_NPRIMS_COMP x
-#define BVH_HEADER_NUM_NODES_QUAD 0u
+#define BVH_HEADER_NUM_NODES_QUAD 0
 #define BVH_HEADER_NUM_NODES_COMP y
-#define BVH_HEADER_DEPTH_QUAD 0u
+#define BVH_HEADER_DEPTH_QUAD 0
 #define BVH_HEADER_DEPTH_COMP z
-#define BVH_HEADER_PAD_QUAD 0u
+#define BVH_HEADER_PAD_QUAD 0
 #define BVH_HEADER_PAD_COMP w
 
 /* internal BVH node: both children's boxes; cnt 0: child is node ref, else leaf prims[ref..ref+cnt) */
@@ -196,29 +206,31 @@ typedef struct {
     uint cnt1;
 } bvh_node;
 #define BVH_NODE_QUADS 4u
-#define BVH_NODE_LO0_QUAD 0u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
+#define BVH_NODE_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 4u + 0u), q##1 = gather_rec4((table), (index) * 4u + 1u), q##2 = gather_rec4((table), (index) * 4u + 2u), q##3 = gather_rec4((table), (index) * 4u + 3u)
+#define BVH_NODE_LO0_QUAD 0
 #define BVH_NODE_LO0_COMP x
 #define BVH_NODE_LO0_COMP1 y
 #define BVH_NODE_LO0_COMP2 z
-#define BVH_NODE_REF0_QUAD 0u
+#define BVH_NODE_REF0_QUAD 0
 #define BVH_NODE_REF0_COMP w
-#define BVH_NODE_HI0_QUAD 1u
+#define BVH_NODE_HI0_QUAD 1
 #define BVH_NODE_HI0_COMP x
 #define BVH_NODE_HI0_COMP1 y
 #define BVH_NODE_HI0_COMP2 z
-#define BVH_NODE_CNT0_QUAD 1u
+#define BVH_NODE_CNT0_QUAD 1
 #define BVH_NODE_CNT0_COMP w
-#define BVH_NODE_LO1_QUAD 2u
+#define BVH_NODE_LO1_QUAD 2
 #define BVH_NODE_LO1_COMP x
 #define BVH_NODE_LO1_COMP1 y
 #define BVH_NODE_LO1_COMP2 z
-#define BVH_NODE_REF1_QUAD 2u
+#define BVH_NODE_REF1_QUAD 2
 #define BVH_NODE_REF1_COMP w
-#define BVH_NODE_HI1_QUAD 3u
+#define BVH_NODE_HI1_QUAD 3
 #define BVH_NODE_HI1_COMP x
 #define BVH_NODE_HI1_COMP1 y
 #define BVH_NODE_HI1_COMP2 z
-#define BVH_NODE_CNT1_QUAD 3u
+#define BVH_NODE_CNT1_QUAD 3
 #define BVH_NODE_CNT1_COMP w
 
 /* scalar parameters of render_blocks (kernels/render/integrator.cl) */

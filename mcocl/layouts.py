@@ -14,7 +14,7 @@ sides must agree on as an :class:`enum.IntEnum`.  From them come
   arrays of ``float4`` (the renderer gathers them one ``float4`` at a time
   across lanes) the position of every field: ``<RECORD>_QUADS`` float4 per
   record, field ``f`` in float4 ``<RECORD>_<F>_QUAD`` at component
-  ``<RECORD>_<F>_COMP``.
+  ``<RECORD>_<F>_COMP``, and ``<RECORD>_GATHER`` to load every lane's record.
 
 The header is generated and committed rather than produced at compose time,
 so that a reader of a kernel finds the definitions beside the code and a
@@ -151,9 +151,14 @@ class Record:
         lines.append(f"}} {self.name};")
         if self.quads:
             up = self.name.upper()
-            lines.append(f"#define {up}_QUADS {self.itemsize // 16}u")
+            nq = self.itemsize // 16
+            lines.append(f"#define {up}_QUADS {nq}u")
+            lines.append(f"/* Every lane's record `index` of a float4 table into rec4v q0 .. q{nq - 1}"
+                         " (render/lane_io.cl's gather_rec4). */")
+            gathers = ", ".join(f"q##{k} = gather_rec4((table), (index) * {nq}u + {k}u)" for k in range(nq))
+            lines.append(f"#define {up}_GATHER(q, table, index) rec4v {gathers}")
             for (fname, _, count), (q, comp) in zip(self.fields, self.field_quads().values()):
-                lines.append(f"#define {up}_{fname.upper()}_QUAD {q}u")
+                lines.append(f"#define {up}_{fname.upper()}_QUAD {q}")
                 lines.append(f"#define {up}_{fname.upper()}_COMP {comp}")
                 first = "xyzw".index(comp)
                 for i in range(1, count):
@@ -258,15 +263,15 @@ def c_header() -> str:
         parts += [f"#define {prefix}{m.name} {int(m)}" for m in en]
     parts.append(f"#define FILM_STATS {len(FilmStat)}")
     parts.append("")
-    parts.append("/* A field of a float4-stored record gathered into rec4v q[<RECORD>_QUADS]:")
-    parts.append(" * REC_FIELD(q, PRIM_RECORD_AREA) is q[PRIM_RECORD_AREA_QUAD].w. */")
-    parts.append("#define REC_FIELD(q, F) ((q)[F##_QUAD].F##_COMP)")
+    parts.append("/* A field of a float4-stored record gathered by <RECORD>_GATHER(q, ...) into rec4v q0, q1, ...:")
+    parts.append(" * REC_FIELD(q, PRIM_RECORD_AREA) is q0.w.  The gather macros read `index` once per float4:")
+    parts.append(" * pass a variable, not a call (a search repeated per float4 cost the render kernel ~7 %). */")
+    parts.append("#define REC_CAT_(a, b) a##b")
+    parts.append("#define REC_CAT(a, b) REC_CAT_(a, b)")
+    parts.append("#define REC_FIELD(q, F) (REC_CAT(q, F##_QUAD).F##_COMP)")
     parts.append("/* A float[3] field as a vec3v (render/vec3.cl); REC_FIELD gives its first component. */")
-    parts.append("#define REC_VEC3(q, F) v3((q)[F##_QUAD].F##_COMP, (q)[F##_QUAD].F##_COMP1, (q)[F##_QUAD].F##_COMP2)")
-    parts.append("/* Every lane's record `index` of record type R from a float4 table, into rec4v q[R##_QUADS]")
-    parts.append(" * (render/lane_io.cl's gather_rec4, one float4 at a time, in order). */")
-    parts.append("#define GATHER_RECORD(q, table, index, R) \\")
-    parts.append("    for (uint q##_k = 0u; q##_k < R##_QUADS; ++q##_k) (q)[q##_k] = gather_rec4((table), (index) * R##_QUADS + q##_k)")
+    parts.append("#define REC_VEC3(q, F) v3(REC_CAT(q, F##_QUAD).F##_COMP, REC_CAT(q, F##_QUAD).F##_COMP1, \\")
+    parts.append("                      REC_CAT(q, F##_QUAD).F##_COMP2)")
     for r in RECORDS:
         r.check()
         parts.append("")

@@ -36,8 +36,7 @@ typedef struct {
 
 /* The material record `index` of every lane (MATERIAL_RECORD_QUADS float4 per material). */
 RT_INLINE material_v material_load(global const float4 *mats, uintv index) {
-    rec4v q[MATERIAL_RECORD_QUADS];
-    GATHER_RECORD(q, mats, index, MATERIAL_RECORD);
+    MATERIAL_RECORD_GATHER(q, mats, index);
     material_v m;
     m.kind = to_intv(REC_FIELD(q, MATERIAL_RECORD_KIND));
     m.color = REC_VEC3(q, MATERIAL_RECORD_RGB);

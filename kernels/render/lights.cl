@@ -107,8 +107,8 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
     s.prim = (uintv)(0u);
     intv area = active & !s.env;
     if (lt->nlights > 0u && rt_any(area)) {
-        rec4v q[LIGHT_RECORD_QUADS];
-        GATHER_RECORD(q, lt->light_rec, light_find(lt, u_sel), LIGHT_RECORD);
+        uintv k = light_find(lt, u_sel);
+        LIGHT_RECORD_GATHER(q, lt->light_rec, k);
         vec3v base = REC_VEC3(q, LIGHT_RECORD_BASE);
         floatv area_l = REC_FIELD(q, LIGHT_RECORD_AREA);
         floatv shape = REC_FIELD(q, LIGHT_RECORD_SHAPE);

@@ -46,8 +46,7 @@ typedef struct {
  * sphere hits are projected back onto the sphere (pbrt-v4 §6.8.5). */
 RT_INLINE surface_v surface_at(const prim_tables *pt, uintv prim, floatv t, vec3v o, vec3v d, intv active) {
     uintv pr = rt_select((uintv)(0u), prim, active);
-    rec4v q[PRIM_RECORD_QUADS];
-    GATHER_RECORD(q, pt->prim_rec, pr, PRIM_RECORD);
+    PRIM_RECORD_GATHER(q, pt->prim_rec, pr);
     surface_v s;
     s.p = v3_madd(o, rt_select((floatv)(0.0f), t, active), d);
     s.n = REC_VEC3(q, PRIM_RECORD_NORMAL);
