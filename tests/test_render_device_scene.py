@@ -21,7 +21,7 @@ import pytest
 
 from mcocl import layouts, runtime
 from mcocl.render.compiled import compile_scene
-from mcocl.render.device_scene import scene_tables
+from mcocl.render.device_scene import geom_args, scene_buffers, scene_tables
 from mcocl.render.job import RenderJob
 from mcocl.render.scene import parse_scene
 
@@ -95,17 +95,17 @@ def test_bvh_nodes_read_through_the_node_record(cs):
 
 
 def test_every_consumer_uploads_the_same_tables(cs):
-    """CompiledScene.buffers (ray casting, primitive queries) holds exactly the render job's tables."""
+    """scene_buffers (ray casting, primitive queries) holds exactly the render job's tables."""
     ctx = runtime.device_context()
     tables = scene_tables(cs)
     job = RenderJob(tables, cs.width, cs.height, "mis", cs.max_depth, cs.rr_depth, seed=1, spp_per_block=1)
-    bufs = cs.buffers(ctx)
+    bufs = scene_buffers(cs, ctx)
     assert set(bufs) == set(job.tables)
     for name, want in job.tables.items():
         got = np.empty_like(want)
         cl.enqueue_copy(ctx.queue, got, bufs[name])
         assert got.tobytes() == want.tobytes(), name
-    geom = cs.geom_args(ctx)
+    geom = geom_args(cs, ctx)
     assert geom[:5] == [bufs[k] for k in ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip")]
     assert [int(x) for x in geom[5:]] == [int(x) for x in tables["geometry_counts"]]
 

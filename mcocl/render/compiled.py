@@ -58,10 +58,9 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
 - ``source``: the scene file.
 
 What the kernels read is derived from these arrays in one place,
-:func:`mcocl.render.device_scene.scene_tables`; ``buffers(ctx)`` uploads
-those tables (cached per context) and ``geom_args(ctx)`` gives the seven
-kernel arguments declared by ``SCENE_GEOM_PARAMS`` in ``render/intersect.cl``,
-in order.
+:mod:`mcocl.render.device_scene` (``scene_tables``; ``scene_buffers`` uploads
+them, cached per context in ``buffer_cache``; ``geom_args`` gives the seven
+kernel arguments declared by ``SCENE_GEOM_PARAMS`` in ``render/intersect.cl``).
 """
 
 from __future__ import annotations
@@ -116,8 +115,9 @@ class CompiledScene:
     env_pmf: float = 0.0
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
-    _buffers: dict = field(default_factory=dict, repr=False, compare=False)
-    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
+    # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
+    buffer_cache: dict = field(default_factory=dict, repr=False, compare=False)
+    buffer_lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
     @property
     def num_triangles(self) -> int:
@@ -133,28 +133,6 @@ class CompiledScene:
     def num_lights(self) -> int:
         """L, the number of emissive primitives."""
         return int(self.light_prims.shape[0])
-
-    def buffers(self, ctx) -> dict:
-        """One read-only pyopencl Buffer per array of the device tables (:func:`~.device_scene.scene_tables`)."""
-        import pyopencl as cl
-
-        from .device_scene import scene_tables
-
-        key = ctx.context.int_ptr
-        with self._lock:
-            bufs = self._buffers.get(key)
-            if bufs is None:
-                mf = cl.mem_flags
-                bufs = {name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
-                        for name, a in scene_tables(self).items()}
-                self._buffers[key] = bufs
-            return bufs
-
-    def geom_args(self, ctx) -> list:
-        """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, prims, triangles, spheres, flips, T, S)."""
-        b = self.buffers(ctx)
-        return [b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
-                np.uint32(self.num_triangles), np.uint32(self.num_spheres)]
 
     def with_settings(self, integrator: str | None = None, max_depth: int | None = None,
                       rr_depth: int | None = None, spp: int | None = None) -> CompiledScene:

@@ -4,7 +4,7 @@ A :class:`~mcocl.render.compiled.CompiledScene` holds the scene as flat,
 host-friendly arrays; :func:`scene_tables` turns it into the arrays the
 OpenCL kernels read — the render megakernel (:mod:`mcocl.render.job`), the
 ray-casting and primitive queries (:mod:`mcocl.render.raycast`, through
-``CompiledScene.buffers``), the light-sampling test kernels and the
+:func:`geom_args`), the light-sampling test kernels and the
 benchmarks all upload these same tables, so that no consumer can see
 another light-selection probability or another record layout.
 
@@ -136,6 +136,28 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     }
 
 
+def scene_buffers(cs: CompiledScene, ctx) -> dict:
+    """One read-only pyopencl Buffer per array of :func:`scene_tables`, cached on ``cs`` per context."""
+    import pyopencl as cl
+
+    key = ctx.context.int_ptr
+    with cs.buffer_lock:
+        bufs = cs.buffer_cache.get(key)
+        if bufs is None:
+            mf = cl.mem_flags
+            bufs = {name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+                    for name, a in scene_tables(cs).items()}
+            cs.buffer_cache[key] = bufs
+        return bufs
+
+
+def geom_args(cs: CompiledScene, ctx) -> list:
+    """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, prims, triangles, spheres, flips, T, S)."""
+    b = scene_buffers(cs, ctx)
+    return [b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
+            np.uint32(cs.num_triangles), np.uint32(cs.num_spheres)]
+
+
 def tables_digest(tables: dict[str, np.ndarray]) -> str:
     """A short hash of the scene tables: a checkpoint must belong to the same scene."""
     h = hashlib.sha256()
@@ -148,4 +170,5 @@ def tables_digest(tables: dict[str, np.ndarray]) -> str:
     return h.hexdigest()[:16]
 
 
-__all__ = ["light_records", "light_tables", "prim_records", "scene_tables", "tables_digest"]
+__all__ = ["geom_args", "light_records", "light_tables", "prim_records", "scene_buffers", "scene_tables",
+           "tables_digest"]
