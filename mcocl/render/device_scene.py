@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from ..layouts import LIGHT_RECORD, PRIM_RECORD, LightShape
+from ..layouts import LIGHT_RECORD, PRIM_RECORD, RENDER_PARAMS, LightShape
 from .compiled import CompiledScene
 
 
@@ -136,6 +136,21 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     }
 
 
+def scene_params(tables: dict[str, np.ndarray]) -> np.ndarray:
+    """A ``render_params`` (mcocl/layouts.py) with the scene's fields filled from :func:`scene_tables`.
+
+    The geometry counts, the emitter choice and the environment; the render
+    job adds its launch fields (:meth:`mcocl.render.job.RenderJob.params`),
+    the light test kernels use it as it is.
+    """
+    p = np.zeros((), RENDER_PARAMS.dtype())
+    p["ntris"], p["nspheres"] = tables["geometry_counts"]
+    p["nlights"], p["light_top"] = tables["light_scalars"]
+    p["env_threshold"], p["env_pmf"] = tables["env_choice"]
+    p["env_radiance"] = tables["env"]
+    return p
+
+
 def scene_buffers(cs: CompiledScene, ctx) -> dict:
     """One read-only pyopencl Buffer per array of :func:`scene_tables`, cached on ``cs`` per context."""
     import pyopencl as cl
@@ -170,5 +185,5 @@ def tables_digest(tables: dict[str, np.ndarray]) -> str:
     return h.hexdigest()[:16]
 
 
-__all__ = ["geom_args", "light_records", "light_tables", "prim_records", "scene_buffers", "scene_tables",
-           "tables_digest"]
+__all__ = ["geom_args", "light_records", "light_tables", "prim_records", "scene_buffers", "scene_params",
+           "scene_tables", "tables_digest"]

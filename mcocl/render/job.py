@@ -26,8 +26,8 @@ import numpy as np
 import pyopencl as cl
 
 from .. import runtime
-from ..layouts import RENDER_PARAMS, Integrator
-from .device_scene import light_records, light_tables, prim_records, scene_tables, tables_digest
+from ..layouts import Integrator
+from .device_scene import light_records, light_tables, prim_records, scene_params, scene_tables, tables_digest
 from .film import STATS
 
 INTEGRATOR_CODES = {kind.name.lower(): int(kind) for kind in Integrator}
@@ -94,16 +94,11 @@ class RenderJob:
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:
         """The kernel's ``render_params`` (mcocl/layouts.py) for a launch of ``nblocks`` from ``first_block``."""
-        t = self.tables
-        p = np.zeros((), RENDER_PARAMS.dtype())
+        p = scene_params(self.tables)
         p["first_block"], p["seed"], p["nblocks"] = first_block, self.seed, nblocks
         p["spp_per_block"], p["spp_limit"] = self.spp_per_block, self.spp_limit
         p["width"], p["height"], p["tile_pixels"], p["ntiles"] = self.width, self.height, self.tile_pixels, self.ntiles
         p["max_depth"], p["rr_depth"] = self.max_depth, self.rr_depth
-        p["ntris"], p["nspheres"] = t["geometry_counts"]
-        p["nlights"], p["light_top"] = t["light_scalars"]
-        p["env_threshold"], p["env_pmf"] = t["env_choice"]
-        p["env_radiance"] = t["env"]
         return p
 
     def spp_done(self, blocks: int) -> int:
