@@ -240,12 +240,6 @@ RECORDS: tuple[Record, ...] = (PRIM_RECORD, LIGHT_RECORD, MATERIAL_RECORD, CAMER
                                RENDER_PARAMS)
 
 
-def film_dtype(fp64: bool) -> np.dtype:
-    """The film's per-pixel statistics (:class:`FilmStat` columns) in the kernel's ``film_t``."""
-    base = np.float64 if fp64 else np.float32
-    return np.dtype([(s.name.lower(), base) for s in FilmStat])
-
-
 def c_header() -> str:
     """The text of ``kernels/layouts.cl``, generated from the enums and records above."""
     parts = [
@@ -308,4 +302,4 @@ if __name__ == "__main__":
 
 __all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_RECORD", "MATERIAL_RECORD",
            "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "FilmStat", "Integrator", "LightShape", "MaterialKind",
-           "Record", "c_header", "film_dtype", "header_file"]
+           "Record", "c_header", "header_file"]

@@ -21,10 +21,10 @@ def test_committed_header_is_the_generated_one():
     assert layouts.header_file().read_text() == layouts.c_header(), "run `python -m mcocl.layouts`"
 
 
-def _layout_probe_source() -> tuple[str, list[tuple[str, int]]]:
+def _layout_probe_source(records=layouts.RECORDS) -> tuple[str, list[tuple[str, int]]]:
     """A kernel writing sizeof/offsetof of every record field and every enum code; the expected values."""
     lines, expected = [], []
-    for rec in layouts.RECORDS:
+    for rec in records:
         dt = rec.dtype()
         lines.append(f"out[{len(expected)}] = (uint)sizeof({rec.name});")
         expected.append((f"sizeof({rec.name})", dt.itemsize))
@@ -42,16 +42,36 @@ def _layout_probe_source() -> tuple[str, list[tuple[str, int]]]:
     return src, expected
 
 
-def test_device_sizes_offsets_and_codes_match_numpy():
+def _probe(records=layouts.RECORDS, extra_c: str = "") -> list[str]:
+    """Mismatches between the device's sizeof/offsetof/codes and NumPy's (empty when they agree)."""
     ctx = runtime.device_context()
-    src, expected = _layout_probe_source()
-    prg = runtime.build(ctx, runtime.compose(["layouts.cl"], generated=src), ["-DLANES=1"], what="layout probe")
+    src, expected = _layout_probe_source(records)
+    prg = runtime.build(ctx, runtime.compose(["layouts.cl"], generated=extra_c + src), ["-DLANES=1"],
+                        what="layout probe")
     out = np.zeros(len(expected), np.uint32)
     buf = cl.Buffer(ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
     runtime.kernel(prg, "layout_probe")(ctx.queue, (1,), None, buf)
     cl.enqueue_copy(ctx.queue, out, buf)
-    wrong = [f"{what}: device {int(got)}, numpy {want}" for (what, want), got in zip(expected, out) if got != want]
+    return [f"{what}: device {int(got)}, numpy {want}" for (what, want), got in zip(expected, out) if got != want]
+
+
+def test_device_sizes_offsets_and_codes_match_numpy():
+    wrong = _probe()
     assert not wrong, "\n".join(wrong)
+
+
+class _PackedRecord(layouts.Record):
+    """A record whose NumPy side ignores C alignment (the mistake the probe is there to catch)."""
+
+    def offsets(self) -> list[int]:
+        return [0, 4]
+
+
+def test_the_probe_reports_a_dtype_that_ignores_c_alignment():
+    rec = _PackedRecord("packed_probe", (("a", "uint", 1), ("b", "ulong", 1)), "x")
+    c_side = layouts.Record.c_text(rec) + "\n"
+    wrong = _probe((rec,), c_side)
+    assert any("offsetof(packed_probe, b): device 8, numpy 4" in w for w in wrong), wrong
 
 
 def test_render_params_arrive_by_value_byte_for_byte():
@@ -98,8 +118,8 @@ def test_c_alignment_rules():
     assert layouts.RENDER_PARAMS.dtype().fields["env_radiance"][1] % 16 == 0
 
 
-def test_film_dtype_columns_are_the_film_stats():
+def test_film_columns_are_the_film_stats():
     from mcocl.render.film import STAT_NAMES, STATS
 
-    assert layouts.film_dtype(True).names == STAT_NAMES and STATS == len(layouts.FilmStat)
-    assert layouts.film_dtype(False).itemsize == 4 * STATS
+    assert STAT_NAMES == ("sum_r", "sum_g", "sum_b", "sumsq_r", "sumsq_g", "sumsq_b", "samples", "nonfinite")
+    assert STATS == len(layouts.FilmStat) == 8
