@@ -26,7 +26,7 @@ from chi2 import Chi2Family
 
 from mcocl import runtime
 from mcocl.render.compiled import LUMINANCE, compile_scene
-from mcocl.render.job import scene_tables
+from mcocl.render.device_scene import scene_buffers, scene_params, scene_tables
 from mcocl.render.scene import parse_scene
 
 N = 1 << 17
@@ -86,19 +86,12 @@ class LightKernels:
         self.lanes = lanes
         src = runtime.compose(["render/light_sample_test.cl"])
         self.prg = runtime.build(self.ctx, src, [f"-DLANES={lanes}"], what="light test kernels")
-        mf = cl.mem_flags
-        names = ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
-                 "emitter_radiance", "light_rec", "light_cdf")
-        self.buf = {k: cl.Buffer(self.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.t[k]) for k in names}
+        self.names = ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
+                      "emitter_radiance", "light_rec", "light_cdf")
+        self.buf = scene_buffers(self.cs, self.ctx)
 
     def _args(self) -> list:
-        b, t = self.buf, self.t
-        nl, top = (int(x) for x in t["light_scalars"])
-        thr, env_pmf = (float(x) for x in t["env_choice"])
-        return [b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
-                np.uint32(self.cs.num_triangles), np.uint32(self.cs.num_spheres), b["prim_rec"],
-                b["emitter_radiance"], b["light_rec"], b["light_cdf"], np.uint32(nl),
-                np.uint32(top), np.float32(thr), np.float32(env_pmf), t["env"]]
+        return [scene_params(self.t), *(self.buf[k] for k in self.names)]
 
     def sample(self, p: np.ndarray, n: int = N, seed: int = 7) -> dict[str, np.ndarray]:
         out = np.empty((13, n), np.float32)

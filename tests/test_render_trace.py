@@ -14,6 +14,7 @@ import pytest
 
 from mcocl import runtime
 from mcocl.render.compiled import compile_scene
+from mcocl.render.device_scene import geom_args
 from mcocl.render.scene import parse_scene
 
 
@@ -53,7 +54,7 @@ def compare(scene: dict, rays: np.ndarray, lanes: int = 8) -> np.ndarray:
     out = np.empty((6, n), np.float32)
     bo = cl.Buffer(ctx.context, mf.WRITE_ONLY, out.nbytes)
     g, lsz = ctx.work_size(n // lanes)
-    runtime.kernel(prg, "trace_compare")(ctx.queue, g, lsz, *cs.geom_args(ctx), np.uint32(n), br, bo)
+    runtime.kernel(prg, "trace_compare")(ctx.queue, g, lsz, *geom_args(cs, ctx), np.uint32(n), br, bo)
     cl.enqueue_copy(ctx.queue, out, bo)
     return out
 

@@ -1,8 +1,9 @@
 /* bsdf.cl — the materials of a scene and one entry point per BSDF query.
  *
- * Materials come from CompiledScene.materials, float (M, 8):
- *   [kind, r, g, b, alpha, int_ior, ext_ior, 0]
- * kind 0 diffuse, 1 conductor (mirror), 2 roughconductor (GGX), 3 dielectric.
+ * Materials come from CompiledScene.materials, one material_record each
+ * (layouts.cl, from mcocl/layouts.py): kind (a MaterialKind code: MAT_DIFFUSE,
+ * MAT_CONDUCTOR (mirror), MAT_ROUGHCONDUCTOR (GGX), MAT_DIELECTRIC), rgb,
+ * alpha, int_ior, ext_ior.
  *
  * In a lane build the eight paths of a packet may sit on different
  * materials: every kind present in the packet is evaluated and the lanes
@@ -16,6 +17,7 @@
 #ifndef MCOCL_BSDF_CL
 #define MCOCL_BSDF_CL
 
+#include "layouts.cl"
 #include "render/vec3.cl"
 #include "sampling/gather.cl"
 #include "render/lane_io.cl"
@@ -24,11 +26,6 @@
 #include "render/bsdf_roughconductor.cl"
 #include "render/bsdf_dielectric.cl"
 
-#define MAT_DIFFUSE 0
-#define MAT_CONDUCTOR 1
-#define MAT_ROUGHCONDUCTOR 2
-#define MAT_DIELECTRIC 3
-#define MAT_STRIDE 8
 
 typedef struct {
     intv kind;
@@ -37,15 +34,14 @@ typedef struct {
     floatv eta;   /* int_ior / ext_ior */
 } material_v;
 
-/* The material record `index` of every lane (the (M, 8) table read as 2 float4 per material). */
+/* The material record `index` of every lane (MATERIAL_RECORD_QUADS float4 per material). */
 RT_INLINE material_v material_load(global const float4 *mats, uintv index) {
-    rec4v a = gather_rec4(mats, index * 2u);
-    rec4v b = gather_rec4(mats, index * 2u + 1u);
+    MATERIAL_RECORD_GATHER(q, mats, index);
     material_v m;
-    m.kind = to_intv(a.x);
-    m.color = v3(a.y, a.z, a.w);
-    m.alpha = b.x;
-    m.eta = b.y / b.z;
+    m.kind = to_intv(REC_FIELD(q, MATERIAL_RECORD_KIND));
+    m.color = REC_VEC3(q, MATERIAL_RECORD_RGB);
+    m.alpha = REC_FIELD(q, MATERIAL_RECORD_ALPHA);
+    m.eta = REC_FIELD(q, MATERIAL_RECORD_INT_IOR) / REC_FIELD(q, MATERIAL_RECORD_EXT_IOR);
     return m;
 }
 

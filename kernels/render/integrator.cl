@@ -35,6 +35,7 @@
  *   [0..2] sum of R, G, B   [3..5] sum of squares   [6] finite samples
  *   [7] non-finite samples (NaN/Inf in any channel: counted, kept out of the sums).
  */
+#include "layouts.cl"
 #include "rng/uniform.cl"
 #include "sampling/mis.cl"
 #include "render/vec3.cl"
@@ -45,9 +46,7 @@
 #include "render/lights.cl"
 #include "render/trace.cl"
 
-#define INTEGRATOR_PATH 0
-#define INTEGRATOR_NEE 1
-#define INTEGRATOR_MIS 2
+/* INTEGRATOR_PATH, _NEE, _MIS: the Integrator codes of layouts.cl. */
 #ifndef INTEGRATOR
 #define INTEGRATOR INTEGRATOR_MIS
 #endif
@@ -56,7 +55,7 @@
 #define DEPTH_GUARD 65536
 
 #define RNG_STREAM_RENDER 8u
-#define STATS 8
+#define STATS FILM_STATS /* the FilmStat columns of layouts.cl */
 
 /* Philox block `block` (per lane) of the lanes' samples. */
 RT_INLINE philox_ctr rng_block_lanes(rng_t r, uintv block) {
@@ -93,11 +92,11 @@ typedef float film_t;
 RT_INLINE void add_sample(global film_t *o, float r, float g, float b) {
     if ((r - r) == 0.0f && (g - g) == 0.0f && (b - b) == 0.0f) { /* all finite */
         film_t fr = r, fg = g, fb = b;
-        o[0] += fr; o[1] += fg; o[2] += fb;
-        o[3] += fr * fr; o[4] += fg * fg; o[5] += fb * fb;
-        o[6] += 1;
+        o[FILM_SUM_R] += fr; o[FILM_SUM_G] += fg; o[FILM_SUM_B] += fb;
+        o[FILM_SUMSQ_R] += fr * fr; o[FILM_SUMSQ_G] += fg * fg; o[FILM_SUMSQ_B] += fb * fb;
+        o[FILM_SAMPLES] += 1;
     } else {
-        o[7] += 1;
+        o[FILM_NONFINITE] += 1;
     }
 }
 
@@ -141,16 +140,25 @@ RT_INLINE intv assign_samples(intv need, uint *next, uint total, uintv *j) {
 #endif
 }
 
+/* The scalars come in one render_params (layouts.cl; host: mcocl/render/job.py),
+ * the tables as buffers of the scene-to-device contract (mcocl/render/device_scene.py). */
 kernel void render_blocks(
-    ulong first_block, uint nblocks, uint spp_per_block, uint spp_limit,
-    uint width, uint height, uint tile_pixels, uint ntiles, ulong seed, int max_depth, uint rr_depth,
+    const render_params params,
     global const float4 *camera,
-    SCENE_GEOM_PARAMS,
+    SCENE_GEOM_BUFFERS,
     global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance,
     global const float4 *light_rec, global const float *light_cdf,
-    uint nlights, uint light_top, float env_threshold, float env_pmf, float4 env_radiance,
     global film_t *out)
 {
+    const ulong first_block = params.first_block, seed = params.seed;
+    const uint nblocks = params.nblocks, spp_per_block = params.spp_per_block, spp_limit = params.spp_limit;
+    const uint width = params.width, height = params.height, tile_pixels = params.tile_pixels;
+    const uint ntiles = params.ntiles, rr_depth = params.rr_depth;
+    const int max_depth = params.max_depth;
+    const uint scene_ntris = params.ntris, scene_nspheres = params.nspheres;
+    const uint nlights = params.nlights, light_top = params.light_top;
+    const float env_threshold = params.env_threshold, env_pmf = params.env_pmf;
+    const float4 env_radiance = params.env_radiance;
     const uint gid = (uint)get_global_id(0);
     if (gid >= nblocks * ntiles) return;
     const uint bi = gid / ntiles;

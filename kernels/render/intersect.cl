@@ -64,11 +64,13 @@ typedef struct {
     float b1, b2; /* triangle barycentrics of v1, v2 (0 for spheres) */
 } hit_info;
 
-/* Kernel parameters carrying the geometry, in the order of CompiledScene.geom_args(). */
-#define SCENE_GEOM_PARAMS                                                                    \
+/* The geometry's buffers as kernel parameters, in the order of CompiledScene.geom_args(). */
+#define SCENE_GEOM_BUFFERS                                                                   \
     global const float4 *bvh_nodes, global const uint *bvh_prims, global const float4 *tri_vertices, \
-    global const float4 *scene_spheres, global const uint *scene_sphere_flip, const uint scene_ntris, \
-    const uint scene_nspheres
+    global const float4 *scene_spheres, global const uint *scene_sphere_flip
+/* ... followed by the counts T and S: all of CompiledScene.geom_args().  A kernel with a
+ * parameter struct takes SCENE_GEOM_BUFFERS and defines scene_ntris, scene_nspheres itself. */
+#define SCENE_GEOM_PARAMS SCENE_GEOM_BUFFERS, const uint scene_ntris, const uint scene_nspheres
 /* Declare `scene_geom name` from SCENE_GEOM_PARAMS inside a kernel. */
 #define SCENE_GEOM_MAKE(name)                                                                \
     scene_geom name;                                                                         \

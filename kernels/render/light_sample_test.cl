@@ -11,23 +11,21 @@
 
 #define RNG_STREAM_LIGHT_TEST 10u
 
+/* The scene's counts and emitter choice come in a render_params (layouts.cl;
+ * host: mcocl/render/device_scene.py, scene_params), the tables as buffers. */
 #define LIGHT_TEST_PARAMS                                                                                      \
-    global const float4 *bvh_nodes, global const uint *bvh_prims, global const float4 *tri_vertices,        \
-    global const float4 *spheres, global const uint *sphere_flip, uint ntris, uint nspheres,                  \
-    global const float4 *prim_rec, global const float4 *emitter_radiance, global const float4 *light_rec,    \
-    global const float *light_cdf, uint nlights, uint light_top, float env_threshold, float env_pmf,          \
-    float4 env_radiance
+    const render_params scene, SCENE_GEOM_BUFFERS, global const float4 *prim_rec,                              \
+    global const float4 *emitter_radiance, global const float4 *light_rec, global const float *light_cdf
 
 #define LIGHT_TEST_SETUP                                                                                       \
-    scene_geom geom;                                                                                           \
-    geom.nodes = bvh_nodes; geom.prims = bvh_prims; geom.tris = tri_vertices; geom.spheres = spheres;        \
-    geom.sphere_flip = sphere_flip; geom.ntris = ntris; geom.nspheres = nspheres;                             \
+    const uint scene_ntris = scene.ntris, scene_nspheres = scene.nspheres;                                    \
+    SCENE_GEOM_MAKE(geom);                                                                                     \
     prim_tables pt;                                                                                            \
-    pt.spheres = spheres; pt.prim_rec = prim_rec; pt.ntris = ntris; pt.nspheres = nspheres;                   \
+    pt.spheres = scene_spheres; pt.prim_rec = prim_rec; pt.ntris = scene_ntris; pt.nspheres = scene_nspheres; \
     light_tables lt;                                                                                           \
     lt.light_rec = light_rec; lt.light_cdf = light_cdf; lt.emitter_radiance = emitter_radiance;               \
-    lt.nlights = nlights; lt.light_top = light_top; lt.env_threshold = env_threshold; lt.env_pmf = env_pmf;   \
-    lt.env_radiance = env_radiance
+    lt.nlights = scene.nlights; lt.light_top = scene.light_top; lt.env_threshold = scene.env_threshold;       \
+    lt.env_pmf = scene.env_pmf; lt.env_radiance = scene.env_radiance
 
 /* out: wo.xyz, pdf, radiance.rgb, valid, env, prim, pos.xyz (13 components) */
 kernel void light_sample_dirs(LIGHT_TEST_PARAMS, float4 p4, ulong seed, uint n, global float *out) {

@@ -25,14 +25,14 @@
 #include "render/prims.cl"
 #include "sampling/gather.cl"
 
-/* Lights are flattened by the host (mcocl/render/job.py, light_records) into
- * records of 4 float4 per light primitive k:
- *   [0] triangle v0 or sphere centre; w: area
- *   [1] triangle e1 = v1 - v0, or (radius, 0, 0); w: 0 triangle, 1 sphere, 2 sphere with inward normals
- *   [2] triangle e2 = v2 - v0; w: choice probability (exact, on the uniforms' grid)
- *   [3] radiance RGB; w: primitive id (uint bit pattern) */
+/* Lights are flattened by the host (mcocl/render/device_scene.py, light_records)
+ * into one light_record (layouts.cl, from mcocl/layouts.py) per light
+ * primitive k, LIGHT_RECORD_QUADS float4: triangle v0 and edges v1 - v0,
+ * v2 - v0, or sphere centre and (radius, 0, 0); area; shape (a LightShape
+ * code); choice probability (exact, on the uniforms' grid); radiance; the
+ * primitive id (uint bit pattern). */
 typedef struct {
-    global const float4 *light_rec;        /* 4 per light primitive */
+    global const float4 *light_rec;        /* LIGHT_RECORD_QUADS per light primitive */
     global const float *light_cdf;         /* L + 1 */
     global const float4 *emitter_radiance; /* E */
     uint nlights, light_top;               /* light_top: largest power of two <= nlights (0 if none) */
@@ -107,17 +107,18 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
     s.prim = (uintv)(0u);
     intv area = active & !s.env;
     if (lt->nlights > 0u && rt_any(area)) {
-        uintv k = light_find(lt, u_sel) * 4u;
-        rec4v r0 = gather_rec4(lt->light_rec, k), r1 = gather_rec4(lt->light_rec, k + 1u);
-        rec4v r2 = gather_rec4(lt->light_rec, k + 2u), r3 = gather_rec4(lt->light_rec, k + 3u);
-        vec3v base = v3(r0.x, r0.y, r0.z);
-        floatv pmf = r2.w * (1.0f - lt->env_pmf);
+        uintv k = light_find(lt, u_sel);
+        LIGHT_RECORD_GATHER(q, lt->light_rec, k);
+        vec3v base = REC_VEC3(q, LIGHT_RECORD_BASE);
+        floatv area_l = REC_FIELD(q, LIGHT_RECORD_AREA);
+        floatv shape = REC_FIELD(q, LIGHT_RECORD_SHAPE);
+        floatv pmf = REC_FIELD(q, LIGHT_RECORD_PMF) * (1.0f - lt->env_pmf);
         vec3v y = p, ny = s.wo;
         floatv pdf = (floatv)(0.0f);
-        intv tri_l = area & (r1.w == 0.0f);
+        intv tri_l = area & (shape == (float)LIGHT_TRIANGLE);
         if (rt_any(tri_l)) {
             /* uniform point of the triangle: barycentrics (1 - sqrt(u1), u2 sqrt(u1)) of (v1, v2) (pbrt-v3 §13.6.5) */
-            vec3v e1 = v3(r1.x, r1.y, r1.z), e2 = v3(r2.x, r2.y, r2.z);
+            vec3v e1 = REC_VEC3(q, LIGHT_RECORD_EDGE1), e2 = REC_VEC3(q, LIGHT_RECORD_EDGE2);
             floatv su = rt_sqrt(u1);
             vec3v yt = v3_madd(v3_madd(base, 1.0f - su, e1), u2 * su, e2);
             vec3v nt = v3_normalize(v3_cross(e1, e2));
@@ -126,13 +127,13 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
             floatv cosl = -v3_dot(nt, dv) * rt_rsqrt(d2);
             y = v3_select(y, yt, tri_l);
             ny = v3_select(ny, nt, tri_l);
-            pdf = rt_select(pdf, pmf * d2 / (r0.w * cosl), tri_l);
+            pdf = rt_select(pdf, pmf * d2 / (area_l * cosl), tri_l);
         }
-        intv sph_l = area & (r1.w != 0.0f);
+        intv sph_l = area & (shape != (float)LIGHT_TRIANGLE);
         if (rt_any(sph_l)) {
             vec3v c = base;
-            floatv r = r1.x;
-            intv flip = r1.w == 2.0f;
+            floatv r = REC_FIELD(q, LIGHT_RECORD_EDGE1); /* the radius */
+            intv flip = shape == (float)LIGHT_SPHERE_INWARD;
             floatv omc, s2max, dc;
             vec3v wc;
             intv cone = sphere_cone(p, c, r, flip, &omc, &s2max, &wc, &dc);
@@ -156,7 +157,7 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
             vec3v dv = v3_sub(ys, p);
             floatv d2 = v3_len2(dv);
             floatv cosl = -v3_dot(nf, dv) * rt_rsqrt(d2);
-            floatv pdf_area = d2 / (r0.w * cosl);
+            floatv pdf_area = d2 / (area_l * cosl);
             floatv pdf_cone = RT_INV_2PI / omc;
             y = v3_select(y, ys, sph_l);
             ny = v3_select(ny, nf, sph_l);
@@ -168,11 +169,11 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
         intv front = v3_dot(ny, wo) < 0.0f;
         intv ok = area & front & (pdf > 0.0f) & rt_isfinite(pdf);
         s.wo = v3_select(s.wo, wo, area);
-        s.prim = rt_select(s.prim, RT_AS_UINTV(r3.w), area);
+        s.prim = rt_select(s.prim, RT_AS_UINTV(REC_FIELD(q, LIGHT_RECORD_PRIM)), area);
         s.pos = v3_select(s.pos, y, area);
         s.n = v3_select(s.n, ny, area);
         s.pdf = rt_select(s.pdf, pdf, ok);
-        s.radiance = v3_select(s.radiance, v3(r3.x, r3.y, r3.z), ok);
+        s.radiance = v3_select(s.radiance, REC_VEC3(q, LIGHT_RECORD_RADIANCE), ok);
         s.valid = s.valid | ok;
     }
     intv envl = active & s.env;

@@ -3,17 +3,17 @@
  * The geometry is the CompiledScene contract's (primitive p < T is triangle
  * p, p >= T is sphere p - T; spheres float (S, 4) centre and radius); the
  * BVH and the traversal are bvh.cl's.  For shading, the host
- * (mcocl/render/job.py, prim_records) flattens every primitive into one
- * record of 8 floats, so that a packet of hits costs two record loads per
- * lane instead of a dozen scalar gathers:
- *   [0..2] front unit normal of a triangle (0 for spheres)   [3] area
- *   [4] material index   [5] emitter index, -1 if none  (uint / int bit patterns)
- *   [6] probability that light sampling chooses the primitive (0: not a light)
- *   [7] 1 when the primitive is a sphere whose normals point inwards
+ * (mcocl/render/device_scene.py, prim_records) flattens every primitive into
+ * one prim_record (layouts.cl, from mcocl/layouts.py: front unit normal of a
+ * triangle (0 for spheres), area, material, emitter (-1 if none), the
+ * probability that light sampling chooses it, and whether a sphere's normals
+ * point inwards), stored as PRIM_RECORD_QUADS float4, so that a packet of hits
+ * costs two record loads per lane instead of a dozen scalar gathers.
  */
 #ifndef MCOCL_RENDER_PRIMS_CL
 #define MCOCL_RENDER_PRIMS_CL
 
+#include "layouts.cl"
 #include "render/vec3.cl"
 #include "render/lane_io.cl"
 
@@ -25,7 +25,7 @@
 
 typedef struct {
     global const float4 *spheres;  /* S: centre, radius */
-    global const float4 *prim_rec; /* 2 float4 per primitive */
+    global const float4 *prim_rec; /* PRIM_RECORD_QUADS float4 per primitive */
     uint ntris, nspheres;
 } prim_tables;
 
@@ -46,22 +46,21 @@ typedef struct {
  * sphere hits are projected back onto the sphere (pbrt-v4 §6.8.5). */
 RT_INLINE surface_v surface_at(const prim_tables *pt, uintv prim, floatv t, vec3v o, vec3v d, intv active) {
     uintv pr = rt_select((uintv)(0u), prim, active);
-    rec4v a = gather_rec4(pt->prim_rec, pr * 2u);
-    rec4v b = gather_rec4(pt->prim_rec, pr * 2u + 1u);
+    PRIM_RECORD_GATHER(q, pt->prim_rec, pr);
     surface_v s;
     s.p = v3_madd(o, rt_select((floatv)(0.0f), t, active), d);
-    s.n = v3(a.x, a.y, a.z);
-    s.area = a.w;
-    s.mat = RT_AS_UINTV(b.x);
-    s.emitter = rt_select((intv)(-1), RT_AS_INTV(b.y), active);
-    s.pmf = b.z;
+    s.n = REC_VEC3(q, PRIM_RECORD_NORMAL);
+    s.area = REC_FIELD(q, PRIM_RECORD_AREA);
+    s.mat = RT_AS_UINTV(REC_FIELD(q, PRIM_RECORD_MATERIAL));
+    s.emitter = rt_select((intv)(-1), RT_AS_INTV(REC_FIELD(q, PRIM_RECORD_EMITTER)), active);
+    s.pmf = REC_FIELD(q, PRIM_RECORD_PMF);
     intv sph = active & prim_is_sphere(pt, pr);
     if (pt->nspheres > 0u && rt_any(sph)) {
         rec4v c = gather_rec4(pt->spheres, rt_select((uintv)(0u), pr - pt->ntris, sph));
         vec3v cc = v3(c.x, c.y, c.z);
         vec3v dn = v3_normalize(v3_sub(s.p, cc));
         s.p = v3_select(s.p, v3_madd(cc, c.w, dn), sph);
-        s.n = v3_select(s.n, v3_select(dn, v3_neg(dn), b.w != 0.0f), sph);
+        s.n = v3_select(s.n, v3_select(dn, v3_neg(dn), REC_FIELD(q, PRIM_RECORD_INWARD) != 0.0f), sph);
     }
     s.n = v3_select(v3(0.0f, 0.0f, 1.0f), s.n, active);
     return s;

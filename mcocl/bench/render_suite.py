@@ -46,9 +46,9 @@ from ..errors import InputError
 from ..render import CompiledScene, NonFiniteSampleWarning, RenderResult, compile_scene, render
 from ..render.image_io import read_exr
 from ..render.job import INTEGRATOR_CODES, KERNEL_FILE, default_spp_per_block, scene_tables, tables_digest
+from ..render.scene import INTEGRATORS
 from .suite import BaselineSpec, BenchOptions, EstimatorSpec, Observation, Tick
 
-INTEGRATORS = ("path", "nee", "mis")
 DESCRIPTIONS = {
     "path": "BSDF sampling only; emitters count when hit",
     "nee": "light sampling at every vertex (next-event estimation), BSDF sampling to continue",

@@ -29,9 +29,7 @@ from ..validate import whole_number
 from .compiled import CompiledScene, compile_scene
 from .film import film_image, relative_error
 from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
-from .scene import Scene, check_integrator_settings
-
-INTEGRATORS = ("path", "nee", "mis")
+from .scene import INTEGRATORS, Scene, check_integrator_settings
 
 
 @dataclass

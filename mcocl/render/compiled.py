@@ -27,8 +27,9 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   Degenerate triangles (zero area) are left out of the BVH: no ray hits them.
 - ``shape_material``: uint32 (num_shapes,); ``shape_emitter``: int32
   (num_shapes,), index into ``emitter_radiance`` or −1.
-- ``materials``: float32 (M, 8): ``[kind, r, g, b, alpha, int_ior, ext_ior, 0]``;
-  kind 0 diffuse, 1 conductor, 2 roughconductor, 3 dielectric (:data:`MATERIAL_CODES`);
+- ``materials``: float32 (M, 8), one :data:`mcocl.layouts.MATERIAL_RECORD` per row:
+  ``[kind, r, g, b, alpha, int_ior, ext_ior, 0]`` with kind a
+  :class:`mcocl.layouts.MaterialKind` code (:data:`MATERIAL_CODES` by name);
   (r, g, b) = albedo (diffuse) or specular reflectance (conductors; 1 for dielectrics).
 - ``emitter_radiance``: float32 (E, 4): RGB radiance, 0.
 - ``light_prims``: uint32 (L,): every primitive of every emissive shape
@@ -37,9 +38,13 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   power = luminance(radiance)·area·π (luminance = 0.2126 R + 0.7152 G +
   0.0722 B); ``light_cdf[0] = 0``, ``light_cdf[L] = 1``.  With no light
   (or only black ones) L = 0 and ``light_cdf = [0]``.
-- ``light_pmf``: float32 (L,): ``light_cdf[i+1] − light_cdf[i]`` computed in
-  float32, i.e. exactly the probability with which CDF inversion picks light i.
-  (extension of the contract)
+- ``light_pmf``: float32 (L,): the exact probability with which CDF inversion
+  picks light i when an area light is chosen — the share of the uniforms' 2^23
+  grid cells mapped to it (:mod:`mcocl.render.emitter_choice`), which the
+  kernel's records carry too (extension of the contract).
+- ``env_threshold``, ``env_pmf``: light sampling picks the constant environment
+  when a uniform is below ``env_threshold``, i.e. with exact probability
+  ``env_pmf``, else an area light (probability ``(1 − env_pmf)·light_pmf[i]``).
 - ``prim_light``: int32 (T + S,): index of a primitive in ``light_prims``,
   −1 if it is not a light (for the MIS weight of an emitter hit by BSDF
   sampling). (extension of the contract)
@@ -52,10 +57,10 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
 - ``bounds``: float32 (2, 3) world box of all geometry (zeros when empty).
 - ``source``: the scene file.
 
-``buffers(ctx)`` returns one read-only pyopencl Buffer per array (a zero-size
-array gets a 16-byte zero buffer, since OpenCL has no empty buffers), cached
-per context; ``geom_args(ctx)`` gives the seven kernel arguments declared by
-``SCENE_GEOM_PARAMS`` in ``render/intersect.cl``, in order.
+What the kernels read is derived from these arrays in one place,
+:mod:`mcocl.render.device_scene` (``scene_tables``; ``scene_buffers`` uploads
+them, cached per context in ``buffer_cache``; ``geom_args`` gives the seven
+kernel arguments declared by ``SCENE_GEOM_PARAMS`` in ``render/intersect.cl``).
 """
 
 from __future__ import annotations
@@ -68,19 +73,13 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
+from .emitter_choice import LUMINANCE, area_power, cdf_choice_pmf, environment_choice
 from .scene import Scene, check_integrator_settings, load_scene
 
-MATERIAL_CODES = {"diffuse": 0, "conductor": 1, "roughconductor": 2, "dielectric": 3}
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
-
-# Names of the arrays passed to kernels (the order of ``buffers``).
-ARRAY_NAMES = (
-    "camera", "tri_vertices", "spheres", "sphere_flip", "prim_shape", "bvh_nodes", "bvh_prims",
-    "shape_material", "shape_emitter", "materials", "emitter_radiance", "light_prims", "light_cdf",
-    "light_pmf", "prim_light", "light_area", "env_radiance",
-)
+MATERIAL_CODES = {kind.name.lower(): int(kind) for kind in MaterialKind}
 
 
 @dataclass
@@ -112,10 +111,13 @@ class CompiledScene:
     spp: int
     bounds: np.ndarray
     source: Path | None = None
+    env_threshold: float = 0.0
+    env_pmf: float = 0.0
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
-    _buffers: dict = field(default_factory=dict, repr=False, compare=False)
-    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
+    # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
+    buffer_cache: dict = field(default_factory=dict, repr=False, compare=False)
+    buffer_lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
     @property
     def num_triangles(self) -> int:
@@ -131,30 +133,6 @@ class CompiledScene:
     def num_lights(self) -> int:
         """L, the number of emissive primitives."""
         return int(self.light_prims.shape[0])
-
-    def buffers(self, ctx) -> dict:
-        """One read-only pyopencl Buffer per array of :data:`ARRAY_NAMES`, cached per context."""
-        import pyopencl as cl
-
-        key = ctx.context.int_ptr
-        with self._lock:
-            bufs = self._buffers.get(key)
-            if bufs is None:
-                mf = cl.mem_flags
-                bufs = {}
-                for name in ARRAY_NAMES:
-                    a = np.ascontiguousarray(getattr(self, name))
-                    if a.nbytes == 0:
-                        a = np.zeros(4, np.uint32)
-                    bufs[name] = cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
-                self._buffers[key] = bufs
-            return bufs
-
-    def geom_args(self, ctx) -> list:
-        """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, prims, triangles, spheres, flips, T, S)."""
-        b = self.buffers(ctx)
-        return [b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
-                np.uint32(self.num_triangles), np.uint32(self.num_spheres)]
 
     def with_settings(self, integrator: str | None = None, max_depth: int | None = None,
                       rr_depth: int | None = None, spp: int | None = None) -> CompiledScene:
@@ -186,9 +164,9 @@ def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: f
     t = math.tan(math.radians(fov) / 2.0)
     # fov spans the smaller axis; the other axis extends by the aspect ratio.
     sx, sy = (t * width / height, t) if width >= height else (t, t * height / width)
-    cam = np.zeros((4, 4), np.float32)
-    cam[0, :3], cam[1, :3], cam[2, :3], cam[3, :3] = origin, right * sx, true_up * sy, fwd
-    return cam
+    cam = np.zeros(1, CAMERA_RECORD.dtype())
+    cam["origin"], cam["right"], cam["up"], cam["forward"] = origin, right * sx, true_up * sy, fwd
+    return cam.view(np.float32).reshape(4, 4)
 
 
 def _shape_triangles(shape) -> np.ndarray:
@@ -256,9 +234,10 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
                          all_axes=all_axes)
 
     # Materials and emitters.
-    mats = np.zeros((max(len(scene.materials), 0), 8), np.float32)
+    mats = np.zeros(len(scene.materials), MATERIAL_RECORD.dtype())
     for i, m in enumerate(scene.materials):
-        mats[i] = [MATERIAL_CODES[m.kind], *m.rgb, m.alpha, m.int_ior, m.ext_ior, 0.0]
+        mats[i] = (MATERIAL_CODES[m.kind], m.rgb, m.alpha, m.int_ior, m.ext_ior, 0.0)
+    mats = mats.view(np.float32).reshape(len(scene.materials), MATERIAL_RECORD.itemsize // 4)
     shape_material = np.array([sh.material for sh in scene.shapes], np.uint32)
     shape_emitter = np.full(len(scene.shapes), -1, np.int32)
     radiance = []
@@ -280,7 +259,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         cdf = np.concatenate([[0.0], np.cumsum(power) / total]).astype(np.float32)
         cdf[-1] = 1.0
         # A black light keeps its slot with probability 0: CDF inversion never picks it.
-        pmf = np.diff(cdf).astype(np.float32)
+        pmf = cdf_choice_pmf(cdf)
     else:
         light_prims = np.zeros(0, np.uint32)
         cdf = np.zeros(1, np.float32)
@@ -288,11 +267,13 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     prim_light = np.full(ntri + nsph, -1, np.int32)
     prim_light[light_prims] = np.arange(len(light_prims), dtype=np.int32)
     light_area = prim_area[light_prims].astype(np.float32)
+    p_area = area_power(emitter_radiance[prim_emitter[light_prims], :3], light_area) if len(light_prims) else 0.0
 
     env = np.zeros(4, np.float32)
     env[:3] = scene.env_radiance
     cam = scene.camera
-    bounds = bvh.bounds if len(ids) else np.zeros((2, 3), np.float32)
+    bounds = np.ascontiguousarray(bvh.bounds if len(ids) else np.zeros((2, 3)), np.float32)
+    env_threshold, env_pmf = environment_choice(env, bounds, p_area)
     cs = CompiledScene(
         width=cam.width, height=cam.height,
         camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height),
@@ -303,7 +284,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         emitter_radiance=emitter_radiance, light_prims=light_prims, light_cdf=cdf, light_pmf=pmf,
         prim_light=prim_light, light_area=light_area, env_radiance=env,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
-        bounds=np.ascontiguousarray(bounds, np.float32), source=scene.path,
+        bounds=bounds, source=scene.path, env_threshold=env_threshold, env_pmf=env_pmf,
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
                    "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},
@@ -316,5 +297,5 @@ def load_compiled(path: str | Path, **overrides) -> CompiledScene:
     return compile_scene(load_scene(path), **overrides)
 
 
-__all__ = ["ARRAY_NAMES", "LUMINANCE", "MATERIAL_CODES", "CompiledScene", "camera_matrix", "compile_scene",
+__all__ = ["LUMINANCE", "MATERIAL_CODES", "CompiledScene", "camera_matrix", "compile_scene",
            "load_compiled"]

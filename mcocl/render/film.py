@@ -21,8 +21,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-STAT_NAMES = ("sum_r", "sum_g", "sum_b", "sumsq_r", "sumsq_g", "sumsq_b", "samples", "nonfinite")
+from ..layouts import FilmStat
+
+# The columns, in the order of mcocl/layouts.py's FilmStat (kernels/layouts.cl's FILM_*).
+STAT_NAMES = tuple(s.name.lower() for s in FilmStat)
 STATS = len(STAT_NAMES)
+_N, _NONFINITE = FilmStat.SAMPLES, FilmStat.NONFINITE
+_SUM = slice(FilmStat.SUM_R, FilmStat.SUM_B + 1)
+_SUMSQ = slice(FilmStat.SUMSQ_R, FilmStat.SUMSQ_B + 1)
 
 
 @dataclass
@@ -45,16 +51,16 @@ class FilmImage:
 def film_image(totals: np.ndarray) -> FilmImage:
     """Mean, variance of the mean and sample counts from (H, W, STATS) totals."""
     t = np.asarray(totals, dtype=np.float64)
-    n = t[..., 6:7]
+    n = t[..., _N:_N + 1]
     with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.where(n > 0, t[..., 0:3] / np.where(n > 0, n, 1.0), np.nan)
-        dev = np.maximum(t[..., 3:6] - t[..., 0:3] ** 2 / np.where(n > 0, n, 1.0), 0.0)
+        mean = np.where(n > 0, t[..., _SUM] / np.where(n > 0, n, 1.0), np.nan)
+        dev = np.maximum(t[..., _SUMSQ] - t[..., _SUM] ** 2 / np.where(n > 0, n, 1.0), 0.0)
         var = np.where(n > 1, dev / np.maximum(n - 1.0, 1.0) / np.where(n > 0, n, 1.0), np.nan)
     return FilmImage(
         mean=mean.astype(np.float32),
         variance=var.astype(np.float32),
-        count=t[..., 6].astype(np.float32),
-        nonfinite=int(round(float(t[..., 7].sum()))),
+        count=t[..., _N].astype(np.float32),
+        nonfinite=int(round(float(t[..., _NONFINITE].sum()))),
     )
 
 

@@ -14,6 +14,7 @@ import pyopencl as cl
 
 from ..runtime import DeviceContext, build, compose, device_context, kernel
 from .compiled import CompiledScene
+from .device_scene import geom_args
 
 MISS = np.uint32(0xFFFFFFFF)
 ITEMS = 1024  # work-items per launch; each loops over a strided share of the rays
@@ -59,7 +60,7 @@ def cast_rays(scene: CompiledScene, origins: np.ndarray, directions: np.ndarray,
         mode = (1 if closest else 0) | (2 if any_hit else 0)
         items = min(n, ITEMS)
         gsz, lsz = ctx.work_size(items)
-        kernel(prg, "raycast")(ctx.queue, gsz, lsz, *scene.geom_args(ctx), bo, bd, bt, bh, ba,
+        kernel(prg, "raycast")(ctx.queue, gsz, lsz, *geom_args(scene, ctx), bo, bd, bt, bh, ba,
                                np.uint32(n), np.uint32(mode), np.uint32(items))
         cl.enqueue_copy(ctx.queue, hits, bh)
         cl.enqueue_copy(ctx.queue, anyv, ba)
@@ -88,7 +89,7 @@ def query_prims(scene: CompiledScene, prims: np.ndarray, points: np.ndarray, u: 
     bsp = cl.Buffer(ctx.context, mf.WRITE_ONLY, sp.nbytes)
     bsn = cl.Buffer(ctx.context, mf.WRITE_ONLY, sn.nbytes)
     gsz, lsz = ctx.work_size(n)
-    kernel(prg, "prim_query")(ctx.queue, gsz, lsz, *scene.geom_args(ctx), bp, bx, bu, bna, bsp, bsn, np.uint32(n))
+    kernel(prg, "prim_query")(ctx.queue, gsz, lsz, *geom_args(scene, ctx), bp, bx, bu, bna, bsp, bsn, np.uint32(n))
     cl.enqueue_copy(ctx.queue, na, bna)
     cl.enqueue_copy(ctx.queue, sp, bsp)
     cl.enqueue_copy(ctx.queue, sn, bsn)

@@ -24,11 +24,13 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..layouts import Integrator, MaterialKind
 from . import shapes as shape_lib
 from . import transform as tf
 
-INTEGRATORS = ("path", "nee", "mis")
-MATERIAL_KINDS = ("diffuse", "conductor", "roughconductor", "dielectric")
+# The names a scene file uses: the codes of mcocl/layouts.py, lower case.
+INTEGRATORS = tuple(kind.name.lower() for kind in Integrator)
+MATERIAL_KINDS = tuple(kind.name.lower() for kind in MaterialKind)
 SHAPE_KINDS = ("rectangle", "cube", "sphere", "mesh")
 
 # Defaults, with Mitsuba 3's where it has one (max_depth -1, rr_depth 5,

@@ -1,0 +1,258 @@
+/* layouts.cl — GENERATED from mcocl/layouts.py by `python -m mcocl.layouts`; do not edit.
+ *
+ * The records and codes the host and the kernels share (see mcocl/layouts.py).
+ * tests/test_layouts.py checks that this file is what the generator writes and
+ * that sizeof/offsetof of every struct match the NumPy dtypes on the device. */
+#ifndef MCOCL_LAYOUTS_CL
+#define MCOCL_LAYOUTS_CL
+
+/* MaterialKind: ``materials[k].kind``: the BSDF of a material (kernels/render/bsdf.cl). */
+#define MAT_DIFFUSE 0
+#define MAT_CONDUCTOR 1
+#define MAT_ROUGHCONDUCTOR 2
+#define MAT_DIELECTRIC 3
+
+/* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl). */
+#define INTEGRATOR_PATH 0
+#define INTEGRATOR_NEE 1
+#define INTEGRATOR_MIS 2
+
+/* LightShape: ``light_record.shape``: how light sampling places a point on the emitter (kernels/render/lights.cl). */
+#define LIGHT_TRIANGLE 0
+#define LIGHT_SPHERE 1
+#define LIGHT_SPHERE_INWARD 2
+
+/* FilmStat: Column of the film's per-pixel statistics (mcocl/render/film.py, kernels/render/integrator.cl). */
+#define FILM_SUM_R 0
+#define FILM_SUM_G 1
+#define FILM_SUM_B 2
+#define FILM_SUMSQ_R 3
+#define FILM_SUMSQ_G 4
+#define FILM_SUMSQ_B 5
+#define FILM_SAMPLES 6
+#define FILM_NONFINITE 7
+#define FILM_STATS 8
+
+/* A field of a float4-stored record gathered by <RECORD>_GATHER(q, ...) into rec4v q0, q1, ...:
+ * REC_FIELD(q, PRIM_RECORD_AREA) is q0.w.  The gather macros read `index` once per float4:
+ * pass a variable, not a call (a search repeated per float4 cost the render kernel ~7 %). */
+#define REC_CAT_(a, b) a##b
+#define REC_CAT(a, b) REC_CAT_(a, b)
+#define REC_FIELD(q, F) (REC_CAT(q, F##_QUAD).F##_COMP)
+/* A float[3] field as a vec3v (render/vec3.cl); REC_FIELD gives its first component. */
+#define REC_VEC3(q, F) v3(REC_CAT(q, F##_QUAD).F##_COMP, REC_CAT(q, F##_QUAD).F##_COMP1, \
+                      REC_CAT(q, F##_QUAD).F##_COMP2)
+
+/* shading data of primitive p: front normal (0 for spheres), area, material, emitter */
+typedef struct {
+    float normal[3];
+    float area;
+    uint material;
+    int emitter;
+    float pmf;
+    float inward;
+} prim_record;
+#define PRIM_RECORD_QUADS 2u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q1 (render/lane_io.cl's gather_rec4). */
+#define PRIM_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 2u + 0u), q##1 = gather_rec4((table), (index) * 2u + 1u)
+#define PRIM_RECORD_NORMAL_QUAD 0
+#define PRIM_RECORD_NORMAL_COMP x
+#define PRIM_RECORD_NORMAL_COMP1 y
+#define PRIM_RECORD_NORMAL_COMP2 z
+#define PRIM_RECORD_AREA_QUAD 0
+#define PRIM_RECORD_AREA_COMP w
+#define PRIM_RECORD_MATERIAL_QUAD 1
+#define PRIM_RECORD_MATERIAL_COMP x
+#define PRIM_RECORD_EMITTER_QUAD 1
+#define PRIM_RECORD_EMITTER_COMP y
+#define PRIM_RECORD_PMF_QUAD 1
+#define PRIM_RECORD_PMF_COMP z
+#define PRIM_RECORD_INWARD_QUAD 1
+#define PRIM_RECORD_INWARD_COMP w
+
+/* emitting primitive k: triangle v0 and edges, or sphere centre and radius */
+typedef struct {
+    float base[3];
+    float area;
+    float edge1[3];
+    float shape;
+    float edge2[3];
+    float pmf;
+    float radiance[3];
+    uint prim;
+} light_record;
+#define LIGHT_RECORD_QUADS 4u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
+#define LIGHT_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 4u + 0u), q##1 = gather_rec4((table), (index) * 4u + 1u), q##2 = gather_rec4((table), (index) * 4u + 2u), q##3 = gather_rec4((table), (index) * 4u + 3u)
+#define LIGHT_RECORD_BASE_QUAD 0
+#define LIGHT_RECORD_BASE_COMP x
+#define LIGHT_RECORD_BASE_COMP1 y
+#define LIGHT_RECORD_BASE_COMP2 z
+#define LIGHT_RECORD_AREA_QUAD 0
+#define LIGHT_RECORD_AREA_COMP w
+#define LIGHT_RECORD_EDGE1_QUAD 1
+#define LIGHT_RECORD_EDGE1_COMP x
+#define LIGHT_RECORD_EDGE1_COMP1 y
+#define LIGHT_RECORD_EDGE1_COMP2 z
+#define LIGHT_RECORD_SHAPE_QUAD 1
+#define LIGHT_RECORD_SHAPE_COMP w
+#define LIGHT_RECORD_EDGE2_QUAD 2
+#define LIGHT_RECORD_EDGE2_COMP x
+#define LIGHT_RECORD_EDGE2_COMP1 y
+#define LIGHT_RECORD_EDGE2_COMP2 z
+#define LIGHT_RECORD_PMF_QUAD 2
+#define LIGHT_RECORD_PMF_COMP w
+#define LIGHT_RECORD_RADIANCE_QUAD 3
+#define LIGHT_RECORD_RADIANCE_COMP x
+#define LIGHT_RECORD_RADIANCE_COMP1 y
+#define LIGHT_RECORD_RADIANCE_COMP2 z
+#define LIGHT_RECORD_PRIM_QUAD 3
+#define LIGHT_RECORD_PRIM_COMP w
+
+/* a material: its MaterialKind code (as a float) and parameters */
+typedef struct {
+    float kind;
+    float rgb[3];
+    float alpha;
+    float int_ior;
+    float ext_ior;
+    float pad;
+} material_record;
+#define MATERIAL_RECORD_QUADS 2u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q1 (render/lane_io.cl's gather_rec4). */
+#define MATERIAL_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 2u + 0u), q##1 = gather_rec4((table), (index) * 2u + 1u)
+#define MATERIAL_RECORD_KIND_QUAD 0
+#define MATERIAL_RECORD_KIND_COMP x
+#define MATERIAL_RECORD_RGB_QUAD 0
+#define MATERIAL_RECORD_RGB_COMP y
+#define MATERIAL_RECORD_RGB_COMP1 z
+#define MATERIAL_RECORD_RGB_COMP2 w
+#define MATERIAL_RECORD_ALPHA_QUAD 1
+#define MATERIAL_RECORD_ALPHA_COMP x
+#define MATERIAL_RECORD_INT_IOR_QUAD 1
+#define MATERIAL_RECORD_INT_IOR_COMP y
+#define MATERIAL_RECORD_EXT_IOR_QUAD 1
+#define MATERIAL_RECORD_EXT_IOR_COMP z
+#define MATERIAL_RECORD_PAD_QUAD 1
+#define MATERIAL_RECORD_PAD_COMP w
+
+/* pinhole camera: origin and the right/up/forward axes (right, up scaled by the fov) */
+typedef struct {
+    float origin[3];
+    float pad0;
+    float right[3];
+    float pad1;
+    float up[3];
+    float pad2;
+    float forward[3];
+    float pad3;
+} camera_record;
+#define CAMERA_RECORD_QUADS 4u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
+#define CAMERA_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 4u + 0u), q##1 = gather_rec4((table), (index) * 4u + 1u), q##2 = gather_rec4((table), (index) * 4u + 2u), q##3 = gather_rec4((table), (index) * 4u + 3u)
+#define CAMERA_RECORD_ORIGIN_QUAD 0
+#define CAMERA_RECORD_ORIGIN_COMP x
+#define CAMERA_RECORD_ORIGIN_COMP1 y
+#define CAMERA_RECORD_ORIGIN_COMP2 z
+#define CAMERA_RECORD_PAD0_QUAD 0
+#define CAMERA_RECORD_PAD0_COMP w
+#define CAMERA_RECORD_RIGHT_QUAD 1
+#define CAMERA_RECORD_RIGHT_COMP x
+#define CAMERA_RECORD_RIGHT_COMP1 y
+#define CAMERA_RECORD_RIGHT_COMP2 z
+#define CAMERA_RECORD_PAD1_QUAD 1
+#define CAMERA_RECORD_PAD1_COMP w
+#define CAMERA_RECORD_UP_QUAD 2
+#define CAMERA_RECORD_UP_COMP x
+#define CAMERA_RECORD_UP_COMP1 y
+#define CAMERA_RECORD_UP_COMP2 z
+#define CAMERA_RECORD_PAD2_QUAD 2
+#define CAMERA_RECORD_PAD2_COMP w
+#define CAMERA_RECORD_FORWARD_QUAD 3
+#define CAMERA_RECORD_FORWARD_COMP x
+#define CAMERA_RECORD_FORWARD_COMP1 y
+#define CAMERA_RECORD_FORWARD_COMP2 z
+#define CAMERA_RECORD_PAD3_QUAD 3
+#define CAMERA_RECORD_PAD3_COMP w
+
+/* nodes[0] of a BVH: primitive count, internal nodes, depth */
+typedef struct {
+    uint nprims;
+    uint num_nodes;
+    uint depth;
+    uint pad;
+} bvh_header;
+#define BVH_HEADER_QUADS 1u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q0 (render/lane_io.cl's gather_rec4). */
+#define BVH_HEADER_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 1u + 0u)
+#define BVH_HEADER_NPRIMS_QUAD 0
+#define BVH_HEADER_NPRIMS_COMP x
+#define BVH_HEADER_NUM_NODES_QUAD 0
+#define BVH_HEADER_NUM_NODES_COMP y
+#define BVH_HEADER_DEPTH_QUAD 0
+#define BVH_HEADER_DEPTH_COMP z
+#define BVH_HEADER_PAD_QUAD 0
+#define BVH_HEADER_PAD_COMP w
+
+/* internal BVH node: both children's boxes; cnt 0: child is node ref, else leaf prims[ref..ref+cnt) */
+typedef struct {
+    float lo0[3];
+    uint ref0;
+    float hi0[3];
+    uint cnt0;
+    float lo1[3];
+    uint ref1;
+    float hi1[3];
+    uint cnt1;
+} bvh_node;
+#define BVH_NODE_QUADS 4u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
+#define BVH_NODE_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 4u + 0u), q##1 = gather_rec4((table), (index) * 4u + 1u), q##2 = gather_rec4((table), (index) * 4u + 2u), q##3 = gather_rec4((table), (index) * 4u + 3u)
+#define BVH_NODE_LO0_QUAD 0
+#define BVH_NODE_LO0_COMP x
+#define BVH_NODE_LO0_COMP1 y
+#define BVH_NODE_LO0_COMP2 z
+#define BVH_NODE_REF0_QUAD 0
+#define BVH_NODE_REF0_COMP w
+#define BVH_NODE_HI0_QUAD 1
+#define BVH_NODE_HI0_COMP x
+#define BVH_NODE_HI0_COMP1 y
+#define BVH_NODE_HI0_COMP2 z
+#define BVH_NODE_CNT0_QUAD 1
+#define BVH_NODE_CNT0_COMP w
+#define BVH_NODE_LO1_QUAD 2
+#define BVH_NODE_LO1_COMP x
+#define BVH_NODE_LO1_COMP1 y
+#define BVH_NODE_LO1_COMP2 z
+#define BVH_NODE_REF1_QUAD 2
+#define BVH_NODE_REF1_COMP w
+#define BVH_NODE_HI1_QUAD 3
+#define BVH_NODE_HI1_COMP x
+#define BVH_NODE_HI1_COMP1 y
+#define BVH_NODE_HI1_COMP2 z
+#define BVH_NODE_CNT1_QUAD 3
+#define BVH_NODE_CNT1_COMP w
+
+/* scalar parameters of render_blocks (kernels/render/integrator.cl) */
+typedef struct {
+    ulong first_block;
+    ulong seed;
+    uint nblocks;
+    uint spp_per_block;
+    uint spp_limit;
+    uint width;
+    uint height;
+    uint tile_pixels;
+    uint ntiles;
+    int max_depth;
+    uint rr_depth;
+    uint ntris;
+    uint nspheres;
+    uint nlights;
+    uint light_top;
+    float env_threshold;
+    float env_pmf;
+    float4 env_radiance;
+} render_params;
+
+#endif

@@ -1,0 +1,189 @@
+"""The scene as the kernels see it: one set of device tables for every consumer.
+
+A :class:`~mcocl.render.compiled.CompiledScene` holds the scene as flat,
+host-friendly arrays; :func:`scene_tables` turns it into the arrays the
+OpenCL kernels read — the render megakernel (:mod:`mcocl.render.job`), the
+ray-casting and primitive queries (:mod:`mcocl.render.raycast`, through
+:func:`geom_args`), the light-sampling test kernels and the
+benchmarks all upload these same tables, so that no consumer can see
+another light-selection probability or another record layout.
+
+The record layouts are :mod:`mcocl.layouts`' (``prim_record``,
+``light_record``, ``material_record``, ``camera_record``), the C side of
+which is the generated ``kernels/layouts.cl``.  The emitter-choice
+probabilities are those :func:`~mcocl.render.compiled.compile_scene`
+computed (:mod:`mcocl.render.emitter_choice`): exact on the uniforms' grid.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+
+import numpy as np
+
+from ..layouts import LIGHT_RECORD, PRIM_RECORD, RENDER_PARAMS, LightShape
+from .compiled import CompiledScene
+
+
+def _as_quads(rec: np.ndarray, width: int) -> np.ndarray:
+    """A record array as float32 rows of ``width`` (the float4 tables the kernels gather from)."""
+    return np.ascontiguousarray(rec).view(np.float32).reshape(-1, width)
+
+
+def light_tables(cs: CompiledScene) -> dict[str, np.ndarray | float | int]:
+    """The emitter-choice tables of kernels/render/lights.cl.
+
+    ``prim_pmf`` (float32, one per primitive): the compiled scene's
+    ``light_pmf`` scattered onto primitive ids (0 for primitives that do not
+    emit); ``env_threshold``/``env_pmf``: the environment's choice;
+    ``light_top``: the largest power of two <= the number of lights (the
+    first step of the kernel's binary search; 0 with no light).
+    """
+    nl = cs.num_lights
+    prim_pmf = np.zeros(max(cs.num_triangles + cs.num_spheres, 1), np.float32)
+    if nl:
+        prim_pmf[cs.light_prims] = cs.light_pmf
+    top = 1 << (nl.bit_length() - 1) if nl else 0
+    return {"prim_pmf": prim_pmf, "env_threshold": float(cs.env_threshold), "env_pmf": float(cs.env_pmf),
+            "light_top": top}
+
+
+def prim_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
+    """One :data:`~mcocl.layouts.PRIM_RECORD` per primitive for the shading of a hit, as float32 (N, 8)."""
+    nt, ns = cs.num_triangles, cs.num_spheres
+    rec = np.zeros(max(nt + ns, 1), PRIM_RECORD.dtype())
+    if nt:
+        v = cs.tri_vertices[:, :, :3].astype(np.float64)
+        cr = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+        length = np.linalg.norm(cr, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rec["normal"][:nt] = np.where(length[:, None] > 0, cr / length[:, None], 0.0)
+        rec["area"][:nt] = 0.5 * length
+    if ns:
+        rec["area"][nt:nt + ns] = 4.0 * math.pi * cs.spheres[:, 3].astype(np.float64) ** 2
+        rec["inward"][nt:nt + ns] = cs.sphere_flip.astype(np.float32)
+    if nt + ns:
+        shape = np.asarray(cs.prim_shape, np.int64)
+        rec["material"][:nt + ns] = cs.shape_material[shape]
+        rec["emitter"][:nt + ns] = cs.shape_emitter[shape]
+        rec["pmf"][:nt + ns] = prim_pmf[:nt + ns]
+    return _as_quads(rec, PRIM_RECORD.itemsize // 4)
+
+
+def light_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
+    """One :data:`~mcocl.layouts.LIGHT_RECORD` per light primitive for light sampling, as float32 (4 L, 4)."""
+    nl, nt = cs.num_lights, cs.num_triangles
+    rec = np.zeros(max(nl, 1), LIGHT_RECORD.dtype())
+    if nl:
+        lr = rec[:nl]
+        prims = np.asarray(cs.light_prims, np.int64)
+        emit = cs.shape_emitter[cs.prim_shape[prims]]
+        lr["radiance"] = cs.emitter_radiance[emit, :3]
+        lr["prim"] = prims.astype(np.uint32)
+        lr["pmf"] = prim_pmf[prims]
+        tri = prims < nt
+        v = cs.tri_vertices[prims[tri], :, :3].astype(np.float64)
+        t = lr[tri]
+        t["base"] = v[:, 0]
+        t["edge1"] = v[:, 1] - v[:, 0]
+        t["edge2"] = v[:, 2] - v[:, 0]
+        t["area"] = 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
+        t["shape"] = float(LightShape.TRIANGLE)
+        lr[tri] = t
+        s = prims[~tri] - nt
+        c = cs.spheres[s].astype(np.float64)
+        sp = lr[~tri]
+        sp["base"] = c[:, :3]
+        sp["area"] = 4.0 * math.pi * c[:, 3] ** 2
+        sp["edge1"][:, 0] = c[:, 3]
+        sp["shape"] = np.where(cs.sphere_flip[s] != 0, float(LightShape.SPHERE_INWARD), float(LightShape.SPHERE))
+        lr[~tri] = sp
+    return _as_quads(rec, 4)
+
+
+def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
+    """Every array a kernel reads, as plain NumPy arrays (never empty: OpenCL has no empty buffers).
+
+    The tables of ``SCENE_GEOM_PARAMS`` (``bvh_nodes``, ``bvh_prims``,
+    ``tri_vertices``, ``spheres``, ``sphere_flip``, ``geometry_counts``), the
+    shading and light records, the materials, the emitter choice
+    (``light_cdf``, ``prim_pmf``, ``light_scalars`` = (L, light_top),
+    ``env_choice`` = (env_threshold, env_pmf)) and the environment ``env``.
+    """
+    def nonempty(a: np.ndarray, dtype: type, width: int = 4) -> np.ndarray:
+        a = np.ascontiguousarray(a, dtype=dtype)
+        return a if a.size else np.zeros(width, dtype)
+
+    lt = light_tables(cs)
+    return {
+        "camera": nonempty(cs.camera, np.float32),
+        "bvh_nodes": nonempty(cs.bvh_nodes, np.float32),
+        "bvh_prims": nonempty(cs.bvh_prims, np.uint32),
+        "tri_vertices": nonempty(cs.tri_vertices, np.float32),
+        "spheres": nonempty(cs.spheres, np.float32),
+        "sphere_flip": nonempty(cs.sphere_flip, np.uint32),
+        "prim_rec": prim_records(cs, lt["prim_pmf"]),
+        "materials": nonempty(cs.materials, np.float32, 8),
+        "emitter_radiance": nonempty(cs.emitter_radiance, np.float32),
+        "light_rec": light_records(cs, lt["prim_pmf"]),
+        "light_cdf": nonempty(cs.light_cdf, np.float32),
+        "prim_pmf": nonempty(lt["prim_pmf"], np.float32),
+        "env": np.array([*cs.env_radiance[:3], 0.0], np.float32),
+        "light_scalars": np.array([cs.num_lights, lt["light_top"]], np.uint32),
+        "env_choice": np.array([lt["env_threshold"], lt["env_pmf"]], np.float32),
+        "geometry_counts": np.array([cs.num_triangles, cs.num_spheres], np.uint32),
+    }
+
+
+def scene_params(tables: dict[str, np.ndarray]) -> np.ndarray:
+    """A ``render_params`` (mcocl/layouts.py) with the scene's fields filled from :func:`scene_tables`.
+
+    The geometry counts, the emitter choice and the environment; the render
+    job adds its launch fields (:meth:`mcocl.render.job.RenderJob.params`),
+    the light test kernels use it as it is.
+    """
+    p = np.zeros((), RENDER_PARAMS.dtype())
+    p["ntris"], p["nspheres"] = tables["geometry_counts"]
+    p["nlights"], p["light_top"] = tables["light_scalars"]
+    p["env_threshold"], p["env_pmf"] = tables["env_choice"]
+    p["env_radiance"] = tables["env"]
+    return p
+
+
+def scene_buffers(cs: CompiledScene, ctx) -> dict:
+    """One read-only pyopencl Buffer per array of :func:`scene_tables`, cached on ``cs`` per context."""
+    import pyopencl as cl
+
+    key = ctx.context.int_ptr
+    with cs.buffer_lock:
+        bufs = cs.buffer_cache.get(key)
+        if bufs is None:
+            mf = cl.mem_flags
+            bufs = {name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+                    for name, a in scene_tables(cs).items()}
+            cs.buffer_cache[key] = bufs
+        return bufs
+
+
+def geom_args(cs: CompiledScene, ctx) -> list:
+    """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, prims, triangles, spheres, flips, T, S)."""
+    b = scene_buffers(cs, ctx)
+    return [b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
+            np.uint32(cs.num_triangles), np.uint32(cs.num_spheres)]
+
+
+def tables_digest(tables: dict[str, np.ndarray]) -> str:
+    """A short hash of the scene tables: a checkpoint must belong to the same scene."""
+    h = hashlib.sha256()
+    for name in sorted(tables):
+        a = np.ascontiguousarray(tables[name])
+        h.update(name.encode())
+        h.update(str(a.dtype).encode())
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()[:16]
+
+
+__all__ = ["geom_args", "light_records", "light_tables", "prim_records", "scene_buffers", "scene_params",
+           "scene_tables", "tables_digest"]
