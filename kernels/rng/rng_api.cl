@@ -1,7 +1,8 @@
 /* rng_api.cl — kernels behind mcocl.rng: the raw generator and the uniforms
- * of the engine's addressing, exposed so that tests and users can check the
- * numbers any estimator sees.  Built with LANES=1. */
-#include "rng/uniform.cl"
+ * of the engine's addressing (drawn through the sampler, as every estimator
+ * draws them), exposed so that tests and users can check the numbers any
+ * estimator sees.  Built with LANES=1. */
+#include "samplers/sampler.cl"
 
 /* Philox4x32-10 of arbitrary (counter, key) pairs: the known-answer test. */
 kernel void philox_raw(global const uint4 *ctr, global const uint2 *key, global uint4 *out) {
@@ -17,8 +18,8 @@ kernel void philox_raw(global const uint4 *ctr, global const uint2 *key, global 
 /* u[i * dims + j] = uniform of sample first + i, dimension j, in `stream`. */
 kernel void uniforms(ulong first, ulong seed, uint stream, uint dims, global float *out) {
     size_t i = get_global_id(0);
-    rng_t r = rng_init(first + i, seed, stream);
-    for (uint j = 0; j < dims; ++j) out[i * dims + j] = rng_uniform(r, j);
+    mc_sampler_t s = sampler_start(seed, first + i, stream);
+    for (uint j = 0; j < dims; ++j) out[i * dims + j] = sampler_next_1d(&s);
 }
 
 /* The uint32 -> (0, 1) conversion of arbitrary bit patterns (extremes included). */

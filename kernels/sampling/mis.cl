@@ -9,7 +9,7 @@
 #ifndef MCOCL_MIS_CL
 #define MCOCL_MIS_CL
 
-#include "lane_ops.cl"
+#include "lanes.cl"
 
 #define MIS_AVERAGE 0
 #define MIS_MAX 1
