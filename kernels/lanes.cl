@@ -55,8 +55,6 @@ typedef MC_CAT(long, LANE_SUFFIX) longv;
 #define to_longv(x) MC_CAT(convert_long, LANE_SUFFIX)(x)
 #define to_uintv_rtz(x) MC_CAT(MC_CAT(convert_uint, LANE_SUFFIX), _rtz)(x)
 #define to_intv_rtz(x) MC_CAT(MC_CAT(convert_int, LANE_SUFFIX), _rtz)(x)
-/* double -> float mask (comparisons of doubles give long lanes) */
-#define long_mask_to_int(m) to_intv(m)
 
 /* Lane index 0..LANES-1 as a uint vector. */
 #if LANES == 1

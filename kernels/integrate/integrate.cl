@@ -90,7 +90,9 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
         for (int acc = 0; acc < NACC; ++acc) {
             const uint k = k0 + (uint)acc * LANES;
             if (k >= nunits) break;
+#if SAMPLER != SAMPLER_INDEPENDENT
             const uintv in_design = (uintv)((uint)(unit0 + k)) + LANE_IOTA;
+#endif
             const intv valid = (uintv)(k) + LANE_IOTA < (uintv)(nunits);
             const ulong ubase = design_base + unit0 + k;
             floatv tau[NCOORD];

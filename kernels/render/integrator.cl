@@ -24,7 +24,7 @@
  * RNG_STREAM_RENDER, dimensions 0-1 (pixel jitter) and, at depth d,
  * RENDER_DIM_BSDF(d) = 4 + 8d .. 7 + 8d (lobe choice, direction 2D, roulette)
  * and RENDER_DIM_LIGHT(d) = 8 + 8d .. 11 + 8d (emitter choice: environment or
- * area, which area light, position 2D) (rng/streams.h): the image depends on
+ * area, which area light, position 2D) (rng/streams.cl): the image depends on
  * the seed alone, not on how samples are split over launches, work-items or
  * lanes.
  *
@@ -257,6 +257,8 @@ kernel void render_blocks(
             floatv ub[4]; /* lobe, direction 2D, roulette */
             sampler_seek(&smp, RENDER_DIM_BSDF(depth));
             sampler_next_nd(&smp, 4, ub);
+
+#if INTEGRATOR != INTEGRATOR_PATH
             /* The vertex as both strategies see it: the point lifted off the
              * surface on its front side.  Light samples, shadow rays, reflected
              * rays and the light pdf of a reflected ray's emitter hit all start
@@ -265,7 +267,6 @@ kernel void render_blocks(
              * offset origin biased the white furnace by ~1e-4). */
             vec3v p_up = offset_origin(p, n, n);
 
-#if INTEGRATOR != INTEGRATOR_PATH
             /* -- next-event estimation -- */
             intv nee = cont & bsdf_is_smooth(&m);
             if (lane_any(nee)) {

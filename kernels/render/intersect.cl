@@ -123,12 +123,6 @@ MC_INLINE bool intersect_sphere(float4 s, float3 o, float3 d, float tmax, float 
     return false;
 }
 
-/* Centre and radius of sphere primitive `prim` (prim >= ntris). */
-MC_INLINE float4 sphere_of(const scene_geom *g, uint prim)
-{
-    return g->spheres[prim - g->ntris];
-}
-
 /* The unit geometric normal on the front side at point p of primitive prim. */
 MC_INLINE float3 prim_normal(const scene_geom *g, uint prim, float3 p)
 {
@@ -171,21 +165,6 @@ MC_INLINE float3 prim_sample_area(const scene_geom *g, uint prim, float2 u, floa
     float3 dir = (float3)(rxy * cos(phi), rxy * sin(phi), z);
     *n = g->sphere_flip[prim - g->ntris] ? -dir : dir;
     return s.xyz + s.w * dir;
-}
-
-/* The hit point of a ray, recomputed from the primitive for accuracy: the
- * barycentric combination on a triangle (lies on its plane up to rounding of
- * the vertices), the re-projection onto the sphere (pbrt-v4 §6.8.5). */
-MC_INLINE float3 hit_point(const scene_geom *g, float3 o, float3 d, const hit_info *h)
-{
-    if (h->prim < g->ntris) {
-        uint p = h->prim;
-        float3 v0 = g->tris[3 * p].xyz, v1 = g->tris[3 * p + 1].xyz, v2 = g->tris[3 * p + 2].xyz;
-        return v0 + h->b1 * (v1 - v0) + h->b2 * (v2 - v0);
-    }
-    float4 s = g->spheres[h->prim - g->ntris];
-    float3 p = o + h->t * d;
-    return s.xyz + s.w * normalize(p - s.xyz);
 }
 
 /* A ray origin near surface point p (geometric normal n) from which a ray in

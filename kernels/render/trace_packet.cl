@@ -27,8 +27,6 @@
 
 #define PACKET_STACK 64
 
-MC_INLINE vec3v v3_bcast(float4 a) { return v3((floatv)(a.x), (floatv)(a.y), (floatv)(a.z)); }
-
 /* Möller–Trumbore for every lane against one triangle (intersect_triangle). */
 MC_INLINE intv packet_triangle(float4 a, float4 b, float4 c, vec3v o, vec3v d, floatv tmax, floatv *t_out,
                                floatv *u_out, floatv *v_out) {

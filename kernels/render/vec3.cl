@@ -48,10 +48,6 @@ MC_INLINE floatv v3_maxc(vec3v a) { return lane_max(a.x, lane_max(a.y, a.z)); }
 MC_INLINE vec3v v3_select(vec3v a, vec3v b, intv m) {
     return v3(lane_select(a.x, b.x, m), lane_select(a.y, b.y, m), lane_select(a.z, b.z, m));
 }
-MC_INLINE intv v3_isfinite(vec3v a) { return lane_finite(a.x) & lane_finite(a.y) & lane_finite(a.z); }
-/* Rec. 709 luminance, the "power" of an RGB radiance. */
-MC_INLINE floatv v3_luminance(vec3v c) { return 0.212671f * c.x + 0.715160f * c.y + 0.072169f * c.z; }
-
 /* sin and cos of 2 pi u for u in [0, 1), as polynomials in vector registers
  * (the built-in sincos is a library call on PoCL's wheel).  The angle is
  * reduced to r in [-pi/4, pi/4] around the nearest quarter turn q; the Taylor

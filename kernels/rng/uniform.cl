@@ -2,10 +2,10 @@
  * dimension uses, and how 32 random bits become a float in (0, 1).  This is
  * the one place where Philox counters are built (rng_block) and where the
  * uniform grid is defined (UNIFORM_*, u01); estimators draw through
- * samplers/sampler.cl, and the stream tags are registered in rng/streams.h.
+ * samplers/sampler.cl, and the stream tags are registered in rng/streams.cl.
  *
  * Addressing.  Sample index i (64-bit), dimension j, seed s (64-bit) and a
- * stream tag t (which consumer, rng/streams.h):
+ * stream tag t (which consumer, rng/streams.cl):
  *     Philox4x32-10( counter = (lo32(i), hi32(i), j / 4, t),
  *                    key     = (lo32(s), hi32(s)) )  word j % 4
  * so the numbers of (s, i, j, t) depend on nothing else: not the device, not
@@ -27,7 +27,7 @@
 #define MCOCL_UNIFORM_CL
 
 #include "rng/philox.cl"
-#include "rng/streams.h"
+#include "rng/streams.cl"
 
 /* The uniform grid: UNIFORM_CELLS equal cells of [0, 1), u = cell centre. */
 #define UNIFORM_GRID_BITS 23

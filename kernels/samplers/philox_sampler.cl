@@ -39,7 +39,7 @@ MC_INLINE floatv sampler_next_1d(mc_sampler_t *s) {
 }
 
 /* n consecutive dimensions.  When the counter is a multiple of 4 in every
- * lane (as every present consumer arranges, rng/streams.h, and the compiler
+ * lane (as every present consumer arranges, rng/streams.cl, and the compiler
  * can usually prove) they take one Philox call per four dimensions; else one
  * call each. */
 MC_INLINE void sampler_next_nd(mc_sampler_t *s, int n, floatv *u) {

@@ -4,7 +4,7 @@
  *
  * A sample is addressed by (seed, sample index, stream): the index says which
  * sample of the estimator this is, the stream which consumer draws
- * (rng/streams.h).  Its coordinates are dimensions 0, 1, 2, ... handed out by
+ * (rng/streams.cl).  Its coordinates are dimensions 0, 1, 2, ... handed out by
  * a per-lane dimension counter, held in an mc_sampler_t (OpenCL reserves the
  * name sampler_t for image samplers):
  *

@@ -12,7 +12,7 @@
  * The bijection is a few rounds of invertible steps on w-bit words: xor or
  * add a key, multiply by an odd constant (invertible mod 2^w), xorshift right
  * by s >= 1 (invertible).  The 4 round keys of (seed, design, axis) come from
- * Philox (stream RNG_STREAM_PERMUTATION, rng/streams.h), so permutations of
+ * Philox (stream RNG_STREAM_PERMUTATION, rng/streams.cl), so permutations of
  * different axes and designs are independent.  They are hashes, not sample
  * coordinates: they come from rng/uniform.cl whatever the sampler back end.
  */

@@ -4,7 +4,7 @@
  * times (WALK_SPB = 4 / WALK_NU steps per block: 4 for a 1-D truncated walk,
  * 2 for 1-D roulette), one block serves WALK_SPB consecutive steps; walk.cl
  * then makes those steps in one iteration.  Addressing (samplers/sampler.cl,
- * stream RNG_STREAM_WALK + q for query point q, rng/streams.h): walk w is
+ * stream RNG_STREAM_WALK + q for query point q, rng/streams.cl): walk w is
  * sample w, and iteration i (steps WALK_SPB i .. WALK_SPB i + WALK_SPB - 1)
  * draws dimensions WALK_DIMS_PER_ITER i .. in order, step after step, i.e.
  * with the Philox back end

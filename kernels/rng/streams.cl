@@ -1,4 +1,4 @@
-/* streams.h — the registry of random-number streams: which consumer draws
+/* streams.cl — the registry of random-number streams: which consumer draws
  * from which Philox stream tag (counter word 3, rng/uniform.cl), and how the
  * dimensions of a stream are laid out where several consumers share one.
  *
@@ -7,8 +7,8 @@
  * so the walks' stream and the renderer's may use the same tag.  The host
  * mirrors the tags it exposes in mcocl/rng.py (STREAM_*).
  */
-#ifndef MCOCL_RNG_STREAMS_H
-#define MCOCL_RNG_STREAMS_H
+#ifndef MCOCL_RNG_STREAMS_CL
+#define MCOCL_RNG_STREAMS_CL
 
 /* ---- integration (integrate/integrate.cl, sampling/design_points.cl) ---- */
 /* A sample's coordinates: dimension POINTS*DIM..., i.e. every technique's
