@@ -28,13 +28,14 @@ import numpy as np
 import pyopencl as cl
 
 from .. import runtime
+from ..rng import GRID_CELLS
 from .compiled import LUMINANCE, CompiledScene
 from .film import STATS
 
 INTEGRATOR_CODES = {"path": 0, "nee": 1, "mis": 2}
 KERNEL_FILE = "render/integrator.cl"
 UNBOUNDED_SPP = 0xFFFFFFFF
-GRID = 1 << 23  # the uniforms' grid (kernels/rng/uniform.cl): u = (m + 1/2) / 2^23
+GRID = GRID_CELLS  # the uniforms' grid (kernels/rng/uniform.cl): u = (m + 1/2) / 2^23
 # Blocks are sized to about this many paths, so that the host's share of the
 # work stays small: folding one block's (H, W, STATS) float64 film costs the
 # host about 16 ms for 256 x 256 pixels (measured), 2 % of the ~0.3 s two
