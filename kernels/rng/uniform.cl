@@ -33,7 +33,6 @@
 #define UNIFORM_GRID_BITS 23
 #define UNIFORM_CELLS 8388608u     /* 2^UNIFORM_GRID_BITS */
 #define UNIFORM_CELL_WIDTH 0x1p-23f /* 1 / UNIFORM_CELLS */
-#define UNIFORM_MIN 0x1p-24f        /* the smallest uniform, half a cell; 1 - UNIFORM_MIN is the largest */
 
 /* Who a sample is: its 64-bit index, the seed (Philox key) and the stream. */
 typedef struct {
