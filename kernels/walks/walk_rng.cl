@@ -13,6 +13,8 @@
  * so a walk's numbers depend on (seed, q, w, step) alone: not on the lane or
  * the work-item that runs it, nor on when the lane picked the walk up.  Lanes
  * of a packet are at different steps: the dimension counter is per lane.
+ * Dimensions are 32-bit words, so they wrap after 2^30 / WALK_BPS
+ * iterations (over 10^9 moves; max_walk_length allows up to 2^31 - 1).
  */
 #ifndef MCOCL_WALK_RNG_CL
 #define MCOCL_WALK_RNG_CL
