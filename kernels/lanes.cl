@@ -1,4 +1,6 @@
-/* lanes.cl — one source, scalar or SIMD-packet build.
+/* lanes.cl — one source, scalar or SIMD-packet build: the lane types, the
+ * one force-inline macro (MC_INLINE) and, in lane_ops.cl (included at the
+ * end), the one set of lane operations every kernel uses.
  *
  * Every estimator kernel is written once over the "lane" types below and built
  * with -DLANES=1 (scalar) or -DLANES=16 (a packet of 16 samples in the lanes of
@@ -53,8 +55,6 @@ typedef MC_CAT(long, LANE_SUFFIX) longv;
 #define to_longv(x) MC_CAT(convert_long, LANE_SUFFIX)(x)
 #define to_uintv_rtz(x) MC_CAT(MC_CAT(convert_uint, LANE_SUFFIX), _rtz)(x)
 #define to_intv_rtz(x) MC_CAT(MC_CAT(convert_int, LANE_SUFFIX), _rtz)(x)
-/* double -> float mask (comparisons of doubles give long lanes) */
-#define long_mask_to_int(m) to_intv(m)
 
 /* Lane index 0..LANES-1 as a uint vector. */
 #if LANES == 1
@@ -72,14 +72,8 @@ typedef MC_CAT(long, LANE_SUFFIX) longv;
 /* A comparison result (intv mask) as 0/1 integers, the same in both builds. */
 #if LANES == 1
 #define mask_bit(m) ((m) ? 1 : 0)
-#define mask_any(m) ((m) != 0)
-#define mask_all(m) ((m) != 0)
-#define mask_true() 1
 #else
 #define mask_bit(m) (-(m))
-#define mask_any(m) any(m)
-#define mask_all(m) all(m)
-#define mask_true() ((intv)(-1))
 #endif
 
 /* Horizontal sums of lane vectors in a fixed order (lane 0 first), so that
@@ -99,5 +93,7 @@ typedef MC_CAT(long, LANE_SUFFIX) longv;
 MC_LANE_SUM(lane_sum_d, double, doublev)
 MC_LANE_SUM(lane_sum_u, uint, uintv)
 MC_LANE_SUM(lane_sum_ul, ulong, ulongv)
+
+#include "lane_ops.cl"
 
 #endif

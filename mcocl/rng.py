@@ -8,9 +8,14 @@ generator: the numbers of sample ``i``, dimension ``j`` under seed ``s`` are
 converted to a float by ``u = (floor(bits / 2**9) + 1/2) * 2**-23`` — the
 centre of one of 2**23 equal cells, so ``0 < u < 1`` always and ``E[u] = 1/2``
 exactly (see ``kernels/rng/uniform.cl``).
+
+The stream tags and the grid are read from the kernels (``kernels/rng/streams.cl``,
+``kernels/rng/uniform.cl``), so the host and the kernels share one definition.
 """
 
 from __future__ import annotations
+
+import re
 
 import numpy as np
 import pyopencl as cl
@@ -18,9 +23,22 @@ import pyopencl as cl
 from . import runtime
 from .errors import InputError
 
-STREAM_SAMPLE = 0
-STREAM_JITTER = 1
-STREAM_AUX = 2
+
+def kernel_constants(rel: str) -> dict[str, int]:
+    """The integer ``#define NAME value`` constants of the kernel file ``rel`` (under ``kernels/``)."""
+    text = (runtime.KERNEL_DIR / rel).read_text()
+    pattern = re.compile(r"^#define\s+(\w+)\s+(0x[0-9a-fA-F]+|\d+)u?\b", re.M)
+    return {m[1]: int(m[2], 0) for m in pattern.finditer(text)}
+
+
+_STREAMS = kernel_constants("rng/streams.cl")
+STREAM_SAMPLE = _STREAMS["RNG_STREAM_SAMPLE"]
+STREAM_JITTER = _STREAMS["RNG_STREAM_JITTER"]
+STREAM_AUX = _STREAMS["RNG_STREAM_AUX"]
+
+#: The uniforms' grid: u = (m + 1/2) / GRID_CELLS, m < GRID_CELLS (tabulated densities count in these cells).
+GRID_BITS = kernel_constants("rng/uniform.cl")["UNIFORM_GRID_BITS"]
+GRID_CELLS = 1 << GRID_BITS
 
 
 def _program(device: object = None) -> tuple[runtime.DeviceContext, cl.Program]:
@@ -99,3 +117,23 @@ def to_unit_float(bits: np.ndarray, device: object = None) -> np.ndarray:
         runtime.kernel(prg, "unit_floats")(ctx.queue, (b.size,), None, bb, bo)
         cl.enqueue_copy(ctx.queue, out, bo)
     return out.reshape(np.shape(bits))
+
+
+def sampler_draws(seed: int, first: int, count: int, start: int, stream: int = STREAM_SAMPLE,
+                  device: object = None) -> np.ndarray:
+    """Dimensions ``start .. start + 5`` of samples ``first ..`` drawn three ways by the kernels' sampler.
+
+    Returns a ``(count, 3, 6)`` float32 array: ``[:, 0]`` by ``sampler_next_1d``, ``[:, 1]`` by
+    ``sampler_next_2d`` pairs, ``[:, 2]`` by one ``sampler_next_nd`` (``kernels/samplers/sampler.cl``);
+    all three must equal :func:`uniforms` whatever ``start``.
+    """
+    if count < 0 or start < 0:
+        raise InputError(f"rng.sampler_draws: count and start must be >= 0, got {count} and {start}")
+    ctx, prg = _program(device)
+    out = np.empty((count, 3, 6), dtype=np.float32)
+    if count:
+        bo = cl.Buffer(ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+        runtime.kernel(prg, "sampler_draws")(ctx.queue, (count,), None, np.uint64(first), np.uint64(seed),
+                                             np.uint32(stream), np.uint32(start), bo)
+        cl.enqueue_copy(ctx.queue, out, bo)
+    return out

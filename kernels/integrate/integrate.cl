@@ -24,10 +24,9 @@
  * numbers of a block depend on its index alone, not on the device's vector
  * width nor on the work-group size.
  */
-#include "rng/uniform.cl"
+#include "samplers/sampler.cl"
 #include "sampling/stratified.cl"
 #include "sampling/nrooks.cl"
-#include "lane_ops.cl"
 
 #define SAMPLER_INDEPENDENT 0
 #define SAMPLER_STRATIFIED 1
@@ -48,7 +47,8 @@ MC_INLINE double vlane_sum(const doublev *acc) {
 /* Uniform coordinates (dimensions 0 .. NCOORD-1) of the packet of samples
  * base + stride * lane. */
 MC_INLINE void sample_uniforms(ulong base, uint stride, ulong seed, floatv *u) {
-    rng_uniforms(rng_init_packet(base, stride, seed, RNG_STREAM_SAMPLE), 0u, NCOORD, u);
+    mc_sampler_t s = sampler_start_at(seed, base, stride * LANE_IOTA, RNG_STREAM_SAMPLE);
+    sampler_next_nd(&s, NCOORD, u);
 }
 
 /* Float partial sums are flushed into the double accumulators every FLUSH
@@ -90,7 +90,9 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
         for (int acc = 0; acc < NACC; ++acc) {
             const uint k = k0 + (uint)acc * LANES;
             if (k >= nunits) break;
+#if SAMPLER != SAMPLER_INDEPENDENT
             const uintv in_design = (uintv)((uint)(unit0 + k)) + LANE_IOTA;
+#endif
             const intv valid = (uintv)(k) + LANE_IOTA < (uintv)(nunits);
             const ulong ubase = design_base + unit0 + k;
             floatv tau[NCOORD];

@@ -3,16 +3,16 @@
  * the pdf re-evaluated at the point.  Used by mcocl.integration.sample_proposal
  * (goodness-of-fit tests, users inspecting a proposal).  Needs DIM and the
  * generated warp_t0 / pdf_t0. */
-#include "rng/uniform.cl"
+#include "samplers/sampler.cl"
 
 kernel void proposal_samples(ulong n, ulong seed, global const uint *tables,
                              global float *xs, global float *pdf_warp, global float *pdf_eval) {
     const ulong i0 = get_global_id(0) * (ulong)LANES;
     if (i0 >= n) return;
     ulongv idx = (ulongv)(i0) + to_ulongv(LANE_IOTA);
-    rng_t r = rng_init(idx, seed, RNG_STREAM_SAMPLE);
+    mc_sampler_t s = sampler_start(seed, idx, RNG_STREAM_SAMPLE);
     floatv u[DIM], x[DIM];
-    rng_uniforms(r, 0u, DIM, u);
+    sampler_next_nd(&s, DIM, u);
     floatv p = warp_t0(u, x, tables);
     floatv q = pdf_t0(x, tables);
     float ps[LANES], qs[LANES], xj[LANES];

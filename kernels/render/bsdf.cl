@@ -35,7 +35,7 @@ typedef struct {
 } material_v;
 
 /* The material record `index` of every lane (MATERIAL_RECORD_QUADS float4 per material). */
-RT_INLINE material_v material_load(global const float4 *mats, uintv index) {
+MC_INLINE material_v material_load(global const float4 *mats, uintv index) {
     MATERIAL_RECORD_GATHER(q, mats, index);
     material_v m;
     m.kind = to_intv(REC_FIELD(q, MATERIAL_RECORD_KIND));
@@ -46,28 +46,28 @@ RT_INLINE material_v material_load(global const float4 *mats, uintv index) {
 }
 
 /* Lanes whose material has a non-delta lobe: light sampling applies there. */
-RT_INLINE intv bsdf_is_smooth(const material_v *m) {
+MC_INLINE intv bsdf_is_smooth(const material_v *m) {
     return (m->kind == MAT_DIFFUSE) | (m->kind == MAT_ROUGHCONDUCTOR);
 }
 
 /* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi.
  * Zero for the delta materials (a mirror never reflects a sampled light). */
-RT_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {
+MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {
     vec3v f = v3s(0.0f);
     floatv p = (floatv)(0.0f);
     intv is_d = m->kind == MAT_DIFFUSE;
-    if (rt_any(is_d)) {
+    if (lane_any(is_d)) {
         floatv pd;
         vec3v fd = diffuse_eval(m->color, wi, wo, &pd);
         f = v3_select(f, fd, is_d);
-        p = rt_select(p, pd, is_d);
+        p = lane_select(p, pd, is_d);
     }
     intv is_r = m->kind == MAT_ROUGHCONDUCTOR;
-    if (rt_any(is_r)) {
+    if (lane_any(is_r)) {
         floatv pr;
         vec3v fr = roughconductor_eval(m->color, m->alpha, wi, wo, &pr);
         f = v3_select(f, fr, is_r);
-        p = rt_select(p, pr, is_r);
+        p = lane_select(p, pr, is_r);
     }
     *pdf = p;
     return f;
@@ -82,7 +82,7 @@ typedef struct {
 } bsdf_sample_v;
 
 /* Sample wo given wi; u_lobe picks a lobe (dielectric), (u1, u2) the direction. */
-RT_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe, floatv u1, floatv u2) {
+MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe, floatv u1, floatv u2) {
     bsdf_sample_v s;
     s.wo = v3(0.0f, 0.0f, 1.0f);
     s.weight = v3s(0.0f);
@@ -90,41 +90,41 @@ RT_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
     s.eta = (floatv)(1.0f);
     s.delta = (m->kind == MAT_CONDUCTOR) | (m->kind == MAT_DIELECTRIC);
     intv is_d = m->kind == MAT_DIFFUSE;
-    if (rt_any(is_d)) {
+    if (lane_any(is_d)) {
         vec3v wo;
         floatv p;
         vec3v w = diffuse_sample(m->color, wi, u1, u2, &wo, &p);
         s.wo = v3_select(s.wo, wo, is_d);
         s.weight = v3_select(s.weight, w, is_d);
-        s.pdf = rt_select(s.pdf, p, is_d);
+        s.pdf = lane_select(s.pdf, p, is_d);
     }
     intv is_c = m->kind == MAT_CONDUCTOR;
-    if (rt_any(is_c)) {
+    if (lane_any(is_c)) {
         vec3v wo;
         floatv p;
         vec3v w = conductor_sample(m->color, wi, &wo, &p);
         s.wo = v3_select(s.wo, wo, is_c);
         s.weight = v3_select(s.weight, w, is_c);
-        s.pdf = rt_select(s.pdf, p, is_c);
+        s.pdf = lane_select(s.pdf, p, is_c);
     }
     intv is_r = m->kind == MAT_ROUGHCONDUCTOR;
-    if (rt_any(is_r)) {
+    if (lane_any(is_r)) {
         vec3v wo;
         floatv p;
         vec3v w = roughconductor_sample(m->color, m->alpha, wi, u1, u2, &wo, &p);
         s.wo = v3_select(s.wo, wo, is_r);
         s.weight = v3_select(s.weight, w, is_r);
-        s.pdf = rt_select(s.pdf, p, is_r);
+        s.pdf = lane_select(s.pdf, p, is_r);
     }
     intv is_g = m->kind == MAT_DIELECTRIC;
-    if (rt_any(is_g)) {
+    if (lane_any(is_g)) {
         vec3v wo;
         floatv p, e;
         vec3v w = dielectric_sample(m->color, m->eta, wi, u_lobe, &wo, &p, &e);
         s.wo = v3_select(s.wo, wo, is_g);
         s.weight = v3_select(s.weight, w, is_g);
-        s.pdf = rt_select(s.pdf, p, is_g);
-        s.eta = rt_select(s.eta, e, is_g);
+        s.pdf = lane_select(s.pdf, p, is_g);
+        s.eta = lane_select(s.eta, e, is_g);
     }
     return s;
 }

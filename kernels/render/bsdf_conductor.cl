@@ -7,12 +7,12 @@
 
 #include "render/vec3.cl"
 
-RT_INLINE vec3v reflect_local(vec3v w) { return v3(-w.x, -w.y, w.z); }
+MC_INLINE vec3v reflect_local(vec3v w) { return v3(-w.x, -w.y, w.z); }
 
-RT_INLINE vec3v conductor_sample(vec3v spec, vec3v wi, vec3v *wo, floatv *pdf) {
+MC_INLINE vec3v conductor_sample(vec3v spec, vec3v wi, vec3v *wo, floatv *pdf) {
     *wo = reflect_local(wi);
     intv ok = wi.z > 0.0f;  /* one-sided: black from behind */
-    *pdf = rt_select((floatv)(0.0f), (floatv)(1.0f), ok);
+    *pdf = lane_select((floatv)(0.0f), (floatv)(1.0f), ok);
     return v3_select(v3s(0.0f), spec, ok);
 }
 

@@ -17,19 +17,19 @@
  * §9.3.6).  Returns R; *cos_t = cosine of the refracted direction (sign
  * opposite to cos_i), *eta_it = eta_t / eta_i along the path, *eta_ti its
  * inverse.  Total internal reflection gives R = 1. */
-RT_INLINE floatv fresnel_dielectric(floatv cos_i, floatv eta, floatv *cos_t, floatv *eta_it, floatv *eta_ti) {
+MC_INLINE floatv fresnel_dielectric(floatv cos_i, floatv eta, floatv *cos_t, floatv *eta_it, floatv *eta_ti) {
     intv outside = cos_i >= 0.0f;
-    floatv it = rt_select(1.0f / eta, eta, outside);
-    floatv ti = rt_select(eta, 1.0f / eta, outside);
-    floatv ci = rt_abs(cos_i);
-    floatv ct2 = 1.0f - ti * ti * rt_fma(-ci, ci, 1.0f);
+    floatv it = lane_select(1.0f / eta, eta, outside);
+    floatv ti = lane_select(eta, 1.0f / eta, outside);
+    floatv ci = lane_abs(cos_i);
+    floatv ct2 = 1.0f - ti * ti * lane_mad(-ci, ci, 1.0f);
     floatv ct = safe_sqrt(ct2);
     floatv a_s = (it * ct - ci) / (it * ct + ci);
     floatv a_p = (it * ci - ct) / (it * ci + ct);
     floatv r = 0.5f * (a_s * a_s + a_p * a_p);
-    r = rt_select(r, (floatv)(1.0f), ct2 <= 0.0f);          /* total internal reflection */
-    r = rt_select(r, (floatv)(0.0f), eta == 1.0f);           /* index matched: no interface */
-    *cos_t = rt_select(ct, -ct, cos_i >= 0.0f);
+    r = lane_select(r, (floatv)(1.0f), ct2 <= 0.0f);          /* total internal reflection */
+    r = lane_select(r, (floatv)(0.0f), eta == 1.0f);           /* index matched: no interface */
+    *cos_t = lane_select(ct, -ct, cos_i >= 0.0f);
     *eta_it = it;
     *eta_ti = ti;
     return r;
@@ -37,16 +37,16 @@ RT_INLINE floatv fresnel_dielectric(floatv cos_i, floatv eta, floatv *cos_t, flo
 
 /* Returns the weight; *pdf is the discrete probability of the chosen lobe,
  * *eta_path the factor eta_t / eta_i of the move (1 on reflection). */
-RT_INLINE vec3v dielectric_sample(vec3v tint, floatv eta, vec3v wi, floatv u, vec3v *wo, floatv *pdf, floatv *eta_path) {
+MC_INLINE vec3v dielectric_sample(vec3v tint, floatv eta, vec3v wi, floatv u, vec3v *wo, floatv *pdf, floatv *eta_path) {
     floatv cos_t, eta_it, eta_ti;
     floatv r = fresnel_dielectric(wi.z, eta, &cos_t, &eta_it, &eta_ti);
     intv refl = u < r;
     vec3v wr = v3(-wi.x, -wi.y, wi.z);
     vec3v wt = v3(-eta_ti * wi.x, -eta_ti * wi.y, cos_t);
     *wo = v3_select(wt, wr, refl);
-    *pdf = rt_select(1.0f - r, r, refl);
-    *eta_path = rt_select(eta_it, (floatv)(1.0f), refl);
-    floatv scale = rt_select(eta_ti * eta_ti, (floatv)(1.0f), refl);
+    *pdf = lane_select(1.0f - r, r, refl);
+    *eta_path = lane_select(eta_it, (floatv)(1.0f), refl);
+    floatv scale = lane_select(eta_ti * eta_ti, (floatv)(1.0f), refl);
     return v3_scale(tint, scale);
 }
 

@@ -12,29 +12,29 @@
 #include "render/vec3.cl"
 
 /* Cosine-weighted hemisphere, p(w) = cos(theta) / pi (pbrt-v4 §A.5.3): a
- * uniform point of the unit disk (polar map, r = rt_sqrt(u1)) lifted to the
- * hemisphere.  cos(theta) = rt_sqrt(1 - u1) > 0 because u1 < 1. */
-RT_INLINE vec3v square_to_cosine_hemisphere(floatv u1, floatv u2, floatv *pdf) {
-    floatv r = rt_sqrt(u1);
+ * uniform point of the unit disk (polar map, r = lane_sqrt(u1)) lifted to the
+ * hemisphere.  cos(theta) = lane_sqrt(1 - u1) > 0 because u1 < 1. */
+MC_INLINE vec3v square_to_cosine_hemisphere(floatv u1, floatv u2, floatv *pdf) {
+    floatv r = lane_sqrt(u1);
     floatv c;
-    floatv s = rt_sincos_2pi(u2, &c);
-    floatv z = rt_sqrt(1.0f - u1);
+    floatv s = lane_sincos_2pi(u2, &c);
+    floatv z = lane_sqrt(1.0f - u1);
     *pdf = z * RT_INV_PI;
     return v3(r * c, r * s, z);
 }
 
-RT_INLINE vec3v diffuse_eval(vec3v albedo, vec3v wi, vec3v wo, floatv *pdf) {
+MC_INLINE vec3v diffuse_eval(vec3v albedo, vec3v wi, vec3v wo, floatv *pdf) {
     intv ok = (wi.z > 0.0f) & (wo.z > 0.0f);
-    floatv c = rt_select((floatv)(0.0f), wo.z * RT_INV_PI, ok);
+    floatv c = lane_select((floatv)(0.0f), wo.z * RT_INV_PI, ok);
     *pdf = c;
     return v3_scale(albedo, c);
 }
 
 /* Weight f cos / pdf = albedo on the front side, 0 from behind. */
-RT_INLINE vec3v diffuse_sample(vec3v albedo, vec3v wi, floatv u1, floatv u2, vec3v *wo, floatv *pdf) {
+MC_INLINE vec3v diffuse_sample(vec3v albedo, vec3v wi, floatv u1, floatv u2, vec3v *wo, floatv *pdf) {
     *wo = square_to_cosine_hemisphere(u1, u2, pdf);
     intv ok = wi.z > 0.0f;
-    *pdf = rt_select((floatv)(0.0f), *pdf, ok);
+    *pdf = lane_select((floatv)(0.0f), *pdf, ok);
     return v3_select(v3s(0.0f), albedo, ok);
 }
 

@@ -3,7 +3,7 @@
  * specular reflectance), one-sided, isotropic roughness alpha.
  *
  *   D(m)      = 1 / (pi a^2 (((m_x^2 + m_y^2) / a^2 + m_z^2)^2))          (Walter eq. 33)
- *   G1(v)     = 2 / (1 + rt_sqrt(1 + a^2 tan^2 theta_v))                       (Walter eq. 34)
+ *   G1(v)     = 2 / (1 + lane_sqrt(1 + a^2 tan^2 theta_v))                       (Walter eq. 34)
  *   f cos o   = F D(h) G1(i) G1(o) / (4 cos theta_i)                        (separable Smith G, as Mitsuba 3)
  *
  * Directions are sampled from the distribution of *visible* normals,
@@ -20,42 +20,42 @@
 /* Roughness below this is clamped: D would overflow float. */
 #define GGX_MIN_ALPHA 1e-4f
 
-RT_INLINE floatv ggx_d(vec3v m, floatv a2) {
+MC_INLINE floatv ggx_d(vec3v m, floatv a2) {
     floatv t = (m.x * m.x + m.y * m.y) / a2 + m.z * m.z;
-    return rt_select((floatv)(0.0f), 1.0f / (RT_PI * a2 * t * t), m.z > 0.0f);
+    return lane_select((floatv)(0.0f), 1.0f / (RT_PI * a2 * t * t), m.z > 0.0f);
 }
 
 /* Smith's masking for GGX; zero on the wrong side of the microfacet. */
-RT_INLINE floatv ggx_g1(vec3v v, vec3v m, floatv a2) {
+MC_INLINE floatv ggx_g1(vec3v v, vec3v m, floatv a2) {
     floatv tan2 = (v.x * v.x + v.y * v.y) / (v.z * v.z);
-    floatv g = 2.0f / (1.0f + rt_sqrt(1.0f + a2 * tan2));
-    return rt_select((floatv)(0.0f), g, (v3_dot(v, m) * v.z) > 0.0f);
+    floatv g = 2.0f / (1.0f + lane_sqrt(1.0f + a2 * tan2));
+    return lane_select((floatv)(0.0f), g, (v3_dot(v, m) * v.z) > 0.0f);
 }
 
 /* Heitz 2018, listing 1: a visible normal for view direction wi (wi.z > 0). */
-RT_INLINE vec3v ggx_sample_visible_normal(vec3v wi, floatv alpha, floatv u1, floatv u2) {
+MC_INLINE vec3v ggx_sample_visible_normal(vec3v wi, floatv alpha, floatv u1, floatv u2) {
     /* stretch the view direction to the hemisphere configuration (§3.2) */
     vec3v vh = v3_normalize(v3(alpha * wi.x, alpha * wi.y, wi.z));
     /* orthonormal basis around vh (§4.1), with its degenerate case */
     floatv lensq = vh.x * vh.x + vh.y * vh.y;
     intv flat = lensq > 0.0f;
-    floatv il = rt_rsqrt(rt_select((floatv)(1.0f), lensq, flat));
-    vec3v t1v = v3(rt_select((floatv)(1.0f), -vh.y * il, flat), rt_select((floatv)(0.0f), vh.x * il, flat), (floatv)(0.0f));
+    floatv il = lane_rsqrt(lane_select((floatv)(1.0f), lensq, flat));
+    vec3v t1v = v3(lane_select((floatv)(1.0f), -vh.y * il, flat), lane_select((floatv)(0.0f), vh.x * il, flat), (floatv)(0.0f));
     vec3v t2v = v3_cross(vh, t1v);
     /* a point of the projected area: a disk whose lower half is squashed (§4.2) */
-    floatv r = rt_sqrt(u1);
+    floatv r = lane_sqrt(u1);
     floatv c;
-    floatv s = rt_sincos_2pi(u2, &c);
+    floatv s = lane_sincos_2pi(u2, &c);
     floatv t1 = r * c, t2 = r * s;
     floatv h = 0.5f * (1.0f + vh.z);
-    t2 = (1.0f - h) * rt_sqrt(rt_max(1.0f - t1 * t1, 0.0f)) + h * t2;
+    t2 = (1.0f - h) * lane_sqrt(lane_max(1.0f - t1 * t1, 0.0f)) + h * t2;
     /* reproject onto the hemisphere (§4.3) and unstretch (§3.4) */
     vec3v nh = v3_madd(v3_madd(v3_scale(t1v, t1), t2, t2v), safe_sqrt(1.0f - t1 * t1 - t2 * t2), vh);
-    return v3_normalize(v3(alpha * nh.x, alpha * nh.y, rt_max(nh.z, 0.0f)));
+    return v3_normalize(v3(alpha * nh.x, alpha * nh.y, lane_max(nh.z, 0.0f)));
 }
 
-RT_INLINE vec3v roughconductor_eval(vec3v spec, floatv alpha, vec3v wi, vec3v wo, floatv *pdf) {
-    alpha = rt_max(alpha, GGX_MIN_ALPHA);
+MC_INLINE vec3v roughconductor_eval(vec3v spec, floatv alpha, vec3v wi, vec3v wo, floatv *pdf) {
+    alpha = lane_max(alpha, GGX_MIN_ALPHA);
     floatv a2 = alpha * alpha;
     intv ok = (wi.z > 0.0f) & (wo.z > 0.0f);
     vec3v m = v3_normalize(v3_add(wi, wo));
@@ -63,12 +63,12 @@ RT_INLINE vec3v roughconductor_eval(vec3v spec, floatv alpha, vec3v wi, vec3v wo
     floatv g1i = ggx_g1(wi, m, a2);
     floatv p = g1i * d / (4.0f * wi.z);
     floatv fc = p * ggx_g1(wo, m, a2);
-    *pdf = rt_select((floatv)(0.0f), p, ok);
-    return v3_scale(spec, rt_select((floatv)(0.0f), fc, ok));
+    *pdf = lane_select((floatv)(0.0f), p, ok);
+    return v3_scale(spec, lane_select((floatv)(0.0f), fc, ok));
 }
 
-RT_INLINE vec3v roughconductor_sample(vec3v spec, floatv alpha, vec3v wi, floatv u1, floatv u2, vec3v *wo, floatv *pdf) {
-    alpha = rt_max(alpha, GGX_MIN_ALPHA);
+MC_INLINE vec3v roughconductor_sample(vec3v spec, floatv alpha, vec3v wi, floatv u1, floatv u2, vec3v *wo, floatv *pdf) {
+    alpha = lane_max(alpha, GGX_MIN_ALPHA);
     floatv a2 = alpha * alpha;
     intv front = wi.z > 0.0f;
     /* from behind the sample is discarded anyway; keep the maths finite */
@@ -79,8 +79,8 @@ RT_INLINE vec3v roughconductor_sample(vec3v spec, floatv alpha, vec3v wi, floatv
     *wo = o;
     intv ok = front & (o.z > 0.0f);
     floatv p = ggx_g1(wiv, m, a2) * ggx_d(m, a2) / (4.0f * wiv.z);
-    *pdf = rt_select((floatv)(0.0f), p, ok);
-    return v3_scale(spec, rt_select((floatv)(0.0f), ggx_g1(o, m, a2), ok));
+    *pdf = lane_select((floatv)(0.0f), p, ok);
+    return v3_scale(spec, lane_select((floatv)(0.0f), ggx_g1(o, m, a2), ok));
 }
 
 #endif

@@ -3,11 +3,9 @@
  * f cos / pdf at given directions (to integrate the pdf over the test's
  * bins).  Built with any LANES; work-item k handles items k*LANES ...
  * Outputs are structure of arrays: component c of item i at c * n + i. */
-#include "rng/uniform.cl"
+#include "samplers/sampler.cl"
 #include "render/bsdf.cl"
 #include "render/lane_io.cl"
-
-#define RNG_STREAM_BSDF_TEST 9u
 
 /* out: wo.xyz, pdf, weight.rgb, delta, eta (9 components) */
 kernel void bsdf_sample_dirs(global const float4 *mats, float4 wi4, ulong seed, uint n, global float *out) {
@@ -15,9 +13,10 @@ kernel void bsdf_sample_dirs(global const float4 *mats, float4 wi4, ulong seed, 
     if (base >= n) return;
     material_v m = material_load(mats, (uintv)(0u));
     vec3v wi = v3((floatv)(wi4.x), (floatv)(wi4.y), (floatv)(wi4.z));
-    rng_t r = rng_init(to_ulongv((uintv)(base) + LANE_IOTA), seed, RNG_STREAM_BSDF_TEST);
-    philox_ctr c = rng_block(r, 0u);
-    bsdf_sample_v s = bsdf_sample(&m, wi, u01(c.v0), u01(c.v1), u01(c.v2));
+    mc_sampler_t smp = sampler_start(seed, to_ulongv((uintv)(base) + LANE_IOTA), RNG_STREAM_BSDF_TEST);
+    floatv u[3];
+    sampler_next_nd(&smp, 3, u);
+    bsdf_sample_v s = bsdf_sample(&m, wi, u[0], u[1], u[2]);
     store_floatv(s.wo.x, out + 0 * n + base);
     store_floatv(s.wo.y, out + 1 * n + base);
     store_floatv(s.wo.z, out + 2 * n + base);

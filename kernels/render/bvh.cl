@@ -25,7 +25,7 @@
 #define BVH_TFAR_SCALE 1.0000004f /* 1 + 2 γ3, γn = n ε / (1 − n ε), ε = 2^-24 */
 
 /* Slab test of box [lo, hi]: entry distance in *tnear when the ray enters it before tmax. */
-GEOM_INLINE bool bvh_box(float3 lo, float3 hi, float3 o, float3 inv, float tmax, float *tnear)
+MC_INLINE bool bvh_box(float3 lo, float3 hi, float3 o, float3 inv, float tmax, float *tnear)
 {
     float3 t0 = (lo - o) * inv, t1 = (hi - o) * inv;
     float tn = g_max(g_max(g_min(t0.x, t1.x), g_min(t0.y, t1.y)), g_max(g_min(t0.z, t1.z), 0.0f));
@@ -34,7 +34,7 @@ GEOM_INLINE bool bvh_box(float3 lo, float3 hi, float3 o, float3 inv, float tmax,
     return tn <= tf;
 }
 
-GEOM_INLINE float3 bvh_inv_dir(float3 d)
+MC_INLINE float3 bvh_inv_dir(float3 d)
 {
     /* A zero component would make (lo − o)·inv = 0·∞ = NaN; 1e-30 keeps it finite and signed. */
     float3 dd = (float3)(d.x != 0.0f ? d.x : 1e-30f, d.y != 0.0f ? d.y : 1e-30f, d.z != 0.0f ? d.z : 1e-30f);
@@ -42,7 +42,7 @@ GEOM_INLINE float3 bvh_inv_dir(float3 d)
 }
 
 /* Intersect the primitives of a leaf; the closest hit so far is (*tbest, h). */
-GEOM_INLINE bool bvh_leaf_closest(const scene_geom *g, uint first, uint count, float3 o,
+MC_INLINE bool bvh_leaf_closest(const scene_geom *g, uint first, uint count, float3 o,
                                                              float3 d, float *tbest, hit_info *h)
 {
     bool hit = false;
@@ -68,7 +68,7 @@ GEOM_INLINE bool bvh_leaf_closest(const scene_geom *g, uint first, uint count, f
     return hit;
 }
 
-GEOM_INLINE bool bvh_leaf_any(const scene_geom *g, uint first, uint count, float3 o,
+MC_INLINE bool bvh_leaf_any(const scene_geom *g, uint first, uint count, float3 o,
                                                          float3 d, float tmax)
 {
     for (uint k = first; k < first + count; ++k) {

@@ -15,10 +15,10 @@
 #include "layouts.cl"
 #include "render/vec3.cl"
 
-RT_INLINE vec3v cam_row(float4 r) { return v3((floatv)(r.x), (floatv)(r.y), (floatv)(r.z)); }
+MC_INLINE vec3v cam_row(float4 r) { return v3((floatv)(r.x), (floatv)(r.y), (floatv)(r.z)); }
 
 /* The ray through film point (sx, sy); the origin is the same for all lanes. */
-RT_INLINE vec3v camera_ray(global const float4 *cam, floatv sx, floatv sy, float inv_w, float inv_h, vec3v *origin) {
+MC_INLINE vec3v camera_ray(global const float4 *cam, floatv sx, floatv sy, float inv_w, float inv_h, vec3v *origin) {
     *origin = cam_row(cam[CAMERA_RECORD_ORIGIN_QUAD]);
     floatv ndc_x = 2.0f * sx * inv_w - 1.0f;
     floatv ndc_y = 1.0f - 2.0f * sy * inv_h;

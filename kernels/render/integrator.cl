@@ -20,11 +20,13 @@
  * depths are kernel arguments, so changing them does not rebuild the kernel.
  *
  * Random numbers.  Sample (pixel, s) has the 64-bit index s * W * H + pixel
- * and reads Philox block 0 (dims 0-3: pixel jitter) and, at depth d, blocks
- * 1 + 2d (dims: lobe choice, direction 2D, roulette) and 2 + 2d (emitter
- * choice: environment or area, which area light, position 2D) of stream
- * RNG_STREAM_RENDER: the image depends on the seed alone, not on how samples
- * are split over launches, work-items or lanes.
+ * and draws, through the sampler (samplers/sampler.cl) in stream
+ * RNG_STREAM_RENDER, dimensions 0-1 (pixel jitter) and, at depth d,
+ * RENDER_DIM_BSDF(d) = 4 + 8d .. 7 + 8d (lobe choice, direction 2D, roulette)
+ * and RENDER_DIM_LIGHT(d) = 8 + 8d .. 11 + 8d (emitter choice: environment or
+ * area, which area light, position 2D) (rng/streams.cl): the image depends on
+ * the seed alone, not on how samples are split over launches, work-items or
+ * lanes.
  *
  * Path regeneration.  In a lane build a lane whose path ends takes the next
  * sample of the work-item at once, so lanes stay busy whatever the path
@@ -36,7 +38,7 @@
  *   [7] non-finite samples (NaN/Inf in any channel: counted, kept out of the sums).
  */
 #include "layouts.cl"
-#include "rng/uniform.cl"
+#include "samplers/sampler.cl"
 #include "sampling/mis.cl"
 #include "render/vec3.cl"
 #include "render/lane_io.cl"
@@ -54,29 +56,18 @@
  * closed white scene): the random-number dimension of a vertex must fit 32 bits. */
 #define DEPTH_GUARD 65536
 
-#define RNG_STREAM_RENDER 8u
 #define STATS FILM_STATS /* the FilmStat columns of layouts.cl */
-
-/* Philox block `block` (per lane) of the lanes' samples. */
-RT_INLINE philox_ctr rng_block_lanes(rng_t r, uintv block) {
-    philox_ctr c;
-    c.v0 = r.lo;
-    c.v1 = r.hi;
-    c.v2 = block;
-    c.v3 = (uintv)(r.stream);
-    return philox4x32_10(c, r.k0, r.k1);
-}
 
 /* Weight of radiance found by hitting an emitter (or escaping to the
  * environment) after a BSDF sample of pdf prev_pdf; light_pdf is the pdf with
  * which light sampling at the previous vertex would have chosen the same point. */
-RT_INLINE floatv emission_weight(intv unsampled, floatv prev_pdf, floatv light_pdf) {
+MC_INLINE floatv emission_weight(intv unsampled, floatv prev_pdf, floatv light_pdf) {
 #if INTEGRATOR == INTEGRATOR_PATH
     return (floatv)(1.0f);
 #elif INTEGRATOR == INTEGRATOR_NEE
-    return rt_select((floatv)(0.0f), (floatv)(1.0f), unsampled);
+    return lane_select((floatv)(0.0f), (floatv)(1.0f), unsampled);
 #else
-    return rt_select(power_heuristic(prev_pdf, light_pdf), (floatv)(1.0f), unsampled);
+    return lane_select(power_heuristic(prev_pdf, light_pdf), (floatv)(1.0f), unsampled);
 #endif
 }
 
@@ -89,7 +80,7 @@ typedef float film_t;
 #endif
 
 /* Add finished paths into the pixel sums of this work-item's block. */
-RT_INLINE void add_sample(global film_t *o, float r, float g, float b) {
+MC_INLINE void add_sample(global film_t *o, float r, float g, float b) {
     if ((r - r) == 0.0f && (g - g) == 0.0f && (b - b) == 0.0f) { /* all finite */
         film_t fr = r, fg = g, fb = b;
         o[FILM_SUM_R] += fr; o[FILM_SUM_G] += fg; o[FILM_SUM_B] += fb;
@@ -100,23 +91,23 @@ RT_INLINE void add_sample(global film_t *o, float r, float g, float b) {
     }
 }
 
-RT_INLINE void flush_samples(global film_t *out, uintv pixel, vec3v L, intv done) {
+MC_INLINE void flush_samples(global film_t *out, uintv pixel, vec3v L, intv done) {
 #if LANES == 1
     if (done) add_sample(out + (size_t)pixel * STATS, L.x, L.y, L.z);
 #else
-    floatv_u lx, ly, lz;
-    uintv_u px;
-    intv_u dn;
+    float_lanes lx, ly, lz;
+    uint_lanes px;
+    int_lanes dn;
     lx.v = L.x; ly.v = L.y; lz.v = L.z;
     px.v = pixel;
     dn.v = done;
     for (int k = 0; k < LANES; ++k)
-        if (dn.s[k]) add_sample(out + (size_t)px.s[k] * STATS, lx.s[k], ly.s[k], lz.s[k]);
+        if (dn.a[k]) add_sample(out + (size_t)px.a[k] * STATS, lx.a[k], ly.a[k], lz.a[k]);
 #endif
 }
 
 /* Give lanes that need work the next samples of the work-item, in lane order. */
-RT_INLINE intv assign_samples(intv need, uint *next, uint total, uintv *j) {
+MC_INLINE intv assign_samples(intv need, uint *next, uint total, uintv *j) {
 #if LANES == 1
     if (need && *next < total) {
         *j = (*next)++;
@@ -124,15 +115,15 @@ RT_INLINE intv assign_samples(intv need, uint *next, uint total, uintv *j) {
     }
     return 0;
 #else
-    intv_u nd, fr;
-    uintv_u jj;
+    int_lanes nd, fr;
+    uint_lanes jj;
     nd.v = need;
     jj.v = *j;
     for (int k = 0; k < LANES; ++k) {
-        fr.s[k] = 0;
-        if (nd.s[k] && *next < total) {
-            jj.s[k] = (*next)++;
-            fr.s[k] = -1;
+        fr.a[k] = 0;
+        if (nd.a[k] && *next < total) {
+            jj.a[k] = (*next)++;
+            fr.a[k] = -1;
         }
     }
     *j = jj.v;
@@ -197,7 +188,7 @@ kernel void render_blocks(
     intv alive = (intv)(0);
     uintv j = (uintv)(0u), pixel = (uintv)(0u);
     uintv depth = (uintv)(0u);
-    rng_t rng = rng_init((ulongv)(0ul), seed, RNG_STREAM_RENDER);
+    mc_sampler_t smp = sampler_start(seed, (ulongv)(0ul), RNG_STREAM_RENDER);
     vec3v o = v3s(0.0f), d = v3(0.0f, 0.0f, 1.0f), prev_p = v3s(0.0f);
     vec3v thr = v3s(1.0f), L = v3s(0.0f);
     floatv eta = (floatv)(1.0f), prev_pdf = (floatv)(0.0f);
@@ -207,32 +198,33 @@ kernel void render_blocks(
     while (true) {
         /* ---- regeneration: new camera paths for idle lanes ---- */
         intv need = !alive;
-        if (next < total && rt_any(need)) {
+        if (next < total && lane_any(need)) {
             intv fresh = assign_samples(need, &next, total, &j);
             uintv s = j / npix;
             uintv px = (uintv)(pix0) + (j - s * npix);
             ulongv index = (to_ulongv(s) + (ulongv)(spp0)) * (ulong)npix_total + to_ulongv(px);
-            rng_t r = rng_init(index, seed, RNG_STREAM_RENDER);
-            rng.lo = rt_select(rng.lo, r.lo, fresh);
-            rng.hi = rt_select(rng.hi, r.hi, fresh);
-            philox_ctr c0 = rng_block_lanes(r, (uintv)(0u));
+            mc_sampler_t fs = sampler_start(seed, index, RNG_STREAM_RENDER);
+            floatv uc[2];
+            sampler_seek(&fs, (uintv)(RENDER_DIM_CAMERA));
+            sampler_next_2d(&fs, uc);
+            smp = sampler_select(smp, fs, fresh);
             uintv py = px / width;
-            floatv sx = to_floatv(px - py * width) + u01(c0.v0);
-            floatv sy = to_floatv(py) + u01(c0.v1);
+            floatv sx = to_floatv(px - py * width) + uc[0];
+            floatv sy = to_floatv(py) + uc[1];
             vec3v co;
             vec3v cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
-            pixel = rt_select(pixel, px, fresh);
+            pixel = lane_select(pixel, px, fresh);
             o = v3_select(o, co, fresh);
             d = v3_select(d, cd, fresh);
             thr = v3_select(thr, v3s(1.0f), fresh);
             L = v3_select(L, v3s(0.0f), fresh);
-            eta = rt_select(eta, (floatv)(1.0f), fresh);
-            prev_pdf = rt_select(prev_pdf, (floatv)(0.0f), fresh);
-            depth = rt_select(depth, (uintv)(0u), fresh);
+            eta = lane_select(eta, (floatv)(1.0f), fresh);
+            prev_pdf = lane_select(prev_pdf, (floatv)(0.0f), fresh);
+            depth = lane_select(depth, (uintv)(0u), fresh);
             unsampled = unsampled | fresh;
             alive = alive | fresh;
         }
-        if (!rt_any(alive)) break;
+        if (!lane_any(alive)) break;
 
         /* ---- intersect ---- */
         hitv h = trace_closest_v(&geom, o, d, alive);
@@ -240,7 +232,7 @@ kernel void render_blocks(
         intv miss = alive & !h.hit;
 
         /* ---- the environment, seen by a ray that escaped ---- */
-        if (has_env && max_depth != 0 && rt_any(miss)) {
+        if (has_env && max_depth != 0 && lane_any(miss)) {
             floatv w = emission_weight(unsampled, prev_pdf, (floatv)(env_pmf * RT_INV_4PI));
             L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, env_le), w)), miss);
         }
@@ -251,7 +243,7 @@ kernel void render_blocks(
         /* ---- emission of the surface hit (one-sided: front = normal) ---- */
         /* (max_depth 0 renders black, as in Mitsuba 3) */
         intv emitting = hit & (sf.emitter >= 0) & (v3_dot(n, d) < 0.0f) & (intv)(max_depth != 0 ? -1 : 0);
-        if (rt_any(emitting)) {
+        if (lane_any(emitting)) {
             vec3v le = emitter_radiance_of(&lt, sf.emitter);
 #if INTEGRATOR == INTEGRATOR_MIS
             floatv lp = light_pdf_hit(&lt, &pt, prev_p, h.prim, &sf, emitting & !unsampled);
@@ -266,11 +258,15 @@ kernel void render_blocks(
         const uint depth_limit = max_depth >= 0 ? min((uint)max_depth, (uint)DEPTH_GUARD) : (uint)DEPTH_GUARD;
         intv cont = hit & (depth + 1u < (uintv)(depth_limit));
         intv next_alive = (intv)(0);
-        if (rt_any(cont)) {
-            material_v m = material_load(materials, rt_select((uintv)(0u), sf.mat, cont));
+        if (lane_any(cont)) {
+            material_v m = material_load(materials, lane_select((uintv)(0u), sf.mat, cont));
             frame3v fr = frame_from_normal(n);
             vec3v wi = frame_to_local(fr, v3_neg(d));
-            philox_ctr ca = rng_block_lanes(rng, 1u + 2u * depth);
+            floatv ub[4]; /* lobe, direction 2D, roulette */
+            sampler_seek(&smp, RENDER_DIM_BSDF(depth));
+            sampler_next_nd(&smp, 4, ub);
+
+#if INTEGRATOR != INTEGRATOR_PATH
             /* The vertex as both strategies see it: the point lifted off the
              * surface on its front side.  Light samples, shadow rays, reflected
              * rays and the light pdf of a reflected ray's emitter hit all start
@@ -279,12 +275,13 @@ kernel void render_blocks(
              * offset origin biased the white furnace by ~1e-4). */
             vec3v p_up = offset_origin(p, n, n);
 
-#if INTEGRATOR != INTEGRATOR_PATH
             /* -- next-event estimation -- */
             intv nee = cont & bsdf_is_smooth(&m);
-            if (rt_any(nee)) {
-                philox_ctr cb = rng_block_lanes(rng, 2u + 2u * depth);
-                light_sample_v ls = sample_light(&lt, &pt, p_up, u01(cb.v0), u01(cb.v1), u01(cb.v2), u01(cb.v3), nee);
+            if (lane_any(nee)) {
+                floatv ul[4];
+                sampler_seek(&smp, RENDER_DIM_LIGHT(depth));
+                sampler_next_nd(&smp, 4, ul);
+                light_sample_v ls = sample_light(&lt, &pt, p_up, ul[0], ul[1], ul[2], ul[3], nee);
                 floatv bpdf;
                 vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, ls.wo), &bpdf);
 #if INTEGRATOR == INTEGRATOR_MIS
@@ -294,42 +291,42 @@ kernel void render_blocks(
 #endif
                 vec3v c = v3_scale(v3_mul(v3_mul(thr, f), ls.radiance), w / ls.pdf);
                 intv ok = nee & ls.valid & (v3_maxc(c) > 0.0f);
-                if (rt_any(ok)) {
+                if (lane_any(ok)) {
                     vec3v so = p_up;
                     vec3v sd = v3_sub(ls.pos, so);
-                    floatv sl = rt_sqrt(v3_len2(sd));
+                    floatv sl = lane_sqrt(v3_len2(sd));
                     vec3v sdir = v3_select(v3_scale(sd, 1.0f / sl), ls.wo, ls.env);
-                    floatv tmax = rt_select(sl * (1.0f - SHADOW_EPSILON), (floatv)(INFINITY), ls.env);
+                    floatv tmax = lane_select(sl * (1.0f - SHADOW_EPSILON), (floatv)(INFINITY), ls.env);
                     intv occluded = trace_any_v(&geom, so, sdir, tmax, ok);
                     L = v3_select(L, v3_add(L, c), ok & !occluded);
                 }
             }
 #endif
             /* -- BSDF sampling continues the path -- */
-            bsdf_sample_v bs = bsdf_sample(&m, wi, u01(ca.v0), u01(ca.v1), u01(ca.v2));
+            bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2]);
             vec3v wo = frame_to_world(fr, bs.wo);
             thr = v3_select(thr, v3_mul(thr, bs.weight), cont);
-            eta = rt_select(eta, eta * bs.eta, cont);
+            eta = lane_select(eta, eta * bs.eta, cont);
             vec3v o_next = offset_origin(p, n, wo);
             prev_p = v3_select(prev_p, o_next, cont);
-            prev_pdf = rt_select(prev_pdf, bs.pdf, cont);
-            unsampled = rt_select(unsampled, bs.delta, cont);
+            prev_pdf = lane_select(prev_pdf, bs.pdf, cont);
+            unsampled = lane_select(unsampled, bs.delta, cont);
             o = v3_select(o, o_next, cont);
             d = v3_select(d, wo, cont);
-            depth = rt_select(depth, depth + 1u, cont);
+            depth = lane_select(depth, depth + 1u, cont);
 
             /* -- Russian roulette (Mitsuba 3's rule) -- */
             floatv tmax_ = v3_maxc(thr);
-            floatv q = rt_min(tmax_ * eta * eta, (floatv)(0.95f));
+            floatv q = lane_min(tmax_ * eta * eta, (floatv)(0.95f));
             intv rr = depth >= (uintv)(rr_depth);
-            intv survive = u01(ca.v3) < q;
+            intv survive = ub[3] < q;
             thr = v3_select(thr, v3_scale(thr, 1.0f / q), cont & rr & survive);
             next_alive = cont & (!rr | survive) & (tmax_ > 0.0f);
         }
 
         /* ---- paths that ended: into the pixel sums ---- */
         intv done = alive & !next_alive;
-        if (rt_any(done)) flush_samples(acc, pixel, L, done);
+        if (lane_any(done)) flush_samples(acc, pixel, L, done);
         alive = next_alive;
     }
 }

@@ -30,23 +30,24 @@
 #ifndef MCOCL_RENDER_INTERSECT_CL
 #define MCOCL_RENDER_INTERSECT_CL
 
+#include "lanes.cl"
+
 #ifndef M_PI_F
 #define M_PI_F 3.14159265358979323846f
 #endif
 
 #define TRI_EDGE_EPS 9.5367431640625e-7f /* 2^-20 */
 
-/* Hand-written vector helpers for the hot paths: the PoCL wheel does not
+/* Hand-written float3 helpers for the hot paths: the PoCL wheel does not
  * inline OpenCL built-ins (dot, cross, fmin, fmax are out-of-line calls per
  * component there, docs/pocl-notes.md), which made traversal ~20x slower. */
-#define GEOM_INLINE inline __attribute__((always_inline))
-GEOM_INLINE float g3_dot(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-GEOM_INLINE float3 g3_cross(float3 a, float3 b)
+MC_INLINE float g3_dot(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+MC_INLINE float3 g3_cross(float3 a, float3 b)
 {
     return (float3)(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
-GEOM_INLINE float g_min(float a, float b) { return a < b ? a : b; }
-GEOM_INLINE float g_max(float a, float b) { return a > b ? a : b; }
+MC_INLINE float g_min(float a, float b) { return a < b ? a : b; }
+MC_INLINE float g_max(float a, float b) { return a > b ? a : b; }
 
 typedef struct {
     global const float4 *nodes;   /* BVH, layout of mcocl/render/bvh.py */
@@ -80,7 +81,7 @@ typedef struct {
 
 /* Ray–triangle (Möller–Trumbore).  On a hit with t in (0, tmax) writes t and
  * the barycentrics of v1 and v2 and returns true. */
-GEOM_INLINE bool intersect_triangle(float3 v0, float3 v1, float3 v2, float3 o, float3 d, float tmax, float *t_out,
+MC_INLINE bool intersect_triangle(float3 v0, float3 v1, float3 v2, float3 o, float3 d, float tmax, float *t_out,
                                     float *b1_out, float *b2_out)
 {
     float3 e1 = v1 - v0, e2 = v2 - v0;
@@ -103,7 +104,7 @@ GEOM_INLINE bool intersect_triangle(float3 v0, float3 v1, float3 v2, float3 o, f
 }
 
 /* Ray–sphere: the nearest root in (0, tmax).  Works for any (non-zero) d. */
-GEOM_INLINE bool intersect_sphere(float4 s, float3 o, float3 d, float tmax, float *t_out)
+MC_INLINE bool intersect_sphere(float4 s, float3 o, float3 d, float tmax, float *t_out)
 {
     float3 f = o - s.xyz;
     float a = g3_dot(d, d);
@@ -124,14 +125,8 @@ GEOM_INLINE bool intersect_sphere(float4 s, float3 o, float3 d, float tmax, floa
     return false;
 }
 
-/* Centre and radius of sphere primitive `prim` (prim >= ntris). */
-inline float4 sphere_of(const scene_geom *g, uint prim)
-{
-    return g->spheres[prim - g->ntris];
-}
-
 /* The unit geometric normal on the front side at point p of primitive prim. */
-inline float3 prim_normal(const scene_geom *g, uint prim, float3 p)
+MC_INLINE float3 prim_normal(const scene_geom *g, uint prim, float3 p)
 {
     if (prim < g->ntris) {
         float3 v0 = g->tris[3 * prim].xyz, v1 = g->tris[3 * prim + 1].xyz, v2 = g->tris[3 * prim + 2].xyz;
@@ -143,7 +138,7 @@ inline float3 prim_normal(const scene_geom *g, uint prim, float3 p)
 }
 
 /* Surface area of a primitive. */
-inline float prim_area(const scene_geom *g, uint prim)
+MC_INLINE float prim_area(const scene_geom *g, uint prim)
 {
     if (prim < g->ntris) {
         float3 v0 = g->tris[3 * prim].xyz, v1 = g->tris[3 * prim + 1].xyz, v2 = g->tris[3 * prim + 2].xyz;
@@ -156,7 +151,7 @@ inline float prim_area(const scene_geom *g, uint prim)
 /* A point distributed uniformly over the primitive's area (density 1/area) and
  * its front normal in *n.  Triangles: b0 = 1 − √u1, b1 = u2 √u1 (pbrt-v3
  * §13.6.5 "UniformSampleTriangle"); spheres: z = 1 − 2 u1, φ = 2π u2 (Archimedes). */
-inline float3 prim_sample_area(const scene_geom *g, uint prim, float2 u, float3 *n)
+MC_INLINE float3 prim_sample_area(const scene_geom *g, uint prim, float2 u, float3 *n)
 {
     if (prim < g->ntris) {
         float3 v0 = g->tris[3 * prim].xyz, v1 = g->tris[3 * prim + 1].xyz, v2 = g->tris[3 * prim + 2].xyz;
@@ -174,27 +169,12 @@ inline float3 prim_sample_area(const scene_geom *g, uint prim, float2 u, float3 
     return s.xyz + s.w * dir;
 }
 
-/* The hit point of a ray, recomputed from the primitive for accuracy: the
- * barycentric combination on a triangle (lies on its plane up to rounding of
- * the vertices), the re-projection onto the sphere (pbrt-v4 §6.8.5). */
-inline float3 hit_point(const scene_geom *g, float3 o, float3 d, const hit_info *h)
-{
-    if (h->prim < g->ntris) {
-        uint p = h->prim;
-        float3 v0 = g->tris[3 * p].xyz, v1 = g->tris[3 * p + 1].xyz, v2 = g->tris[3 * p + 2].xyz;
-        return v0 + h->b1 * (v1 - v0) + h->b2 * (v2 - v0);
-    }
-    float4 s = g->spheres[h->prim - g->ntris];
-    float3 p = o + h->t * d;
-    return s.xyz + s.w * normalize(p - s.xyz);
-}
-
 /* A ray origin near surface point p (geometric normal n) from which a ray in
  * direction w does not re-hit the surface it leaves: p moved along ±n to the
  * side w points to, by an offset relative to the magnitude of p's
  * coordinates (float32 rounding of p is ~6e-8 |p|; 2^-17 leaves a wide
  * margin and is invisible at scene scale). */
-inline float3 spawn_origin(float3 p, float3 n, float3 w)
+MC_INLINE float3 spawn_origin(float3 p, float3 n, float3 w)
 {
     float3 ap = fabs(p);
     float eps = 7.62939453125e-6f * fmax(fmax(fmax(ap.x, ap.y), ap.z), 1e-2f); /* 2^-17 */

@@ -2,10 +2,7 @@
  *
  * - store_floatv / load_floatv: whole vectors to and from structure-of-arrays
  *   buffers (component c of item i at c * n + i);
- * - floatv_u, uintv_u, intv_u: a vector and its lanes as an array, for the
- *   few per-lane loops (unions, not vstore/vload: PoCL's wheel makes those
- *   library calls);
- * - gather_rec4 / gather_rec8: every lane's record of 4 or 8 floats from an
+ * - gather_rec4: every lane's record of 4 floats from an
  *   array of records, loaded as whole float4s and transposed into lane
  *   vectors.  Scalar gathers (one insert per lane per float) cost several
  *   instructions per float; a record load costs one per four floats plus a
@@ -22,18 +19,6 @@
 #else
 #define store_floatv(v, p) MC_CAT(vstore, LANE_SUFFIX)((v), 0, (p))
 #define load_floatv(p) MC_CAT(vload, LANE_SUFFIX)(0, (p))
-typedef union {
-    floatv v;
-    float s[LANES];
-} floatv_u;
-typedef union {
-    uintv v;
-    uint s[LANES];
-} uintv_u;
-typedef union {
-    intv v;
-    int s[LANES];
-} intv_u;
 #endif
 
 /* A record of 4 floats per lane: a[i] = t[idx][i] (lanes must hold valid indices). */
@@ -42,14 +27,14 @@ typedef struct {
 } rec4v;
 
 #if LANES == 1
-inline __attribute__((always_inline)) rec4v gather_rec4(global const float4 *t, uintv idx) {
+MC_INLINE rec4v gather_rec4(global const float4 *t, uintv idx) {
     float4 r = t[idx];
     rec4v o;
     o.x = r.x; o.y = r.y; o.z = r.z; o.w = r.w;
     return o;
 }
 #elif LANES == 4
-inline __attribute__((always_inline)) rec4v gather_rec4(global const float4 *t, uintv idx) {
+MC_INLINE rec4v gather_rec4(global const float4 *t, uintv idx) {
     float4 r0 = t[idx.s0], r1 = t[idx.s1], r2 = t[idx.s2], r3 = t[idx.s3];
     rec4v o;
     o.x = (float4)(r0.x, r1.x, r2.x, r3.x);
@@ -59,7 +44,7 @@ inline __attribute__((always_inline)) rec4v gather_rec4(global const float4 *t, 
     return o;
 }
 #elif LANES == 8
-inline __attribute__((always_inline)) rec4v gather_rec4(global const float4 *t, uintv idx) {
+MC_INLINE rec4v gather_rec4(global const float4 *t, uintv idx) {
     float4 r0 = t[idx.s0], r1 = t[idx.s1], r2 = t[idx.s2], r3 = t[idx.s3];
     float4 r4 = t[idx.s4], r5 = t[idx.s5], r6 = t[idx.s6], r7 = t[idx.s7];
     rec4v o;
@@ -70,21 +55,18 @@ inline __attribute__((always_inline)) rec4v gather_rec4(global const float4 *t, 
     return o;
 }
 #else
-inline __attribute__((always_inline)) rec4v gather_rec4(global const float4 *t, uintv idx) {
-    uintv_u iu;
+MC_INLINE rec4v gather_rec4(global const float4 *t, uintv idx) {
+    uint_lanes iu;
     iu.v = idx;
-    floatv_u x, y, z, w;
+    float_lanes x, y, z, w;
     for (int k = 0; k < LANES; ++k) {
-        float4 r = t[iu.s[k]];
-        x.s[k] = r.x; y.s[k] = r.y; z.s[k] = r.z; w.s[k] = r.w;
+        float4 r = t[iu.a[k]];
+        x.a[k] = r.x; y.a[k] = r.y; z.a[k] = r.z; w.a[k] = r.w;
     }
     rec4v o;
     o.x = x.v; o.y = y.v; o.z = z.v; o.w = w.v;
     return o;
 }
 #endif
-
-/* The record `idx` of an array of records of `stride` float4s, part `part`. */
-#define gather_rec4_part(t, idx, stride, part) gather_rec4((t), (idx) * (uint)(stride) + (uint)(part))
 
 #endif

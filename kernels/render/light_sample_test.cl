@@ -4,12 +4,10 @@
  * arrive there (light_pdf_hit at the emitter the direction hits, plus the
  * environment's share), for a chi-square test.  Outputs are structure of
  * arrays (component c of item i at c * n + i). */
-#include "rng/uniform.cl"
+#include "samplers/sampler.cl"
 #include "render/lane_io.cl"
 #include "render/lights.cl"
 #include "render/trace.cl"
-
-#define RNG_STREAM_LIGHT_TEST 10u
 
 /* The scene's counts and emitter choice come in a render_params (layouts.cl;
  * host: mcocl/render/device_scene.py, scene_params), the tables as buffers. */
@@ -33,10 +31,11 @@ kernel void light_sample_dirs(LIGHT_TEST_PARAMS, float4 p4, ulong seed, uint n, 
     if (base >= n) return;
     LIGHT_TEST_SETUP;
     vec3v p = v3((floatv)(p4.x), (floatv)(p4.y), (floatv)(p4.z));
-    rng_t r = rng_init(to_ulongv((uintv)(base) + LANE_IOTA), seed, RNG_STREAM_LIGHT_TEST);
-    philox_ctr c = rng_block(r, 0u);
+    mc_sampler_t smp = sampler_start(seed, to_ulongv((uintv)(base) + LANE_IOTA), RNG_STREAM_LIGHT_TEST);
+    floatv u[4];
+    sampler_next_nd(&smp, 4, u);
     intv all = (intv)(0) == (intv)(0);
-    light_sample_v s = sample_light(&lt, &pt, p, u01(c.v0), u01(c.v1), u01(c.v2), u01(c.v3), all);
+    light_sample_v s = sample_light(&lt, &pt, p, u[0], u[1], u[2], u[3], all);
     store_floatv(s.wo.x, out + 0 * n + base);
     store_floatv(s.wo.y, out + 1 * n + base);
     store_floatv(s.wo.z, out + 2 * n + base);
@@ -67,6 +66,6 @@ kernel void light_pdf_dirs(LIGHT_TEST_PARAMS, float4 p4, uint n, global const fl
     intv emitting = h.hit & (sf.emitter >= 0) & (v3_dot(sf.n, d) < 0.0f);
     floatv pdf = light_pdf_hit(&lt, &pt, p, h.prim, &sf, emitting);
     store_floatv(pdf, out + 0 * n + base);
-    store_floatv(rt_select((floatv)(-1.0f), to_floatv(h.prim), emitting), out + 1 * n + base);
+    store_floatv(lane_select((floatv)(-1.0f), to_floatv(h.prim), emitting), out + 1 * n + base);
     store_floatv(to_floatv(mask_bit(!h.hit)), out + 2 * n + base);
 }

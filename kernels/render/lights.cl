@@ -42,34 +42,34 @@ typedef struct {
 } light_tables;
 
 /* Radiance of emitter e (lanes with e < 0 get black). */
-RT_INLINE vec3v emitter_radiance_of(const light_tables *lt, intv e) {
+MC_INLINE vec3v emitter_radiance_of(const light_tables *lt, intv e) {
     intv has = e >= 0;
-    rec4v r = gather_rec4(lt->emitter_radiance, RT_AS_UINTV(rt_select((intv)(0), e, has)));
+    rec4v r = gather_rec4(lt->emitter_radiance, lane_as_uint(lane_select((intv)(0), e, has)));
     return v3_select(v3s(0.0f), v3(r.x, r.y, r.z), has);
 }
 
 /* Largest k in [0, nlights - 1] with light_cdf[k] <= u (light_cdf[0] = 0). */
-RT_INLINE uintv light_find(const light_tables *lt, floatv u) {
+MC_INLINE uintv light_find(const light_tables *lt, floatv u) {
     uintv k = (uintv)(0u);
     for (uint step = lt->light_top; step > 0u; step >>= 1) {
         uintv cand = k + step;
         uintv safe = min(cand, (uintv)(lt->nlights - 1u));
         intv take = (cand < (uintv)(lt->nlights)) & (gather_float(lt->light_cdf, safe) <= u);
-        k = rt_select(k, cand, take);
+        k = lane_select(k, cand, take);
     }
     return k;
 }
 
 /* Geometry of the cone a sphere subtends from p: 1 - cos(theta_max) without
  * cancellation (sin^2 / (1 + cos)), and whether cone sampling applies. */
-RT_INLINE intv sphere_cone(vec3v p, vec3v c, floatv r, intv flip, floatv *one_minus_cos, floatv *sin2max, vec3v *wc,
+MC_INLINE intv sphere_cone(vec3v p, vec3v c, floatv r, intv flip, floatv *one_minus_cos, floatv *sin2max, vec3v *wc,
                            floatv *dc) {
     vec3v v = v3_sub(c, p);
     floatv dc2 = v3_len2(v);
-    floatv s2 = rt_min(r * r / dc2, (floatv)(1.0f));
+    floatv s2 = lane_min(r * r / dc2, (floatv)(1.0f));
     *sin2max = s2;
     *one_minus_cos = s2 / (1.0f + safe_sqrt(1.0f - s2));
-    *dc = rt_sqrt(dc2);
+    *dc = lane_sqrt(dc2);
     *wc = v3_scale(v, 1.0f / *dc);
     return (!flip) & (dc2 > r * r);
 }
@@ -86,15 +86,15 @@ typedef struct {
 } light_sample_v;
 
 /* Uniform direction on the unit sphere, pdf 1 / (4 pi). */
-RT_INLINE vec3v square_to_uniform_sphere(floatv u1, floatv u2) {
+MC_INLINE vec3v square_to_uniform_sphere(floatv u1, floatv u2) {
     floatv z = 1.0f - 2.0f * u1;
     floatv r = safe_sqrt(1.0f - z * z);
     floatv c;
-    floatv s = rt_sincos_2pi(u2, &c);
+    floatv s = lane_sincos_2pi(u2, &c);
     return v3(r * c, r * s, z);
 }
 
-RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables *pt, vec3v p, floatv u_env,
+MC_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables *pt, vec3v p, floatv u_env,
                                       floatv u_sel, floatv u1, floatv u2, intv active) {
     light_sample_v s;
     s.valid = active & (intv)(0);
@@ -106,7 +106,7 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
     s.n = s.wo;
     s.prim = (uintv)(0u);
     intv area = active & !s.env;
-    if (lt->nlights > 0u && rt_any(area)) {
+    if (lt->nlights > 0u && lane_any(area)) {
         uintv k = light_find(lt, u_sel);
         LIGHT_RECORD_GATHER(q, lt->light_rec, k);
         vec3v base = REC_VEC3(q, LIGHT_RECORD_BASE);
@@ -116,21 +116,21 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
         vec3v y = p, ny = s.wo;
         floatv pdf = (floatv)(0.0f);
         intv tri_l = area & (shape == (float)LIGHT_TRIANGLE);
-        if (rt_any(tri_l)) {
+        if (lane_any(tri_l)) {
             /* uniform point of the triangle: barycentrics (1 - sqrt(u1), u2 sqrt(u1)) of (v1, v2) (pbrt-v3 §13.6.5) */
             vec3v e1 = REC_VEC3(q, LIGHT_RECORD_EDGE1), e2 = REC_VEC3(q, LIGHT_RECORD_EDGE2);
-            floatv su = rt_sqrt(u1);
+            floatv su = lane_sqrt(u1);
             vec3v yt = v3_madd(v3_madd(base, 1.0f - su, e1), u2 * su, e2);
             vec3v nt = v3_normalize(v3_cross(e1, e2));
             vec3v dv = v3_sub(yt, p);
             floatv d2 = v3_len2(dv);
-            floatv cosl = -v3_dot(nt, dv) * rt_rsqrt(d2);
+            floatv cosl = -v3_dot(nt, dv) * lane_rsqrt(d2);
             y = v3_select(y, yt, tri_l);
             ny = v3_select(ny, nt, tri_l);
-            pdf = rt_select(pdf, pmf * d2 / (area_l * cosl), tri_l);
+            pdf = lane_select(pdf, pmf * d2 / (area_l * cosl), tri_l);
         }
         intv sph_l = area & (shape != (float)LIGHT_TRIANGLE);
-        if (rt_any(sph_l)) {
+        if (lane_any(sph_l)) {
             vec3v c = base;
             floatv r = REC_FIELD(q, LIGHT_RECORD_EDGE1); /* the radius */
             intv flip = shape == (float)LIGHT_SPHERE_INWARD;
@@ -138,13 +138,13 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
             vec3v wc;
             intv cone = sphere_cone(p, c, r, flip, &omc, &s2max, &wc, &dc);
             floatv cph;
-            floatv sph_ = rt_sincos_2pi(u2, &cph);
+            floatv sph_ = lane_sincos_2pi(u2, &cph);
             /* cone: cos(theta) uniform in [cos theta_max, 1]; the point follows from the angle alpha at
              * the centre, cos alpha = sin^2 theta / sin theta_max + cos theta sqrt(1 - sin^2 theta / sin^2 theta_max)
              * (pbrt-v4 §6.2.4) */
             floatv ct = 1.0f - u1 * omc;
             floatv s2t = u1 * omc * (2.0f - u1 * omc);
-            floatv smax = rt_sqrt(s2max);
+            floatv smax = lane_sqrt(s2max);
             floatv ca = s2t / smax + ct * safe_sqrt(1.0f - s2t / s2max);
             floatv sa = safe_sqrt(1.0f - ca * ca);
             frame3v fr = frame_from_normal(wc);
@@ -156,30 +156,30 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
             vec3v nf = v3_select(nout, v3_neg(nout), flip);
             vec3v dv = v3_sub(ys, p);
             floatv d2 = v3_len2(dv);
-            floatv cosl = -v3_dot(nf, dv) * rt_rsqrt(d2);
+            floatv cosl = -v3_dot(nf, dv) * lane_rsqrt(d2);
             floatv pdf_area = d2 / (area_l * cosl);
             floatv pdf_cone = RT_INV_2PI / omc;
             y = v3_select(y, ys, sph_l);
             ny = v3_select(ny, nf, sph_l);
-            pdf = rt_select(pdf, pmf * rt_select(pdf_area, pdf_cone, cone), sph_l);
+            pdf = lane_select(pdf, pmf * lane_select(pdf_area, pdf_cone, cone), sph_l);
         }
         vec3v dv = v3_sub(y, p);
-        floatv dist = rt_sqrt(v3_len2(dv));
+        floatv dist = lane_sqrt(v3_len2(dv));
         vec3v wo = v3_scale(dv, 1.0f / dist);
         intv front = v3_dot(ny, wo) < 0.0f;
-        intv ok = area & front & (pdf > 0.0f) & rt_isfinite(pdf);
+        intv ok = area & front & (pdf > 0.0f) & lane_finite(pdf);
         s.wo = v3_select(s.wo, wo, area);
-        s.prim = rt_select(s.prim, RT_AS_UINTV(REC_FIELD(q, LIGHT_RECORD_PRIM)), area);
+        s.prim = lane_select(s.prim, lane_as_uint(REC_FIELD(q, LIGHT_RECORD_PRIM)), area);
         s.pos = v3_select(s.pos, y, area);
         s.n = v3_select(s.n, ny, area);
-        s.pdf = rt_select(s.pdf, pdf, ok);
+        s.pdf = lane_select(s.pdf, pdf, ok);
         s.radiance = v3_select(s.radiance, REC_VEC3(q, LIGHT_RECORD_RADIANCE), ok);
         s.valid = s.valid | ok;
     }
     intv envl = active & s.env;
-    if (lt->env_pmf > 0.0f && rt_any(envl)) {
+    if (lt->env_pmf > 0.0f && lane_any(envl)) {
         s.wo = v3_select(s.wo, square_to_uniform_sphere(u1, u2), envl);
-        s.pdf = rt_select(s.pdf, (floatv)(lt->env_pmf * RT_INV_4PI), envl);
+        s.pdf = lane_select(s.pdf, (floatv)(lt->env_pmf * RT_INV_4PI), envl);
         s.radiance = v3_select(s.radiance, v3((floatv)(lt->env_radiance.x), (floatv)(lt->env_radiance.y),
                                               (floatv)(lt->env_radiance.z)), envl);
         s.valid = s.valid | envl;
@@ -189,24 +189,24 @@ RT_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
 
 /* The solid-angle pdf with which sample_light, called at p, picks the point
  * y of surface sf (an emitter hit) — the same choices as above. */
-RT_INLINE floatv light_pdf_hit(const light_tables *lt, const prim_tables *pt, vec3v p, uintv prim, const surface_v *sf,
+MC_INLINE floatv light_pdf_hit(const light_tables *lt, const prim_tables *pt, vec3v p, uintv prim, const surface_v *sf,
                                intv active) {
     floatv pmf = sf->pmf * (1.0f - lt->env_pmf);
     vec3v dv = v3_sub(sf->p, p);
     floatv d2 = v3_len2(dv);
-    floatv cosl = rt_abs(v3_dot(sf->n, dv)) * rt_rsqrt(d2);
+    floatv cosl = lane_abs(v3_dot(sf->n, dv)) * lane_rsqrt(d2);
     floatv pdf = pmf * d2 / (sf->area * cosl);
     intv sph_l = active & prim_is_sphere(pt, prim);
-    if (pt->nspheres > 0u && rt_any(sph_l)) {
-        rec4v c = gather_rec4(pt->spheres, rt_select((uintv)(0u), prim - pt->ntris, sph_l));
+    if (pt->nspheres > 0u && lane_any(sph_l)) {
+        rec4v c = gather_rec4(pt->spheres, lane_select((uintv)(0u), prim - pt->ntris, sph_l));
         /* the record's normal points inwards for a flipped sphere: the centre lies on its side */
         intv flip = v3_dot(sf->n, v3_sub(v3(c.x, c.y, c.z), sf->p)) > 0.0f;
         floatv omc, s2max, dc;
         vec3v wc;
         intv cone = sphere_cone(p, v3(c.x, c.y, c.z), c.w, flip, &omc, &s2max, &wc, &dc);
-        pdf = rt_select(pdf, pmf * RT_INV_2PI / omc, sph_l & cone);
+        pdf = lane_select(pdf, pmf * RT_INV_2PI / omc, sph_l & cone);
     }
-    return rt_select((floatv)(0.0f), pdf, active);
+    return lane_select((floatv)(0.0f), pdf, active);
 }
 
 #endif

@@ -17,19 +17,13 @@
 #include "render/vec3.cl"
 #include "render/lane_io.cl"
 
-#if LANES == 1
-#define RT_AS_INTV as_int
-#else
-#define RT_AS_INTV MC_CAT(as_int, LANE_SUFFIX)
-#endif
-
 typedef struct {
     global const float4 *spheres;  /* S: centre, radius */
     global const float4 *prim_rec; /* PRIM_RECORD_QUADS float4 per primitive */
     uint ntris, nspheres;
 } prim_tables;
 
-RT_INLINE intv prim_is_sphere(const prim_tables *pt, uintv prim) { return prim >= (uintv)(pt->ntris); }
+MC_INLINE intv prim_is_sphere(const prim_tables *pt, uintv prim) { return prim >= (uintv)(pt->ntris); }
 
 /* A surface point hit by a ray, with its primitive's record. */
 typedef struct {
@@ -44,19 +38,19 @@ typedef struct {
 /* The surfaces hit by the active lanes.  Positions are o + t d: their float
  * error (~1e-7 t) is far below the spawn offset (prims.cl, offset_origin);
  * sphere hits are projected back onto the sphere (pbrt-v4 §6.8.5). */
-RT_INLINE surface_v surface_at(const prim_tables *pt, uintv prim, floatv t, vec3v o, vec3v d, intv active) {
-    uintv pr = rt_select((uintv)(0u), prim, active);
+MC_INLINE surface_v surface_at(const prim_tables *pt, uintv prim, floatv t, vec3v o, vec3v d, intv active) {
+    uintv pr = lane_select((uintv)(0u), prim, active);
     PRIM_RECORD_GATHER(q, pt->prim_rec, pr);
     surface_v s;
-    s.p = v3_madd(o, rt_select((floatv)(0.0f), t, active), d);
+    s.p = v3_madd(o, lane_select((floatv)(0.0f), t, active), d);
     s.n = REC_VEC3(q, PRIM_RECORD_NORMAL);
     s.area = REC_FIELD(q, PRIM_RECORD_AREA);
-    s.mat = RT_AS_UINTV(REC_FIELD(q, PRIM_RECORD_MATERIAL));
-    s.emitter = rt_select((intv)(-1), RT_AS_INTV(REC_FIELD(q, PRIM_RECORD_EMITTER)), active);
+    s.mat = lane_as_uint(REC_FIELD(q, PRIM_RECORD_MATERIAL));
+    s.emitter = lane_select((intv)(-1), lane_as_int(REC_FIELD(q, PRIM_RECORD_EMITTER)), active);
     s.pmf = REC_FIELD(q, PRIM_RECORD_PMF);
     intv sph = active & prim_is_sphere(pt, pr);
-    if (pt->nspheres > 0u && rt_any(sph)) {
-        rec4v c = gather_rec4(pt->spheres, rt_select((uintv)(0u), pr - pt->ntris, sph));
+    if (pt->nspheres > 0u && lane_any(sph)) {
+        rec4v c = gather_rec4(pt->spheres, lane_select((uintv)(0u), pr - pt->ntris, sph));
         vec3v cc = v3(c.x, c.y, c.z);
         vec3v dn = v3_normalize(v3_sub(s.p, cc));
         s.p = v3_select(s.p, v3_madd(cc, c.w, dn), sph);
@@ -73,9 +67,9 @@ RT_INLINE surface_v surface_at(const prim_tables *pt, uintv prim, floatv t, vec3
 #define RAY_EPSILON 8.940697e-05f /* 1500 * 2^-24, Mitsuba 3's math::RayEpsilon */
 #define SHADOW_EPSILON 8.940697e-04f
 
-RT_INLINE vec3v offset_origin(vec3v p, vec3v n, vec3v w) {
+MC_INLINE vec3v offset_origin(vec3v p, vec3v n, vec3v w) {
     floatv eps = (1.0f + v3_maxabs(p)) * RAY_EPSILON;
-    return v3_madd(p, rt_copysign(eps, v3_dot(n, w)), n);
+    return v3_madd(p, lane_copysign(eps, v3_dot(n, w)), n);
 }
 
 #endif

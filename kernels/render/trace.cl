@@ -20,7 +20,7 @@ typedef struct {
     intv hit;
 } hitv;
 
-RT_INLINE hitv trace_closest_v(const scene_geom *g, vec3v o, vec3v d, intv active) {
+MC_INLINE hitv trace_closest_v(const scene_geom *g, vec3v o, vec3v d, intv active) {
     hitv h;
 #if LANES == 1
     h.hit = 0;
@@ -67,7 +67,7 @@ RT_INLINE hitv trace_closest_v(const scene_geom *g, vec3v o, vec3v d, intv activ
 }
 
 /* Occlusion of the segments o + t d, 0 < t < tmax; inactive lanes report 0. */
-RT_INLINE intv trace_any_v(const scene_geom *g, vec3v o, vec3v d, floatv tmax, intv active) {
+MC_INLINE intv trace_any_v(const scene_geom *g, vec3v o, vec3v d, floatv tmax, intv active) {
 #if LANES == 1
     return active && trace_any(g, (float3)(o.x, o.y, o.z), (float3)(d.x, d.y, d.z), tmax);
 #elif !defined(TRACE_PER_LANE)

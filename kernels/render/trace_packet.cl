@@ -27,10 +27,8 @@
 
 #define PACKET_STACK 64
 
-RT_INLINE vec3v v3_bcast(float4 a) { return v3((floatv)(a.x), (floatv)(a.y), (floatv)(a.z)); }
-
 /* Möller–Trumbore for every lane against one triangle (intersect_triangle). */
-RT_INLINE intv packet_triangle(float4 a, float4 b, float4 c, vec3v o, vec3v d, floatv tmax, floatv *t_out,
+MC_INLINE intv packet_triangle(float4 a, float4 b, float4 c, vec3v o, vec3v d, floatv tmax, floatv *t_out,
                                floatv *u_out, floatv *v_out) {
     float3 e1 = b.xyz - a.xyz, e2 = c.xyz - a.xyz;
     vec3v pv = v3(d.y * e2.z - d.z * e2.y, d.z * e2.x - d.x * e2.z, d.x * e2.y - d.y * e2.x);
@@ -50,39 +48,39 @@ RT_INLINE intv packet_triangle(float4 a, float4 b, float4 c, vec3v o, vec3v d, f
 }
 
 /* The nearest sphere root in (0, tmax) for every lane (intersect_sphere). */
-RT_INLINE intv packet_sphere(float4 s, vec3v o, vec3v d, floatv tmax, floatv *t_out) {
+MC_INLINE intv packet_sphere(float4 s, vec3v o, vec3v d, floatv tmax, floatv *t_out) {
     vec3v f = v3(o.x - s.x, o.y - s.y, o.z - s.z);
     floatv a = v3_dot(d, d);
     floatv b = v3_dot(f, d);
     floatv c = v3_dot(f, f) - s.w * s.w;
     vec3v l = v3_sub(f, v3_scale(d, b / a));
     floatv disc = a * (s.w * s.w - v3_dot(l, l));
-    floatv q = -(b + rt_copysign(rt_sqrt(rt_max(disc, 0.0f)), b));
+    floatv q = -(b + lane_copysign(lane_sqrt(lane_max(disc, 0.0f)), b));
     floatv t0 = q / a, t1 = c / q;
-    floatv tn = rt_min(t0, t1), tf = rt_max(t0, t1);
-    floatv t = rt_select(tf, tn, tn > 0.0f);
+    floatv tn = lane_min(t0, t1), tf = lane_max(t0, t1);
+    floatv t = lane_select(tf, tn, tn > 0.0f);
     *t_out = t;
     return (disc >= 0.0f) & (t > 0.0f) & (t < tmax);
 }
 
 /* Slab test of one box for every lane (bvh_box); lanes with tmax < 0 never hit. */
-RT_INLINE intv packet_box(float4 lo, float4 hi, vec3v o, vec3v inv, floatv tmax, floatv *tnear) {
+MC_INLINE intv packet_box(float4 lo, float4 hi, vec3v o, vec3v inv, floatv tmax, floatv *tnear) {
     floatv tx0 = (lo.x - o.x) * inv.x, tx1 = (hi.x - o.x) * inv.x;
     floatv ty0 = (lo.y - o.y) * inv.y, ty1 = (hi.y - o.y) * inv.y;
     floatv tz0 = (lo.z - o.z) * inv.z, tz1 = (hi.z - o.z) * inv.z;
-    floatv tn = rt_max(rt_max(rt_min(tx0, tx1), rt_min(ty0, ty1)), rt_max(rt_min(tz0, tz1), (floatv)(0.0f)));
-    floatv tf = rt_min(rt_min(rt_max(tx0, tx1), rt_max(ty0, ty1)), rt_min(rt_max(tz0, tz1), tmax)) * BVH_TFAR_SCALE;
+    floatv tn = lane_max(lane_max(lane_min(tx0, tx1), lane_min(ty0, ty1)), lane_max(lane_min(tz0, tz1), (floatv)(0.0f)));
+    floatv tf = lane_min(lane_min(lane_max(tx0, tx1), lane_max(ty0, ty1)), lane_min(lane_max(tz0, tz1), tmax)) * BVH_TFAR_SCALE;
     *tnear = tn;
     return tn <= tf;
 }
 
-RT_INLINE vec3v packet_inv_dir(vec3v d) {
-    return v3(1.0f / rt_select(d.x, (floatv)(1e-30f), d.x == 0.0f), 1.0f / rt_select(d.y, (floatv)(1e-30f), d.y == 0.0f),
-              1.0f / rt_select(d.z, (floatv)(1e-30f), d.z == 0.0f));
+MC_INLINE vec3v packet_inv_dir(vec3v d) {
+    return v3(1.0f / lane_select(d.x, (floatv)(1e-30f), d.x == 0.0f), 1.0f / lane_select(d.y, (floatv)(1e-30f), d.y == 0.0f),
+              1.0f / lane_select(d.z, (floatv)(1e-30f), d.z == 0.0f));
 }
 
 /* Intersect the leaf prims[first .. first + count) with the lanes in `m`. */
-RT_INLINE void packet_leaf_closest(const scene_geom *g, uint first, uint count, vec3v o, vec3v d, intv m,
+MC_INLINE void packet_leaf_closest(const scene_geom *g, uint first, uint count, vec3v o, vec3v d, intv m,
                                    floatv *tbest, uintv *prim, floatv *b1, floatv *b2) {
     for (uint k = first; k < first + count; ++k) {
         uint p = g->prims[k];
@@ -94,14 +92,14 @@ RT_INLINE void packet_leaf_closest(const scene_geom *g, uint first, uint count, 
             ok = packet_sphere(g->spheres[p - g->ntris], o, d, *tbest, &t);
         }
         ok &= m;
-        *tbest = rt_select(*tbest, t, ok);
-        *prim = rt_select(*prim, (uintv)(p), ok);
-        *b1 = rt_select(*b1, u, ok);
-        *b2 = rt_select(*b2, v, ok);
+        *tbest = lane_select(*tbest, t, ok);
+        *prim = lane_select(*prim, (uintv)(p), ok);
+        *b1 = lane_select(*b1, u, ok);
+        *b2 = lane_select(*b2, v, ok);
     }
 }
 
-RT_INLINE intv packet_leaf_any(const scene_geom *g, uint first, uint count, vec3v o, vec3v d, intv m, floatv tmax) {
+MC_INLINE intv packet_leaf_any(const scene_geom *g, uint first, uint count, vec3v o, vec3v d, intv m, floatv tmax) {
     intv occ = m & (intv)(0);
     for (uint k = first; k < first + count; ++k) {
         uint p = g->prims[k];
@@ -113,7 +111,7 @@ RT_INLINE intv packet_leaf_any(const scene_geom *g, uint first, uint count, vec3
             ok = packet_sphere(g->spheres[p - g->ntris], o, d, tmax, &t);
         }
         occ |= ok & m;
-        if (rt_all(occ | !m)) break;
+        if (lane_all(occ | !m)) break;
     }
     return occ;
 }
@@ -125,24 +123,24 @@ RT_INLINE intv packet_leaf_any(const scene_geom *g, uint first, uint count, vec3
 #elif LANES == 2
 #define mask_count(m) ((uint)(-((m).x + (m).y)))
 #elif LANES == 4
-RT_INLINE uint mask_count(int4 m) { int2 a = m.lo + m.hi; return (uint)(-(a.x + a.y)); }
+MC_INLINE uint mask_count(int4 m) { int2 a = m.lo + m.hi; return (uint)(-(a.x + a.y)); }
 #elif LANES == 8
-RT_INLINE uint mask_count(int8 m) { int4 b = m.lo + m.hi; int2 a = b.lo + b.hi; return (uint)(-(a.x + a.y)); }
+MC_INLINE uint mask_count(int8 m) { int4 b = m.lo + m.hi; int2 a = b.lo + b.hi; return (uint)(-(a.x + a.y)); }
 #else
-RT_INLINE uint mask_count(int16 m) {
+MC_INLINE uint mask_count(int16 m) {
     int8 c = m.lo + m.hi; int4 b = c.lo + c.hi; int2 a = b.lo + b.hi;
     return (uint)(-(a.x + a.y));
 }
 #endif
 
 /* Closest hits of the active lanes (t = INFINITY where none). */
-RT_INLINE void packet_closest(const scene_geom *g, vec3v o, vec3v d, intv active, floatv *t_out, uintv *prim,
+MC_INLINE void packet_closest(const scene_geom *g, vec3v o, vec3v d, intv active, floatv *t_out, uintv *prim,
                               floatv *b1, floatv *b2) {
-    floatv tbest = rt_select((floatv)(-1.0f), (floatv)(INFINITY), active);
+    floatv tbest = lane_select((floatv)(-1.0f), (floatv)(INFINITY), active);
     *prim = (uintv)(0u);
     *b1 = (floatv)(0.0f);
     *b2 = (floatv)(0.0f);
-    if (as_uint(g->nodes[0].x) != 0u && rt_any(active)) {
+    if (as_uint(g->nodes[0].x) != 0u && lane_any(active)) {
         vec3v inv = packet_inv_dir(d);
         uint stack[PACKET_STACK];
         uint sp = 0, node = 0;
@@ -153,7 +151,7 @@ RT_INLINE void packet_closest(const scene_geom *g, vec3v o, vec3v d, intv active
             intv h0 = packet_box(a0, a1, o, inv, tbest, &tn0);
             intv h1 = packet_box(c0, c1, o, inv, tbest, &tn1);
             uint r0 = as_uint(a0.w), n0 = as_uint(a1.w), r1 = as_uint(c0.w), n1 = as_uint(c1.w);
-            bool any0 = rt_any(h0), any1 = rt_any(h1);
+            bool any0 = lane_any(h0), any1 = lane_any(h1);
             /* the child most of the packet reaches first goes first */
             if (any0 && any1 && 2u * mask_count(h0 & h1 & (tn1 < tn0)) > mask_count(h0 & h1)) {
                 uint tr = r0; r0 = r1; r1 = tr;
@@ -183,15 +181,15 @@ RT_INLINE void packet_closest(const scene_geom *g, vec3v o, vec3v d, intv active
             node = stack[--sp];
         }
     }
-    *t_out = rt_select((floatv)(INFINITY), tbest, active);
+    *t_out = lane_select((floatv)(INFINITY), tbest, active);
 }
 
 /* Occlusion of the segments o + t d, 0 < t < tmax, of the active lanes. */
-RT_INLINE intv packet_any(const scene_geom *g, vec3v o, vec3v d, floatv tmax, intv active) {
+MC_INLINE intv packet_any(const scene_geom *g, vec3v o, vec3v d, floatv tmax, intv active) {
     intv occ = active & (intv)(0);
-    if (as_uint(g->nodes[0].x) == 0u || !rt_any(active)) return occ;
+    if (as_uint(g->nodes[0].x) == 0u || !lane_any(active)) return occ;
     vec3v inv = packet_inv_dir(d);
-    floatv tm = rt_select((floatv)(-1.0f), tmax, active);
+    floatv tm = lane_select((floatv)(-1.0f), tmax, active);
     uint stack[PACKET_STACK];
     uint sp = 0, node = 0;
     for (;;) {
@@ -201,7 +199,7 @@ RT_INLINE intv packet_any(const scene_geom *g, vec3v o, vec3v d, floatv tmax, in
         intv h0 = packet_box(a0, a1, o, inv, tm, &tn0);
         intv h1 = packet_box(c0, c1, o, inv, tm, &tn1);
         uint r0 = as_uint(a0.w), n0 = as_uint(a1.w), r1 = as_uint(c0.w), n1 = as_uint(c1.w);
-        bool any0 = rt_any(h0), any1 = rt_any(h1);
+        bool any0 = lane_any(h0), any1 = lane_any(h1);
         if (any0 && n0) {
             occ |= packet_leaf_any(g, r0, n0, o, d, h0, tm);
             any0 = false;
@@ -211,8 +209,8 @@ RT_INLINE intv packet_any(const scene_geom *g, vec3v o, vec3v d, floatv tmax, in
             any1 = false;
         }
         /* occluded lanes are done: make every later box test fail for them */
-        tm = rt_select(tm, (floatv)(-1.0f), occ);
-        if (rt_all(occ | !active)) break;
+        tm = lane_select(tm, (floatv)(-1.0f), occ);
+        if (lane_all(occ | !active)) break;
         if (any0) {
             if (any1 && sp < PACKET_STACK) stack[sp++] = r1;
             node = r0;

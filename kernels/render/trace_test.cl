@@ -20,7 +20,7 @@ kernel void trace_compare(SCENE_GEOM_PARAMS, uint n, global const float *rays, g
     packet_closest(&g, o, d, all, &t, &prim, &b1, &b2);
     intv hit = t < INFINITY;
     store_floatv(t, out + 0 * n + base);
-    store_floatv(rt_select((floatv)(-1.0f), to_floatv(prim), hit), out + 1 * n + base);
+    store_floatv(lane_select((floatv)(-1.0f), to_floatv(prim), hit), out + 1 * n + base);
     store_floatv(to_floatv(mask_bit(packet_any(&g, o, d, tmax, all))), out + 2 * n + base);
     for (uint k = 0; k < LANES; ++k) {
         uint i = base + k;

@@ -1,8 +1,11 @@
 /* uniform.cl — the engine's random numbers: which Philox counter a sample's
- * dimension uses, and how 32 random bits become a float in (0, 1).
+ * dimension uses, and how 32 random bits become a float in (0, 1).  This is
+ * the one place where Philox counters are built (rng_block) and where the
+ * uniform grid is defined (UNIFORM_*, u01); estimators draw through
+ * samplers/sampler.cl, and the stream tags are registered in rng/streams.cl.
  *
  * Addressing.  Sample index i (64-bit), dimension j, seed s (64-bit) and a
- * stream tag t (which consumer: integration, jitter, light sampling, ...):
+ * stream tag t (which consumer, rng/streams.cl):
  *     Philox4x32-10( counter = (lo32(i), hi32(i), j / 4, t),
  *                    key     = (lo32(s), hi32(s)) )  word j % 4
  * so the numbers of (s, i, j, t) depend on nothing else: not the device, not
@@ -16,18 +19,22 @@
  * Truncation (b * 2^-32) would instead bias every coordinate low by half a
  * cell and can return 0 (docs/pocl-notes.md, "Known bias trap").
  * Only 23 bits are used because 24 bits plus the half-cell offset would need
- * a 25-bit significand.
+ * a 25-bit significand.  Tabulated densities (sampling/piecewise.cl,
+ * walks/table.cl) quantise their masses to the same UNIFORM_CELLS cells, so a
+ * uniform picks a bin with exactly the probability the pdf reports.
  */
 #ifndef MCOCL_UNIFORM_CL
 #define MCOCL_UNIFORM_CL
 
 #include "rng/philox.cl"
+#include "rng/streams.cl"
 
-/* Stream tags: independent families of numbers for the same sample index. */
-#define RNG_STREAM_SAMPLE 0u   /* the sample's own coordinates */
-#define RNG_STREAM_JITTER 1u   /* stratum jitter */
-#define RNG_STREAM_AUX 2u      /* roulette, technique choice, ... */
+/* The uniform grid: UNIFORM_CELLS equal cells of [0, 1), u = cell centre. */
+#define UNIFORM_GRID_BITS 23
+#define UNIFORM_CELLS 8388608u     /* 2^UNIFORM_GRID_BITS */
+#define UNIFORM_CELL_WIDTH 0x1p-23f /* 1 / UNIFORM_CELLS */
 
+/* Who a sample is: its 64-bit index, the seed (Philox key) and the stream. */
 typedef struct {
     uintv lo, hi;   /* sample index, split in two 32-bit words */
     uint k0, k1;    /* seed */
@@ -44,57 +51,31 @@ MC_INLINE rng_t rng_init(ulongv index, ulong seed, uint stream) {
     return r;
 }
 
-/* The samples base + stride * lane of a packet, without 64-bit lane arithmetic
- * (the low word can carry at most once within a packet). */
-MC_INLINE rng_t rng_init_packet(ulong base, uint stride, ulong seed, uint stream) {
+/* The samples base + offset (per lane) without 64-bit lane arithmetic: the
+ * low word carries into the high one exactly when it wraps below the offset. */
+MC_INLINE rng_t rng_init_offset(ulong base, uintv offset, ulong seed, uint stream) {
     rng_t r;
-    uint lo0 = (uint)base;
-    r.lo = (uintv)(lo0) + stride * LANE_IOTA;
-    r.hi = (uintv)((uint)(base >> 32)) + to_uintv(mask_bit(r.lo < (uintv)(lo0)));
+    r.lo = (uintv)((uint)base) + offset;
+    r.hi = (uintv)((uint)(base >> 32)) + to_uintv(mask_bit(r.lo < offset));
     r.k0 = (uint)(seed & 0xffffffffu);
     r.k1 = (uint)(seed >> 32);
     r.stream = stream;
     return r;
 }
 
-/* The four 32-bit words of dimensions 4*block .. 4*block + 3. */
-MC_INLINE philox_ctr rng_block(rng_t r, uint block) {
+/* The four 32-bit words of dimensions 4*block .. 4*block + 3 (block per lane). */
+MC_INLINE philox_ctr rng_block(rng_t r, uintv block) {
     philox_ctr c;
     c.v0 = r.lo;
     c.v1 = r.hi;
-    c.v2 = (uintv)(block);
+    c.v2 = block;
     c.v3 = (uintv)(r.stream);
     return philox4x32_10(c, r.k0, r.k1);
 }
 
 /* 32 random bits -> cell centre in (0, 1); see the header for why. */
 MC_INLINE floatv u01(uintv bits) {
-    return (to_floatv(bits >> 9) + 0.5f) * 0x1p-23f;
-}
-
-/* 64 random bits -> cell centre in (0, 1) in double precision (52-bit cells). */
-MC_INLINE doublev u01d(uintv hi, uintv lo) {
-    ulongv b = (to_ulongv(hi) << 20) | to_ulongv(lo >> 12);
-    return (to_doublev(b) + 0.5) * 0x1p-52;
-}
-
-/* One uniform of dimension `dim`; costs a whole Philox call, so prefer
- * rng_block when several consecutive dimensions are needed. */
-MC_INLINE floatv rng_uniform(rng_t r, uint dim) {
-    philox_ctr c = rng_block(r, dim >> 2);
-    uint w = dim & 3u;
-    return u01(w == 0u ? c.v0 : w == 1u ? c.v1 : w == 2u ? c.v2 : c.v3);
-}
-
-/* Fill u[0 .. n-1] with dimensions first .. first+n-1 (first % 4 == 0). */
-MC_INLINE void rng_uniforms(rng_t r, uint first, int n, floatv *u) {
-    for (int j = 0; j < n; j += 4) {
-        philox_ctr c = rng_block(r, (first >> 2) + (uint)(j >> 2));
-        u[j] = u01(c.v0);
-        if (j + 1 < n) u[j + 1] = u01(c.v1);
-        if (j + 2 < n) u[j + 2] = u01(c.v2);
-        if (j + 3 < n) u[j + 3] = u01(c.v3);
-    }
+    return (to_floatv(bits >> (32 - UNIFORM_GRID_BITS)) + 0.5f) * UNIFORM_CELL_WIDTH;
 }
 
 #endif

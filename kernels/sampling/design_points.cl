@@ -1,7 +1,7 @@
 /* design_points.cl — the points of one stratified or N-rooks design, exactly
  * as integrate.cl places them (same Philox addressing, same permutations).
  * For inspection and tests; built with LANES=1.  Needs DIM. */
-#include "rng/uniform.cl"
+#include "samplers/sampler.cl"
 #include "sampling/stratified.cl"
 #include "sampling/nrooks.cl"
 
@@ -14,8 +14,8 @@ kernel void nrooks_points(uint n, ulong design, ulong seed, global float *out) {
     uint w = popcount(mask);
     uint s1 = max(1u, w / 2u), s2 = max(1u, (w + 2u) / 3u);
     float u[DIM];
-    rng_t r = rng_init(design * (ulong)n + i, seed, RNG_STREAM_SAMPLE);
-    rng_uniforms(r, 0u, DIM, u);
+    mc_sampler_t s = sampler_start(seed, design * (ulong)n + i, RNG_STREAM_SAMPLE);
+    sampler_next_nd(&s, DIM, u);
     for (uint a = 0; a < DIM; ++a) {
         uint cell = nrooks_permute(i, n, mask, s1, s2, nrooks_key(seed, design, a));
         out[i * DIM + a] = cell_to_unit((double)cell, u[a], (double)n, 1.0 / (double)n);
@@ -31,8 +31,8 @@ kernel void stratified_points(uint m, uint strata, ulong design, ulong seed, glo
     stratum_cells(h, DIM, (double)m, 1.0 / (double)m, cell);
     for (uint t = 0; t < 2; ++t) {
         float u[DIM];
-        rng_t r = rng_init(2ul * (design * (ulong)strata + h) + t, seed, RNG_STREAM_SAMPLE);
-        rng_uniforms(r, 0u, DIM, u);
+        mc_sampler_t s = sampler_start(seed, 2ul * (design * (ulong)strata + h) + t, RNG_STREAM_SAMPLE);
+        sampler_next_nd(&s, DIM, u);
         for (uint a = 0; a < DIM; ++a) out[(2 * h + t) * DIM + a] = cell_to_unit(cell[a], u[a], (double)m, 1.0 / (double)m);
     }
 }

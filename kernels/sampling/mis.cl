@@ -9,12 +9,7 @@
 #ifndef MCOCL_MIS_CL
 #define MCOCL_MIS_CL
 
-#include "lane_ops.cl"
-
-#define MIS_AVERAGE 0
-#define MIS_MAX 1
-#define MIS_BALANCE 2
-#define MIS_POWER 3
+#include "lanes.cl"
 
 MC_INLINE floatv mis_weight_average(int i, const float *n, int k) {
     float total = 0.0f;
@@ -58,10 +53,6 @@ MC_INLINE floatv mis_weight_power(int i, const floatv *q, int k, float beta) {
 MC_INLINE floatv power_heuristic(floatv a, floatv b) {
     floatv a2 = a * a, b2 = b * b;
     return lane_select(a2 / (a2 + b2), (floatv)(0.0f), (a2 + b2) <= 0.0f);
-}
-
-MC_INLINE floatv balance_heuristic(floatv a, floatv b) {
-    return lane_select(a / (a + b), (floatv)(0.0f), (a + b) <= 0.0f);
 }
 
 #endif

@@ -12,15 +12,14 @@
  * The bijection is a few rounds of invertible steps on w-bit words: xor or
  * add a key, multiply by an odd constant (invertible mod 2^w), xorshift right
  * by s >= 1 (invertible).  The 4 round keys of (seed, design, axis) come from
- * Philox, so permutations of different axes and designs are independent.
+ * Philox (stream RNG_STREAM_PERMUTATION, rng/streams.cl), so permutations of
+ * different axes and designs are independent.  They are hashes, not sample
+ * coordinates: they come from rng/uniform.cl whatever the sampler back end.
  */
 #ifndef MCOCL_NROOKS_CL
 #define MCOCL_NROOKS_CL
 
 #include "rng/uniform.cl"
-#include "lane_ops.cl"
-
-#define RNG_STREAM_PERMUTATION 3u
 
 typedef struct {
     uint k0, k1, k2, k3;
@@ -28,15 +27,10 @@ typedef struct {
 
 /* Round keys of the permutation of `axis` in `design`. */
 MC_INLINE perm_key nrooks_key(ulong seed, ulong design, uint axis) {
-    philox_ctr c;
+    const philox_ctr r = rng_block(rng_init((ulongv)(design), seed, RNG_STREAM_PERMUTATION), (uintv)(axis));
 #if LANES == 1
-    c.v0 = (uint)design; c.v1 = (uint)(design >> 32); c.v2 = axis; c.v3 = RNG_STREAM_PERMUTATION;
-    philox_ctr r = philox4x32_10(c, (uint)seed, (uint)(seed >> 32));
     perm_key k = {r.v0, r.v1, r.v2, r.v3};
 #else
-    c.v0 = (uintv)((uint)design); c.v1 = (uintv)((uint)(design >> 32));
-    c.v2 = (uintv)(axis); c.v3 = (uintv)(RNG_STREAM_PERMUTATION);
-    philox_ctr r = philox4x32_10(c, (uint)seed, (uint)(seed >> 32));
     perm_key k = {r.v0.s0, r.v1.s0, r.v2.s0, r.v3.s0};
 #endif
     return k;
@@ -64,7 +58,7 @@ MC_INLINE uintv nrooks_permute(uintv i, uint n, uint mask, uint s1, uint s2, per
     uintv x = nrooks_mix(i, mask, s1, s2, k);
     intv out = x >= (uintv)(n);
     while (lane_any(out)) {
-        x = lane_select_u(x, nrooks_mix(x, mask, s1, s2, k), out);
+        x = lane_select(x, nrooks_mix(x, mask, s1, s2, k), out);
         out = x >= (uintv)(n);
     }
     return x;

@@ -15,11 +15,12 @@
 #ifndef MCOCL_PIECEWISE_CL
 #define MCOCL_PIECEWISE_CL
 
+#include "rng/uniform.cl"
 #include "sampling/gather.cl"
 #include "sampling/unit_interval.cl"
 
-#define PC_TOTAL 8388608.0f /* 2^23 */
-#define PC_INV_TOTAL 0x1p-23f
+#define PC_TOTAL ((float)UNIFORM_CELLS)
+#define PC_INV_TOTAL UNIFORM_CELL_WIDTH
 
 /* Largest b in [0, nbins - 1] with cum[b] <= c; `top` = largest power of 2 <= nbins. */
 MC_INLINE uintv pc_find(global const uint *cum, uint nbins, uint top, uintv c) {
@@ -28,7 +29,7 @@ MC_INLINE uintv pc_find(global const uint *cum, uint nbins, uint top, uintv c) {
         uintv cand = b + step;
         uintv safe = lane_min_u(cand, (uintv)(nbins - 1u));
         intv take = (cand < (uintv)(nbins)) & (gather_uint(cum, safe) <= c);
-        b = lane_select_u(b, cand, take);
+        b = lane_select(b, cand, take);
     }
     return b;
 }
@@ -44,7 +45,7 @@ MC_INLINE floatv pc_keep_in_bin(floatv x, uintv b, uint nbins) {
 /* Sample a 1-D table; returns x and writes its bin mass in *mass (probability, not density). */
 MC_INLINE floatv pc1_sample_mass(global const uint *cum, uint nbins, uint top, floatv u, floatv *mass) {
     floatv t = u * PC_TOTAL;
-    uintv c = lane_min_u(to_uintv_rtz(t), (uintv)(8388607u));
+    uintv c = lane_min_u(to_uintv_rtz(t), (uintv)(UNIFORM_CELLS - 1u));
     uintv b = pc_find(cum, nbins, top, c);
     uintv lo = gather_uint(cum, b);
     uintv hi = gather_uint(cum, b + 1u);
@@ -80,14 +81,14 @@ MC_INLINE void pc2_warp(global const uint *marg, global const uint *cond, uint n
     uintv row = lane_min_u(to_uintv_rtz(*xa * (float)na), (uintv)(na - 1u));
     /* sample the conditional of that row: gather through a per-lane row offset */
     floatv t = ub * PC_TOTAL;
-    uintv c = lane_min_u(to_uintv_rtz(t), (uintv)(8388607u));
+    uintv c = lane_min_u(to_uintv_rtz(t), (uintv)(UNIFORM_CELLS - 1u));
     uintv base = row * (nb + 1u);
     uintv b = (uintv)(0u);
     for (uint step = topb; step > 0u; step >>= 1) {
         uintv cand = b + step;
         uintv safe = lane_min_u(cand, (uintv)(nb - 1u));
         intv take = (cand < (uintv)(nb)) & (gather_uint(cond, base + safe) <= c);
-        b = lane_select_u(b, cand, take);
+        b = lane_select(b, cand, take);
     }
     uintv lo = gather_uint(cond, base + b);
     uintv hi = gather_uint(cond, base + b + 1u);

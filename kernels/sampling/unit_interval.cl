@@ -4,10 +4,9 @@
 #ifndef MCOCL_UNIT_INTERVAL_CL
 #define MCOCL_UNIT_INTERVAL_CL
 
-#include "lane_ops.cl"
+#include "lanes.cl"
 
 #define ONE_MINUS_EPS 0x1.fffffep-1f /* the largest float below 1 */
-#define TINY_POSITIVE 0x1p-24f
 
 MC_INLINE floatv clamp_open01(floatv x) { return lane_open01(x); }
 

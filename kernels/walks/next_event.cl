@@ -18,7 +18,7 @@
 #include "walks/transition.cl"
 
 /* Sample zeta (into z) from the uniforms u; returns g(zeta) / p(zeta). */
-inline floatv walk_source_sample(const floatv *u, floatv *z, walk_tables t) {
+MC_INLINE floatv walk_source_sample(const floatv *u, floatv *z, walk_tables t) {
 #if WALK_SRC == WALK_SRC_TABLE
     floatv p = wt_sample(t.tab, (uintv)(t.src_off), t.nya, t.nb, t.lognb, u[WALK_U_ZBIN], u + WALK_U_Z, z);
     return walk_g(z) / p;
@@ -30,7 +30,7 @@ inline floatv walk_source_sample(const floatv *u, floatv *z, walk_tables t) {
 }
 
 /* One-sample estimate of integral K(x, y) g(y) dy, from uniforms u. */
-inline floatv walk_next_event(const floatv *x, const floatv *u, walk_tables t) {
+MC_INLINE floatv walk_next_event(const floatv *x, const floatv *u, walk_tables t) {
     floatv z[DIM];
     floatv gp = walk_source_sample(u, z, t);
     return walk_K(x, z) * gp;

@@ -9,7 +9,6 @@
  */
 #include "walks/walk_rng.cl"
 #include "walks/next_event.cl"
-#include "lane_ops.cl"
 
 kernel void walk_sample_check(uint n, ulong seed, global const float *xs, global const uint *tab, uint nxa,
                               uint nya, uint nb, uint lognb, uint trans_off, uint q_off, uint src_off,
@@ -22,8 +21,8 @@ kernel void walk_sample_check(uint n, ulong seed, global const float *xs, global
     t.trans_off = trans_off; t.q_off = q_off; t.src_off = src_off;
     const uintv idx = (uintv)(gid * LANES) + LANE_IOTA;
     floatv u[WALK_NUI]; /* the first step's uniforms come first */
-    walk_step_uniforms(idx, (uintv)(0u), (uintv)(0u), (uint)(seed & 0xffffffffu), (uint)(seed >> 32), WALK_STREAM,
-                       u);
+    mc_sampler_t smp = sampler_start_at(seed, 0ul, idx, RNG_STREAM_WALK);
+    walk_step_uniforms(&smp, (uintv)(0u), u);
     floatv x[DIM], y[DIM], z[DIM], q;
     for (int k = 0; k < DIM; ++k) x[k] = (floatv)(xs[k]);
     floatv m = walk_transition(x, u, y, &q, t);

@@ -22,21 +22,19 @@
 #ifndef MCOCL_WALK_TABLE_CL
 #define MCOCL_WALK_TABLE_CL
 
+#include "rng/uniform.cl"
 #include "sampling/gather.cl"
-#include "lane_ops.cl"
-
-#define WT_TOTAL 8388608.0f /* 2^23 */
-#define WT_INV_TOTAL 0x1p-23f
+#include "lanes.cl"
 
 /* Sample the table at `base` (NB = 2^k bins) with the uniform ub (bin) and
  * ux[0..DIM-1] (position inside the bin's box); writes y and returns p(y). */
-inline floatv wt_sample(global const uint *tab, uintv base, uint nya, uint nb, uint k, floatv ub,
+MC_INLINE floatv wt_sample(global const uint *tab, uintv base, uint nya, uint nb, uint k, floatv ub,
                         const floatv *ux, floatv *y) {
-    const uintv c = lane_min_u(to_uintv_rtz(ub * WT_TOTAL), (uintv)(8388607u));
-    const uintv col = c >> (23u - k);
-    const uintv rest = c & (uintv)((8388608u >> k) - 1u);
+    const uintv c = lane_min_u(to_uintv_rtz(ub * (float)UNIFORM_CELLS), (uintv)(UNIFORM_CELLS - 1u));
+    const uintv col = c >> ((uint)UNIFORM_GRID_BITS - k);
+    const uintv rest = c & (uintv)((UNIFORM_CELLS >> k) - 1u);
     const uintv word = gather_uint(tab, base + col);
-    const uintv b = lane_select_u(word & (uintv)(nb - 1u), col, rest < (word >> k));
+    const uintv b = lane_select(word & (uintv)(nb - 1u), col, rest < (word >> k));
     const floatv cnt = to_floatv(gather_uint(tab, base + nb + b));
     uintv left = b;
     const float inv = 1.0f / (float)nya;
@@ -45,11 +43,11 @@ inline floatv wt_sample(global const uint *tab, uintv base, uint nya, uint nb, u
         left = left / (uintv)(nya);
         y[d] = lane_open01((to_floatv(digit) + ux[d]) * inv);
     }
-    return cnt * (WT_INV_TOTAL * (float)nb);
+    return cnt * (UNIFORM_CELL_WIDTH * (float)nb);
 }
 
 /* The cell (of nxa per axis, row-major) holding the point x. */
-inline uintv wt_cell(const floatv *x, uint nxa) {
+MC_INLINE uintv wt_cell(const floatv *x, uint nxa) {
     uintv c = (uintv)(0u);
     for (int d = 0; d < DIM; ++d)
         c = c * nxa + lane_min_u(to_uintv_rtz(x[d] * (float)nxa), (uintv)(nxa - 1u));

@@ -16,7 +16,7 @@
 #define MCOCL_WALK_TABULATE_CL
 
 /* The centre of sub-box `sub` (of s per axis) of box `box` (of na per axis). */
-inline void walk_subpoint(uint box, uint na, uint sub, uint s, float *p) {
+MC_INLINE void walk_subpoint(uint box, uint na, uint sub, uint s, float *p) {
     for (int k = DIM - 1; k >= 0; --k) {
         const uint d = box % na, e = sub % s;
         box /= na;
@@ -25,7 +25,7 @@ inline void walk_subpoint(uint box, uint na, uint sub, uint s, float *p) {
     }
 }
 
-inline uint walk_ipow(uint b, int e) {
+MC_INLINE uint walk_ipow(uint b, int e) {
     uint r = 1u;
     for (int k = 0; k < e; ++k) r *= b;
     return r;

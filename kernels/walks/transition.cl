@@ -38,7 +38,7 @@ typedef struct {
 /* The multiplier K(x,y)/p(y|x) of the move x -> y, y sampled here from the
  * uniforms u (layout WALK_U_* of the generated code); *q is the survival
  * probability of the subcritical variants (1 for the uniform one). */
-inline floatv walk_transition(const floatv *x, const floatv *u, floatv *y, floatv *q, walk_tables t) {
+MC_INLINE floatv walk_transition(const floatv *x, const floatv *u, floatv *y, floatv *q, walk_tables t) {
 #if WALK_TRANS == WALK_TRANS_UNIFORM
     for (int k = 0; k < DIM; ++k) y[k] = u[WALK_U_Y + k];
     *q = (floatv)(1.0f);

@@ -53,7 +53,6 @@
  */
 #include "walks/walk_rng.cl"
 #include "walks/next_event.cl"
-#include "lane_ops.cl"
 
 #define WALK_STATS 6
 #define WALK_WEIGHT_GUARD 1e30f
@@ -73,10 +72,8 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
     walk_tables t;
     t.tab = tab; t.nxa = nxa; t.nya = nya; t.nb = nb; t.lognb = lognb;
     t.trans_off = trans_off; t.q_off = q_off; t.src_off = src_off;
-    const uint k0 = (uint)(seed & 0xffffffffu), k1 = (uint)(seed >> 32);
-    const uint stream = WALK_STREAM + qi;
+    const uint stream = RNG_STREAM_WALK + qi;
     const double shift = shifts[qi];
-    const uint w0_lo = (uint)(w0 & 0xffffffffu), w0_hi = (uint)(w0 >> 32);
 
     floatv x0[DIM];
     for (int k = 0; k < DIM; ++k) x0[k] = (floatv)(queries[qi * DIM + k]);
@@ -100,11 +97,10 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
     }
 
     while (lane_any(active)) {
-        /* walk index w0 + j as two 32-bit words (w0 is a multiple of wpb, j < wpb) */
-        const uintv w_lo = (uintv)(w0_lo) + j;
-        const uintv w_hi = (uintv)(w0_hi) + to_uintv(mask_bit(w_lo < j));
+        /* the lanes' walks w0 + j */
+        mc_sampler_t smp = sampler_start_at(seed, w0, j, stream);
         floatv uu[WALK_NUI];
-        walk_step_uniforms(w_lo, w_hi, n / (uint)WALK_SPB, k0, k1, stream, uu);
+        walk_step_uniforms(&smp, n / (uint)WALK_SPB, uu);
         /* up to WALK_SPB steps (every lane starts the iteration at a step that is
          * a multiple of WALK_SPB: walks restart at 0 and advance WALK_SPB at a time) */
         intv going = active, finished = (intv)(0), guard = (intv)(0);
@@ -156,7 +152,7 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
             going = going & !ends;
         }
         if (lane_any(finished)) {
-            moves += to_ulongv(lane_select_u((uintv)(0u), n, finished));
+            moves += to_ulongv(lane_select((uintv)(0u), n, finished));
             guards += to_uintv(mask_bit(guard));
             const intv ok = finished & !guard & lane_finite(S);
             nbad += to_uintv(mask_bit(finished & !guard & !lane_finite(S)));
@@ -181,11 +177,11 @@ kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong 
 #endif
             stop |= lane_any(guard);
             /* the lane's next walk; after a guard hit, none (the run will raise) */
-            j = lane_select_u(j, stop ? (uintv)(nwalks) : j + (uint)LANES, finished);
+            j = lane_select(j, stop ? (uintv)(nwalks) : j + (uint)LANES, finished);
             for (int k = 0; k < DIM; ++k) x[k] = lane_select(x[k], x0[k], finished);
             W = lane_select(W, (floatv)(1.0f), finished);
             S = lane_select(S, s0, finished);
-            n = lane_select_u(n, (uintv)(0u), finished);
+            n = lane_select(n, (uintv)(0u), finished);
             active = j < (uintv)(nwalks);
         }
     }

@@ -3,44 +3,33 @@
  * A step uses WALK_NU uniforms.  When they fit in a Philox block several
  * times (WALK_SPB = 4 / WALK_NU steps per block: 4 for a 1-D truncated walk,
  * 2 for 1-D roulette), one block serves WALK_SPB consecutive steps; walk.cl
- * then makes those steps in one iteration.  Addressing (the engine's Philox
- * convention, rng/uniform.cl, with a per-lane block word): the uniforms of
- * steps WALK_SPB i .. WALK_SPB i + WALK_SPB - 1 of walk w for query point q are
- *     Philox4x32-10( counter = (lo32(w), hi32(w), i * WALK_BPS + b, WALK_STREAM + q),
- *                    key     = (lo32(seed), hi32(seed)) )        b = 0 .. WALK_BPS-1
- * (words in order, step after step), so a walk's numbers depend on
- * (seed, q, w, step) alone: not on the lane or the work-item that runs it,
- * nor on when the lane picked the walk up.  Lanes of a packet are at
- * different steps, hence the block word is a vector here, unlike rng_block().
- *
- * WALK_STREAM (8) keeps these numbers apart from the stream tags 0..7 that
- * other families use; query q uses stream 8 + q.
+ * then makes those steps in one iteration.  Addressing (samplers/sampler.cl,
+ * stream RNG_STREAM_WALK + q for query point q, rng/streams.cl): walk w is
+ * sample w, and iteration i (steps WALK_SPB i .. WALK_SPB i + WALK_SPB - 1)
+ * draws dimensions WALK_DIMS_PER_ITER i .. in order, step after step, i.e.
+ * with the Philox back end
+ *     Philox4x32-10( counter = (lo32(w), hi32(w), i * WALK_BPS + b, RNG_STREAM_WALK + q),
+ *                    key     = (lo32(seed), hi32(seed)) )        b = 0 .. WALK_BPS-1,
+ * so a walk's numbers depend on (seed, q, w, step) alone: not on the lane or
+ * the work-item that runs it, nor on when the lane picked the walk up.  Lanes
+ * of a packet are at different steps: the dimension counter is per lane.
+ * Dimensions are 32-bit words, so they wrap after 2^30 / WALK_BPS
+ * iterations (over 10^9 moves; max_walk_length allows up to 2^31 - 1).
  */
 #ifndef MCOCL_WALK_RNG_CL
 #define MCOCL_WALK_RNG_CL
 
-#include "rng/uniform.cl"
+#include "samplers/sampler.cl"
 
-#define WALK_STREAM 8u
 #define WALK_SPB (WALK_NU <= 4 ? 4 / WALK_NU : 1) /* steps per iteration */
 #define WALK_NUI (WALK_SPB * WALK_NU)             /* uniforms per iteration */
+#define WALK_DIMS_PER_ITER (4u * (uint)WALK_BPS)  /* whole blocks: iterations start on a block */
 
-/* u[0 .. WALK_SPB * WALK_NU - 1]: the uniforms of iteration `it` (steps
- * WALK_SPB it ..) of walks `w_lo`/`w_hi`. */
-inline __attribute__((always_inline)) void walk_step_uniforms(uintv w_lo, uintv w_hi, uintv it, uint k0, uint k1,
-                                                               uint stream, floatv *u) {
-    for (int b = 0; b < WALK_BPS; ++b) {
-        philox_ctr c;
-        c.v0 = w_lo;
-        c.v1 = w_hi;
-        c.v2 = it * (uint)WALK_BPS + (uint)b;
-        c.v3 = (uintv)(stream);
-        philox_ctr r = philox4x32_10(c, k0, k1);
-        if (4 * b + 0 < WALK_NUI) u[4 * b + 0] = u01(r.v0);
-        if (4 * b + 1 < WALK_NUI) u[4 * b + 1] = u01(r.v1);
-        if (4 * b + 2 < WALK_NUI) u[4 * b + 2] = u01(r.v2);
-        if (4 * b + 3 < WALK_NUI) u[4 * b + 3] = u01(r.v3);
-    }
+/* u[0 .. WALK_NUI - 1]: the uniforms of iteration `it` (steps WALK_SPB it ..)
+ * of the walks of sampler s. */
+MC_INLINE void walk_step_uniforms(mc_sampler_t *s, uintv it, floatv *u) {
+    sampler_seek(s, it * WALK_DIMS_PER_ITER);
+    sampler_next_nd(s, WALK_NUI, u);
 }
 
 #endif

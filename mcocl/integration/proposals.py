@@ -36,9 +36,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..rng import GRID_CELLS
 from ..usercode import UserFunction
 
-CDF_TOTAL = 1 << 23  # the resolution of the engine's uniforms (rng/uniform.cl)
+CDF_TOTAL = GRID_CELLS  # the resolution of the engine's uniforms (rng/uniform.cl)
 
 
 def _f(v: float) -> str:

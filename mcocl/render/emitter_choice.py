@@ -25,7 +25,9 @@ import math
 
 import numpy as np
 
-GRID = 1 << 23  # the uniforms' grid (kernels/rng/uniform.cl): u = (m + 1/2) / 2^23
+from ..rng import GRID_CELLS
+
+GRID = GRID_CELLS  # the uniforms' grid (kernels/rng/uniform.cl): u = (m + 1/2) / 2^23
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 MIN_ENV_RADIUS = 1e-3  # an environment around a point-sized scene still gets a finite power
 

@@ -154,16 +154,16 @@ def generate(
         # a user's sampler must map into [0, 1]: a point outside becomes NaN
         # (counted as a non-finite walk) rather than being clamped silently
         lines += [
-            "inline floatv walk_unit_or_nan(floatv v) {",
+            "MC_INLINE floatv walk_unit_or_nan(floatv v) {",
             "    return lane_select(lane_open01(v), (floatv)(NAN), (v < 0.0f) | (v > 1.0f));",
             "}",
         ]
     if trans == TRANS_GIVEN:
-        lines.append("inline void walk_T_all(const floatv *x, const floatv *u, floatv *y) {")
+        lines.append("MC_INLINE void walk_T_all(const floatv *x, const floatv *u, floatv *y) {")
         lines += [f"    y[{k}] = walk_unit_or_nan(walk_T{k}(x, u));" for k in range(dim)]
         lines.append("}")
     if src == SRC_GIVEN:
-        lines.append("inline void walk_Z_all(const floatv *u, floatv *z) {")
+        lines.append("MC_INLINE void walk_Z_all(const floatv *u, floatv *z) {")
         lines += [f"    z[{k}] = walk_unit_or_nan(walk_Z{k}(u));" for k in range(dim)]
         lines.append("}")
     generated = "\n".join(lines) + "\n"

@@ -47,9 +47,11 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..rng import GRID_CELLS
+
 DEFENSIVE = 0.05  # share of the uniform density in every tabulated density
 Q_FLOOR = 1.0 / 64.0  # smallest tabulated survival probability
-TOTAL = 1 << 23  # counts of a quantised density: the resolution of the engine's uniforms
+TOTAL = GRID_CELLS  # counts of a quantised density: the resolution of the engine's uniforms
 MAX_BINS = 1 << 16  # bins of y (all axes together) a table may have
 MAX_CELLS = 1 << 12  # cells of x (all axes together)
 
