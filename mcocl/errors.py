@@ -40,3 +40,11 @@ class DeviceError(MCOCLError):
 
 class ConvergenceError(MCOCLError):
     """A random walk did not terminate: the Neumann series appears not to converge."""
+
+
+class SceneSubstitutionWarning(UserWarning):
+    """A scene file used something mcocl does not support and ``lenient`` replaced it by a documented substitute.
+
+    The message names the file, line and element, and says what was used
+    instead (scenes/README.md, "Mitsuba XML", lists every substitute).
+    """

@@ -16,7 +16,7 @@ import warnings
 from ..errors import MCOCLError
 
 # Sub-commands, in the order --help lists them.
-COMMANDS = ("devices", "integrate", "solve", "render", "bench")
+COMMANDS = ("devices", "integrate", "solve", "render", "convert", "bench")
 
 EPILOG = """\
 examples:

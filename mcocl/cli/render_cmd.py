@@ -10,6 +10,7 @@ from pathlib import Path
 from ..render.api import INTEGRATORS, NonFiniteSampleWarning, render
 from ..schedule import DeviceFailureWarning
 from .common import add_device_args, add_persistence_args, count, placement_kwargs, positive, print_json
+from .convert_cmd import add_scene_params_args, print_substitution_warnings
 
 DESCRIPTION = """\
 Render SCENE (a JSON scene file, see scenes/README.md) by path tracing and
@@ -43,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``render`` parser."""
     p = sub.add_parser("render", help="path-trace a scene into an OpenEXR image", description=DESCRIPTION,
                        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("scene", help="scene file (JSON)")
+    p.add_argument("scene", help="scene file (JSON, or Mitsuba XML)")
     p.add_argument("--spp", type=count, default=None, help="samples per pixel (default: the scene's, unless --time/--noise)")
     p.add_argument("--time", dest="time_budget", type=positive, default=None, help="stop after this many seconds")
     p.add_argument("--noise", type=positive, default=None,
@@ -58,6 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops (default 0)")
     add_persistence_args(p, "scene and settings", "print one JSON object describing the render")
     add_device_args(p)
+    add_scene_params_args(p)
     p.set_defaults(func=run)
 
 
@@ -71,11 +73,12 @@ def run(args: argparse.Namespace) -> int:
             args.scene, spp=args.spp, time=args.time_budget, noise=args.noise, integrator=args.integrator,
             max_depth=args.max_depth, rr_depth=args.rr_depth, seed=args.seed, checkpoint=args.checkpoint,
             resume=args.resume, progress=not args.quiet and not args.json, lanes=args.lanes,
-            **placement_kwargs(args),
+            params=dict(args.define) or None, lenient=args.lenient, **placement_kwargs(args),
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteSampleWarning, DeviceFailureWarning)):
             print(f"WARNING: {w.message}", file=sys.stderr)
+    print_substitution_warnings(caught)
     r.save_exr(out)
     if args.png:
         r.save_png(args.png, exposure=args.exposure)

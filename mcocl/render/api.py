@@ -28,7 +28,7 @@ from ..validate import positive_number, whole_number
 from .compiled import CompiledScene, compile_scene
 from .film import film_image, relative_error
 from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
-from .scene import Scene, check_integrator_settings
+from .scene import Scene, check_integrator_settings, load_scene
 
 INTEGRATORS = ("path", "nee", "mis")
 
@@ -165,6 +165,8 @@ def render(
     progress: bool | Callable[[Progress], None] = False,
     lanes: int | None = None,
     spp_per_block: int | None = None,
+    params: dict[str, Any] | None = None,
+    lenient: bool = False,
 ) -> RenderResult:
     """Render a scene by path tracing.
 
@@ -188,6 +190,8 @@ def render(
         lanes: paths per vector instruction (default: the device's; 1 = scalar kernel).
         spp_per_block: samples per pixel in one scheduler block (default: about
             2^18 paths per block; taken from the checkpoint when resuming).
+        params, lenient: for a Mitsuba XML scene file, ``$name`` values and
+            whether to substitute what is unsupported (:func:`load_scene`).
 
     Returns:
         a :class:`RenderResult`.
@@ -198,6 +202,8 @@ def render(
     """
     if integrator is not None and integrator not in INTEGRATORS:
         raise InputError(f"integrator: unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
+    if isinstance(scene, (str, os.PathLike)):
+        scene = load_scene(scene, params=params, lenient=lenient)
     cs = _compile(scene, integrator, max_depth, rr_depth)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**64:
         raise InputError(f"seed must be an integer in [0, 2**64), got {seed!r}")

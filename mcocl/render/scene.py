@@ -219,14 +219,22 @@ def _reject_constant(name: str) -> float:
     raise ValueError(f"{name} is not valid JSON")
 
 
-def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file.
+def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = False) -> Scene:
+    """Read and validate a scene file: mcocl JSON, or Mitsuba XML (``.xml``, see :mod:`mcocl.render.mitsuba`).
+
+    ``params`` (``$name`` values) and ``lenient`` (substitute what is unsupported) apply to XML files.
 
     Raises:
         InputError: the file cannot be read, is not JSON, or breaks the
             format; the message names the file and the key path.
     """
     p = Path(path)
+    if p.suffix.lower() == ".xml":
+        from .mitsuba import read_mitsuba
+
+        return parse_scene(read_mitsuba(p, params=params, lenient=lenient), p)
+    if params:
+        raise InputError(f"{p}: params (-D name=value) apply to Mitsuba XML scenes only")
     try:
         text = p.read_text()
     except OSError as e:
