@@ -385,3 +385,15 @@ def test_conductors(tmp_path):
     p = write(tmp_path, '<bsdf type="roughconductor" id="c"><string name="material" value="none"/></bsdf>')
     with pytest.raises(InputError, match=r"default microfacet distribution 'beckmann'.*distribution=\"ggx\""):
         read_mitsuba(p)
+
+
+def test_validation_errors_point_at_the_xml_element(tmp_path):
+    p = write(tmp_path, '<bsdf type="roughconductor" id="r">\n<string name="material" value="none"/>'
+                        '<string name="distribution" value="ggx"/><float name="alpha" value="2"/></bsdf>')
+    with pytest.raises(InputError, match=r"s\.xml:\d+: <bsdf type=\"roughconductor\" id=\"r\">: materials\.r\.alpha: "
+                                         r"must be <= 1"):
+        load_scene(p)
+    p = shape_with(tmp_path, '<transform name="to_world"><scale x="1" y="2" z="1"/></transform>', "sphere")
+    line = line_of(p, 'y="2"')
+    with pytest.raises(InputError, match=rf"s\.xml:{line}: .*a sphere's to_world may only"):
+        load_scene(p)

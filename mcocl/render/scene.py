@@ -230,9 +230,9 @@ def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = 
     """
     p = Path(path)
     if p.suffix.lower() == ".xml":
-        from .mitsuba import read_mitsuba
+        from .mitsuba import load_mitsuba
 
-        return parse_scene(read_mitsuba(p, params=params, lenient=lenient), p)
+        return load_mitsuba(p, params=params, lenient=lenient)
     if params:
         raise InputError(f"{p}: params (-D name=value) apply to Mitsuba XML scenes only")
     try:

@@ -9,6 +9,6 @@ transforms), :mod:`.spectra` (spectra → RGB, named IORs), :mod:`.sensor`,
 "Mitsuba XML".
 """
 
-from .reader import read_mitsuba
+from .reader import load_mitsuba, read_mitsuba
 
-__all__ = ["read_mitsuba"]
+__all__ = ["load_mitsuba", "read_mitsuba"]

@@ -14,6 +14,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from ...errors import InputError
 from .bsdf import translate_bsdf
 from .report import Reporter, nearest
 from .sensor import translate_integrator, translate_sensor
@@ -51,6 +52,7 @@ class _SceneBuilder:
         self.materials: dict[str, Any] = {}
         self.material_names: dict[int, str] = {}  # id(bsdf Node) -> material name
         self.defaults: dict[str, str] = {}  # "black" / "diffuse" -> name of Mitsuba's default material
+        self.elements: dict[str, Node] = {}  # JSON key path -> the element it came from (for error messages)
         self.shapes = ShapeTranslator(path, rep, self.material_of, self.resolve)
 
     def resolve(self, ref: Node) -> Node:
@@ -85,6 +87,7 @@ class _SceneBuilder:
             name = self._unique(base)
             self.material_names[key] = name
             self.materials[name] = translate_bsdf(bsdf, self.rep, self.resolve)
+            self.elements[f"materials.{name}"] = bsdf
         return self.material_names[key]
 
     def build(self, root: Node) -> dict:
@@ -115,6 +118,7 @@ class _SceneBuilder:
             comments.append(f"{len(sensors)} sensors: the first (line {sensors[0].line}) is used, as Mitsuba does")
         camera, spp = translate_sensor(sensors[0], self.rep)
         out["camera"] = camera
+        self.elements["camera"] = sensors[0]
         if len(integrators) > 1:
             integrators[1].fail("a scene has at most one <integrator>")
         if integrators:
@@ -125,7 +129,12 @@ class _SceneBuilder:
         integ["spp"] = spp
         out["integrator"] = integ
         out["materials"] = self.materials
-        shape_list = [s for s in (self.shapes.translate(n) for n in shapes) if s is not None]
+        shape_list = []
+        for n in shapes:
+            s = self.shapes.translate(n)
+            if s is not None:
+                self.elements[f"shapes[{len(shape_list)}]"] = n
+                shape_list.append(s)
         out["shapes"] = shape_list
         for e in envs:
             env = self._environment(e, comments)
@@ -169,11 +178,37 @@ def read_mitsuba(path: str | os.PathLike[str], params: dict[str, Any] | None = N
             outside the scene's folder, or (unless ``lenient``) anything
             unsupported; the message names the file, line and element.
     """
-    p = Path(path)
+    return _translate(Path(path), params, lenient)[0]
+
+
+def _translate(p: Path, params: dict[str, Any] | None, lenient: bool) -> tuple[dict, dict[str, Node]]:
     values = {str(k): _param_text(v) for k, v in (params or {}).items()}
-    rep = Reporter(lenient)
     root = SourceReader(p, values, lenient).read()
-    return _drop_empty_comments(_SceneBuilder(p, root, rep).build(root))
+    builder = _SceneBuilder(p, root, Reporter(lenient))
+    return _drop_empty_comments(builder.build(root)), builder.elements
+
+
+def load_mitsuba(path: str | os.PathLike[str], params: dict[str, Any] | None = None, lenient: bool = False):
+    """Read, translate and validate a Mitsuba XML scene into a :class:`mcocl.render.scene.Scene`.
+
+    A validation error of the translated scene (e.g. an alpha out of range)
+    is reported at the XML element the offending JSON key came from.
+    """
+    from ..scene import parse_scene
+
+    p = Path(path)
+    data, elements = _translate(p, params, lenient)
+    try:
+        return parse_scene(data, p)
+    except InputError as e:
+        msg = str(e)
+        head = f"{p}: "
+        key = msg[len(head):].split(":", 1)[0] if msg.startswith(head) else ""
+        owners = [k for k in elements if key == k or key.startswith(k + ".") or key.startswith(k + "[")]
+        if not owners:
+            raise
+        node = elements[max(owners, key=len)]
+        raise InputError(f"{node.where()}: {node.label()}: {msg[len(head):]}") from None
 
 
 def _drop_empty_comments(obj: Any) -> Any:
@@ -197,4 +232,4 @@ def _param_text(v: Any) -> str:
     return str(v)
 
 
-__all__ = ["read_mitsuba"]
+__all__ = ["load_mitsuba", "read_mitsuba"]
