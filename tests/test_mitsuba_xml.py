@@ -368,6 +368,10 @@ def test_lenient_substitutes_with_a_warning(tmp_path):
     assert m["gold"]["type"] == "conductor" and m["t"]["reflectance"] == 0.7
     assert d["shapes"] == [] and "environment" not in d
     parse_scene(d, p)  # the substituted scene is valid
+    with pytest.warns(SceneSubstitutionWarning, match="triangle fan"):
+        sh = load_scene(write(tmp_path, '<shape type="disk"/>'), lenient=True).shapes[0]
+    assert sh.kind == "mesh" and len(sh.faces) == 128
+    np.testing.assert_allclose(np.linalg.norm(sh.vertices[1:], axis=1), 1.0)
 
 
 def test_conductors(tmp_path):

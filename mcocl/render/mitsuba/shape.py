@@ -93,7 +93,7 @@ class ShapeTranslator:
             if target.tag == "bsdf" and bsdf is None:
                 bsdf = target
             elif target.tag == "emitter" and emitter is None:
-                emitter = o
+                emitter = target
             else:
                 self.rep.unsupported(o, f"<{target.tag}> inside a shape" + (" (a second one)" if target.tag in
                                      ("bsdf", "emitter") else ""), "one <bsdf> and one area <emitter>",
