@@ -269,6 +269,8 @@ class Props:
             return default
         n = self.nodes[name]
         self.read.add(name)
+        if n.tag == "integer" and "float" in kinds:
+            return float(parse_property(n))  # Mitsuba reads an integer wherever a float is expected
         if n.tag not in kinds:
             n.fail(f"property {name!r} must be given as <{'> or <'.join(kinds)}>")
         return parse_property(n)

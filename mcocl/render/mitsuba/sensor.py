@@ -74,8 +74,9 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     if axis is None:
         axis = "x"
         comments.append("fov_axis: Mitsuba's default 'x'")
-    elif axis not in FOV_AXES:
+    elif axis.lower() not in FOV_AXES:
         props.node("fov_axis").fail(f"unknown fov_axis {axis!r} (one of: {', '.join(FOV_AXES)})")
+    axis = axis.lower()  # Mitsuba reads fov_axis case-insensitively
     fov = props.get("fov", ("float",), None)
     focal = props.get("focal_length", ("string", "float"), None)
     if fov is not None and focal is not None:
