@@ -98,7 +98,7 @@ def test_spectrum_constant_and_sampled(tmp_path):
 
 def test_spectrum_of_a_red_band_is_red(tmp_path):
     p = write(tmp_path, '<bsdf type="diffuse" id="r"><spectrum name="reflectance" '
-                        'value="360:0, 599:0, 600:1, 700:1, 701:0, 830:0"/></bsdf>')
+                        'value="360:0, 599:0, 600: 1, 700 :1, 701:0, 830:0"/></bsdf>')
     r, g, b = read_mitsuba(p)["materials"]["r"]["reflectance"]
     assert r > 5 * g and g >= b >= 0.0
 
@@ -309,6 +309,10 @@ def test_obj_meshes(tmp_path):
                              '<boolean name="flip_normals" value="true"/>', "obj")
     sh = load_scene(p).shapes[0]
     assert sh.kind == "mesh" and sh.faces.tolist() == [[0, 1, 2]] and sh.flip_normals
+    (tmp_path / "out").mkdir()
+    assert main(["convert", str(p), "-o", str(tmp_path / "out" / "s.json")]) == 0  # OBJ path rewritten for out/
+    assert json.loads((tmp_path / "out" / "s.json").read_text())["shapes"][0]["obj"] == "../m/tri.obj"
+    np.testing.assert_array_equal(load_scene(tmp_path / "out" / "s.json").shapes[0].vertices, sh.vertices)
     for name, msg in [("m/none.obj", "mesh file 'm/none.obj' not found"), ("../x.obj", "outside the scene's folder")]:
         p = shape_with(tmp_path, f'\n<string name="filename" value="{name}"/>', "obj")
         with pytest.raises(InputError, match=rf"s\.xml:{line_of(p, name)}: <string name=\"filename\">: .*{msg}"):

@@ -228,7 +228,7 @@ def _spectrum(node: Node, text: str) -> np.ndarray:
             node.fail('a constant spectrum is one number; a sampled one is "λ1:v1, λ2:v2, ..." (nm:value)')
         return np.full(3, v[0])
     lam, val = [], []
-    for pair in re.split(r"[,\s]+", text.strip()):
+    for pair in re.split(r"[,\s]+", re.sub(r"\s*:\s*", ":", text.strip())):
         parts = pair.split(":")
         if len(parts) != 2:
             node.fail(f"expected wavelength:value pairs, got {pair!r}")

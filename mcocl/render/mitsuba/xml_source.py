@@ -28,6 +28,7 @@ import warnings
 import xml.parsers.expat
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NoReturn
 
 from ...errors import InputError, SceneSubstitutionWarning
 
@@ -52,7 +53,7 @@ class Node:
         extra = "".join(f' {k}="{self.attrib[k]}"' for k in ("type", "name", "id") if k in self.attrib)
         return f"<{self.tag}{extra}>"
 
-    def fail(self, msg: str) -> None:
+    def fail(self, msg: str) -> NoReturn:
         """Raise :class:`InputError` naming the file, line and element."""
         raise InputError(f"{self.where()}: {self.label()}: {msg}")
 
