@@ -57,3 +57,11 @@ class NonFiniteWarning(RuntimeWarning):
 
 class NonFiniteSampleWarning(RuntimeWarning):
     """Some path samples were NaN or infinite and were left out of the image (rendering)."""
+
+
+class SceneSubstitutionWarning(UserWarning):
+    """A scene file used something mcocl does not support and ``lenient`` replaced it by a documented substitute.
+
+    The message names the file, line and element, and says what was used
+    instead (scenes/README.md, "Mitsuba XML", lists every substitute).
+    """

@@ -32,7 +32,7 @@ from mcocl.errors import DeviceError
 def small_cornell(size: int = 16) -> Any:
     """The Cornell box scene at ``size`` x ``size`` pixels, compiled."""
     from mcocl.render.compiled import compile_scene
-    from mcocl.render.scene import load_scene
+    from mcocl.render.scene_file import load_scene
 
     sc = load_scene(Path(__file__).resolve().parent.parent / "scenes" / "cornell.json")
     sc.camera.width = sc.camera.height = size

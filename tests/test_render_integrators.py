@@ -20,7 +20,8 @@ from scipy import stats
 
 from mcocl.render.api import render
 from mcocl.render.compiled import compile_scene
-from mcocl.render.scene import load_scene, parse_scene
+from mcocl.render.scene import parse_scene
+from mcocl.render.scene_file import load_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 ALPHA = 1e-3

@@ -25,7 +25,7 @@ from mcocl.errors import InputError
 from mcocl.render.api import NonFiniteSampleWarning, render
 from mcocl.render.compiled import compile_scene
 from mcocl.render.job import RenderJob, scene_tables
-from mcocl.render.scene import load_scene
+from mcocl.render.scene_file import load_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 

@@ -14,7 +14,7 @@ from mcocl.errors import InputError
 from mcocl.render import transform as tf
 from mcocl.render.compiled import LUMINANCE, compile_scene
 from mcocl.render.raycast import MISS, cast_rays
-from mcocl.render.scene import load_scene
+from mcocl.render.scene_file import load_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 

@@ -20,7 +20,7 @@ from . import supervise
 VERBOSE_HELP = "show the OpenCL compiler's build logs (as MCOCL_BUILD_LOG=1 does)"
 
 # Sub-commands, in the order --help lists them.
-COMMANDS = ("devices", "integrate", "solve", "render", "bench")
+COMMANDS = ("devices", "integrate", "solve", "render", "convert", "bench")
 
 EPILOG = """\
 examples:

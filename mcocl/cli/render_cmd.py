@@ -17,6 +17,7 @@ from .common import (
     print_json,
     run_option_kwargs,
 )
+from .convert_cmd import add_scene_params_args, print_substitution_warnings
 
 DESCRIPTION = """\
 Render SCENE (a JSON scene file, see scenes/README.md) by path tracing and
@@ -51,7 +52,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``render`` parser."""
     p = sub.add_parser("render", help="path-trace a scene into an OpenEXR image", description=DESCRIPTION,
                        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("scene", help="scene file (JSON)")
+    p.add_argument("scene", help="scene file (JSON, or Mitsuba XML)")
     p.add_argument("--spp", type=count, default=None, help="samples per pixel (default: the scene's, unless --time/--target-error)")
     add_halting_args(p, "stop once the mean relative standard error of the pixels is at most this (e.g. 0.01)",
                      "--noise")
@@ -65,6 +66,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops (default 0)")
     add_persistence_args(p, "scene and settings", "print one JSON object describing the render")
     add_device_args(p)
+    add_scene_params_args(p)
     p.set_defaults(func=run)
 
 
@@ -76,11 +78,12 @@ def run(args: argparse.Namespace) -> int:
         warnings.simplefilter("always", DeviceFailureWarning)
         r = render(
             args.scene, spp=args.spp, integrator=args.integrator, max_depth=args.max_depth,
-            rr_depth=args.rr_depth, **run_option_kwargs(args),
+            rr_depth=args.rr_depth, params=dict(args.define) or None, lenient=args.lenient, **run_option_kwargs(args),
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteSampleWarning, DeviceFailureWarning)):
             print(f"WARNING: {w.message}", file=sys.stderr)
+    print_substitution_warnings(caught)
     r.save_exr(out)
     if args.png:
         r.save_png(args.png, exposure=args.exposure)

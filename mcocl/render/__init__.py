@@ -15,7 +15,8 @@ import types
 from .api import NonFiniteSampleWarning, RenderResult, render
 from .compiled import CompiledScene, compile_scene, load_compiled
 from .raycast import RayHits, cast_rays
-from .scene import Scene, load_scene
+from .scene import Scene
+from .scene_file import load_scene
 
 __all__ = [
     "CompiledScene",

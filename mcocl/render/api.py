@@ -30,6 +30,7 @@ from .compiled import CompiledScene, compile_scene
 from .film import film_image, relative_error
 from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
 from .scene import INTEGRATORS, Scene, check_integrator_settings
+from .scene_file import load_scene
 
 
 @dataclass
@@ -162,6 +163,8 @@ def render(
     spp_per_block: int | None = None,
     time: float | None = None,
     noise: float | None = None,
+    params: dict[str, Any] | None = None,
+    lenient: bool = False,
 ) -> RenderResult:
     """Render a scene by path tracing.
 
@@ -185,6 +188,8 @@ def render(
         lanes: paths per vector instruction (default: the device's; 1 = scalar kernel).
         spp_per_block: samples per pixel in one scheduler block (default: about
             2^18 paths per block; taken from the checkpoint when resuming).
+        params, lenient: for a Mitsuba XML scene file, ``$name`` values and
+            whether to substitute what is unsupported (:func:`load_scene`).
         time, noise: deprecated names of ``time_budget`` and ``target_error``.
 
     The shared options (seed, time_budget, target_error, placement, lanes,
@@ -201,6 +206,8 @@ def render(
         raise InputError(f"integrator: unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
     time_budget = renamed_keyword("render", "time_budget", time_budget, "time", time)
     target_error = renamed_keyword("render", "target_error", target_error, "noise", noise)
+    if isinstance(scene, (str, os.PathLike)):
+        scene = load_scene(scene, params=params, lenient=lenient)
     cs = _compile(scene, integrator, max_depth, rr_depth)
     opts = RunOptions(seed=seed, time_budget=time_budget, target_error=target_error, device=device, devices=devices,
                       split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)

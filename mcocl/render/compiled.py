@@ -77,7 +77,8 @@ from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
 from .emitter_choice import LUMINANCE, area_power, cdf_choice_pmf, environment_choice
-from .scene import Scene, check_integrator_settings, load_scene
+from .scene import Scene, check_integrator_settings
+from .scene_file import load_scene
 
 MATERIAL_CODES = {kind.name.lower(): int(kind) for kind in MaterialKind}
 

@@ -15,7 +15,6 @@ kernels read.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -217,29 +216,6 @@ def _join(key: str, k: str) -> str:
     return f"{key}.{k}" if key else k
 
 
-def _reject_constant(name: str) -> float:
-    raise ValueError(f"{name} is not valid JSON")
-
-
-def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file.
-
-    Raises:
-        InputError: the file cannot be read, is not JSON, or breaks the
-            format; the message names the file and the key path.
-    """
-    p = Path(path)
-    try:
-        text = p.read_text()
-    except OSError as e:
-        raise InputError(f"{p}: cannot read scene file: {e.strerror or e}") from None
-    try:
-        data = json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as e:
-        raise InputError(f"{p}:{e.lineno}:{e.colno}: not valid JSON: {e.msg}") from None
-    except ValueError as e:
-        raise InputError(f"{p}: not valid JSON: {e}") from None
-    return parse_scene(data, p)
 
 
 def parse_scene(data: Any, path: str | Path = "<scene>") -> Scene:
@@ -437,6 +413,5 @@ __all__ = [
     "Scene",
     "Shape",
     "check_integrator_settings",
-    "load_scene",
     "parse_scene",
 ]

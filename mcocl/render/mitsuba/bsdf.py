@@ -1,0 +1,168 @@
+"""Mitsuba BSDF plugins → mcocl materials (scenes/README.md, "Mitsuba XML", table of BSDFs).
+
+Supported exactly: ``diffuse``; ``conductor`` with ``material="none"`` (a
+perfect mirror times ``specular_reflectance``); ``roughconductor`` with
+``material="none"``, ``distribution="ggx"`` and an isotropic ``alpha``;
+``dielectric`` with numeric or named ``int_ior``/``ext_ior`` (Mitsuba's
+defaults: BK7 1.5046 inside, air 1.000277 outside).  Everything else is an
+error naming the nearest alternative, or with ``lenient`` the substitute
+listed in :data:`SUBSTITUTES`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .properties import split_children
+from .report import Reporter, nearest
+from .spectra import named_ior, nearest_ior_names
+from .xml_source import Node
+
+SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric")
+
+# Unsupported BSDF plugin → (nearest supported alternative, lenient substitute).
+SUBSTITUTES = {
+    "plastic": ("diffuse", "a diffuse BSDF with its diffuse_reflectance (default 0.5), no specular coat"),
+    "roughplastic": ("diffuse", "a diffuse BSDF with its diffuse_reflectance (default 0.5), no specular coat"),
+    "principled": ("diffuse", "a diffuse BSDF with its base_color (default 0.5)"),
+    "roughdielectric": ("dielectric", "a smooth dielectric with the same int_ior/ext_ior"),
+    "thindielectric": ("dielectric", "a smooth (thick) dielectric with the same int_ior/ext_ior"),
+    "twosided": ("its nested BSDF, one-sided", "its nested BSDF (one-sided: black from behind)"),
+    "mask": ("its nested BSDF", "its nested BSDF (opacity ignored)"),
+    "bumpmap": ("its nested BSDF", "its nested BSDF (bumps ignored)"),
+    "normalmap": ("its nested BSDF", "its nested BSDF (normal map ignored)"),
+    "blendbsdf": ("one of its two BSDFs", "its first nested BSDF"),
+}
+NESTED = ("twosided", "mask", "bumpmap", "normalmap", "blendbsdf")
+
+_COLOUR_TAGS = ("rgb", "spectrum", "float")
+
+
+def _ior(props, name: str, default_name: str, comments: list[str]) -> float:
+    if name not in props:
+        comments.append(f"{name}: Mitsuba's default {default_name!r} = {named_ior(default_name)}")
+        return float(named_ior(default_name))
+    n = props.node(name)
+    v = props.get(name, ("float", "string"))
+    if isinstance(v, float):
+        return v
+    ior = named_ior(v)
+    if ior is None:
+        n.fail(f"unknown index of refraction {v!r} (closest names: {', '.join(nearest_ior_names(v)) or 'none'}; "
+               "or give a number)")
+    comments.append(f"{name}: {v!r} = {ior} (Mitsuba's table)")
+    return float(ior)
+
+
+def rgb_json(v: np.ndarray) -> Any:
+    """An RGB value as JSON: one number when grey."""
+    vals = [float(x) for x in v]
+    return vals[0] if vals[0] == vals[1] == vals[2] else vals
+
+
+def translate_bsdf(node: Node, rep: Reporter, resolve) -> dict:
+    """The mcocl material of a ``<bsdf>`` element.
+
+    ``resolve(ref_node)`` returns the element a ``<ref id>`` points to (for
+    BSDFs nested in ``twosided`` and friends).
+    """
+    kind = node.attrib.get("type")
+    if not kind:
+        node.fail('a <bsdf> needs a type="..." attribute')
+    props, objects = split_children(node)
+    comments: list[str] = []
+    if kind in NESTED:
+        alt, sub = SUBSTITUTES[kind]
+        inner = [resolve(o) if o.tag == "ref" else o for o in objects if o.tag in ("bsdf", "ref")]
+        rep.unsupported(node, f"the {kind!r} BSDF", alt, sub if inner else None, comments)
+        mat = translate_bsdf(inner[0], rep, resolve)
+        mat["comment"] = comments + mat.get("comment", [])
+        return mat
+    for o in objects:
+        what = "textures" if o.tag in ("texture", "ref") else f"a nested <{o.tag}>"
+        rep.unsupported(o, f"{what} in a BSDF", "a constant <rgb> value", "a constant (the property's default)",
+                        comments)
+    if kind == "diffuse":
+        name = "diffuse_reflectance" if node.version < (2, 0, 0) and "diffuse_reflectance" in props else "reflectance"
+        if name not in props:
+            comments.append("reflectance: Mitsuba's default 0.5")
+        mat = {"type": "diffuse", "reflectance": rgb_json(props.colour(name, 0.5))}
+        rep.leftover(node, props.unread(), ("reflectance",), comments)
+    elif kind in ("conductor", "roughconductor"):
+        mat = _conductor(node, kind, props, rep, comments)
+    elif kind == "dielectric":
+        ni = _ior(props, "int_ior", "bk7", comments)
+        ne = _ior(props, "ext_ior", "air", comments)
+        for k in ("specular_reflectance", "specular_transmittance"):
+            v = props.colour(k, 1.0)
+            if np.any(v != 1.0):
+                rep.unsupported(props.node(k), f"{k} other than 1", "1 (leave it out)", "1", comments)
+        mat = {"type": "dielectric", "int_ior": ni, "ext_ior": ne}
+        rep.leftover(node, props.unread(), ("int_ior", "ext_ior", "specular_reflectance",
+                                            "specular_transmittance"), comments)
+    elif kind in SUBSTITUTES:
+        alt, sub = SUBSTITUTES[kind]
+        rep.unsupported(node, f"the {kind!r} BSDF", alt, sub, comments)
+        if alt == "diffuse":
+            key = "base_color" if kind == "principled" else "diffuse_reflectance"
+            mat = {"type": "diffuse", "reflectance": rgb_json(props.colour(key, 0.5))}
+        else:
+            mat = {"type": "dielectric", "int_ior": _ior(props, "int_ior", "bk7", comments),
+                   "ext_ior": _ior(props, "ext_ior", "air", comments)}
+    else:
+        rep.unsupported(node, f"the BSDF plugin {kind!r}", nearest(kind, SUPPORTED), "a diffuse BSDF of reflectance 0.5",
+                        comments)
+        mat = {"type": "diffuse", "reflectance": 0.5}
+    if comments:
+        mat["comment"] = comments
+    return mat
+
+
+def _conductor(node: Node, kind: str, props, rep: Reporter, comments: list[str]) -> dict:
+    material = props.get("material", ("string",), None)
+    if material is None:
+        material = "Cu"
+        comments.append("material: Mitsuba's default is 'Cu' (copper)")
+    if material.lower() != "none" or "eta" in props or "k" in props:
+        at = props.node("material") if "material" in props else node
+        what = f"the conductor material {material!r}" if material.lower() != "none" else "eta/k"
+        rep.unsupported(at, what + " (spectral complex IOR)",
+                        f'{kind} with material="none" (a perfect mirror) and a specular_reflectance of the metal\'s colour',
+                        'material="none" with its specular_reflectance', comments)
+        props.read.update({"eta", "k"})
+    mat: dict[str, Any] = {"type": kind, "specular_reflectance": rgb_json(props.colour("specular_reflectance", 1.0))}
+    supported = ("material", "specular_reflectance")
+    if kind == "roughconductor":
+        dist = props.get("distribution", ("string",), None)
+        if dist is None:
+            rep.unsupported(node, "Mitsuba's default microfacet distribution 'beckmann'",
+                            'distribution="ggx"', "GGX with the same alpha", comments)
+        elif dist != "ggx":
+            rep.unsupported(props.node("distribution"), f"the microfacet distribution {dist!r}", 'distribution="ggx"',
+                            "GGX with the same alpha", comments)
+        alpha = props.get("alpha", ("float",), None)
+        au, av = props.get("alpha_u", ("float",), None), props.get("alpha_v", ("float",), None)
+        if au is not None or av is not None:
+            au = alpha if au is None else au
+            av = alpha if av is None else av
+            if au is None or av is None:
+                node.fail("give both alpha_u and alpha_v (or alpha)")
+            if au != av:
+                rep.unsupported(props.node("alpha_u" if "alpha_u" in props else "alpha_v"),
+                                "anisotropic roughness (alpha_u != alpha_v)", "an isotropic alpha",
+                                f"alpha = sqrt(alpha_u * alpha_v) = {np.sqrt(au * av):.6g}", comments)
+            alpha = float(np.sqrt(au * av)) if au != av else au
+        if alpha is None:
+            comments.append("alpha: Mitsuba's default 0.1")
+            alpha = 0.1
+        mat["alpha"] = alpha
+        if props.get("sample_visible", ("boolean",), True) is False:
+            comments.append("sample_visible=false: mcocl always samples visible normals (same expectation)")
+        supported += ("distribution", "alpha", "alpha_u", "alpha_v", "sample_visible")
+    rep.leftover(node, props.unread(), supported, comments)
+    return mat
+
+
+__all__ = ["SUBSTITUTES", "SUPPORTED", "rgb_json", "translate_bsdf"]

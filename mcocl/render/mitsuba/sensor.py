@@ -1,0 +1,223 @@
+"""Mitsuba ``<sensor>`` (with its ``<film>`` and ``<sampler>``) and ``<integrator>`` → mcocl camera and settings.
+
+- ``perspective``: ``fov`` on ``fov_axis`` (Mitsuba's default ``"x"``) becomes
+  mcocl's ``fov`` on the image's smaller axis,
+  ``tan(fov'/2) = tan(fov/2) · smaller / size(axis)`` with size(x) = width,
+  size(y) = height, size(diagonal) = √(width² + height²); the value is kept
+  unchanged when the axis already is the smaller one.  ``focal_length``
+  ("50mm", Mitsuba's default when no fov is given) is a 35 mm film equivalent:
+  ``fov = 2 atan(√(36² + 24²) / (2 f))`` on the diagonal.  ``to_world``:
+  a lone ``<lookat>`` gives origin/target/up as written; any other rigid
+  transform gives origin = M·0, target = origin + M·ẑ, up = M·ŷ.
+- ``hdrfilm``: ``width``/``height`` (Mitsuba's defaults 768 × 576).
+- samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
+  ``ldsampler``: ``sample_count`` (default 4) → ``spp``; mcocl always draws from
+  its counter-based Philox generator, so the sample pattern differs, not the
+  expectation.
+- integrators ``path`` and ``volpath`` → ``mis`` with the same ``max_depth`` and
+  ``rr_depth`` (Mitsuba's conventions, defaults −1 and 5); ``direct`` → ``mis``
+  with max_depth 2.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .properties import split_children
+from .report import Reporter, nearest
+from .xml_source import Node
+
+SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
+INTEGRATORS = ("path", "volpath", "direct")
+FILM_SIZE = (768, 576)
+SAMPLE_COUNT = 4
+FOV_AXES = ("x", "y", "diagonal", "smaller", "larger")
+
+
+def fov_on_smaller_axis(fov: float, axis: str, width: int, height: int) -> float:
+    """Convert a full field of view (degrees) measured on ``axis`` to the image's smaller axis."""
+    small = min(width, height)
+    size = {"x": width, "y": height, "smaller": small, "larger": max(width, height),
+            "diagonal": math.hypot(width, height)}[axis]
+    if size == small:
+        return fov
+    return math.degrees(2.0 * math.atan(math.tan(math.radians(fov) / 2.0) * small / size))
+
+
+def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
+    """(the mcocl camera, spp from the sampler) of a ``<sensor>``."""
+    kind = node.attrib.get("type", "")
+    comments: list[str] = []
+    if kind != "perspective":
+        rep.unsupported(node, f"the sensor {kind!r}", 'perspective', "a pinhole perspective camera with its fov"
+                        if kind == "thinlens" else None, comments)
+    props, objects = split_children(node)
+    width, height, spp = FILM_SIZE[0], FILM_SIZE[1], SAMPLE_COUNT
+    films = [o for o in objects if o.tag == "film"]
+    samplers = [o for o in objects if o.tag == "sampler"]
+    for o in objects:
+        if o.tag not in ("film", "sampler"):
+            rep.unsupported(o, f"<{o.tag}> inside a sensor", "<film> and <sampler>", "nothing (ignored)", comments)
+    if films:
+        width, height = _film(films[0], rep, comments)
+    else:
+        comments.append(f"no <film>: Mitsuba's hdrfilm default {width} x {height}, Gaussian filter (mcocl: box filter)")
+    if samplers:
+        spp = _sampler(samplers[0], rep, comments)
+    else:
+        comments.append(f"no <sampler>: Mitsuba's default sample_count {spp}")
+
+    axis = props.get("fov_axis", ("string",), None)
+    if axis is None:
+        axis = "x"
+        comments.append("fov_axis: Mitsuba's default 'x'")
+    elif axis.lower() not in FOV_AXES:
+        props.node("fov_axis").fail(f"unknown fov_axis {axis!r} (one of: {', '.join(FOV_AXES)})")
+    axis = axis.lower()  # Mitsuba reads fov_axis case-insensitively
+    fov = props.get("fov", ("float",), None)
+    focal = props.get("focal_length", ("string", "float"), None)
+    if fov is not None and focal is not None:
+        node.fail("give fov or focal_length, not both")
+    if fov is None:
+        text = "50mm" if focal is None else str(focal)
+        try:
+            f_mm = float(text[:-2] if text.endswith("mm") else text)
+        except ValueError:
+            (props.node("focal_length") if focal is not None else node).fail(f"cannot read focal_length {text!r}")
+        fov = math.degrees(2.0 * math.atan(math.hypot(36.0, 24.0) / (2.0 * f_mm)))
+        axis = "diagonal"
+        comments.append(f"focal_length {text} (35 mm film equivalent{', Mitsuba default' if focal is None else ''})"
+                        f" = {fov:.6g} degrees on the diagonal")
+    if not 0.0 < fov < 180.0:
+        props.node("fov").fail(f"fov must lie in (0, 180) degrees, got {fov:g}")
+    fov_small = fov_on_smaller_axis(fov, axis, width, height)
+    if fov_small != fov:
+        comments.append(f"fov {fov:g} on axis {axis!r} of {width} x {height} = {fov_small:.9g} on the smaller axis")
+    cam: dict[str, Any] = {"comment": comments}
+    cam.update(_orientation(node, props, rep, comments))
+    cam.update({"fov": fov_small, "width": width, "height": height})
+    for k in ("near_clip", "far_clip"):
+        if k in props:
+            props.read.add(k)
+            rep.unsupported(props.node(k), f"{k} (mcocl does not clip along the view ray)", "leave it out",
+                            "no clipping", comments)
+    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world"), comments)
+    return cam, spp
+
+
+def _orientation(node: Node, props, rep: Reporter, comments: list[str]) -> dict:
+    t = props.get("to_world", ("transform",), None)
+    if t is None:
+        comments.append("no to_world: Mitsuba's camera at the origin looking along +z with up +y")
+        return {"origin": [0.0, 0.0, 0.0], "target": [0.0, 0.0, 1.0], "up": [0.0, 1.0, 0.0]}
+    if t.lookat is not None:
+        o, tgt, up = t.lookat
+        return {"origin": o, "target": tgt, "up": up}
+    m = t.matrix[:3, :3]
+    left, up, fwd = m[:, 0], m[:, 1], m[:, 2]
+    lens = np.linalg.norm(m, axis=0)
+    at = props.node("to_world")
+    gram = (m / lens).T @ (m / lens)
+    if not np.allclose(gram, np.eye(3), atol=1e-6) or not np.allclose(lens, lens[0], rtol=1e-6):
+        at.fail("the camera's to_world must be a rotation, translation and uniform scale (write it as a <lookat>)")
+    if np.dot(np.cross(up, fwd), left) < 0:
+        rep.unsupported(at, "a mirrored camera to_world (e.g. a scale of -1 on x)", "a <lookat>",
+                        "the same view without the mirror (the image is flipped left-right)", comments)
+    origin = t.matrix[:3, 3]
+    comments.append("origin/target/up from the to_world matrix")
+    return {"origin": [float(x) for x in origin], "target": [float(x) for x in origin + fwd / lens[2]],
+            "up": [float(x) for x in up / lens[1]]}
+
+
+def _film(node: Node, rep: Reporter, comments: list[str]) -> tuple[int, int]:
+    kind = node.attrib.get("type", "")
+    if kind != "hdrfilm":
+        rep.unsupported(node, f"the film {kind!r}", "hdrfilm", "hdrfilm with its width and height", comments)
+    props, objects = split_children(node)
+    width = props.get("width", ("integer",), FILM_SIZE[0])
+    height = props.get("height", ("integer",), FILM_SIZE[1])
+    for k, v in (("width", width), ("height", height)):
+        if v < 1:
+            props.node(k).fail(f"{k} must be >= 1, got {v}")
+    if "width" not in props or "height" not in props:
+        comments.append(f"film size {width} x {height} (Mitsuba's default 768 x 576 where not given)")
+    filters = [o for o in objects if o.tag == "rfilter"]
+    for o in objects:
+        if o.tag != "rfilter":
+            rep.unsupported(o, f"<{o.tag}> inside a film", "<rfilter>", "nothing (ignored)", comments)
+    if not filters:
+        comments.append("no <rfilter>: Mitsuba's default is a Gaussian filter; mcocl's film is a box filter "
+                        "(each pixel the plain mean of its samples)")
+    for f in filters:
+        if f.attrib.get("type") != "box":
+            rep.unsupported(f, f"the reconstruction filter {f.attrib.get('type')!r}", "box",
+                            "the box filter", comments)
+    for k in ("pixel_format", "component_format", "file_format", "banner"):
+        if k in props:
+            props.read.add(k)
+            comments.append(f"{k}: ignored (mcocl writes float32 RGB EXR with a variance layer)")
+    rep.leftover(node, props.unread(), ("width", "height", "pixel_format", "component_format", "file_format"),
+                 comments)
+    return width, height
+
+
+def _sampler(node: Node, rep: Reporter, comments: list[str]) -> int:
+    kind = node.attrib.get("type", "")
+    if kind not in SAMPLERS:
+        rep.unsupported(node, f"the sampler {kind!r}", nearest(kind, SAMPLERS), "independent", comments)
+    props, objects = split_children(node)
+    for o in objects:
+        rep.unsupported(o, f"<{o.tag}> inside a sampler", "leave it out", "nothing (ignored)", comments)
+    spp = props.get("sample_count", ("integer",), SAMPLE_COUNT)
+    if spp < 1:
+        props.node("sample_count").fail(f"sample_count must be >= 1, got {spp}")
+    comments.append(f"sampler {kind!r}, sample_count {spp} -> spp; mcocl draws every sample from its Philox "
+                    "counter-based generator (a different pattern, the same expectation)")
+    for k in ("seed", "jitter", "scramble_seed"):
+        if k in props:
+            props.read.add(k)
+            comments.append(f"{k}: ignored (the image depends on mcocl's --seed)")
+    rep.leftover(node, props.unread(), ("sample_count", "seed", "jitter"), comments)
+    return spp
+
+
+def translate_integrator(node: Node, rep: Reporter) -> dict:
+    """mcocl ``integrator`` settings (without spp) of an ``<integrator>``."""
+    kind = node.attrib.get("type", "")
+    comments: list[str] = []
+    props, objects = split_children(node)
+    for o in objects:
+        rep.unsupported(o, f"<{o.tag}> inside an integrator", "a single path integrator", "nothing (ignored)",
+                        comments)
+    if kind not in INTEGRATORS:
+        rep.unsupported(node, f"the integrator {kind!r}", "path", "mcocl's mis path tracer", comments)
+    if kind == "direct":
+        out = {"type": "mis", "max_depth": 2, "rr_depth": 5}
+        comments.append("direct -> mis path tracer with max_depth 2 (emitters seen directly plus direct light)")
+        for k in ("emitter_samples", "bsdf_samples", "shading_samples"):
+            if k in props:
+                props.read.add(k)
+                comments.append(f"{k}: ignored (one light and one BSDF sample per path, same expectation)")
+    else:
+        md = props.get("max_depth", ("integer",), -1)
+        rr = props.get("rr_depth", ("integer",), 5)
+        if md < -1:
+            props.node("max_depth").fail(f"max_depth must be >= -1, got {md}")
+        if rr < 1:
+            props.node("rr_depth").fail(f"rr_depth must be >= 1, got {rr}")
+        out = {"type": "mis", "max_depth": md, "rr_depth": rr}
+        comments.append(f"{kind} -> mis (light and BSDF sampling combined by the power heuristic), "
+                        f"max_depth {md}, rr_depth {rr} (Mitsuba's conventions"
+                        f"{'; defaults -1 and 5' if 'max_depth' not in props or 'rr_depth' not in props else ''})")
+    if props.get("hide_emitters", ("boolean",), False):
+        rep.unsupported(props.node("hide_emitters"), "hide_emitters=true", "hide_emitters=false",
+                        "visible emitters", comments)
+    rep.leftover(node, props.unread(), ("max_depth", "rr_depth", "hide_emitters"), comments)
+    out["comment"] = comments
+    return out
+
+
+__all__ = ["fov_on_smaller_axis", "translate_integrator", "translate_sensor"]

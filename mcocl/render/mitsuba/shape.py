@@ -1,0 +1,153 @@
+"""Mitsuba ``<shape>`` and ``<emitter>`` plugins → mcocl shapes, area emitters and the environment.
+
+Shapes: ``rectangle``, ``cube``, ``sphere`` (``center``, ``radius``, a
+similarity ``to_world``), ``obj`` (``filename`` relative to the file it is
+written in, confined to the scene's folder); ``to_world`` and
+``flip_normals`` on all of them, ``face_normals`` on ``obj`` (mcocl shades
+every triangle with its face normal).  A shape without a BSDF gets Mitsuba's
+default, diffuse 0.5, or black when it emits.  Emitters: ``area`` inside a
+shape and a top-level ``constant``, each with ``radiance`` (default 1).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import transform as tf
+from .bsdf import rgb_json
+from .properties import split_children
+from .report import Reporter, nearest
+from .xml_source import Node
+
+SUPPORTED = ("rectangle", "cube", "sphere", "obj")
+# Unsupported shape plugin → the nearest supported alternative.
+ALTERNATIVES = {
+    "ply": "obj (convert the mesh to Wavefront OBJ)",
+    "serialized": "obj (convert the mesh to Wavefront OBJ)",
+    "disk": "rectangle, or an obj of the disk",
+    "cylinder": "obj (a tessellated cylinder)",
+    "shapegroup": "the shapes themselves, repeated",
+    "instance": "the shapes themselves, repeated",
+}
+DISK_SEGMENTS = 128
+
+
+def disk_mesh() -> dict:
+    """The unit disk in z = 0, front side +z, as a triangle fan of :data:`DISK_SEGMENTS` segments (lenient substitute)."""
+    ang = 2.0 * math.pi * np.arange(DISK_SEGMENTS) / DISK_SEGMENTS
+    verts = [[0.0, 0.0, 0.0]] + [[math.cos(a), math.sin(a), 0.0] for a in ang]
+    faces = [[0, 1 + i, 1 + (i + 1) % DISK_SEGMENTS] for i in range(DISK_SEGMENTS)]
+    return {"vertices": verts, "faces": faces}
+
+
+def translate_radiance(node: Node, rep: Reporter, comments: list[str]) -> list[float] | float:
+    """The ``radiance`` of an ``area`` or ``constant`` emitter (default 1)."""
+    props, objects = split_children(node)
+    for o in objects:
+        rep.unsupported(o, f"<{o.tag}> inside an emitter (textured radiance)", "a constant <rgb> radiance",
+                        "the radiance property (default 1)", comments)
+    if "radiance" not in props:
+        comments.append("radiance: Mitsuba's default 1")
+    rgb = props.colour("radiance", 1.0)
+    if np.any(rgb < 0):
+        props.node("radiance").fail("radiance must be >= 0")
+    rep.leftover(node, props.unread(), ("radiance",), comments)
+    return rgb_json(rgb)
+
+
+class ShapeTranslator:
+    """Turns ``<shape>`` elements into mcocl shape objects; ``material_of`` names their BSDFs."""
+
+    def __init__(self, scene_file: Path, rep: Reporter, material_of, resolve) -> None:
+        self.folder = scene_file.resolve().parent
+        self.rep = rep
+        self.material_of = material_of  # (bsdf Node | None, emits: bool, comments) -> material name
+        self.resolve = resolve  # <ref> Node -> referenced Node
+
+    def translate(self, node: Node) -> dict | None:
+        """The mcocl shape of ``node``, or ``None`` when lenient mode drops it."""
+        kind = node.attrib.get("type", "")
+        comments: list[str] = []
+        out: dict[str, Any] = {"comment": comments}
+        if "id" in node.attrib:
+            out["name"] = node.attrib["id"]
+        props, objects = split_children(node)
+        if kind not in SUPPORTED:
+            alt = ALTERNATIVES.get(kind, nearest(kind, SUPPORTED))
+            if kind == "disk":
+                self.rep.unsupported(node, "the shape 'disk'", alt,
+                                     f"a {DISK_SEGMENTS}-segment triangle fan (a mesh)", comments)
+                out.update({"type": "mesh", **disk_mesh()})
+            else:
+                self.rep.unsupported(node, f"the shape {kind!r}", alt, "nothing (the shape is left out)")
+                return None
+        else:
+            out["type"] = "mesh" if kind == "obj" else kind
+        bsdf, emitter = None, None
+        for o in objects:
+            target = self.resolve(o) if o.tag == "ref" else o
+            if target.tag == "bsdf" and bsdf is None:
+                bsdf = target
+            elif target.tag == "emitter" and emitter is None:
+                emitter = target
+            else:
+                self.rep.unsupported(o, f"<{target.tag}> inside a shape" + (" (a second one)" if target.tag in
+                                     ("bsdf", "emitter") else ""), "one <bsdf> and one area <emitter>",
+                                     "nothing (ignored)", comments)
+        if emitter is not None:
+            etype = emitter.attrib.get("type", "")
+            if etype != "area":
+                self.rep.unsupported(emitter, f"the shape emitter {etype!r}", "area", "no emission", comments)
+            else:
+                out["emitter"] = {"type": "area", "radiance": translate_radiance(emitter, self.rep, comments)}
+        out["material"] = self.material_of(bsdf, emitter is not None and "emitter" in out, comments)
+        t = props.get("to_world", ("transform",), None)
+        if t is not None:
+            out["transform"] = t.ops
+        if props.get("flip_normals", ("boolean",), False):
+            out["flip_normals"] = True
+        supported = ["to_world", "flip_normals"]
+        if kind == "sphere":
+            supported += ["center", "radius"]
+            c = props.get("center", ("point",), None)
+            r = props.get("radius", ("float",), None)
+            if c is not None:
+                out["center"] = c
+            if r is not None:
+                if r <= 0:
+                    props.node("radius").fail(f"radius must be > 0, got {r:g}")
+                out["radius"] = r
+            if t is not None and tf.uniform_scale_of(t.matrix) is None:
+                props.node("to_world").fail("a sphere's to_world may only translate, rotate and scale uniformly")
+        elif kind == "obj":
+            supported += ["filename", "face_normals", "flip_tex_coords"]
+            out["obj"] = self._mesh_file(node, props)
+            if props.get("face_normals", ("boolean",), False):
+                comments.append("face_normals: mcocl shades every triangle with its face normal")
+            else:
+                comments.append("mcocl shades every triangle with its face normal (Mitsuba interpolates the file's "
+                                "vertex normals unless face_normals is true)")
+            if "flip_tex_coords" in props:
+                props.read.add("flip_tex_coords")
+                comments.append("flip_tex_coords: ignored (no textures)")
+        self.rep.leftover(node, props.unread(), tuple(supported), comments)
+        return out
+
+    def _mesh_file(self, node: Node, props) -> str:
+        if "filename" not in props:
+            node.fail('an obj shape needs <string name="filename" value="..."/>')
+        rel = props.get("filename", ("string",))
+        at = props.node("filename")
+        path = (node.file.parent / rel).resolve()
+        if not path.is_relative_to(self.folder):
+            at.fail(f"the mesh file {rel!r} lies outside the scene's folder {self.folder}")
+        if not path.is_file():
+            at.fail(f"mesh file {rel!r} not found (looked for {path})")
+        return path.relative_to(self.folder).as_posix()
+
+
+__all__ = ["ShapeTranslator", "disk_mesh", "translate_radiance"]

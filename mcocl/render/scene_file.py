@@ -1,0 +1,51 @@
+"""Scene files: one entry point for every format mcocl reads.
+
+mcocl's own JSON (``scenes/README.md``) is parsed here; a Mitsuba XML file
+(``.xml``) is translated into the same JSON model by
+:mod:`mcocl.render.mitsuba`.  Both are validated by
+:func:`mcocl.render.scene.parse_scene`, so the two readers share one scene
+model and one set of checks.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..errors import InputError
+from .mitsuba import load_mitsuba
+from .scene import Scene, parse_scene
+
+
+def _reject_constant(name: str) -> float:
+    raise ValueError(f"{name} is not valid JSON")
+
+
+def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = False) -> Scene:
+    """Read and validate a scene file: mcocl JSON, or Mitsuba XML (``.xml``, see :mod:`mcocl.render.mitsuba`).
+
+    ``params`` (``$name`` values) and ``lenient`` (substitute what is unsupported) apply to XML files.
+
+    Raises:
+        InputError: the file cannot be read, is not JSON, or breaks the
+            format; the message names the file and the key path.
+    """
+    p = Path(path)
+    if p.suffix.lower() == ".xml":
+        return load_mitsuba(p, params=params, lenient=lenient)
+    if params:
+        raise InputError(f"{p}: params (-D name=value) apply to Mitsuba XML scenes only")
+    try:
+        text = p.read_text()
+    except OSError as e:
+        raise InputError(f"{p}: cannot read scene file: {e.strerror or e}") from None
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except json.JSONDecodeError as e:
+        raise InputError(f"{p}:{e.lineno}:{e.colno}: not valid JSON: {e.msg}") from None
+    except ValueError as e:
+        raise InputError(f"{p}: not valid JSON: {e}") from None
+    return parse_scene(data, p)
+
+
+__all__ = ["load_scene"]

@@ -1,0 +1,411 @@
+"""Mitsuba XML scenes: the shipped scenes' XML twins compile and render bit-identically to their JSON files;
+every property type, transform, default and parameter is read as Mitsuba defines it; bad input is an
+InputError naming the file and line."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mcocl
+from mcocl.cli import main
+from mcocl.errors import InputError, SceneSubstitutionWarning
+from mcocl.render.compiled import CompiledScene, compile_scene
+from mcocl.render.mitsuba import read_mitsuba
+from mcocl.render.scene import parse_scene
+from mcocl.render.scene_file import load_scene
+
+SCENES = Path(__file__).resolve().parent.parent / "scenes"
+TWINS = ["cornell", "furnace", "furnace_sphere", "veach_mis"]
+TINY = {"cornell": (8, 8), "furnace": (8, 6), "furnace_sphere": (6, 8), "veach_mis": (12, 8)}
+
+SENSOR = """
+    <sensor type="perspective">
+        <float name="fov" value="45"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+    </sensor>"""
+
+
+def write(tmp_path: Path, body: str, name: str = "s.xml", version: str = "3.0.0", sensor: bool = True) -> Path:
+    p = tmp_path / name
+    p.write_text(f'<?xml version="1.0"?>\n<scene version="{version}">{SENSOR if sensor else ""}\n{body}\n</scene>\n')
+    return p
+
+
+def line_of(path: Path, text: str) -> int:
+    """1-based line of the first occurrence of ``text`` in ``path``."""
+    return next(i for i, ln in enumerate(path.read_text().splitlines(), 1) if text in ln)
+
+
+def shape_with(tmp_path: Path, inner: str, shape: str = "rectangle", **kw) -> Path:
+    return write(tmp_path, f'<shape type="{shape}">{inner}</shape>', **kw)
+
+
+# --- the shipped scenes' twins ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", TWINS)
+def test_twin_compiles_to_the_same_arrays(name):
+    a, b = compile_scene(SCENES / f"{name}.json"), compile_scene(SCENES / "xml" / f"{name}.xml")
+    arrays = [f.name for f in dataclasses.fields(CompiledScene) if isinstance(getattr(a, f.name), np.ndarray)]
+    assert len(arrays) >= 17
+    for k in arrays:
+        x, y = getattr(a, k), getattr(b, k)
+        assert x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y), k
+    for k in ("width", "height", "integrator", "max_depth", "rr_depth", "spp", "shape_names"):
+        assert getattr(a, k) == getattr(b, k), k
+
+
+@pytest.mark.parametrize("name", TWINS)
+def test_twin_renders_bit_identically(name):
+    w, h = TINY[name]
+    data = json.loads((SCENES / f"{name}.json").read_text())
+    data["camera"].update(width=w, height=h)
+    r_json = mcocl.render(parse_scene(data, SCENES / f"{name}.json"), spp=2, seed=3)
+    r_xml = mcocl.render(SCENES / "xml" / f"{name}.xml", spp=2, seed=3, params={"resx": w, "resy": h})
+    assert r_xml.mean.shape == (h, w, 3)
+    assert np.array_equal(r_json.mean, r_xml.mean) and np.array_equal(r_json.variance, r_xml.variance)
+    assert (r_xml.mean.sum(-1) > 0).mean() > 0.5  # mostly lit: the comparison is not between two black images
+
+
+# --- property types -----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value,rgb", [("0.1 0.2 0.3", [0.1, 0.2, 0.3]), ("0.1, 0.2, 0.3", [0.1, 0.2, 0.3]),
+                                       ("0.25", [0.25] * 3)])
+def test_rgb_forms(tmp_path, value, rgb):
+    p = write(tmp_path, f'<bsdf type="diffuse" id="m"><rgb name="reflectance" value="{value}"/></bsdf>')
+    assert read_mitsuba(p)["materials"]["m"]["reflectance"] == (rgb[0] if len(set(rgb)) == 1 else rgb)
+
+
+def test_spectrum_constant_and_sampled(tmp_path):
+    body = ('<bsdf type="diffuse" id="c"><spectrum name="reflectance" value="0.3"/></bsdf>'
+            '<bsdf type="diffuse" id="flat"><spectrum name="reflectance" value="360:0.5, 830:0.5"/></bsdf>'
+            '<bsdf type="diffuse" id="flat2"><spectrum name="reflectance" value="360:1, 600:1, 830:1"/></bsdf>')
+    m = read_mitsuba(write(tmp_path, body))["materials"]
+    assert m["c"]["reflectance"] == 0.3
+    # CIE 1931 normalises x̄, ȳ, z̄ to equal integrals, so a flat spectrum has XYZ = (v, v, v) (equal-energy
+    # white E); its linear sRGB is v times the row sums of the XYZ -> sRGB matrix (IEC 61966-2-1).
+    e_white = np.array([3.240479 - 1.537150 - 0.498535, -0.969256 + 1.875991 + 0.041556,
+                        0.055648 - 0.204043 + 1.057311])
+    np.testing.assert_allclose(m["flat"]["reflectance"], 0.5 * e_white, rtol=2e-3)
+    np.testing.assert_allclose(m["flat2"]["reflectance"], 2 * np.array(m["flat"]["reflectance"]), rtol=1e-12)
+
+
+def test_spectrum_of_a_red_band_is_red(tmp_path):
+    p = write(tmp_path, '<bsdf type="diffuse" id="r"><spectrum name="reflectance" '
+                        'value="360:0, 599:0, 600: 1, 700 :1, 701:0, 830:0"/></bsdf>')
+    r, g, b = read_mitsuba(p)["materials"]["r"]["reflectance"]
+    assert r > 5 * g and g >= b >= 0.0
+
+
+def test_scalar_types_and_their_errors(tmp_path):
+    p = write(tmp_path, '<integrator type="path"><integer name="max_depth" value="7"/>'
+                        '<integer name="rr_depth" value=" 3"/><boolean name="hide_emitters" value="FALSE"/></integrator>')
+    integ = read_mitsuba(p)["integrator"]
+    assert (integ["max_depth"], integ["rr_depth"]) == (7, 3)
+    for elem, msg in [('<integer name="max_depth" value="7.5"/>', "could not parse integer"),
+                      ('<boolean name="hide_emitters" value="yes"/>', "could not parse boolean"),
+                      ('<integer name="max_depth" value="3"/><integer name="max_depth" value="4"/>', "given twice")]:
+        p = write(tmp_path, f'<integrator type="path">\n{elem}\n</integrator>')
+        with pytest.raises(InputError, match=rf"s\.xml:{line_of(p, elem)}: .*{msg}"):
+            read_mitsuba(p)
+    p = shape_with(tmp_path, '<float name="radius" value="wide"/>', "sphere")
+    with pytest.raises(InputError, match=r"could not parse float value 'wide'"):
+        read_mitsuba(p)
+
+
+def test_point_forms_and_sphere(tmp_path):
+    for point in ('<point name="center" x="1" y="2" z="3"/>', '<point name="center" value="1 2 3"/>'):
+        p = shape_with(tmp_path, point + '<float name="radius" value="0.5"/>', "sphere")
+        sh = load_scene(p).shapes[0]
+        assert sh.kind == "sphere" and list(sh.center) == [1, 2, 3] and sh.radius == 0.5
+
+
+def _matrix_of(tmp_path, ops: str) -> np.ndarray:
+    return load_scene(shape_with(tmp_path, f'<transform name="to_world">{ops}</transform>', "cube")).shapes[0].matrix
+
+
+def test_transform_composes_in_the_order_written(tmp_path):
+    m = _matrix_of(tmp_path, '<scale x="1" y="2" z="3"/><rotate z="1" angle="90"/><translate x="1" y="2" z="3"/>'
+                             '<matrix value="1 0 0 0  0 0 -1 0  0 1 0 0  0 0 0 1"/>')
+    s = np.diag([1.0, 2.0, 3.0, 1.0])
+    rz = np.array([[0.0, -1, 0, 0], [1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])  # +90° about z
+    t = np.eye(4)
+    t[:3, 3] = [1, 2, 3]
+    rx = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])  # the written matrix
+    np.testing.assert_allclose(m, rx @ t @ rz @ s, atol=1e-12)
+    m = _matrix_of(tmp_path, '<translate value="1 0 0"/><scale value="2"/>')  # translate first, then scale
+    np.testing.assert_allclose(m[:3, 3], [2, 0, 0])
+
+
+def test_lookat_transform(tmp_path):
+    m = _matrix_of(tmp_path, '<lookat origin="0 0 0" target="1 0 0" up="0 1 0"/>')
+    # Mitsuba: columns left = up × dir, up, dir, origin; looking along +x with up +y, left = -z.
+    np.testing.assert_allclose(m[:3, :3], [[0, 0, 1], [0, 1, 0], [-1, 0, 0]], atol=1e-12)
+    m = _matrix_of(tmp_path, '<lookat origin="1 2 3" target="1 2 9" up="0 1 0"/>')
+    np.testing.assert_allclose(m, [[1, 0, 0, 1], [0, 1, 0, 2], [0, 0, 1, 3], [0, 0, 0, 1]], atol=1e-12)
+
+
+def test_sensor_matrix_equals_its_lookat(tmp_path):
+    look = write(tmp_path, "", "a.xml")
+    m = compile_scene(look).camera
+    # the same camera as a rotation + translation: eye (0, 0, 5) looking along -z is a 180° turn about y
+    sensor = SENSOR.replace('<lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/>',
+                            '<rotate y="1" angle="180"/><translate z="5"/>')
+    p = tmp_path / "b.xml"
+    p.write_text(f'<scene version="3.0.0">{sensor}</scene>')
+    np.testing.assert_allclose(compile_scene(p).camera, m, atol=1e-6)
+    mirrored = sensor.replace('<rotate', '<scale x="-1"/><rotate')
+    p.write_text(f'<scene version="3.0.0">{mirrored}</scene>')
+    with pytest.raises(InputError, match=r"b\.xml:\d+: <transform name=\"to_world\">: a mirrored camera"):
+        read_mitsuba(p)
+
+
+@pytest.mark.parametrize("axis", ["x", "y", "smaller", "larger", "diagonal", None])
+def test_fov_axis(tmp_path, axis):
+    extra = f'<string name="fov_axis" value="{axis}"/>' if axis else ""
+    p = tmp_path / "s.xml"
+    p.write_text(f'<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="50"/>{extra}'
+                 '<film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="20"/></film>'
+                 '</sensor></scene>')
+    cam = compile_scene(p).camera.astype(np.float64)
+    half_w, half_h = np.linalg.norm(cam[1, :3]), np.linalg.norm(cam[2, :3])  # tan of the half angles
+    extent = {"x": half_w, None: half_w, "larger": half_w, "y": half_h, "smaller": half_h,
+              "diagonal": math.hypot(half_w, half_h)}[axis]
+    assert extent == pytest.approx(math.tan(math.radians(25)), rel=1e-6)
+    assert half_w / half_h == pytest.approx(2.0, rel=1e-6)
+
+
+def test_mitsuba_defaults(tmp_path):
+    p = tmp_path / "s.xml"
+    p.write_text('<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="30"/></sensor>'
+                 '<bsdf type="dielectric" id="glass"/>'
+                 '<shape type="cube"/><shape type="sphere"><emitter type="area"/></shape></scene>')
+    d = read_mitsuba(p)
+    assert (d["camera"]["width"], d["camera"]["height"], d["integrator"]["spp"]) == (768, 576, 4)
+    assert (d["integrator"]["max_depth"], d["integrator"]["rr_depth"]) == (-1, 5)
+    assert d["materials"]["glass"]["int_ior"] == 1.5046 and d["materials"]["glass"]["ext_ior"] == 1.000277
+    cube, sphere = d["shapes"]
+    assert d["materials"][cube["material"]]["reflectance"] == 0.5
+    assert d["materials"][sphere["material"]]["reflectance"] == 0.0 and sphere["emitter"]["radiance"] == 1.0
+    # default fov_axis "x" on 768 x 576: the smaller axis is y
+    assert d["camera"]["fov"] == pytest.approx(math.degrees(2 * math.atan(math.tan(math.radians(15)) * 576 / 768)))
+
+
+@pytest.mark.parametrize("ior,value", [("water", 1.333), ("fused-quartz", 1.458), ("Diamond", 2.419),
+                                       ("acrylic glass", 1.49), ("polypropylene", 1.49), ("vacuum", 1.0)])
+def test_named_iors(tmp_path, ior, value):
+    p = write(tmp_path, f'<bsdf type="dielectric" id="g"><string name="int_ior" value="{ior}"/></bsdf>')
+    assert read_mitsuba(p)["materials"]["g"]["int_ior"] == value
+
+
+def test_unknown_ior_names_the_closest(tmp_path):
+    p = write(tmp_path, '<bsdf type="dielectric" id="g"><string name="int_ior" value="watr"/></bsdf>')
+    with pytest.raises(InputError, match=r"s\.xml:\d+: .*unknown index of refraction 'watr'.*water"):
+        read_mitsuba(p)
+
+
+def test_integrators_and_samplers(tmp_path):
+    p = write(tmp_path, '<integrator type="direct"/>')
+    assert read_mitsuba(p)["integrator"]["max_depth"] == 2
+    for sampler in ("independent", "stratified", "multijitter", "ldsampler"):
+        s = SENSOR.replace("</sensor>", f'<sampler type="{sampler}"><integer name="sample_count" value="9"/>'
+                                        '</sampler></sensor>')
+        p.write_text(f'<scene version="3.0.0">{s}</scene>')
+        assert read_mitsuba(p)["integrator"]["spp"] == 9
+
+
+def test_mitsuba_06_names_are_upgraded(tmp_path):
+    body = ('<bsdf type="dielectric" id="g"><float name="intIOR" value="1.7"/><string name="extIOR" value="water"/>'
+            '</bsdf><bsdf type="diffuse" id="d"><rgb name="diffuseReflectance" value="0.2"/></bsdf>'
+            '<integrator type="path"><integer name="maxDepth" value="4"/></integrator>')
+    d = read_mitsuba(write(tmp_path, body, version="0.6.0"))
+    assert d["materials"]["g"]["int_ior"] == 1.7 and d["materials"]["g"]["ext_ior"] == 1.333
+    assert d["materials"]["d"]["reflectance"] == 0.2 and d["integrator"]["max_depth"] == 4
+    p = write(tmp_path, body, version="3.0.0")
+    with pytest.raises(InputError, match=r"property 'intIOR' of 'dielectric' is not supported \(nearest supported: "
+                                         r"int_ior"):
+        read_mitsuba(p)
+
+
+# --- parameters ---------------------------------------------------------------------------------------------
+
+
+def test_defaults_substitution_and_overrides(tmp_path):
+    body = ('<default name="res" value="10"/><default name="r" value="0.5"/>'
+            '<bsdf type="diffuse" id="m"><rgb name="reflectance" value="$r, $r, 0.1"/></bsdf>')
+    sensor = SENSOR.replace('"width" value="8"', '"width" value="$res"')
+    p = tmp_path / "s.xml"
+    p.write_text(f'<scene version="3.0.0">{body}{sensor}</scene>')
+    d = read_mitsuba(p)
+    assert d["camera"]["width"] == 10 and d["materials"]["m"]["reflectance"] == [0.5, 0.5, 0.1]
+    d = read_mitsuba(p, params={"res": 16, "r": 0.25})
+    assert d["camera"]["width"] == 16 and d["materials"]["m"]["reflectance"] == [0.25, 0.25, 0.1]
+    with pytest.raises(InputError, match=r"parameter\(s\) nope are not used"):
+        read_mitsuba(p, params={"nope": 1})
+    with pytest.warns(SceneSubstitutionWarning):
+        read_mitsuba(p, params={"nope": 1}, lenient=True)
+    p.write_text(f'<scene version="3.0.0">{SENSOR}\n<bsdf type="diffuse"><rgb name="reflectance" value="$x"/></bsdf>'
+                 '</scene>')
+    with pytest.raises(InputError, match=rf"s\.xml:{line_of(p, '$x')}: <rgb name=\"reflectance\">: undefined parameter \$x"):
+        read_mitsuba(p)
+
+
+def test_cli_defines_and_convert(tmp_path, capsys):
+    out = tmp_path / "c.json"
+    assert main(["convert", str(SCENES / "xml" / "cornell.xml"), "-D", "resx=12", "-D", "spp=3", "-o", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["camera"]["width"] == 12 and data["integrator"]["spp"] == 3 and "comment" in data["integrator"]
+    assert np.array_equal(compile_scene(out).tri_vertices, compile_scene(SCENES / "cornell.json").tri_vertices)
+    with pytest.raises(SystemExit):  # argparse: "-D resx" is not name=value
+        main(["convert", str(SCENES / "xml" / "cornell.xml"), "-D", "resx"])
+    exr = tmp_path / "f.exr"
+    rc = main(["render", str(SCENES / "xml" / "furnace.xml"), "-D", "resx=4", "-D", "resy=3", "--spp", "1",
+               "--quiet", "--out", str(exr), "--json"])
+    assert rc == 0 and exr.exists()
+    assert '"width": 4' in capsys.readouterr().out
+
+
+# --- includes and references --------------------------------------------------------------------------------
+
+
+def test_include_and_ref(tmp_path):
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "mats.xml").write_text('<scene version="3.0.0"><bsdf type="diffuse" id="grey">'
+                                               '<rgb name="reflectance" value="0.3"/></bsdf></scene>')
+    p = write(tmp_path, '<include filename="sub/mats.xml"/><shape type="cube"><ref id="grey"/></shape>')
+    d = read_mitsuba(p)
+    assert d["shapes"][0]["material"] == "grey" and d["materials"]["grey"]["reflectance"] == 0.3
+    p = write(tmp_path, '<shape type="cube">\n<ref id="gray"/></shape>')
+    with pytest.raises(InputError, match=r"s\.xml:\d+: <ref id=\"gray\">: unresolved reference to 'gray'"):
+        read_mitsuba(p)
+
+
+def test_include_confinement_cycles_and_missing(tmp_path):
+    (tmp_path / "outside.xml").write_text('<scene version="3.0.0"/>')
+    (tmp_path / "scene").mkdir()
+    p = write(tmp_path / "scene", '\n<include filename="../outside.xml"/>')
+    with pytest.raises(InputError, match=rf"s\.xml:{line_of(p, 'outside')}: <include>: .*outside the scene's folder"):
+        read_mitsuba(p)
+    (tmp_path / "scene" / "a.xml").write_text('<scene version="3.0.0">\n<include filename="b.xml"/></scene>')
+    (tmp_path / "scene" / "b.xml").write_text('<scene version="3.0.0">\n\n<include filename="a.xml"/></scene>')
+    p = write(tmp_path / "scene", '<include filename="a.xml"/>')
+    with pytest.raises(InputError, match=r"b\.xml:3: <include>: include cycle: s\.xml -> a\.xml -> b\.xml -> a\.xml"):
+        read_mitsuba(p)
+    p = write(tmp_path / "scene", '<include filename="nope.xml"/>')
+    with pytest.raises(InputError, match=r"s\.xml:\d+: <include>: included file 'nope\.xml' not found"):
+        read_mitsuba(p)
+
+
+def test_obj_meshes(tmp_path):
+    (tmp_path / "m").mkdir()
+    (tmp_path / "m" / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    p = shape_with(tmp_path, '<string name="filename" value="m/tri.obj"/><boolean name="face_normals" value="true"/>'
+                             '<boolean name="flip_normals" value="true"/>', "obj")
+    sh = load_scene(p).shapes[0]
+    assert sh.kind == "mesh" and sh.faces.tolist() == [[0, 1, 2]] and sh.flip_normals
+    (tmp_path / "out").mkdir()
+    assert main(["convert", str(p), "-o", str(tmp_path / "out" / "s.json")]) == 0  # OBJ path rewritten for out/
+    assert json.loads((tmp_path / "out" / "s.json").read_text())["shapes"][0]["obj"] == "../m/tri.obj"
+    np.testing.assert_array_equal(load_scene(tmp_path / "out" / "s.json").shapes[0].vertices, sh.vertices)
+    for name, msg in [("m/none.obj", "mesh file 'm/none.obj' not found"), ("../x.obj", "outside the scene's folder")]:
+        p = shape_with(tmp_path, f'\n<string name="filename" value="{name}"/>', "obj")
+        with pytest.raises(InputError, match=rf"s\.xml:{line_of(p, name)}: <string name=\"filename\">: .*{msg}"):
+            read_mitsuba(p)
+
+
+# --- errors and lenient substitutes -------------------------------------------------------------------------
+
+
+def test_missing_and_malformed_files(tmp_path):
+    with pytest.raises(InputError, match=r"nope\.xml: cannot read scene file"):
+        load_scene(tmp_path / "nope.xml")
+    p = tmp_path / "bad.xml"
+    p.write_text('<scene version="3.0.0">\n  <shape type="cube">\n</scene>\n')
+    with pytest.raises(InputError, match=r"bad\.xml:3:\d+: not well-formed XML: mismatched tag"):
+        load_scene(p)
+    p.write_text('<scene>\n</scene>')
+    with pytest.raises(InputError, match=r"bad\.xml:1: <scene>: missing the version attribute"):
+        load_scene(p)
+
+
+def test_doctype_entity_bomb_is_refused(tmp_path):
+    p = tmp_path / "bomb.xml"
+    lol = "".join(f'<!ENTITY l{i} "{f"&l{i - 1};" * 10}">\n' for i in range(1, 10))
+    p.write_text(f'<?xml version="1.0"?>\n<!DOCTYPE scene [\n<!ENTITY l0 "lol">\n{lol}]>\n'
+                 '<scene version="3.0.0"><string name="x" value="&l9;"/></scene>')
+    with pytest.raises(InputError, match=r"bomb\.xml:2: DOCTYPE and ENTITY declarations are refused"):
+        load_scene(p)
+
+
+def test_unknown_plugin_names_line_element_and_nearest(tmp_path):
+    p = write(tmp_path, '\n<bsdf type="difuse" id="m"/>')
+    with pytest.raises(InputError, match=r"s\.xml:\d+: <bsdf type=\"difuse\" id=\"m\">: the BSDF plugin 'difuse' "
+                                         r"is not supported \(nearest supported: diffuse\)"):
+        read_mitsuba(p)
+    p = write(tmp_path, '\n<shap type="cube"/>')
+    with pytest.raises(InputError, match=r"s\.xml:\d+: <shap type=\"cube\">: unknown or misplaced element.*"
+                                         r"nearest: shape"):
+        read_mitsuba(p)
+
+
+def test_lenient_substitutes_with_a_warning(tmp_path):
+    body = ('<bsdf type="plastic" id="p"><rgb name="diffuse_reflectance" value="0.2, 0.3, 0.4"/></bsdf>'
+            '<bsdf type="conductor" id="gold"><string name="material" value="Au"/></bsdf>'
+            '<bsdf type="twosided" id="t"><bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>'
+            '<shape type="ply"/><emitter type="envmap"/>')
+    p = write(tmp_path, body)
+    with pytest.raises(InputError, match=r"'plastic' BSDF is not supported \(nearest supported: diffuse\)"):
+        read_mitsuba(p)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        d = read_mitsuba(p, lenient=True)
+    msgs = [str(w.message) for w in caught if w.category is SceneSubstitutionWarning]
+    assert len(msgs) == 5 and all(re.match(r".*s\.xml:\d+: <", m) for m in msgs)
+    m = d["materials"]
+    assert m["p"] == {"type": "diffuse", "reflectance": [0.2, 0.3, 0.4], "comment": m["p"]["comment"]}
+    assert m["gold"]["type"] == "conductor" and m["t"]["reflectance"] == 0.7
+    assert d["shapes"] == [] and "environment" not in d
+    parse_scene(d, p)  # the substituted scene is valid
+    with pytest.warns(SceneSubstitutionWarning, match="triangle fan"):
+        sh = load_scene(write(tmp_path, '<shape type="disk"/>'), lenient=True).shapes[0]
+    assert sh.kind == "mesh" and len(sh.faces) == 128
+    np.testing.assert_allclose(np.linalg.norm(sh.vertices[1:], axis=1), 1.0)
+
+
+def test_conductors(tmp_path):
+    p = write(tmp_path, '<bsdf type="conductor" id="c"><string name="material" value="none"/>'
+                        '<rgb name="specular_reflectance" value="0.9"/></bsdf>'
+                        '<bsdf type="roughconductor" id="r"><string name="material" value="none"/>'
+                        '<string name="distribution" value="ggx"/><float name="alpha" value="0.3"/></bsdf>')
+    m = read_mitsuba(p)["materials"]
+    assert m["c"] == {"type": "conductor", "specular_reflectance": 0.9}
+    assert m["r"] == {"type": "roughconductor", "specular_reflectance": 1.0, "alpha": 0.3}
+    p = write(tmp_path, '<bsdf type="conductor" id="c">\n<string name="material" value="Au"/></bsdf>')
+    with pytest.raises(InputError, match=r"s\.xml:\d+: <string name=\"material\">: the conductor material 'Au'.*"
+                                         r"nearest supported: conductor with material=\"none\""):
+        read_mitsuba(p)
+    p = write(tmp_path, '<bsdf type="roughconductor" id="c"><string name="material" value="none"/></bsdf>')
+    with pytest.raises(InputError, match=r"default microfacet distribution 'beckmann'.*distribution=\"ggx\""):
+        read_mitsuba(p)
+
+
+def test_validation_errors_point_at_the_xml_element(tmp_path):
+    p = write(tmp_path, '<bsdf type="roughconductor" id="r">\n<string name="material" value="none"/>'
+                        '<string name="distribution" value="ggx"/><float name="alpha" value="2"/></bsdf>')
+    with pytest.raises(InputError, match=r"s\.xml:\d+: <bsdf type=\"roughconductor\" id=\"r\">: materials\.r\.alpha: "
+                                         r"must be <= 1"):
+        load_scene(p)
+    p = shape_with(tmp_path, '<transform name="to_world"><scale x="1" y="2" z="1"/></transform>', "sphere")
+    line = line_of(p, 'y="2"')
+    with pytest.raises(InputError, match=rf"s\.xml:{line}: .*a sphere's to_world may only"):
+        load_scene(p)
