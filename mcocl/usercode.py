@@ -57,6 +57,22 @@ class UserFunction:
             raise InputError(f"{self.label}: expected OpenCL C code (an expression or a body that returns), got {self.code!r}")
         if not _IDENT.match(self.func):
             raise ValueError(f"bad function name {self.func!r}")
+        self._check_constant_indices()
+
+    def _check_constant_indices(self) -> None:
+        """Refuse ``x[5]`` in a snippet over ``float x[2]``: an index written as a
+        number is checked here; without this the kernel reads whatever lies
+        beyond the array and the estimate is silently wrong."""
+        for name, length in self.params:
+            if length <= 0:
+                continue
+            for m in re.finditer(rf"(?<![\w.]){re.escape(name)}\s*\[\s*(\d+)[uU]?\s*\]", self.code):
+                if int(m.group(1)) >= length:
+                    valid = f"{name}[0]" if length == 1 else f"{name}[0] .. {name}[{length - 1}]"
+                    raise InputError(
+                        f"{self.label}: {m.group(0)} is beyond the {length} coordinate(s) of {name} "
+                        f"(valid: {valid}); raise the dimension or fix the index"
+                    )
 
     @property
     def is_body(self) -> bool:

@@ -39,6 +39,17 @@ def positive(text: str) -> float:
     return v
 
 
+def finite_number(text: str) -> float:
+    """Any finite float (an exposure in stops may be negative; NaN and Inf are refused)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
+
+
 def split_count(text: str) -> int:
     """A number of sub-devices: a whole number >= 1."""
     try:

@@ -104,11 +104,8 @@ def run(args: argparse.Namespace) -> int:
     samples = args.samples
     if samples is None and shared["time_budget"] is None and shared["target_error"] is None:
         samples = 1_000_000
-    proposal = proposals = None
-    if args.proposals:
-        proposals = args.proposals
-    elif args.proposal is not None:
-        proposal = args.proposal
+    # both given is refused by integrate() with one message for the API and the CLI
+    proposal, proposals = args.proposal, args.proposals
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", NonFiniteWarning)
         r = integrate(

@@ -14,6 +14,7 @@ from .common import (
     add_halting_args,
     add_persistence_args,
     count,
+    finite_number,
     print_json,
     run_option_kwargs,
 )
@@ -63,7 +64,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="64-bit seed (default 0)")
     p.add_argument("--out", default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
     p.add_argument("--png", default=None, help="also write an sRGB PNG preview")
-    p.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops (default 0)")
+    p.add_argument("--exposure", type=finite_number, default=0.0, help="PNG exposure in stops (default 0)")
     add_persistence_args(p, "scene and settings", "print one JSON object describing the render")
     add_device_args(p)
     add_scene_params_args(p)

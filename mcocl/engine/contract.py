@@ -84,8 +84,8 @@ class Halting:
             return "target"
         if self.max_blocks is not None and acc.blocks_done >= self.max_blocks:
             return "blocks"
-        if self.time_budget is not None and elapsed >= self.time_budget:
-            return "time"
+        if self.time_budget is not None and elapsed >= self.time_budget and acc.blocks_done > 0:
+            return "time"  # (never before the first block: see Sizer.size)
         return ""
 
     def save_checkpoint(self, acc: Accumulator) -> None:

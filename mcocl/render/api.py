@@ -112,9 +112,11 @@ class RenderResult:
         write_exr(path, self.mean, self.variance, np.rint(self.count).astype(np.uint32), self.metadata())
 
     def save_png(self, path: str | os.PathLike[str], exposure: float = 0.0) -> None:
-        """Write an sRGB preview (clamped) of the mean."""
+        """Write an sRGB preview (clamped) of the mean, scaled by 2^exposure."""
         from .image_io import write_png
 
+        if not isinstance(exposure, (int, float)) or not math.isfinite(exposure):
+            raise InputError(f"exposure must be a finite number of stops, got {exposure!r}")
         write_png(path, np.nan_to_num(self.mean, nan=0.0), exposure)
 
     def __str__(self) -> str:
