@@ -267,7 +267,7 @@ class Sizer:
             left = budget - (time.perf_counter() - self.t0)
             # A fresh run computes at least its first block, however small the
             # budget: a result of no samples at all is no estimate.
-            allow_new = left > 0 or self.chunks.next_block == 0
+            allow_new = left > 0 or (self.chunks.next_block == 0 and t.rate <= 0)
             if t.rate > 0:
                 left -= inflight_blocks / t.rate  # the blocks already in flight take this long
                 n = max(1, min(n, int(t.rate * max(left, 0.0)) + 1))
