@@ -44,8 +44,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bvh_ploc import cluster, flatten_tree
+
 MAX_DEPTH = 48  # the kernel's traversal stack (bvh.cl BVH_STACK = 64) must exceed this
 C_TRAV = 1.0  # cost of visiting a node (two box tests) relative to one primitive test
+PLOC_RADIUS = 8  # default neighbourhood of the clustering build
 
 
 @dataclass
@@ -145,27 +148,54 @@ class _Bins:
 
 def build_bvh(lo: np.ndarray, hi: np.ndarray, ids: np.ndarray | None = None,
               max_leaf: int = 8, bins: int = 16, traversal_cost: float = C_TRAV,
-              all_axes: bool = False) -> BVH:
-    """Build a binned-SAH BVH over primitives with boxes ``[lo, hi]`` (N, 3).
+              all_axes: bool = False, method: str = "ploc", radius: int = PLOC_RADIUS) -> BVH:
+    """Build a BVH over primitives with boxes ``[lo, hi]`` (N, 3).
 
     Args:
-        lo, hi: primitive bounds.
+        lo, hi: primitive bounds (finite).
         ids: the primitive id stored for each box (default ``arange(N)``).
         max_leaf: leaves are never chosen for more primitives than this
-            (except at :data:`MAX_DEPTH`).
-        bins: centroid bins of a node (a node of fewer primitives gets one
-            bin per primitive).
+            (except at :data:`MAX_DEPTH` in the binned build).
+        bins: ``method="binned"``: centroid bins of a node (a node of fewer
+            primitives gets one bin per primitive).
         traversal_cost: C_trav of the SAH, relative to one primitive test.
-        all_axes: bin all three axes and keep the best split (better trees
-            of elongated or flat geometry, about twice the build time)
-            instead of only the axis of widest centroid extent.
+        all_axes: ``method="binned"``: bin all three axes and keep the best
+            split (better trees of elongated or flat geometry, about twice
+            the build time) instead of only the axis of widest centroid extent.
+        method: ``"ploc"`` (default): agglomerative clustering along the
+            Morton curve (:mod:`mcocl.render.bvh_ploc`), 4-7x faster than
+            ``"binned"`` on 10^6 triangles; ``"binned"``: top-down binned SAH.
+            A clustered tree deeper than :data:`MAX_DEPTH` (which the
+            kernels' stack cannot hold) is rebuilt by the binned build.
+        radius: ``method="ploc"``: neighbours searched on either side of a
+            cluster (Meister & Bittner's r; 8 trades 1-2 % of SAH cost for
+            1.6x the speed of 16).
+
+    Raises:
+        ValueError: an unknown ``method``, or non-finite bounds.
     """
     lo = np.asarray(lo, dtype=np.float32).reshape(-1, 3)
     hi = np.asarray(hi, dtype=np.float32).reshape(-1, 3)
     n = len(lo)
     ids = np.arange(n, dtype=np.uint32) if ids is None else np.asarray(ids, dtype=np.uint32)
+    if method not in ("ploc", "binned"):
+        raise ValueError(f"build_bvh: unknown method {method!r} (expected 'ploc' or 'binned')")
     if n == 0:
         return BVH(np.zeros((1, 4), np.float32), np.zeros(0, np.uint32), 0, 0, 0, np.zeros((2, 3), np.float32))
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+        raise ValueError("build_bvh: primitive bounds must be finite")
+    if method == "ploc" and n > 1:
+        nodes, prims, k, leaves, depth = flatten_tree(cluster(lo, hi, radius), ids, max_leaf, traversal_cost)
+        if depth <= MAX_DEPTH:
+            bounds = np.stack([lo.min(axis=0), hi.max(axis=0)])
+            return BVH(nodes, prims, k, leaves, depth, bounds)
+    return _build_binned(lo, hi, ids, max_leaf, bins, traversal_cost, all_axes)
+
+
+def _build_binned(lo: np.ndarray, hi: np.ndarray, ids: np.ndarray, max_leaf: int, bins: int,
+                  traversal_cost: float, all_axes: bool) -> BVH:
+    """The top-down binned-SAH build of :func:`build_bvh` (``method="binned"``; see the module docstring)."""
+    n = len(lo)
     gmin = lo.min(axis=0).astype(np.float64)
     span = float((hi.max(axis=0) - gmin).max())
     big = 2.0 ** np.ceil(np.log2(2.0 * span + 1.0))
