@@ -20,6 +20,10 @@ visits in all for N primitives.  Ties are broken by a strict order on pairs
 globally closest pair is always mutual: every iteration merges at least one
 pair, and the result is deterministic.
 
+Clustering may stop early (``stop`` clusters left); :func:`join_clusters`
+then completes the tree with any hierarchy built over those clusters (the
+default build joins the last N/32 with a top-down binned SAH build).
+
 The binary tree is then cut into leaves by the surface-area heuristic,
 bottom-up and exactly (the cost of a subtree is the lower of making it a
 leaf, ``A·N`` for ``N <= max_leaf``, and keeping it internal,
@@ -125,8 +129,12 @@ def _nearest(box: np.ndarray, r: int, rank_bits: int) -> np.ndarray:
     return best
 
 
-def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8) -> MergeTree:
-    """Agglomerative clustering of the boxes ``[lo, hi]`` (N >= 2, float32) into a :class:`MergeTree`."""
+def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> tuple[MergeTree, np.ndarray]:
+    """Agglomerative clustering of the boxes ``[lo, hi]`` (N >= 2, float32) into a :class:`MergeTree`.
+
+    Merging stops once at most ``stop`` clusters are left; returns the tree
+    (complete only when one cluster is left) and the node ids of the clusters left, in curve order.
+    """
     n = len(lo)
     order = morton_order(lo, hi)
     leaf_box = np.concatenate([lo[order].T, hi[order].T])  # (6, N)
@@ -140,7 +148,7 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8) -> MergeTree:
     rank_bits = int(np.ceil(np.log2(2 * radius)))
     batches: list[tuple[int, int]] = []
     done = 0
-    while len(ids) > 1:
+    while len(ids) > max(stop, 1):
         c = len(ids)
         r = min(radius, c - 1)
         rank = _nearest(box, r, rank_bits) & np.uint32((1 << rank_bits) - 1)
@@ -168,16 +176,54 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8) -> MergeTree:
         box = np.compress(keep, box, axis=1)
         batches.append((done, nm))
         done += nm
-    if scale == 1.0:
+    if scale == 1.0 or len(ids) > 1:
         node_box = np.concatenate([leaf_box, merged], axis=1)
-    else:  # the scaled boxes may have lost bits: take the unions of the exact leaf boxes instead
+    if scale != 1.0:  # the scaled boxes may have lost bits: take the unions of the exact leaf boxes instead
         node_box = np.concatenate([leaf_box, np.empty((6, n - 1), np.float32)], axis=1)
         for first, count in batches:
             lc, rc = left[first:first + count], right[first:first + count]
             p = slice(n + first, n + first + count)
             node_box[:3, p] = np.minimum(node_box[:3, lc], node_box[:3, rc])
             node_box[3:, p] = np.maximum(node_box[3:, lc], node_box[3:, rc])
-    return MergeTree(order, left, right, node_box, batches)
+    return MergeTree(order, left, right, node_box, batches), ids
+
+
+def join_clusters(tree: MergeTree, roots: np.ndarray, nodes: np.ndarray, prims: np.ndarray) -> bool:
+    """Complete ``tree`` with a hierarchy over its clusters ``roots`` (flattened as in :mod:`mcocl.render.bvh`).
+
+    Each internal node of the hierarchy becomes a merge; each of its leaves
+    must hold one cluster (returns False, leaving ``tree`` as it was, if not).
+    Merges are added one depth level at a time, the deepest first, so that
+    children still come before their parents.
+    """
+    u = nodes.view(np.uint32)[1:, 3].reshape(-1, 2, 2)
+    ref, cnt = u[:, :, 0].astype(np.int64), u[:, :, 1].astype(np.int64)
+    if np.any(cnt > 1):
+        return False
+    k = len(ref)
+    n = len(tree.order)
+    done = tree.batches[-1][0] + tree.batches[-1][1] if tree.batches else 0
+    level = [np.zeros(1, np.int64)]  # internal nodes by depth
+    while True:
+        inner = ref[level[-1]][cnt[level[-1]] == 0]
+        if not len(inner):
+            break
+        level.append(inner)
+    merge_id = np.empty(k, np.int64)
+    for lv in reversed(level):
+        merge_id[lv] = n + done + np.arange(len(lv))
+        r, leaf = ref[lv], cnt[lv] == 1
+        child = np.empty_like(r)
+        child[leaf] = roots[prims[r[leaf]].astype(np.int64)]
+        child[~leaf] = merge_id[r[~leaf]]
+        tree.left[done:done + len(lv)] = child[:, 0]
+        tree.right[done:done + len(lv)] = child[:, 1]
+        for a in range(6):
+            op = np.minimum if a < 3 else np.maximum
+            tree.box[a, n + done + np.arange(len(lv))] = op(tree.box[a, child[:, 0]], tree.box[a, child[:, 1]])
+        tree.batches.append((done, len(lv)))
+        done += len(lv)
+    return True
 
 
 def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost: float):
@@ -260,4 +306,4 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
     return nodes, prims, k, num_leaves, max_depth
 
 
-__all__ = ["MergeTree", "cluster", "flatten_tree", "morton_order"]
+__all__ = ["MergeTree", "cluster", "flatten_tree", "join_clusters", "morton_order"]
