@@ -76,14 +76,16 @@ def sah_cost(bvh) -> float:
 
 
 def timed(fn, repeat: int = 1):
-    """(result, best wall seconds, best CPU seconds) of ``fn()`` over ``repeat`` runs."""
-    best = best_cpu = np.inf
+    """(result, first run's wall seconds, best wall seconds, best CPU seconds) of ``fn()`` over ``repeat`` runs."""
+    first = best = best_cpu = np.inf
     for _ in range(repeat):
         t0, c0 = time.perf_counter(), time.process_time()
         out = fn()
-        best = min(best, time.perf_counter() - t0)
+        wall = time.perf_counter() - t0
+        first = wall if first == np.inf else first
+        best = min(best, wall)
         best_cpu = min(best_cpu, time.process_time() - c0)
-    return out, best, best_cpu
+    return out, first, best, best_cpu
 
 
 def write_obj(path: Path, v: np.ndarray, f: np.ndarray) -> None:
@@ -106,14 +108,14 @@ def bench_obj(n: int, repeat: int) -> None:
                  "materials": {"m": {"type": "diffuse", "reflectance": 0.5}},
                  "shapes": [{"type": "mesh", "material": "m", "obj": "terrain.obj"}]}
         (Path(tmp) / "scene.json").write_text(json.dumps(scene))
-        (_, tris), t_read, c_read = timed(lambda: read_obj(obj, "bench"), repeat)
-        cs, t_load, c_load = timed(lambda: load_compiled(Path(tmp) / "scene.json"), 1)
+        (_, tris), f_read, t_read, c_read = timed(lambda: read_obj(obj, "bench"), repeat)
+        cs, _, t_load, c_load = timed(lambda: load_compiled(Path(tmp) / "scene.json"), 1)
         size = obj.stat().st_size
     tables = scene_tables(cs)
     kernel_bytes = sum(tables[name].nbytes for name in KERNEL_BUFFERS)
     all_bytes = sum(a.nbytes for a in tables.values())
-    print(f"obj      {len(tris):>9d} triangles ({size / 1e6:.1f} MB): read {t_read:6.2f} s wall, {c_read:6.2f} s cpu; "
-          f"whole scene load {t_load:6.2f} s wall, {c_load:6.2f} s cpu")
+    print(f"obj      {len(tris):>9d} triangles ({size / 1e6:.1f} MB): read {t_read:5.2f} s wall (first run "
+          f"{f_read:5.2f}), {c_read:5.2f} s cpu; whole scene load {t_load:5.2f} s wall, {c_load:5.2f} s cpu")
     per = {name: tables[name].nbytes / len(tris) for name in KERNEL_BUFFERS if tables[name].nbytes >= len(tris)}
     print(f"device   {kernel_bytes / len(tris):6.1f} bytes/triangle in the kernel's buffers "
           f"({all_bytes / len(tris):.1f} with every table): "
@@ -123,15 +125,15 @@ def bench_obj(n: int, repeat: int) -> None:
 def bench_build(name: str, tris: np.ndarray, args) -> None:
     """Build time and SAH cost of one input (and, with --compare, the binned builders' ratios)."""
     lo, hi = tris.min(axis=1), tris.max(axis=1)
-    bvh, t, c = timed(lambda: build_bvh(lo, hi, method=args.method, all_axes=args.all_axes), args.repeat)
+    bvh, first, t, c = timed(lambda: build_bvh(lo, hi, method=args.method, all_axes=args.all_axes), args.repeat)
     cost = sah_cost(bvh)
-    print(f"{name:8s} {len(tris):>9d} triangles: build {t:6.2f} s wall, {c:6.2f} s cpu "
+    print(f"{name:8s} {len(tris):>9d} triangles: build {t:5.2f} s wall (first run {first:5.2f}), {c:5.2f} s cpu "
           f"({len(tris) / t / 1e6:.2f} M tris/s), "
           f"{bvh.num_nodes} nodes, {bvh.num_leaves} leaves ({len(tris) / bvh.num_leaves:.2f} tris/leaf), "
           f"depth {bvh.depth}, SAH cost {cost:.1f}")
     if args.compare:
         for all_axes in (False, True):
-            ref, tr, cr = timed(lambda a=all_axes: build_bvh(lo, hi, method="binned", all_axes=a), 1)
+            ref, _, tr, cr = timed(lambda a=all_axes: build_bvh(lo, hi, method="binned", all_axes=a), 1)
             rc = sah_cost(ref)
             print(f"         binned ({'all axes' if all_axes else 'widest axis'}): build {tr:6.2f} s wall, "
                   f"{cr:6.2f} s cpu, SAH cost {rc:.1f}; {args.method}/binned SAH ratio {cost / rc:.3f}")
