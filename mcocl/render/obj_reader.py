@@ -224,17 +224,30 @@ def _parse_indices(blob: np.ndarray, corner: np.ndarray) -> tuple[np.ndarray, np
     pos = corner + (neg | (c == ord("+")))
     window = np.lib.stride_tricks.as_strided(blob, shape=(len(blob) - 7, 8), strides=(1, 1), writeable=False)
     chars = window[pos]  # (C, 8) uint8, contiguous
-    # Leading digits: the lowest byte of the "not a digit" mask that is set (found through the
-    # exponent of its lowest set bit, a power of two), eight when there is none.
-    other = ((chars - np.uint8(ord("0"))) >= 10).view("<u8").ravel()
-    lowest = other & (~other + np.uint64(1))
-    ndig = np.where(other == 0, 8, (np.frexp(lowest.astype(np.float64))[1] - 1) // 8)
-    x = chars.view("<u8").ravel() - _ASCII_ZEROS
+    # Operations in place: on a fresh process every new large array costs page faults.
+    # Leading digits: below the lowest set byte of the "not a digit" mask; with w = that byte's
+    # bit, the popcount of w - 1 is 8 x its index (64 when no byte is set: eight digits).
+    other = np.subtract(chars, np.uint8(ord("0")))
+    np.greater_equal(other, 10, out=other.view(bool))
+    other = other.view("<u8").ravel()
+    low = np.invert(other)
+    low += np.uint64(1)
+    low &= other
+    low -= np.uint64(1)
+    ndig = (np.bitwise_count(low) >> 3).astype(np.int64)
+    del other, low
+    x = chars.view("<u8").ravel()
+    x -= _ASCII_ZEROS
     x <<= (8 * (8 - np.maximum(ndig, 1))).astype(np.uint64)  # keep the digits, as the top of 8 with leading zeros
-    x = (x * np.uint64(10) + (x >> np.uint64(8))) & np.uint64(0x00FF00FF00FF00FF)
-    x = (x * np.uint64(100) + (x >> np.uint64(16))) & np.uint64(0x0000FFFF0000FFFF)
-    x = (x * np.uint64(10000) + (x >> np.uint64(32))) & np.uint64(0xFFFFFFFF)
-    val = np.where(ndig > 0, x.astype(np.int64), 0)
+    y = np.empty_like(x)
+    for shift, mul, mask in ((8, 10, 0x00FF00FF00FF00FF), (16, 100, 0x0000FFFF0000FFFF), (32, 10000, 0xFFFFFFFF)):
+        np.right_shift(x, np.uint64(shift), out=y)
+        x *= np.uint64(mul)
+        x += y
+        x &= np.uint64(mask)
+    del y
+    val = x.view(np.int64)
+    val[ndig == 0] = 0
     pos += ndig
     going = np.flatnonzero(ndig == 8)  # more than eight digits: rare
     for _ in range(_MAX_DIGITS - 8 + 1):
