@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from mcocl.errors import InputError
+from mcocl.render import obj_reader
 from mcocl.render.shapes import read_obj
 
 SQUARE = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
@@ -94,16 +95,26 @@ def random_obj(rng: np.random.Generator, nv: int, nf: int, interleave: bool) -> 
     return "\n".join(lines) + "\n", v, np.array(tri)
 
 
+@pytest.mark.parametrize("chunk", [None, 997, 20])  # the file in one chunk, in many, lines longer than one
 @pytest.mark.parametrize("interleave", [False, True])
-def test_random_polygon_meshes_round_trip(tmp_path, interleave):
+def test_random_polygon_meshes_round_trip(tmp_path, monkeypatch, interleave, chunk):
+    if chunk:
+        monkeypatch.setattr(obj_reader, "CHUNK_BYTES", chunk)
     rng = np.random.default_rng(5 + interleave)
     text, v, tri = random_obj(rng, 500, 2000, interleave)
+    if interleave:  # negative indices that count back across chunk boundaries
+        text += "v 7 8 9\nf -1 -2 -501\n"
+        v = np.concatenate([v, [[7, 8, 9]]])
+        tri = np.concatenate([tri, [[500, 499, 0]]])
     rv, rf = read(tmp_path, text)
     np.testing.assert_array_equal(rv, v)
     np.testing.assert_array_equal(rf, tri)
 
 
-def test_bad_line_deep_in_a_large_file(tmp_path):
+@pytest.mark.parametrize("chunk", [None, 4096])
+def test_bad_line_deep_in_a_large_file(tmp_path, monkeypatch, chunk):
+    if chunk:
+        monkeypatch.setattr(obj_reader, "CHUNK_BYTES", chunk)
     rng = np.random.default_rng(9)
     text, v, tri = random_obj(rng, 3000, 100, False)
     lines = text.splitlines()

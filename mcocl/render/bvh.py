@@ -171,8 +171,9 @@ def build_bvh(lo: np.ndarray, hi: np.ndarray, ids: np.ndarray | None = None,
         ids: the primitive id stored for each box (default ``arange(N)``).
         max_leaf: leaves are never chosen for more primitives than this
             (except at :data:`MAX_DEPTH` in the binned build).
-        bins: ``method="binned"``: centroid bins of a node (a node of fewer
-            primitives gets one bin per primitive).
+        bins: centroid bins of a node in the binned build (a node of fewer
+            primitives gets one bin per primitive); with ``method="ploc"``,
+            in the binned build that joins the last clusters.
         traversal_cost: C_trav of the SAH, relative to one primitive test.
         all_axes: ``method="binned"``: bin all three axes and keep the best
             split (better trees of elongated or flat geometry, about twice

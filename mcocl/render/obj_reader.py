@@ -33,6 +33,7 @@ _SPACE, _NL = 32, 10
 _SLASH, _HASH = ord("/"), ord("#")
 _MAX_DIGITS = 18  # an index of more digits cannot be a vertex of a mesh that fits in memory
 _PAD = np.full(8, _SPACE, np.uint8)
+CHUNK_BYTES = 1 << 23  # text parsed at once (whole lines): see parse_obj
 
 
 def _blank_comments(b: np.ndarray, line_end: np.ndarray) -> None:
@@ -100,6 +101,12 @@ def _token(blob: np.ndarray, at: int) -> str:
 def parse_obj(data: bytes, label: str) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (V, 3) float64 and triangles (T, 3) int64 (0-based, not range-checked) of OBJ text.
 
+    The text is handled in chunks of whole lines of about :data:`CHUNK_BYTES`
+    (a loop over chunks, not lines): a chunk's temporaries are small enough
+    for the allocator to reuse them, where whole-file temporaries would be
+    fresh memory every time (10^7 triangles: 6 of 8.6 CPU-seconds were page
+    faults before).
+
     Raises:
         InputError: a malformed ``v`` or ``f`` record; the message is
             ``"{label}:{line}: ..."``.
@@ -110,13 +117,28 @@ def parse_obj(data: bytes, label: str) -> tuple[np.ndarray, np.ndarray]:
         data = data.translate(bytes.maketrans(b"\t\v\f", b"   "))
     if not data.endswith(b"\n"):
         data += b"\n"  # a final break ends the last line
-    b = np.frombuffer(data, np.uint8)
+    vertices, faces = [np.zeros((0, 3))], [np.zeros((0, 3), np.int64)]
+    pos = lines = verts = 0
+    while pos < len(data):
+        end = data.rfind(b"\n", pos, pos + CHUNK_BYTES)
+        if end < 0:  # a line longer than a chunk
+            end = data.find(b"\n", pos)
+        v, f, n = _parse_chunk(data, pos, end + 1, lines, verts, label)
+        vertices.append(v)
+        faces.append(f)
+        pos, lines, verts = end + 1, lines + n, verts + len(v)
+    return np.concatenate(vertices), np.concatenate(faces)
+
+
+def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, verts_before: int,
+                 label: str) -> tuple[np.ndarray, np.ndarray, int]:
+    """Vertices, triangles and line count of the whole lines ``data[first:stop]`` (after the given counts)."""
+    b = np.frombuffer(data, np.uint8, count=stop - first, offset=first)
     line_end = np.flatnonzero(b == _NL)
-    if b"#" in data:
+    if data.find(b"#", first, stop) >= 0:
         b = b.copy()
         _blank_comments(b, line_end)
     start = np.concatenate([[0], line_end[:-1] + 1])
-    lineno = np.arange(1, len(start) + 1)
     # Skip indentation: a loop over the indentation depth, each step over the still-indented lines.
     tag = start.copy()
     indented = np.flatnonzero(b[tag] == _SPACE)
@@ -127,9 +149,11 @@ def parse_obj(data: bytes, label: str) -> tuple[np.ndarray, np.ndarray]:
     tag_alone = (after == _SPACE) | (after == _NL)
     is_v = (b[tag] == ord("v")) & tag_alone
     is_f = (b[tag] == ord("f")) & tag_alone
-    vertices = _parse_vertices(b, start[is_v], tag[is_v], line_end[is_v], lineno[is_v], label)
-    faces = _parse_faces(b, start[is_f], tag[is_f], line_end[is_f], lineno[is_f], np.cumsum(is_v)[is_f], label)
-    return vertices, faces
+    vl, fl = np.flatnonzero(is_v), np.flatnonzero(is_f)
+    vertices = _parse_vertices(b, start[vl], tag[vl], line_end[vl], lines_before + 1 + vl, label)
+    faces = _parse_faces(b, start[fl], tag[fl], line_end[fl], lines_before + 1 + fl,
+                         verts_before + np.cumsum(is_v)[fl], label)
+    return vertices, faces, len(line_end)
 
 
 def _parse_vertices(b, start, tag, end, lines, label) -> np.ndarray:
@@ -264,4 +288,4 @@ def _parse_indices(blob: np.ndarray, corner: np.ndarray) -> tuple[np.ndarray, np
     return np.where(neg, -val, val), ok
 
 
-__all__ = ["parse_obj"]
+__all__ = ["CHUNK_BYTES", "parse_obj"]
