@@ -1,30 +1,52 @@
-"""Time the binned-SAH BVH build (mcocl/render/bvh.py) for about 10^6 triangles.
+"""Time loading a big mesh: OBJ reading, the BVH build, and the device scene's size per triangle.
 
-    python bench/bvh_build.py              # 10^6 triangles, terrain and soup
-    python bench/bvh_build.py --n 200000 --repeat 3 --trace --all-axes
+    python bench/bvh_build.py                         # 10^5 and 10^6 triangles
+    python bench/bvh_build.py --n 200000 --repeat 3 --trace
+    python bench/bvh_build.py --compare               # also the binned-SAH builds (slow) and SAH ratios
 
 Two inputs: a height-field terrain (a connected mesh: many thin, adjacent
 triangles, like scanned or modelled geometry) and a soup of random small
-triangles in a cube.  Reports wall time of ``build_bvh`` (best of
-``--repeat``), the tree's size and depth, and its SAH cost.  With
-``--trace`` it also times closest-hit traversal of random rays through the
-built tree on the default OpenCL device (rays/s, single run, after the
-kernel build).
+triangles in a cube.  For each size it reports:
+
+- ``obj``: the terrain written as an OBJ file, read by
+  :func:`mcocl.render.shapes.read_obj` (wall and CPU seconds), and the whole
+  scene load (read, transform, BVH, tables) of a scene file that uses it;
+- ``build``: :func:`mcocl.render.bvh.build_bvh` (best of ``--repeat``), the
+  tree's size and depth and its SAH cost (with ``--compare``, the ratio to
+  the binned-SAH builder along the widest axis and along all three axes);
+- ``device``: bytes per triangle of every array the render kernel reads
+  (:func:`mcocl.render.job.scene_tables`) for the terrain scene.
+
+Measured (2 shared cores, load 4.6-6.9, so CPU seconds are the figures to
+compare; an idle machine's wall time is close to them), 10^6 triangles:
+OBJ read 0.23-0.29 CPU-s (0.4-0.55 s wall); build 0.53-0.57 CPU-s
+(terrain) and 0.64-0.76 (soup) against 1.86-1.90 / 1.99-2.11 for the binned
+build along the widest axis and 3.38-3.58 / 4.08-4.35 along all three; SAH
+cost ratio to those 0.925 / 1.014 and 1.154 / 1.034 (10^5: 1.028 / 1.034
+and 1.091 / 1.056); 123 bytes per triangle in the kernel's buffers.
+
+With ``--trace`` it also times closest-hit traversal of random rays
+through the built tree on the default OpenCL device (rays/s, single run,
+after the kernel build).  Timings are wall seconds of one process on a
+machine that may be shared: compare CPU seconds when the load is high.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
 from mcocl.render.bvh import C_TRAV, build_bvh
 
 
-def terrain(n_tris: int, seed: int = 0) -> np.ndarray:
-    """A k×k height field as 2(k−1)² triangles (n_tris rounded), (T, 3, 3)."""
+def terrain_mesh(n_tris: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A k×k height field: vertices (k², 3) and 2(k−1)² faces (n_tris rounded)."""
     k = int(np.sqrt(n_tris / 2)) + 1
     rng = np.random.default_rng(seed)
     x, z = np.meshgrid(np.linspace(-1, 1, k), np.linspace(-1, 1, k))
@@ -32,6 +54,12 @@ def terrain(n_tris: int, seed: int = 0) -> np.ndarray:
     v = np.stack([x, y, z], -1).reshape(-1, 3)
     i = np.arange(k * k).reshape(k, k)[:-1, :-1].ravel()
     f = np.concatenate([np.stack([i, i + k, i + 1], 1), np.stack([i + 1, i + k, i + k + 1], 1)])
+    return v, f
+
+
+def terrain(n_tris: int, seed: int = 0) -> np.ndarray:
+    """The terrain's triangles, (T, 3, 3)."""
+    v, f = terrain_mesh(n_tris, seed)
     return v[f]
 
 
@@ -55,32 +83,91 @@ def sah_cost(bvh) -> float:
     return float(C_TRAV * (1 + area[internal].sum() / ra) + (area * cnt).sum() / ra)
 
 
+def timed(fn, repeat: int = 1):
+    """(result, first run's wall seconds, best wall seconds, best CPU seconds) of ``fn()`` over ``repeat`` runs."""
+    first = best = best_cpu = np.inf
+    for _ in range(repeat):
+        t0, c0 = time.perf_counter(), time.process_time()
+        out = fn()
+        wall = time.perf_counter() - t0
+        first = wall if first == np.inf else first
+        best = min(best, wall)
+        best_cpu = min(best_cpu, time.process_time() - c0)
+    return out, first, best, best_cpu
+
+
+def write_obj(path: Path, v: np.ndarray, f: np.ndarray) -> None:
+    """A plain OBJ file: ``v x y z`` lines, then ``f a b c`` lines (1-based)."""
+    text = ("v %.6f %.6f %.6f\n" * len(v)) % tuple(v.ravel()) + ("f %d %d %d\n" * len(f)) % tuple((f + 1).ravel())
+    path.write_text(text)
+
+
+def bench_obj(n: int, repeat: int) -> None:
+    """OBJ reading, whole scene load and device bytes per triangle of the terrain of about ``n`` triangles."""
+    from mcocl.render.compiled import load_compiled
+    from mcocl.render.job import KERNEL_BUFFERS, scene_tables
+    from mcocl.render.shapes import read_obj
+
+    v, f = terrain_mesh(n)
+    with tempfile.TemporaryDirectory() as tmp:
+        obj = Path(tmp) / "terrain.obj"
+        write_obj(obj, v, f)
+        scene = {"camera": {"origin": [0, 2, 3], "target": [0, 0, 0], "fov": 40, "width": 64, "height": 64},
+                 "materials": {"m": {"type": "diffuse", "reflectance": 0.5}},
+                 "shapes": [{"type": "mesh", "material": "m", "obj": "terrain.obj"}]}
+        (Path(tmp) / "scene.json").write_text(json.dumps(scene))
+        (_, tris), f_read, t_read, c_read = timed(lambda: read_obj(obj, "bench"), repeat)
+        cs, _, t_load, c_load = timed(lambda: load_compiled(Path(tmp) / "scene.json"), 1)
+        size = obj.stat().st_size
+    tables = scene_tables(cs)
+    kernel_bytes = sum(tables[name].nbytes for name in KERNEL_BUFFERS)
+    all_bytes = sum(a.nbytes for a in tables.values())
+    print(f"obj      {len(tris):>9d} triangles ({size / 1e6:.1f} MB): read {t_read:5.2f} s wall (first run "
+          f"{f_read:5.2f}), {c_read:5.2f} s cpu; whole scene load {t_load:5.2f} s wall, {c_load:5.2f} s cpu")
+    per = {name: tables[name].nbytes / len(tris) for name in KERNEL_BUFFERS if tables[name].nbytes >= len(tris)}
+    print(f"device   {kernel_bytes / len(tris):6.1f} bytes/triangle in the kernel's buffers "
+          f"({all_bytes / len(tris):.1f} with every table): "
+          + ", ".join(f"{k} {b:.1f}" for k, b in sorted(per.items(), key=lambda kv: -kv[1])))
+
+
+def bench_build(name: str, tris: np.ndarray, args) -> None:
+    """Build time and SAH cost of one input (and, with --compare, the binned builders' ratios)."""
+    lo, hi = tris.min(axis=1), tris.max(axis=1)
+    bvh, first, t, c = timed(lambda: build_bvh(lo, hi, method=args.method, all_axes=args.all_axes), args.repeat)
+    cost = sah_cost(bvh)
+    print(f"{name:8s} {len(tris):>9d} triangles: build {t:5.2f} s wall (first run {first:5.2f}), {c:5.2f} s cpu "
+          f"({len(tris) / t / 1e6:.2f} M tris/s), "
+          f"{bvh.num_nodes} nodes, {bvh.num_leaves} leaves ({len(tris) / bvh.num_leaves:.2f} tris/leaf), "
+          f"depth {bvh.depth}, SAH cost {cost:.1f}")
+    if args.compare:
+        for all_axes in (False, True):
+            ref, _, tr, cr = timed(lambda a=all_axes: build_bvh(lo, hi, method="binned", all_axes=a), 1)
+            rc = sah_cost(ref)
+            print(f"         binned ({'all axes' if all_axes else 'widest axis'}): build {tr:6.2f} s wall, "
+                  f"{cr:6.2f} s cpu, SAH cost {rc:.1f}; {args.method}/binned SAH ratio {cost / rc:.3f}")
+    if args.trace:
+        trace(tris, bvh)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=1_000_000, help="triangles (default 10^6)")
-    ap.add_argument("--repeat", type=int, default=1, help="builds per input; the best time is reported")
+    ap.add_argument("--n", default="100000,1000000", help="triangle counts, comma-separated (default 10^5,10^6)")
+    ap.add_argument("--repeat", type=int, default=1, help="runs per timing; the best is reported")
+    ap.add_argument("--method", default="ploc", choices=("ploc", "binned"), help="build_bvh(method=...)")
+    ap.add_argument("--all-axes", action="store_true", help="method binned: bin all three axes")
+    ap.add_argument("--compare", action="store_true", help="also build with the binned builders (slow)")
     ap.add_argument("--trace", action="store_true", help="also time kernel traversal of 10^6 random rays")
-    ap.add_argument("--all-axes", action="store_true", help="bin all three axes (build_bvh(all_axes=True))")
+    ap.add_argument("--no-obj", action="store_true", help="skip the OBJ and device-size measurements")
     args = ap.parse_args()
     print(f"# numpy {np.__version__}, {os.cpu_count()} CPUs, loadavg {os.getloadavg()[0]:.2f}")
-    for name, make in (("terrain", terrain), ("soup", soup)):
-        tris = make(args.n).astype(np.float32)
-        lo, hi = tris.min(axis=1), tris.max(axis=1)
-        best = best_cpu = np.inf
-        for _ in range(args.repeat):
-            t0, c0 = time.perf_counter(), time.process_time()
-            bvh = build_bvh(lo, hi, all_axes=args.all_axes)
-            best = min(best, time.perf_counter() - t0)
-            best_cpu = min(best_cpu, time.process_time() - c0)
-        print(f"{name:8s} {len(tris):>9d} triangles: build {best:6.2f} s wall, {best_cpu:6.2f} s cpu "
-              f"({len(tris) / best / 1e6:.2f} M tris/s), "
-              f"{bvh.num_nodes} nodes, {bvh.num_leaves} leaves ({len(tris) / bvh.num_leaves:.2f} tris/leaf), "
-              f"depth {bvh.depth}, SAH cost {sah_cost(bvh):.1f}")
-        if args.trace:
-            trace(tris, all_axes=args.all_axes)
+    for n in (int(float(x)) for x in args.n.split(",")):
+        if not args.no_obj:
+            bench_obj(n, args.repeat)
+        for name, make in (("terrain", terrain), ("soup", soup)):
+            bench_build(name, make(n).astype(np.float32), args)
 
 
-def trace(tris: np.ndarray, nrays: int = 1_000_000, all_axes: bool = False) -> None:
+def trace(tris: np.ndarray, bvh, nrays: int = 1_000_000) -> None:
     """Closest-hit traversal speed through a mesh of these triangles (rays from outside towards it)."""
     from mcocl.render.compiled import compile_scene
     from mcocl.render.raycast import MISS, cast_rays
@@ -89,13 +176,10 @@ def trace(tris: np.ndarray, nrays: int = 1_000_000, all_axes: bool = False) -> N
     scene = {"camera": {"origin": [0, 0, 5], "target": [0, 0, 0], "fov": 40, "width": 1, "height": 1},
              "materials": {"m": {"type": "diffuse", "reflectance": 0.5}}, "shapes": []}
     cs = compile_scene(parse_scene(scene, "bench"))
-    # Swap the (empty) geometry for the triangles: same contract arrays, built by compile_scene's BVH code.
-    from mcocl.render.bvh import build_bvh as bb
-
+    # Swap the (empty) geometry for the triangles and the tree built above.
     tv = np.zeros((len(tris), 3, 4), np.float32)
     tv[:, :, :3] = tris
-    b = bb(tris.min(1), tris.max(1), all_axes=all_axes)
-    cs.tri_vertices, cs.bvh_nodes, cs.bvh_prims = tv, b.nodes, b.prims
+    cs.tri_vertices, cs.bvh_nodes, cs.bvh_prims = tv, bvh.nodes, bvh.prims
     rng = np.random.default_rng(1)
     o = rng.normal(size=(nrays, 3))
     o = (3 * o / np.linalg.norm(o, axis=1, keepdims=True)).astype(np.float32)

@@ -31,7 +31,7 @@ def brute_force(tris: np.ndarray, spheres: np.ndarray, o: np.ndarray, d: np.ndar
             qv = np.cross(tv, e1)
             v = np.einsum("ij,ij->i", d64, qv) * inv
             t = (qv @ e2) * inv
-        ok = (det != 0) & (u >= -EPS) & (v >= -EPS) & (u + v <= 1 + EPS) & (t > 0) & (t < np.minimum(tmax, best_t))
+            ok = (det != 0) & (u >= -EPS) & (v >= -EPS) & (u + v <= 1 + EPS) & (t > 0) & (t < np.minimum(tmax, best_t))
         best_t[ok], best_p[ok] = t[ok], p
     for k, s in enumerate(spheres.astype(np.float64)):
         f = o64 - s[:3]
@@ -261,3 +261,169 @@ def test_build_limits_and_partition(all_axes):
     # Depth-first node order: a node's children come after it.
     parent = np.repeat(np.arange(b.num_nodes), 2).reshape(-1, 2)
     assert np.all(ref[cnt == 0] > parent[cnt == 0])
+
+
+def check_tree(b, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Structural checks of a flattened hierarchy over boxes [lo, hi]: a partition, conservative boxes, order."""
+    n = len(lo)
+    assert b.depth <= MAX_DEPTH
+    assert np.array_equal(np.sort(b.prims), np.arange(n))
+    u = b.nodes.view(np.uint32)
+    assert u[0, 0] == n and u[0, 1] == b.num_nodes and u[0, 2] == b.depth
+    cnt = u[1:, 3].reshape(-1, 2, 2)[:, :, 1]
+    ref = u[1:, 3].reshape(-1, 2, 2)[:, :, 0]
+    nlo = b.nodes[1:, :3].reshape(-1, 2, 2, 3)[:, :, 0]
+    nhi = b.nodes[1:, :3].reshape(-1, 2, 2, 3)[:, :, 1]
+    assert np.all(ref[cnt == 0] < b.num_nodes)
+    if n > 1:
+        assert cnt.sum() == n and (cnt > 0).sum() == b.num_leaves
+    k, j = np.nonzero(cnt)
+    leaf_of = np.repeat(np.arange(len(k)), cnt[k, j])
+    pos = np.concatenate([np.arange(r, r + c) for r, c in zip(ref[k, j], cnt[k, j])])
+    pr = b.prims[pos]
+    assert np.all(lo[pr] >= nlo[k, j][leaf_of]) and np.all(hi[pr] <= nhi[k, j][leaf_of])
+    # An internal child's box holds both boxes of its own children.
+    par, side = np.nonzero(cnt == 0)
+    child = ref[par, side]
+    assert np.all(nlo[par, side][:, None] <= nlo[child]) and np.all(nhi[par, side][:, None] >= nhi[child])
+    parent = np.repeat(np.arange(b.num_nodes), 2).reshape(-1, 2)
+    assert np.all(ref[cnt == 0] > parent[cnt == 0])  # depth-first order
+
+
+@pytest.mark.parametrize("method", ["ploc", "binned"])
+@pytest.mark.parametrize("case", ["identical", "scale_huge", "scale_tiny", "far_offset", "flat", "two", "nested"])
+def test_build_structure_on_adversarial_boxes(method, case):
+    rng = np.random.default_rng(12)
+    n = 3000
+    c = rng.uniform(-1, 1, (n, 3))
+    e = rng.uniform(0, 0.01, (n, 3))
+    if case == "identical":  # every box the same: only ties
+        c[:], e[:] = 0.3, 0.1
+    elif case == "scale_huge":  # areas beyond float32 range unless rescaled
+        c, e = c * 1e30, e * 1e30
+    elif case == "scale_tiny":  # areas below float32's smallest numbers
+        c, e = c * 1e-30, e * 1e-30
+    elif case == "far_offset":  # a small scene far from the origin
+        c = c * 1e-3 + 1e6
+        e = e * 1e-3
+    elif case == "flat":  # coplanar: zero extent along z
+        c[:, 2], e[:, 2] = 0.5, 0.0
+    elif case == "two":
+        c, e = c[:2], e[:2]
+    elif case == "nested":  # boxes nested like onion shells: greedy clustering makes a chain
+        s = 1.5 ** np.arange(60)
+        c, e = np.zeros((60, 3)), np.stack([s, s, s], 1)
+    lo, hi = (c - e).astype(np.float32), (c + e).astype(np.float32)
+    b = build_bvh(lo, hi, method=method)
+    check_tree(b, lo, hi)
+    if case == "nested" and method == "ploc":  # the clustered chain is too deep: the binned build takes over
+        from mcocl.render.bvh_ploc import cluster, flatten_tree
+        assert flatten_tree(cluster(lo, hi)[0], np.arange(len(lo), dtype=np.uint32), 8, 1.0)[4] > MAX_DEPTH
+    again = build_bvh(lo.copy(), hi.copy(), method=method)  # deterministic: the same bytes
+    assert again.nodes.tobytes() == b.nodes.tobytes() and again.prims.tobytes() == b.prims.tobytes()
+
+
+def test_build_rejects_bad_input():
+    lo = np.zeros((3, 3), np.float32)
+    hi = np.ones((3, 3), np.float32)
+    with pytest.raises(ValueError, match="unknown method"):
+        build_bvh(lo, hi, method="sweep")
+    hi[1, 2] = np.nan
+    with pytest.raises(ValueError, match="finite"):
+        build_bvh(lo, hi)
+
+
+def test_clustered_tree_is_close_to_binned_sah():
+    """The default (clustering) build's SAH cost stays near the binned builder's on a random soup."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+    from bvh_build import sah_cost, soup, terrain
+
+    for make in (soup, terrain):
+        t = make(20000, seed=3).astype(np.float32)
+        lo, hi = t.min(axis=1), t.max(axis=1)
+        ratio = sah_cost(build_bvh(lo, hi)) / sah_cost(build_bvh(lo, hi, method="binned"))
+        assert ratio < 1.12, f"{make.__name__}: SAH ratio {ratio:.3f}"
+
+
+def mesh_scene(v: np.ndarray, f: np.ndarray) -> dict:
+    """A scene dict holding one mesh."""
+    scene = soup_scene(np.random.default_rng(0), 0, 0)
+    scene["shapes"] = [{"type": "mesh", "material": "m", "vertices": np.asarray(v).tolist(),
+                        "faces": np.asarray(f).tolist()}]
+    return scene
+
+
+def test_coplanar_overlapping_triangles_match_brute_force():
+    """Many overlapping triangles in one plane, rays from both sides and grazing rays in the plane."""
+    rng = np.random.default_rng(21)
+    n = 400
+    c = rng.uniform(-1, 1, (n, 1, 2))
+    v2 = c + rng.normal(0, 0.3, (n, 3, 2))
+    v = np.concatenate([v2, np.zeros((n, 3, 1))], axis=2).reshape(-1, 3)
+    cs = compile_scene(parse_scene(mesh_scene(v, np.arange(3 * n).reshape(-1, 3)), "coplanar.json"))
+    o = np.concatenate([rng.uniform(-1.5, 1.5, (3000, 3)) * [1, 1, 0] + [0, 0, 1],
+                        rng.uniform(-1.5, 1.5, (3000, 3)) * [1, 1, 0] - [0, 0, 1]]).astype(np.float32)
+    d = np.concatenate([np.tile([0, 0, -1.0], (3000, 1)), rng.normal(size=(3000, 3)) * [0.2, 0.2, 0] + [0, 0, 1]])
+    d = d.astype(np.float32)
+    hits = cast_rays(cs, o, d)
+    bt, bp = brute_force(cs.tri_vertices[:, :, :3], cs.spheres, o, d, np.full(len(o), np.inf))
+    # Every hit is at the plane, so which of the overlapping triangles is reported is a tie: check
+    # hit/miss and distance against brute force, and that the reported triangle really holds the point.
+    hit = hits.prim != MISS
+    assert (hit != (bp != MISS)).sum() <= 3 and hit.mean() > 0.3
+    np.testing.assert_allclose(hits.t[hit & (bp != MISS)], bt[hit & (bp != MISS)], rtol=1e-5, atol=1e-6)
+    tri = cs.tri_vertices[hits.prim[hit], :, :3].astype(np.float64)
+    p = (o[hit] + hits.t[hit, None] * d[hit]).astype(np.float64)
+    b1, b2 = hits.b1[hit], hits.b2[hit]
+    np.testing.assert_allclose(tri[:, 0] + b1[:, None] * (tri[:, 1] - tri[:, 0]) + b2[:, None] * (tri[:, 2] - tri[:, 0]),
+                               p, atol=1e-5)
+    assert np.all((b1 >= -1e-5) & (b2 >= -1e-5) & (b1 + b2 <= 1 + 1e-5))
+    # Rays inside the plane: parallel to every triangle, nothing can be hit (det = 0).
+    og = rng.uniform(-1.5, 1.5, (500, 3)).astype(np.float32) * [1, 1, 0]
+    dg = np.concatenate([rng.normal(size=(500, 2)), np.zeros((500, 1))], axis=1).astype(np.float32)
+    assert np.all(cast_rays(cs, og.astype(np.float32), dg).prim == MISS)
+
+
+def test_huge_tiny_and_degenerate_triangles_match_brute_force():
+    """One huge triangle among tiny ones and degenerate ones (lines, points): BVH = brute force."""
+    rng = np.random.default_rng(22)
+    tiny = rng.uniform(-1, 1, (300, 1, 3)) + rng.normal(0, 1e-3, (300, 3, 3))
+    small = rng.uniform(-1, 1, (300, 1, 3)) + rng.normal(0, 0.1, (300, 3, 3))
+    huge = np.array([[[-1e4, -1e4, -0.5], [1e4, -1e4, -0.5], [0, 1e4, -0.7]]])
+    line = rng.uniform(-1, 1, (50, 1, 3)) + np.linspace(0, 1, 3)[None, :, None] * rng.normal(0, 0.2, (50, 1, 3))
+    point = np.repeat(rng.uniform(-1, 1, (50, 1, 3)), 3, axis=1)
+    tris = np.concatenate([tiny, small, huge, line, point])
+    perm = rng.permutation(len(tris))
+    tris = tris[perm]
+    cs = compile_scene(parse_scene(mesh_scene(tris.reshape(-1, 3), np.arange(3 * len(tris)).reshape(-1, 3)),
+                                   "mixed.json"))
+    assert cs.bvh_stats["degenerate_triangles"] >= 100
+    o, d = random_rays(rng, 4000)
+    # Rays aimed at the tiny triangles' centroids too, so that they are hit.
+    targets = tris[np.isin(perm, np.arange(300))].mean(axis=1)
+    o2 = rng.uniform(-1.5, 1.5, (len(targets), 3))
+    o = np.concatenate([o, o2]).astype(np.float32)
+    d = np.concatenate([d, targets - o2]).astype(np.float32)
+    hits = check_against_brute_force(cs, o, d, np.full(len(o), np.inf, np.float32))
+    tiny_ids = np.flatnonzero(np.isin(perm, np.arange(300)))
+    assert np.isin(hits.prim, tiny_ids).sum() >= 100
+    assert np.isin(hits.prim, np.flatnonzero(perm == 600)).sum() >= 100  # the huge one
+
+
+def test_closed_mesh_has_no_leaks_through_shared_vertices():
+    """Rays from inside a closed triangulated sphere, aimed at its vertices and edge midpoints, all hit it."""
+    k = 24
+    th, ph = np.meshgrid(np.linspace(0, np.pi, k), np.linspace(0, 2 * np.pi, 2 * k, endpoint=False), indexing="ij")
+    v = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], -1).reshape(-1, 3)
+    idx = np.arange(k * 2 * k).reshape(k, 2 * k)
+    a, b_, c, d = idx[:-1], np.roll(idx, -1, 1)[:-1], idx[1:], np.roll(idx, -1, 1)[1:]
+    f = np.concatenate([np.stack([a, c, b_], -1).reshape(-1, 3), np.stack([b_, c, d], -1).reshape(-1, 3)])
+    cs = compile_scene(parse_scene(mesh_scene(v, f), "sphere.json"))
+    rng = np.random.default_rng(23)
+    targets = np.concatenate([v, 0.5 * (v[f[:, 0]] + v[f[:, 1]]), 0.5 * (v[f[:, 1]] + v[f[:, 2]])])
+    o = np.repeat(rng.uniform(-0.3, 0.3, (4, 3)), len(targets), axis=0)
+    d = np.tile(targets, (4, 1)) - o
+    hits = cast_rays(cs, o.astype(np.float32), d.astype(np.float32))
+    assert np.all(hits.prim != MISS)

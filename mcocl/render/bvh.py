@@ -1,10 +1,21 @@
-"""Bounding volume hierarchy: a binned-SAH build vectorised with NumPy, flattened for the kernels.
+"""Bounding volume hierarchy: two builds vectorised with NumPy, flattened for the kernels.
 
-Build (after Wald 2007, "On fast construction of SAH-based bounding volume
-hierarchies", and pbrt-v4 §7.3.2): a node is split along the axis of widest
-centroid extent; its centroids go into ``bins`` equal-width bins (one per
-primitive for smaller nodes) and it is split at the bin boundary where the
-surface-area heuristic
+Default build (``method="ploc"``, :mod:`mcocl.render.bvh_ploc`): the
+primitives are clustered bottom-up along their Morton curve (PLOC, Meister &
+Bittner 2018) until N / :data:`TOP_CLUSTER` clusters are left; the binned
+build below, binning all three axes, then joins those clusters top-down
+(where a top-down SAH split beats greedy merging, at 1/32 of its cost), and
+the whole binary tree is cut into leaves by an exact bottom-up SAH pass.
+10^6 triangles: about 0.6 CPU-seconds against 2.3-3.9 for the binned build
+alone, for an SAH cost within 10 % of the binned build along the widest axis
+(see bench/bvh_build.py).
+
+Binned build (``method="binned"``; after Wald 2007, "On fast construction
+of SAH-based bounding volume hierarchies", and pbrt-v4 §7.3.2): a node is
+split along the axis of widest centroid extent (or the best of all three);
+its centroids go into ``bins`` equal-width bins (one per primitive for
+smaller nodes) and it is split at the bin boundary where the surface-area
+heuristic
 
     cost = C_trav + (A_L·N_L + A_R·N_R) / A_node · C_isect   (C_isect = 1)
 
@@ -20,7 +31,10 @@ ranges; per-bin counts are a ``bincount``, per-bin bounds ``minimum.at`` /
 ``maximum.at`` into a compact table (all nodes' bins end to end), the
 prefix/suffix bounds of the bins are segmented scans, and the split is a
 stable partition by a segmented prefix sum.  Leaves leave the arrays, so
-later levels touch only what is left.
+later levels touch only what is left.  Where its time goes (10^6 triangles,
+all axes): the segmented scans over bin tables (~20 %), the ``ufunc.at``
+scatters (~15 %), per-level elementwise work (the rest) — every level
+touches every primitive.
 
 Flattened layout (``nodes``, float32 (1 + 4·K, 4); ``prims``, uint32):
 
@@ -44,8 +58,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bvh_ploc import cluster, flatten_tree, join_clusters
+
 MAX_DEPTH = 48  # the kernel's traversal stack (bvh.cl BVH_STACK = 64) must exceed this
 C_TRAV = 1.0  # cost of visiting a node (two box tests) relative to one primitive test
+PLOC_RADIUS = 8  # default neighbourhood of the clustering build
+TOP_CLUSTER = 32  # clustering stops at N / TOP_CLUSTER clusters; a binned all-axes build joins them
 
 
 @dataclass
@@ -145,27 +163,63 @@ class _Bins:
 
 def build_bvh(lo: np.ndarray, hi: np.ndarray, ids: np.ndarray | None = None,
               max_leaf: int = 8, bins: int = 16, traversal_cost: float = C_TRAV,
-              all_axes: bool = False) -> BVH:
-    """Build a binned-SAH BVH over primitives with boxes ``[lo, hi]`` (N, 3).
+              all_axes: bool = False, method: str = "ploc", radius: int = PLOC_RADIUS) -> BVH:
+    """Build a BVH over primitives with boxes ``[lo, hi]`` (N, 3).
 
     Args:
-        lo, hi: primitive bounds.
+        lo, hi: primitive bounds (finite).
         ids: the primitive id stored for each box (default ``arange(N)``).
         max_leaf: leaves are never chosen for more primitives than this
-            (except at :data:`MAX_DEPTH`).
-        bins: centroid bins of a node (a node of fewer primitives gets one
-            bin per primitive).
+            (except at :data:`MAX_DEPTH` in the binned build).
+        bins: centroid bins of a node in the binned build (a node of fewer
+            primitives gets one bin per primitive); with ``method="ploc"``,
+            in the binned build that joins the last clusters.
         traversal_cost: C_trav of the SAH, relative to one primitive test.
-        all_axes: bin all three axes and keep the best split (better trees
-            of elongated or flat geometry, about twice the build time)
-            instead of only the axis of widest centroid extent.
+        all_axes: ``method="binned"``: bin all three axes and keep the best
+            split (better trees of elongated or flat geometry, about twice
+            the build time) instead of only the axis of widest centroid extent.
+        method: ``"ploc"`` (default): agglomerative clustering along the
+            Morton curve joined by a binned top (see the module docstring),
+            4-7x faster than ``"binned"`` on 10^6 triangles; ``"binned"``:
+            top-down binned SAH only.  A clustered tree deeper than
+            :data:`MAX_DEPTH` (which the kernels' stack cannot hold) is
+            rebuilt by the binned build.
+        radius: ``method="ploc"``: neighbours searched on either side of a
+            cluster (Meister & Bittner's r; 4-32 gave SAH costs within 4 %
+            of each other on the bench's meshes, 8 costs half of 16).
+
+    Raises:
+        ValueError: an unknown ``method``, or non-finite bounds.
     """
     lo = np.asarray(lo, dtype=np.float32).reshape(-1, 3)
     hi = np.asarray(hi, dtype=np.float32).reshape(-1, 3)
     n = len(lo)
     ids = np.arange(n, dtype=np.uint32) if ids is None else np.asarray(ids, dtype=np.uint32)
+    if method not in ("ploc", "binned"):
+        raise ValueError(f"build_bvh: unknown method {method!r} (expected 'ploc' or 'binned')")
     if n == 0:
         return BVH(np.zeros((1, 4), np.float32), np.zeros(0, np.uint32), 0, 0, 0, np.zeros((2, 3), np.float32))
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+        raise ValueError("build_bvh: primitive bounds must be finite")
+    if method == "ploc" and n > 1:
+        tree, roots = cluster(lo, hi, radius, stop=n // TOP_CLUSTER if n >= 4 * TOP_CLUSTER else 1)
+        if len(roots) > 1:
+            box = tree.box[:, roots].T
+            top = _build_binned(box[:, :3], box[:, 3:], np.arange(len(roots), dtype=np.uint32), 1, bins,
+                                traversal_cost, True)
+            if not join_clusters(tree, roots, top.nodes, top.prims):
+                tree, roots = cluster(lo, hi, radius)
+        nodes, prims, k, leaves, depth = flatten_tree(tree, ids, max_leaf, traversal_cost)
+        if depth <= MAX_DEPTH:
+            bounds = np.stack([lo.min(axis=0), hi.max(axis=0)])
+            return BVH(nodes, prims, k, leaves, depth, bounds)
+    return _build_binned(lo, hi, ids, max_leaf, bins, traversal_cost, all_axes)
+
+
+def _build_binned(lo: np.ndarray, hi: np.ndarray, ids: np.ndarray, max_leaf: int, bins: int,
+                  traversal_cost: float, all_axes: bool) -> BVH:
+    """The top-down binned-SAH build of :func:`build_bvh` (``method="binned"``; see the module docstring)."""
+    n = len(lo)
     gmin = lo.min(axis=0).astype(np.float64)
     span = float((hi.max(axis=0) - gmin).max())
     big = 2.0 ** np.ceil(np.log2(2.0 * span + 1.0))

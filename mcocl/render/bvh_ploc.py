@@ -1,0 +1,322 @@
+"""BVH build by locally-ordered agglomerative clustering (PLOC), vectorised with NumPy.
+
+Meister & Bittner 2018, "Parallel Locally-Ordered Clustering for Bounding
+Volume Hierarchy Construction" (IEEE TVCG 24(3)):
+
+1. the primitives are sorted along a Morton (Z-order) curve of their
+   centroids (63-bit codes, 21 bits per axis, on a cube around the centroids
+   so that the curve's cells are cubes);
+2. every cluster (at first one primitive) finds its nearest neighbour among
+   the ``radius`` clusters on either side in that order, the distance being
+   the surface area of the box around both;
+3. clusters that are each other's nearest neighbour merge; the merged
+   cluster takes the place of the left one and the order is compacted;
+   steps 2-3 repeat until one cluster is left.
+
+Each iteration is a handful of whole-array NumPy operations (``radius``
+shifted-array box unions, no Python loop over clusters); about 4-5·N cluster
+visits in all for N primitives.  Ties are broken by a strict order on pairs
+(the distance, then the pair's lower and upper position), so that the
+globally closest pair is always mutual: every iteration merges at least one
+pair, and the result is deterministic.
+
+Clustering may stop early (``stop`` clusters left); :func:`join_clusters`
+then completes the tree with any hierarchy built over those clusters (the
+default build joins the last N/32 with a top-down binned SAH build).
+
+The binary tree is then cut into leaves by the surface-area heuristic,
+bottom-up and exactly (the cost of a subtree is the lower of making it a
+leaf, ``A·N`` for ``N <= max_leaf``, and keeping it internal,
+``C_trav·A + cost(left) + cost(right)``; pbrt-v4 §7.3.2's cost model), and
+written in the layout of :mod:`mcocl.render.bvh`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+MORTON_BITS = 21  # per axis: 63-bit codes
+
+
+def _spread_bits(q: np.ndarray) -> np.ndarray:
+    """Put bit k of each 21-bit integer at bit 3k (the classic magic-number interleave)."""
+    x = q.astype(np.uint64) & np.uint64(0x1FFFFF)
+    for shift, mask in ((32, 0x1F00000000FFFF), (16, 0x1F0000FF0000FF), (8, 0x100F00F00F00F00F),
+                        (4, 0x10C30C30C30C30C3), (2, 0x1249249249249249)):
+        x = (x | (x << np.uint64(shift))) & np.uint64(mask)
+    return x
+
+
+def morton_order(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Indices that sort the boxes ``[lo, hi]`` (N, 3) along the Morton curve of their centroids (stable)."""
+    c = lo.astype(np.float64) + hi  # doubled centroids: the factor 1/2 cancels in the normalisation
+    cmin = c.min(axis=0)
+    ext = float((c.max(axis=0) - cmin).max())
+    scale = (2**MORTON_BITS - 1) / ext if ext > 0 else 0.0
+    q = np.minimum((c - cmin) * scale, 2**MORTON_BITS - 1).astype(np.uint64)
+    code = (_spread_bits(q[:, 0]) << np.uint64(2)) | (_spread_bits(q[:, 1]) << np.uint64(1)) | _spread_bits(q[:, 2])
+    # NumPy's default sort is several times faster than its stable one on 64-bit keys, but may order
+    # equal keys differently on another CPU: equal codes are put in index order afterwards.
+    order = np.argsort(code)
+    sorted_code = code[order]
+    same = sorted_code[1:] == sorted_code[:-1]
+    if same.any():
+        tied = np.zeros(len(code), bool)
+        tied[1:] |= same
+        tied[:-1] |= same
+        at = np.flatnonzero(tied)
+        group = np.cumsum(~np.concatenate([[False], same])[at])
+        sub = order[at]
+        order[at] = sub[np.lexsort((sub, group))]
+    return order
+
+
+@dataclass
+class MergeTree:
+    """A binary tree from clustering: nodes ``0..N-1`` are the primitives in Morton order, ``N..2N-2`` merges.
+
+    Merge ``N + i`` joins ``left[i]`` and ``right[i]``; merges of one
+    iteration are consecutive (``batches``: (first merge, count) per
+    iteration), and a merge's children come from earlier iterations.  The root
+    is the last merge.
+    """
+
+    order: np.ndarray  # int64 (N,): primitive of each leaf node
+    left: np.ndarray  # int64 (N-1,)
+    right: np.ndarray  # int64 (N-1,)
+    box: np.ndarray  # float32 (6, 2N-1): lo x, y, z, hi x, y, z of every node
+    batches: list[tuple[int, int]]
+
+
+def _area_scale(box: np.ndarray) -> float:
+    """A power of two that keeps the clustering's float32 surface areas finite and above underflow.
+
+    1 (no scaling) unless the scene spans more than 2^40 or less than 2^-40.
+    """
+    span = max(float(box[3 + a].max()) - float(box[a].min()) for a in range(3))
+    if span == 0.0 or 2.0**-40 <= span <= 2.0**40:
+        return 1.0
+    return 2.0 ** -np.ceil(np.log2(span))
+
+
+_BLOCK = 65536  # positions per block of the neighbour search: its temporaries stay in the CPU's cache
+
+
+def _nearest(box: np.ndarray, r: int, rank_bits: int) -> np.ndarray:
+    """For every cluster, a key whose low ``rank_bits`` bits say which neighbour is the nearest.
+
+    ``box`` (6, c): the clusters' boxes in curve order.  The key of a
+    candidate is the float32 bit pattern of the distance (non-negative, so
+    its bits order like its value) with the low bits replaced by the
+    candidate's rank (offsets -r..-1 are ranks 0..r-1, +1..+r are r..2r-1);
+    the smallest key is the nearest candidate, ties going to the lowest rank.
+    The lost low bits of the distance (a relative 2^-19) only widen ties.
+    """
+    c = box.shape[1]
+    best = np.full(c, 0xFFFFFFFF, np.uint32)
+    mask = np.uint32((0xFFFFFFFF >> rank_bits) << rank_bits)
+    ext = np.empty((3, min(c, _BLOCK + r)), np.float32)
+    tmp = np.empty(ext.shape[1], np.float32)
+    for s0 in range(0, c, _BLOCK):
+        s1 = min(c, s0 + _BLOCK)
+        b = box[:, s0:min(c, s1 + r)]
+        w = b.shape[1]
+        for k in range(1, r + 1):  # pairs (i, i + k), i = s0 .. s0 + m - 1
+            m = w - k
+            e, t = ext[:, :m], tmp[:m]
+            for a in range(3):
+                np.maximum(b[3 + a, k:], b[3 + a, :m], out=e[a])
+                np.minimum(b[a, k:], b[a, :m], out=t)
+                e[a] -= t
+            np.add(e[1], e[2], out=t)  # half the surface area: x (y + z) + y z
+            t *= e[0]
+            e[1] *= e[2]
+            t += e[1]
+            key = t.view(np.uint32)
+            key &= mask
+            mr = min(m, s1 - s0)
+            np.minimum(best[s0:s0 + mr], key[:mr] | np.uint32(r + k - 1), out=best[s0:s0 + mr])
+            np.minimum(best[s0 + k:s0 + k + m], key | np.uint32(r - k), out=best[s0 + k:s0 + k + m])
+    return best
+
+
+def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> tuple[MergeTree, np.ndarray]:
+    """Agglomerative clustering of the boxes ``[lo, hi]`` (N >= 2, float32) into a :class:`MergeTree`.
+
+    Merging stops once at most ``stop`` clusters are left; returns the tree
+    (complete only when one cluster is left) and the node ids of the clusters left, in curve order.
+    """
+    n = len(lo)
+    order = morton_order(lo, hi)
+    leaf_box = np.concatenate([lo[order].T, hi[order].T])  # (6, N)
+    scale = _area_scale(leaf_box)
+    # Clusters in curve order: their boxes (scaled by a power of two if needed) and node ids.
+    box = leaf_box * np.float32(scale) if scale != 1.0 else leaf_box.copy()
+    ids = np.arange(n, dtype=np.int64)
+    left = np.empty(n - 1, np.int64)
+    right = np.empty(n - 1, np.int64)
+    merged = np.empty((6, n - 1), np.float32)
+    rank_bits = int(np.ceil(np.log2(2 * radius)))
+    batches: list[tuple[int, int]] = []
+    done = 0
+    while len(ids) > max(stop, 1):
+        c = len(ids)
+        r = min(radius, c - 1)
+        rank = _nearest(box, r, rank_bits) & np.uint32((1 << rank_bits) - 1)
+        # Mutual pairs (i < j = i + k): i's nearest is its k-th right neighbour, j's is its k-th left one.
+        # (np.compress and take: boolean and fancy indexing are several times slower on such masks.)
+        i = np.flatnonzero(rank >= r)
+        k = rank.take(i).astype(np.int64) - (r - 1)
+        j = i + k
+        mutual = rank.take(j) == r - k
+        i, j = np.compress(mutual, i), np.compress(mutual, j)
+        nm = len(i)
+        if nm == 0:  # impossible for finite distances (see the module docstring)
+            raise RuntimeError("BVH clustering made no progress (non-finite primitive bounds?)")
+        left[done:done + nm] = ids.take(i)
+        right[done:done + nm] = ids.take(j)
+        bi, bj = box.take(i, axis=1), box.take(j, axis=1)
+        np.minimum(bi[:3], bj[:3], out=bi[:3])
+        np.maximum(bi[3:], bj[3:], out=bi[3:])
+        merged[:, done:done + nm] = bi
+        box[:, i] = bi
+        ids[i] = n + done + np.arange(nm)
+        keep = np.ones(c, bool)
+        keep[j] = False
+        ids = np.compress(keep, ids)
+        box = np.compress(keep, box, axis=1)
+        batches.append((done, nm))
+        done += nm
+    if scale == 1.0 or len(ids) > 1:
+        node_box = np.concatenate([leaf_box, merged], axis=1)
+    if scale != 1.0:  # the scaled boxes may have lost bits: take the unions of the exact leaf boxes instead
+        node_box = np.concatenate([leaf_box, np.empty((6, n - 1), np.float32)], axis=1)
+        for first, count in batches:
+            lc, rc = left[first:first + count], right[first:first + count]
+            p = slice(n + first, n + first + count)
+            node_box[:3, p] = np.minimum(node_box[:3, lc], node_box[:3, rc])
+            node_box[3:, p] = np.maximum(node_box[3:, lc], node_box[3:, rc])
+    return MergeTree(order, left, right, node_box, batches), ids
+
+
+def join_clusters(tree: MergeTree, roots: np.ndarray, nodes: np.ndarray, prims: np.ndarray) -> bool:
+    """Complete ``tree`` with a hierarchy over its clusters ``roots`` (flattened as in :mod:`mcocl.render.bvh`).
+
+    Each internal node of the hierarchy becomes a merge; each of its leaves
+    must hold one cluster (returns False, leaving ``tree`` as it was, if not).
+    Merges are added one depth level at a time, the deepest first, so that
+    children still come before their parents.
+    """
+    u = nodes.view(np.uint32)[1:, 3].reshape(-1, 2, 2)
+    ref, cnt = u[:, :, 0].astype(np.int64), u[:, :, 1].astype(np.int64)
+    if np.any(cnt > 1):
+        return False
+    k = len(ref)
+    n = len(tree.order)
+    done = tree.batches[-1][0] + tree.batches[-1][1] if tree.batches else 0
+    level = [np.zeros(1, np.int64)]  # internal nodes by depth
+    while True:
+        inner = ref[level[-1]][cnt[level[-1]] == 0]
+        if not len(inner):
+            break
+        level.append(inner)
+    merge_id = np.empty(k, np.int64)
+    for lv in reversed(level):
+        merge_id[lv] = n + done + np.arange(len(lv))
+        r, leaf = ref[lv], cnt[lv] == 1
+        child = np.empty_like(r)
+        child[leaf] = roots[prims[r[leaf]].astype(np.int64)]
+        child[~leaf] = merge_id[r[~leaf]]
+        tree.left[done:done + len(lv)] = child[:, 0]
+        tree.right[done:done + len(lv)] = child[:, 1]
+        for a in range(6):
+            op = np.minimum if a < 3 else np.maximum
+            tree.box[a, n + done + np.arange(len(lv))] = op(tree.box[a, child[:, 0]], tree.box[a, child[:, 1]])
+        tree.batches.append((done, len(lv)))
+        done += len(lv)
+    return True
+
+
+def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost: float):
+    """Cut ``tree`` into SAH-optimal leaves and write it in the node layout of :mod:`mcocl.render.bvh`.
+
+    Returns (nodes, prims, internal nodes K, leaves, depth of the deepest internal node).
+    """
+    n = len(tree.order)
+    left, right, box = tree.left, tree.right, tree.box
+    ext = box[3:].astype(np.float64) - box[:3]
+    area = ext[0] * ext[1] + ext[1] * ext[2] + ext[2] * ext[0]  # half areas: only ratios matter
+    del ext
+    total = 2 * n - 1
+    count = np.ones(total, np.int64)
+    cost = area.copy()  # a primitive alone: A · 1
+    is_leaf = np.ones(total, bool)  # the subtree is one leaf
+    n_int = np.zeros(total, np.int64)  # internal nodes of the subtree once cut
+    for first, num in tree.batches:  # bottom-up: children come from earlier iterations
+        p = slice(n + first, n + first + num)
+        lc, rc = left[first:first + num], right[first:first + num]
+        cnt = count[lc] + count[rc]
+        count[p] = cnt
+        c_int = traversal_cost * area[p] + cost[lc] + cost[rc]
+        c_leaf = np.where(cnt <= max_leaf, area[p] * cnt, np.inf)
+        leaf = c_leaf <= c_int
+        cost[p] = np.where(leaf, c_leaf, c_int)
+        is_leaf[p] = leaf
+        n_int[p] = np.where(leaf, 0, 1 + n_int[lc] + n_int[rc])
+    root = total - 1
+    if is_leaf[root]:  # the root is always internal, so the kernel starts from a node
+        is_leaf[root] = False
+        n_int[root] = 1 + n_int[left[-1]] + n_int[right[-1]]
+    # Top-down: first primitive position of every node (in-order: a subtree's primitives are contiguous),
+    # depth-first index and depth of the internal nodes of the cut tree (left child right after its parent).
+    start = np.zeros(total, np.int64)
+    pre = np.zeros(total, np.int64)
+    depth = np.zeros(total, np.int64)
+    internal = np.zeros(total, bool)  # an internal node of the cut tree
+    internal[root] = True
+    for first, num in reversed(tree.batches):
+        p = slice(n + first, n + first + num)
+        lc, rc = left[first:first + num], right[first:first + num]
+        start[lc] = start[p]
+        start[rc] = start[p] + count[lc]
+        inn = internal[p]
+        if not inn.any():
+            continue
+        il, ir, ip = lc[inn], rc[inn], np.arange(n + first, n + first + num)[inn]
+        internal[il] = ~is_leaf[il]
+        internal[ir] = ~is_leaf[ir]
+        pre[il] = pre[ip] + 1
+        pre[ir] = pre[ip] + 1 + n_int[il]
+        depth[il] = depth[ip] + 1
+        depth[ir] = depth[ip] + 1
+    out = np.empty(n, np.int64)
+    out[start[:n]] = tree.order
+    prims = ids[out].astype(np.uint32)
+    nodes_by_pre = np.flatnonzero(internal)
+    k = len(nodes_by_pre)
+    par = np.empty(k, np.int64)
+    par[pre[nodes_by_pre]] = nodes_by_pre  # the internal nodes in depth-first order (pre: a permutation of 0..k-1)
+    del nodes_by_pre
+    # Row block of node q: (lo0, ref0) (hi0, cnt0) (lo1, ref1) (hi1, cnt1); filled as 16 columns, then
+    # transposed once (writing the columns straight into the rows would touch every cache line 16 times).
+    cols = np.empty((2, 2, 4, k), np.float32)
+    ucols = cols.view(np.uint32)
+    num_leaves = 0
+    for c, child in enumerate((left.take(par - n), right.take(par - n))):
+        cb = box.take(child, axis=1)
+        cols[c, 0, :3], cols[c, 1, :3] = cb[:3], cb[3:]
+        leaf = is_leaf.take(child)
+        num_leaves += int(leaf.sum())
+        ucols[c, 0, 3] = np.where(leaf, start.take(child), pre.take(child))
+        ucols[c, 1, 3] = np.where(leaf, count.take(child), 0)
+    max_depth = int(depth[par].max())
+    nodes = np.empty((1 + 4 * k, 4), np.float32)
+    nodes[1:].reshape(k, 16)[...] = cols.reshape(16, k).T
+    nodes[0] = 0.0
+    nodes.view(np.uint32)[0] = (n, k, max_depth, 0)
+    return nodes, prims, k, num_leaves, max_depth
+
+
+__all__ = ["MergeTree", "cluster", "flatten_tree", "join_clusters", "morton_order"]
