@@ -150,7 +150,7 @@ def test_a_run_resumed_on_two_sub_devices_gives_the_same_sums(monkeypatch, subs)
 
 
 def test_a_slow_device_gets_fewer_blocks(monkeypatch, subs):
-    ref = capture_job(monkeypatch, F3, dim=3, samples=4e6, seed=5)
+    ref = capture_job(monkeypatch, F3, dim=3, samples=4e7, seed=5)
     job = SlowJob(ref.job, slow=subs[1].name, per_block=0.002)  # <= 500 blocks/s
     acc = Accumulator(ref.shape)
     report = run_devices(job, acc, Halting(max_blocks=ref.max_blocks), subs)
