@@ -8,6 +8,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+import numpy as np
+
 from .. import runtime
 from ..accumulate import Accumulator
 from ..errors import InputError
@@ -16,11 +18,14 @@ from ..schedule import Halting, Placement, Progress, execute
 from ..usercode import UserFunction
 from ..validate import positive_number, whole_number
 from .codegen import HEURISTICS, generate
-from .design import Design, plan, total_granules
-from .job import IntegrationJob, estimate_from_totals, rounding_floor
+from .design import UNBOUNDED_UNITS, Design, design_from_checkpoint, plan, total_granules
+from .job import ROW, IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
 
 SAMPLERS = ("independent", "stratified", "nrooks")
+# Sample counts travel as 64-bit unsigned integers in the kernels; 2^62 leaves room for rounding up.
+MAX_SAMPLES = 1 << 62
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 class NonFiniteWarning(RuntimeWarning):
@@ -144,7 +149,7 @@ def _validate(
         raise InputError(f"dim must be <= 64, got {dim}")
     if sampler not in SAMPLERS:
         raise InputError(f"sampler: unknown sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
-    seed = whole_number("seed", seed, 0)
+    seed = whole_number("seed", seed, 0, 2**64 - 1)
     if seed >= 2**64:
         raise InputError(f"seed must be below 2**64, got {seed}")
     if proposal is not None and proposals is not None:
@@ -266,7 +271,7 @@ def integrate(
     req = _validate(integrand, dim, sampler, seed, proposal, proposals, shares, heuristic, beta,
                     control, control_integral, roulette)
     if samples is not None:
-        samples = whole_number("samples", samples)
+        samples = whole_number("samples", samples, 1, MAX_SAMPLES)
     if time_budget is not None:
         positive_number("time_budget", time_budget, "seconds")
     if target_stderr is not None:
@@ -274,7 +279,7 @@ def integrate(
     if samples is None and time_budget is None and target_stderr is None:
         raise InputError("samples=None needs time_budget= or target_stderr= to know when to stop")
     if design_samples is not None:
-        design_samples = whole_number("design_samples", design_samples)
+        design_samples = whole_number("design_samples", design_samples, 1, MAX_SAMPLES)
 
     users = UserFunction("integrand", req.integrand, "integrand", (("x", req.dim),))
     control_fn = UserFunction("control", req.control, "control", (("x", req.dim),)) if req.control else None
@@ -284,13 +289,14 @@ def integrate(
     acc: Accumulator | None = None
     if resume is not None:
         acc = Accumulator.load(resume, expect_meta=meta)
-        design = Design(**acc.meta["design"])
-        shift = float(acc.meta["shift"])
+        design = design_from_checkpoint(acc.meta.get("design"), resume)
+        shift = acc.meta_float("shift", resume, FLOAT32_MAX)  # a mean of float32 samples
+        acc.check_shape((ROW,), resume)
     else:
         design = plan(req.sampler, req.dim, code.points, samples, design_samples)
         shift = None
     max_blocks, unit_limit = total_granules(design, samples)
-    if acc is not None and acc.meta.get("partial_tail") and acc.meta.get("unit_limit") != unit_limit:
+    if acc is not None and acc.meta.get("partial_tail") and acc.meta_int("unit_limit", resume, 1, UNBOUNDED_UNITS) != unit_limit:
         raise InputError(
             f"checkpoint {resume} ends in a partial block of {design.units_per_block} units; "
             f"resume it with the same samples ({acc.meta.get('unit_limit') * design.samples_per_unit}) "

@@ -84,6 +84,23 @@ class Design:
         return opts
 
 
+def design_from_checkpoint(d: object, where: object) -> Design:
+    """The :class:`Design` saved in a checkpoint, every field checked (else :class:`InputError`)."""
+    fields = {"sampler": str, "units": int, "samples_per_unit": int, "strata_m": int, "granule_blocks": int}
+    if not isinstance(d, dict) or set(d) != set(fields):
+        raise InputError(f"checkpoint {where}: its design is damaged ({d!r})")
+    for k, t in fields.items():
+        v = d[k]
+        if isinstance(v, bool) or not isinstance(v, t):
+            raise InputError(f"checkpoint {where}: its design field {k!r} is {v!r}")
+    if d["sampler"] not in UNITS_PER_BLOCK:
+        raise InputError(f"checkpoint {where}: its design has an unknown sampler {d['sampler']!r}")
+    if not (1 <= d["units"] <= UNBOUNDED_UNITS and 1 <= d["samples_per_unit"] <= 1 << 20
+            and 0 <= d["strata_m"] <= MAX_AXIS_CELLS and 1 <= d["granule_blocks"] <= UNBOUNDED_UNITS):
+        raise InputError(f"checkpoint {where}: its design is out of range ({d!r})")
+    return Design(**d)
+
+
 def _int_root(target: float, dim: int) -> int:
     m = max(int(math.floor(target ** (1.0 / dim))), 1)
     while (m + 1) ** dim <= target:

@@ -26,7 +26,7 @@ from ..progress import ProgressBar
 from ..schedule import Halting, Placement, Progress, execute
 from ..validate import positive_number, whole_number
 from .compiled import CompiledScene, compile_scene
-from .film import film_image, relative_error
+from .film import STATS, film_image, relative_error
 from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
 from .scene import Scene, check_integrator_settings
 
@@ -129,7 +129,7 @@ class RenderResult:
         return s
 
 
-def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any) -> CompiledScene:
+def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any, mesh_folder: Any = None) -> CompiledScene:
     """A compiled scene with the overrides applied (a given CompiledScene is not modified)."""
     if isinstance(scene, CompiledScene):
         s = check_integrator_settings(
@@ -142,7 +142,8 @@ def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any) -> Comp
         cs.integrator, cs.max_depth, cs.rr_depth = s["integrator"], s["max_depth"], s["rr_depth"]
         return cs
     if isinstance(scene, (str, os.PathLike, Scene)):
-        return compile_scene(scene, integrator=integrator, max_depth=max_depth, rr_depth=rr_depth)
+        return compile_scene(scene, integrator=integrator, max_depth=max_depth, rr_depth=rr_depth,
+                             mesh_folder=mesh_folder)
     raise InputError(f"scene must be a scene file path, a Scene or a CompiledScene, got {type(scene).__name__}")
 
 
@@ -165,6 +166,7 @@ def render(
     progress: bool | Callable[[Progress], None] = False,
     lanes: int | None = None,
     spp_per_block: int | None = None,
+    mesh_folder: str | os.PathLike[str] | None = None,
 ) -> RenderResult:
     """Render a scene by path tracing.
 
@@ -188,6 +190,8 @@ def render(
         lanes: paths per vector instruction (default: the device's; 1 = scalar kernel).
         spp_per_block: samples per pixel in one scheduler block (default: about
             2^18 paths per block; taken from the checkpoint when resuming).
+        mesh_folder: a folder the scene file may read OBJ files from, besides
+            its own folder (a scene cannot reach outside them).
 
     Returns:
         a :class:`RenderResult`.
@@ -198,7 +202,7 @@ def render(
     """
     if integrator is not None and integrator not in INTEGRATORS:
         raise InputError(f"integrator: unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
-    cs = _compile(scene, integrator, max_depth, rr_depth)
+    cs = _compile(scene, integrator, max_depth, rr_depth, mesh_folder)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**64:
         raise InputError(f"seed must be an integer in [0, 2**64), got {seed!r}")
     seed = int(seed)
@@ -207,7 +211,7 @@ def render(
     if noise is not None:
         noise = positive_number("noise", noise, "a target relative standard error such as 0.01")
     if spp is not None:
-        spp = whole_number("spp", spp)
+        spp = whole_number("spp", spp, 1, UNBOUNDED_SPP - 1)
     elif time is None and noise is None:
         spp = int(cs.spp)
     if spp is not None and spp >= UNBOUNDED_SPP:
@@ -230,11 +234,12 @@ def render(
     acc: Accumulator | None = None
     if resume is not None:
         acc = Accumulator.load(resume, expect_meta=meta)
-        saved_block = int(acc.meta.get("spp_per_block", 0))
+        saved_block = acc.meta_int("spp_per_block", resume, 1, UNBOUNDED_SPP - 1)
         if spp_per_block is not None and whole_number("spp_per_block", spp_per_block) != saved_block:
             raise InputError(f"checkpoint {resume} uses spp_per_block={saved_block}, not {spp_per_block}")
         spp_per_block = saved_block
-        saved_limit = int(acc.meta.get("spp_limit", UNBOUNDED_SPP))
+        saved_limit = acc.meta_int("spp_limit", resume, 1, UNBOUNDED_SPP)
+        acc.check_shape((cs.height, cs.width, STATS), resume)
         if acc.blocks_done * spp_per_block > saved_limit and saved_limit != spp_limit:
             raise InputError(
                 f"checkpoint {resume} ends in a partial block ({saved_limit} spp, blocks of {spp_per_block}); "
@@ -244,7 +249,7 @@ def render(
         if spp is not None:
             spp_per_block = max(1, min(spp_per_block, spp))
     else:
-        spp_per_block = whole_number("spp_per_block", spp_per_block)
+        spp_per_block = whole_number("spp_per_block", spp_per_block, 1, UNBOUNDED_SPP - 1)
 
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
                     spp_per_block, spp_limit, lanes)

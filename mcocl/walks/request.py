@@ -135,7 +135,7 @@ def validate(
     pts = query_points(at, dim)
     if estimator not in ESTIMATORS:
         raise InputError(f"estimator: unknown estimator {estimator!r}; choose one of {', '.join(ESTIMATORS)}")
-    seed = whole_number("seed", seed, 0)
+    seed = whole_number("seed", seed, 0, 2**64 - 1)
     if seed >= 2**64:
         raise InputError(f"seed must be below 2**64, got {seed}")
     depth = whole_number("depth", depth, 0, 1 << 20)
