@@ -30,9 +30,9 @@ from pathlib import Path
 import numpy as np
 import pyopencl as cl
 
-from .errors import DeviceError, KernelBuildError
+from .errors import DeviceError, InputError, KernelBuildError
+from .pocl_cache import cache_problem
 from .usercode import UserFunction, explain_build_log, probe_source
-
 
 
 def _kernel_dir() -> Path:
@@ -130,7 +130,13 @@ def default_lanes(device: cl.Device) -> int:
     """
     env = os.environ.get("MCOCL_LANES")
     if env:
-        lanes = int(env)
+        try:
+            lanes = int(env)
+        except ValueError:
+            lanes = 0
+        if lanes < 1:
+            raise InputError(f"the environment variable MCOCL_LANES must be a whole number such as 1, 2, 4, 8 "
+                             f"or 16, got {env!r}")
     elif device.type & cl.device_type.CPU:
         lanes = int(device.preferred_vector_width_float) or 8
     else:
@@ -354,6 +360,9 @@ def build(
         try:
             prg = cl.Program(ctx.context, source).build(options=list(opts))
         except cl.RuntimeError as e:
+            problem = cache_problem(ctx.device.platform.name)
+            if problem:  # every build fails then: not the user's code
+                raise DeviceError(problem) from None
             raise explain_build_log(str(e), list(users), what) from None
     with _programs_lock:
         _programs[key] = prg

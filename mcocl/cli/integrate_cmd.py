@@ -12,6 +12,7 @@ from ..integration.api import SAMPLERS
 from ..integration.codegen import HEURISTICS
 from ..schedule import DeviceFailureWarning
 from .common import add_device_args, add_persistence_args, count, placement_kwargs, positive, print_json
+from .paths import check_files
 
 DESCRIPTION = """\
 Estimate the integral of INTEGRAND over the unit cube [0,1]^dim.
@@ -92,6 +93,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run an integration and print the result."""
+    check_files([("--checkpoint", args.checkpoint)], resume=args.resume)
     samples = args.samples
     if samples is None and args.time_budget is None and args.target_stderr is None:
         samples = 1_000_000

@@ -12,6 +12,7 @@ from ..integration import NonFiniteWarning
 from ..schedule import DeviceFailureWarning
 from ..walks import ESTIMATORS, nystrom, solve_fredholm
 from .common import add_device_args, add_persistence_args, count, placement_kwargs, positive, print_json
+from .paths import check_files
 
 DESCRIPTION = """\
 Solve f(x) = g(x) + integral over [0,1]^dim of K(x,y) f(y) dy at query points
@@ -99,6 +100,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Solve and print the result."""
+    check_files([("--checkpoint", args.checkpoint)], resume=args.resume)
     walks = args.walks
     if walks is None and args.time_budget is None and args.target_stderr is None:
         walks = 1_000_000
