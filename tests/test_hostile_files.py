@@ -75,3 +75,43 @@ def test_problem_estimators_take_only_estimator_options(option, tmp_path):
         load_problem_file(f)
     f.write_text(json.dumps({**GOOD, "estimators": {"mine": {"roulette": 0.5}}}))
     assert load_problem_file(f)[0].extra == {"mine": {"roulette": 0.5}}
+
+
+SCENE = {
+    "camera": {"origin": [0, 0, 4], "target": [0, 0, 0], "fov": 40, "width": 8, "height": 6},
+    "materials": {"w": {"type": "diffuse", "reflectance": 0.5}},
+    "shapes": [{"type": "mesh", "material": "w", "obj": "quad.obj"}],
+}
+
+
+def _scene(folder, obj: str):
+    folder.mkdir(parents=True, exist_ok=True)
+    p = folder / "s.json"
+    p.write_text(json.dumps({**SCENE, "shapes": [{"type": "mesh", "material": "w", "obj": obj}]}))
+    return p
+
+
+@pytest.mark.parametrize("obj", ["/etc/passwd", "../outside.obj", "sub/../../outside.obj", "link.obj"])
+def test_scene_meshes_stay_inside_the_scene_folder(obj, tmp_path):
+    from mcocl.render.scene import load_scene
+
+    (tmp_path / "outside.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "scene").mkdir()
+    (tmp_path / "scene" / "link.obj").symlink_to(tmp_path / "outside.obj")
+    p = _scene(tmp_path / "scene", obj)
+    with pytest.raises(InputError, match=r"s\.json: shapes\[0\]\.obj: .* lies outside the scene's folder"):
+        load_scene(p)
+    # an explicit folder allows it (the API's mesh_folder, the CLI's --mesh-folder)
+    if obj != "/etc/passwd":
+        assert len(load_scene(p, mesh_folder=tmp_path).shapes[0].faces) == 1
+
+
+def test_scene_mesh_that_is_not_a_mesh_is_refused(tmp_path):
+    from mcocl.render.scene import load_scene
+
+    (tmp_path / "text.obj").write_text("hello\nworld\n")
+    with pytest.raises(InputError, match=r"shapes\[0\]\.obj: .*text\.obj holds no faces"):
+        load_scene(_scene(tmp_path, "text.obj"))
+    (tmp_path / "bin.obj").write_bytes(b"v 0 0 0\n\xff\xfe\x00binary")
+    with pytest.raises(InputError, match=r"bin\.obj: not UTF-8 text \(byte 0xff at line 2"):
+        load_scene(_scene(tmp_path, "bin.obj"))
