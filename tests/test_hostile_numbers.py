@@ -170,3 +170,13 @@ def test_an_unusable_pocl_cache_is_named(monkeypatch, tmp_path):
     ctx = runtime.device_context(None)
     with pytest.raises(DeviceError, match="kernel cache folder"):
         runtime.build(ctx, "__kernel void k(__global float* a) { a[0] = undefined_name; }")
+
+
+def test_obj_face_index_past_int64_is_an_input_error(tmp_path):
+    (tmp_path / "big.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 100000000000000000000000\n")
+    scene = json.loads((SCENES / "cornell.json").read_text())
+    mesh = {"type": "mesh", "material": next(iter(scene["materials"])), "obj": "big.obj"}
+    p = tmp_path / "s.json"
+    p.write_text(json.dumps({**scene, "shapes": [mesh]}))
+    with pytest.raises(InputError, match=r"shapes\[0\]\.obj"):
+        load_scene(p)

@@ -7,6 +7,7 @@ import json
 import sys
 import warnings
 
+from ..datafile import loads_json
 from ..integration import NonFiniteWarning, integrate
 from ..integration.api import SAMPLERS
 from ..integration.codegen import HEURISTICS
@@ -59,7 +60,7 @@ def _spec(text: str) -> object:
     t = text.strip()
     if t.startswith("{") or t.startswith("["):
         try:
-            return json.loads(t)
+            return loads_json(t, "proposal JSON")
         except json.JSONDecodeError as e:
             raise argparse.ArgumentTypeError(f"proposal JSON: {e}") from None
     return t

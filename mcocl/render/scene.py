@@ -486,7 +486,10 @@ def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], roots: list
         if "obj" in o:
             rel = c.string(o["obj"], f"{key}.obj")
             path = _mesh_file(c, rel, f"{key}.obj", roots)
-            shp.vertices, shp.faces = shape_lib.read_obj(path, f"{c.file}: {key}.obj")
+            try:
+                shp.vertices, shp.faces = shape_lib.read_obj(path, f"{c.file}: {key}.obj")
+            except (OverflowError, MemoryError, RecursionError) as e:  # numbers no mesh can hold
+                c.fail(f"{key}.obj", f"{path}: a number out of range ({type(e).__name__}: {e})")
             if not len(shp.faces):
                 c.fail(f"{key}.obj", f"{path} holds no faces (no 'f' lines): is it an OBJ mesh?")
             if not np.all(np.abs(shp.vertices) <= GEOMETRY_LIMIT):
