@@ -49,6 +49,8 @@ DEFAULT_ALPHA = 0.1
 # partials and the output image (film.BYTES_PER_PIXEL); refuse an image that cannot fit.
 MAX_DEPTH_LIMIT = 2**31 - 1
 GEOMETRY_LIMIT = 1e15
+RGB_LIMIT = 1e30  # float32 radiance, with room for the film's sums of squares in float64
+IOR_LIMIT = 1e6
 MAX_IMAGE_SIDE = 2**20
 MAX_SPP = 2**32 - 2  # below render.job.UNBOUNDED_SPP, the 32-bit "no limit" marker
 # float64 totals and a float64 copy (STATS each), float32 block partials, float32 mean/variance/count
@@ -188,9 +190,9 @@ class _Checker:
     def rgb(self, value: Any, key: str) -> np.ndarray:
         """An RGB triple of non-negative numbers, or one number for grey."""
         if isinstance(value, list):
-            v = self.vector(value, key, 3)
+            v = self.vector(value, key, 3, limit=RGB_LIMIT)
         else:
-            v = np.full(3, self.number(value, key))
+            v = np.full(3, self.number(value, key, -RGB_LIMIT, RGB_LIMIT))
         if np.any(v < 0):
             self.fail(key, "RGB values must be >= 0")
         return v
@@ -369,8 +371,8 @@ def _materials(c: _Checker, v: Any, key: str) -> tuple[list[Material], dict[str,
             mat = Material(name, kind, rgb, alpha=alpha)
         else:
             o = c.obj(m, k, ("type",), ("int_ior", "ext_ior"))
-            ni = c.number(o.get("int_ior", DEFAULT_INT_IOR), f"{k}.int_ior", 0.0, lo_open=True)
-            ne = c.number(o.get("ext_ior", DEFAULT_EXT_IOR), f"{k}.ext_ior", 0.0, lo_open=True)
+            ni = c.number(o.get("int_ior", DEFAULT_INT_IOR), f"{k}.int_ior", 0.0, IOR_LIMIT, lo_open=True)
+            ne = c.number(o.get("ext_ior", DEFAULT_EXT_IOR), f"{k}.ext_ior", 0.0, IOR_LIMIT, lo_open=True)
             if ni == ne:
                 c.fail(f"{k}.int_ior", "int_ior equals ext_ior: the interface would be invisible")
             mat = Material(name, kind, np.ones(3), int_ior=ni, ext_ior=ne)
@@ -399,7 +401,7 @@ def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:
             ops.append(tf.translate(c.vector(val, kk, limit=GEOMETRY_LIMIT)))
         elif name == "rotate":
             r = c.obj(val, kk, ("axis", "angle"))
-            axis = c.vector(r["axis"], f"{kk}.axis")
+            axis = c.vector(r["axis"], f"{kk}.axis", limit=GEOMETRY_LIMIT)
             if np.linalg.norm(axis) == 0.0:
                 c.fail(f"{kk}.axis", "the rotation axis is zero")
             ops.append(tf.rotate(axis, c.number(r["angle"], f"{kk}.angle")))
