@@ -41,4 +41,10 @@ def cache_problem(platform_name: str) -> str | None:
     return None
 
 
-__all__ = ["cache_folder", "cache_problem"]
+def no_device_hint() -> str:
+    """A sentence to add to "no OpenCL device found" when PoCL's cache folder is the likelier cause."""
+    problem = cache_problem("pocl") if os.environ.get("POCL_CACHE_DIR") else None
+    return f" ({problem})" if problem else ""
+
+
+__all__ = ["cache_folder", "cache_problem", "no_device_hint"]

@@ -31,7 +31,7 @@ import numpy as np
 import pyopencl as cl
 
 from .errors import DeviceError, InputError, KernelBuildError
-from .pocl_cache import cache_problem
+from .pocl_cache import cache_problem, no_device_hint
 from .usercode import UserFunction, explain_build_log, probe_source
 
 
@@ -196,7 +196,7 @@ def select_device(spec: int | str | cl.Device | None = None) -> cl.Device:
         return spec
     devs = _all_devices()
     if not devs:
-        raise DeviceError("no OpenCL device found; pip install 'mcocl[pocl]' gives a CPU device")
+        raise DeviceError("no OpenCL device found; pip install 'mcocl[pocl]' gives a CPU device" + no_device_hint())
     listing = "\n".join(i.describe() for i in list_devices())
     if spec is None:
         env = os.environ.get("PYOPENCL_CTX", "").strip()

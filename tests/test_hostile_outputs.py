@@ -110,3 +110,15 @@ def test_failed_write_leaves_the_old_file(tmp_path):
         write_atomically(path, fail)
     assert path.read_text() == "old"
     assert [p.name for p in tmp_path.iterdir()] == ["out.txt"]
+
+
+def test_api_checkpoint_is_checked_before_work(tmp_path):
+    import mcocl
+    from mcocl.errors import InputError
+
+    t0 = time.perf_counter()
+    with pytest.raises(InputError, match="checkpoint.*does not exist"):
+        mcocl.integrate("x[0]", samples=1 << 40, checkpoint=str(tmp_path / "no" / "c.npz"))
+    with pytest.raises(InputError, match="checkpoint.*is a folder"):
+        mcocl.render(SCENE, spp=100000, checkpoint=str(tmp_path))
+    assert time.perf_counter() - t0 < 5.0

@@ -6,6 +6,7 @@ import argparse
 
 from .. import runtime
 from ..errors import DeviceError
+from ..pocl_cache import no_device_hint
 from .common import print_json, split_count
 
 
@@ -61,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
     """List devices, or show their split."""
     devs = runtime.list_devices()
     if not devs:  # the same kind of problem every other command reports with status 2
-        raise DeviceError("no OpenCL device found (install an OpenCL driver, e.g. pip install 'mcocl[pocl]')")
+        raise DeviceError("no OpenCL device found (install an OpenCL driver, e.g. pip install 'mcocl[pocl]')"
+                          + no_device_hint())
     if args.split is not None:
         split = [_split_of(d, args.split) for d in devs]
         if args.json:

@@ -13,6 +13,7 @@ import numpy as np
 from .. import runtime
 from ..accumulate import Accumulator
 from ..errors import InputError
+from ..output_files import check_output_file
 from ..progress import ProgressBar
 from ..schedule import Halting, Placement, Progress, execute
 from ..usercode import UserFunction
@@ -285,6 +286,8 @@ def integrate(
     control_fn = UserFunction("control", req.control, "control", (("x", req.dim),)) if req.control else None
     code = generate(users, req.dim, req.proposals, req.shares, req.heuristic, req.beta, control_fn, req.roulette)
 
+    if checkpoint is not None:  # before any work: a run must not end in "cannot write"
+        check_output_file(checkpoint, "checkpoint")
     meta = req.meta()
     acc: Accumulator | None = None
     if resume is not None:

@@ -22,6 +22,7 @@ import numpy as np
 from .. import runtime
 from ..accumulate import Accumulator
 from ..errors import InputError
+from ..output_files import check_output_file
 from ..progress import ProgressBar
 from ..schedule import Halting, Placement, Progress, execute
 from ..validate import positive_number, whole_number
@@ -219,6 +220,8 @@ def render(
     if lanes is not None and lanes not in (1, 2, 4, 8, 16):
         raise InputError(f"lanes must be 1, 2, 4, 8 or 16, got {lanes!r}")
 
+    if checkpoint is not None:  # before any work: a run must not end in "cannot write"
+        check_output_file(checkpoint, "checkpoint")
     tables = scene_tables(cs)
     meta = {
         "kind": "render",

@@ -30,6 +30,7 @@ from .. import runtime
 from ..accumulate import Accumulator
 from ..errors import ConvergenceError, InputError
 from ..integration.api import NonFiniteWarning
+from ..output_files import check_output_file
 from ..progress import ProgressBar
 from ..schedule import Halting, Placement, Progress, execute
 from ..validate import whole_number
@@ -240,6 +241,8 @@ def solve_fredholm(
 
     code = generate(req.kernel, req.source, req.dim, req.estimator, req.row_integral, req.transition_sampler,
                     req.source_integral, req.source_sampler)
+    if checkpoint is not None:  # before any work: a run must not end in "cannot write"
+        check_output_file(checkpoint, "checkpoint")
     meta = req.meta()
     acc: Accumulator | None = None
     if resume is not None:
