@@ -93,7 +93,7 @@ def check_distinct(outputs: Iterable[tuple[str, str | os.PathLike[str] | None]],
                 raise InputError(f"{wa} and {wb} name the same file {str(a)!r}; give each its own")
         for wb, b in ins:
             if _same_file(a, b):
-                raise InputError(f"{wa} {str(a)!r} is the input {wb}; writing it would destroy the input")
+                raise InputError(f"{wa} {str(a)!r} is {wb}, an input; writing it would destroy it")
 
 
 def write_atomically(path: str | os.PathLike[str], write: Callable[[Path], None]) -> None:

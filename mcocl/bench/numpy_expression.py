@@ -118,11 +118,9 @@ def _constant(value: float) -> Evaluator:
 
 
 def _dotted(node: ast.expr) -> str:
-    if isinstance(node, ast.Name):
-        return node.id
-    if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name):
-        return f"{node.value.id}.{node.attr}"
-    return type(node).__name__
+    """The source text of ``node`` for a message (shortened)."""
+    text = ast.unparse(node)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _build(node: ast.expr, dim: int) -> Evaluator:
