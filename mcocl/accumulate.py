@@ -17,17 +17,23 @@ estimator: the variance of the mean is sigma^2 / N).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
+import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .datafile import loads_json
 from .errors import InputError
+from .output_files import write_atomically
 
-FORMAT_VERSION = 1
+# 2: a SHA-256 digest of the contents is saved with them (version 1 files are refused: unverifiable).
+FORMAT_VERSION = 2
 
 
 class Accumulator:
@@ -82,41 +88,73 @@ class Accumulator:
     # -- persistence -----------------------------------------------------
 
     def save(self, path: str | os.PathLike[str]) -> None:
-        """Write the folded totals and metadata to ``path`` (atomically).
+        """Write the folded totals and metadata to ``path`` (atomically, under a unique temporary name).
 
         Blocks still pending (waiting for an earlier block) are not saved: a
-        resumed run recomputes them, and gets the same numbers.
+        resumed run recomputes them, and gets the same numbers.  A SHA-256
+        digest over the arrays and the metadata is saved with them, so
+        :meth:`load` refuses a damaged or edited file.
         """
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp")
-        with open(tmp, "wb") as fh:
-            np.savez(
-                fh,
-                totals=self.totals,
-                blocks_done=np.int64(self.blocks_done),
-                meta=np.array(json.dumps({"format": FORMAT_VERSION, **self.meta}, sort_keys=True)),
-            )
-        os.replace(tmp, path)
+        totals = np.ascontiguousarray(self.totals, dtype=np.float64)
+        meta = json.dumps({"format": FORMAT_VERSION, **self.meta}, sort_keys=True)
+        digest = _digest(totals, self.blocks_done, meta)
+
+        def write(tmp: Path) -> None:
+            with open(tmp, "wb") as fh:
+                np.savez(fh, totals=totals, blocks_done=np.int64(self.blocks_done), meta=np.array(meta),
+                         sha256=np.array(digest))
+
+        write_atomically(path, write)
 
     @classmethod
     def load(cls, path: str | os.PathLike[str], expect_meta: dict[str, Any] | None = None) -> Accumulator:
         """Read an accumulator written by :meth:`save`.
 
+        Every failure is an :class:`InputError` naming the file: not there,
+        not a checkpoint at all (an image, a truncated or empty file), damaged
+        or edited (the digest does not match), or written for another job.
+
         Args:
             expect_meta: if given, every key in it must match the saved
                 metadata; a mismatch raises :class:`InputError` naming the key.
         """
+        name = f"checkpoint {path}"
+        try:
+            with open(path, "rb") as fh:
+                head = fh.read(4)
+        except FileNotFoundError:
+            raise InputError(f"{name} does not exist") from None
+        except OSError as e:
+            raise InputError(f"{name}: cannot read it: {e.strerror or e}") from None
+        if head != b"PK\x03\x04":
+            raise InputError(f"{name} is not an mcocl checkpoint (a checkpoint is the .npz archive that "
+                             f"--checkpoint writes; this file {'is empty' if not head else 'is something else'})")
         try:
             with np.load(path, allow_pickle=False) as z:
-                totals = z["totals"]
-                blocks = int(z["blocks_done"])
-                meta = json.loads(str(z["meta"]))
-        except FileNotFoundError:
-            raise InputError(f"checkpoint {path} does not exist") from None
-        except (OSError, KeyError, ValueError) as e:
-            raise InputError(f"checkpoint {path} is not an mcocl checkpoint ({e})") from None
-        if meta.pop("format", None) != FORMAT_VERSION:
-            raise InputError(f"checkpoint {path} has an unsupported format version")
+                if set(z.files) != {"totals", "blocks_done", "meta", "sha256"}:
+                    raise InputError(f"{name} is not an mcocl checkpoint of this version (arrays {sorted(z.files)})")
+                totals = np.asarray(z["totals"])
+                blocks_arr = np.asarray(z["blocks_done"])
+                meta_text = str(z["meta"])
+                digest = str(z["sha256"])
+        except InputError:
+            raise
+        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile, zlib.error, UnicodeDecodeError,
+                RuntimeError, MemoryError) as e:
+            raise InputError(f"{name} is damaged or truncated ({type(e).__name__}: {e})") from None
+        if totals.dtype != np.float64 or blocks_arr.shape != () or blocks_arr.dtype != np.int64:
+            raise InputError(f"{name} is damaged: unexpected array types")
+        blocks = int(blocks_arr)
+        if digest != _digest(np.ascontiguousarray(totals), blocks, meta_text):
+            raise InputError(f"{name} is damaged or was edited: its SHA-256 digest does not match its contents")
+        try:
+            meta = loads_json(meta_text, name)
+        except ValueError as e:
+            raise InputError(f"{name} has unreadable metadata ({e})") from None
+        if not isinstance(meta, dict) or meta.pop("format", None) != FORMAT_VERSION:
+            raise InputError(f"{name} has an unsupported format version")
+        if blocks < 0:
+            raise InputError(f"{name} is damaged: {blocks} blocks done")
         if expect_meta:
             for key, want in expect_meta.items():
                 got = meta.get(key)
@@ -128,6 +166,34 @@ class Accumulator:
         acc.totals = np.array(totals, dtype=np.float64)
         acc.blocks_done = blocks
         return acc
+
+    def meta_int(self, key: str, path: Any, lo: int, hi: int) -> int:
+        """The saved integer ``meta[key]``, which must lie in ``[lo, hi]`` (else :class:`InputError`)."""
+        v = self.meta.get(key)
+        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+            raise InputError(f"checkpoint {path}: its field {key!r} is {v!r}, not a whole number in [{lo}, {hi}]")
+        return v
+
+    def meta_float(self, key: str, path: Any, limit: float) -> float:
+        """The saved number ``meta[key]``, finite and at most ``limit`` in magnitude (else :class:`InputError`)."""
+        v = self.meta.get(key)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or abs(v) > limit:
+            raise InputError(f"checkpoint {path}: its field {key!r} is {v!r}, not a number of magnitude <= {limit:g}")
+        return float(v)
+
+    def check_shape(self, shape: tuple[int, ...], path: str | os.PathLike[str]) -> None:
+        """Refuse a loaded checkpoint whose totals do not have the job's statistics shape."""
+        if self.shape != tuple(int(s) for s in shape):
+            raise InputError(f"checkpoint {path} holds statistics of shape {self.shape}; this job needs {tuple(shape)}")
+
+
+def _digest(totals: np.ndarray, blocks_done: int, meta: str) -> str:
+    """SHA-256 over the totals (dtype, shape, bytes), the block count and the metadata text."""
+    h = hashlib.sha256()
+    h.update(f"mcocl-checkpoint {totals.dtype.str} {totals.shape} {int(blocks_done)}\n".encode())
+    h.update(totals.tobytes())
+    h.update(meta.encode("utf-8", "surrogatepass"))
+    return h.hexdigest()
 
 
 def mean_and_variance(n: float, s1: float, s2: float, shift: float = 0.0) -> tuple[float, float]:

@@ -31,6 +31,7 @@ from typing import Any
 
 from .engine.contract import Halting, Placement, Progress
 from .errors import InputError
+from .output_files import check_output_file
 from .progress import ProgressBar
 from .validate import exact_integer, file_path, positive_number, whole_number
 
@@ -105,6 +106,8 @@ class RunOptions:
             put("split", whole_number("split", self.split, 1))
         put("lanes", check_lanes(self.lanes))
         put("checkpoint", file_path("checkpoint", self.checkpoint))
+        if self.checkpoint is not None:  # before any work: a run must not end in "cannot write"
+            check_output_file(self.checkpoint, "checkpoint")
         put("resume", file_path("resume", self.resume))
         if not (isinstance(self.progress, bool) or callable(self.progress)):
             raise InputError(f"progress must be True, False or a callable, got {self.progress!r}")

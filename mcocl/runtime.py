@@ -32,7 +32,8 @@ import pyopencl as cl
 
 from . import heartbeat
 from .build_output import build_log_requested, compiler_stderr_captured, show_build_log
-from .errors import DeviceError, KernelBuildError
+from .errors import DeviceError, InputError, KernelBuildError
+from .pocl_cache import cache_problem, no_device_hint
 from .usercode import UserFunction, explain_build_log, probe_source
 
 
@@ -133,7 +134,13 @@ def default_lanes(device: cl.Device) -> int:
     """
     env = os.environ.get("MCOCL_LANES")
     if env:
-        lanes = int(env)
+        try:
+            lanes = int(env)
+        except ValueError:
+            lanes = 0
+        if lanes < 1:
+            raise InputError(f"the environment variable MCOCL_LANES must be a whole number such as 1, 2, 4, 8 "
+                             f"or 16, got {env!r}")
     elif device.type & cl.device_type.CPU:
         lanes = int(device.preferred_vector_width_float) or 8
     else:
@@ -195,7 +202,7 @@ def select_device(spec: int | str | cl.Device | None = None) -> cl.Device:
         return spec
     devs = _all_devices()
     if not devs:
-        raise DeviceError("no OpenCL device found; pip install 'mcocl[pocl]' gives a CPU device")
+        raise DeviceError("no OpenCL device found; pip install 'mcocl[pocl]' gives a CPU device" + no_device_hint())
     listing = "\n".join(i.describe() for i in list_devices())
     if spec is None:
         env = os.environ.get("PYOPENCL_CTX", "").strip()
@@ -433,6 +440,9 @@ def build(
         try:
             prg = cl.Program(ctx.context, source).build(options=list(opts))
         except cl.RuntimeError as e:
+            problem = cache_problem(ctx.device.platform.name)
+            if problem:  # every build fails then: not the user's code
+                raise DeviceError(problem) from None
             show_build_log(what, ctx.name, opts, str(e), failed=True)
             raise explain_build_log(str(e), list(users), what) from None
         finally:

@@ -6,6 +6,8 @@ import math
 import os
 from typing import Any
 
+import numpy as np
+
 from .errors import InputError
 
 
@@ -14,6 +16,11 @@ def whole_number(name: str, v: Any, minimum: int = 1, maximum: int | None = None
     bound = f">= {minimum}" + (f" and <= {maximum}" if maximum is not None else "")
     if isinstance(v, bool):
         raise InputError(f"{name} must be an integer {bound}, got {v!r}")
+    if isinstance(v, (int, np.integer)):  # exactly, without a detour through float (seeds beyond 2^53)
+        i = int(v)
+        if i < minimum or (maximum is not None and i > maximum):
+            raise InputError(f"{name} must be an integer {bound}, got {v!r}")
+        return i
     try:
         f = float(v)
     except (TypeError, ValueError):

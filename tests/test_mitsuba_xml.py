@@ -316,7 +316,10 @@ def test_obj_meshes(tmp_path):
     (tmp_path / "out").mkdir()
     assert main(["convert", str(p), "-o", str(tmp_path / "out" / "s.json")]) == 0  # OBJ path rewritten for out/
     assert json.loads((tmp_path / "out" / "s.json").read_text())["shapes"][0]["obj"] == "../m/tri.obj"
-    np.testing.assert_array_equal(load_scene(tmp_path / "out" / "s.json").shapes[0].vertices, sh.vertices)
+    with pytest.raises(InputError, match="outside the scene's folder"):  # meshes stay confined (issue 10) ...
+        load_scene(tmp_path / "out" / "s.json")
+    converted = load_scene(tmp_path / "out" / "s.json", mesh_folder=tmp_path / "m")  # ... unless a folder is allowed
+    np.testing.assert_array_equal(converted.shapes[0].vertices, sh.vertices)
     for name, msg in [("m/none.obj", "mesh file 'm/none.obj' not found"), ("../x.obj", "outside the scene's folder")]:
         p = shape_with(tmp_path, f'\n<string name="filename" value="{name}"/>', "obj")
         with pytest.raises(InputError, match=rf"s\.xml:{line_of(p, name)}: <string name=\"filename\">: .*{msg}"):

@@ -23,24 +23,10 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .numpy_expression import CONSTANTS, OPENCL_FUNCTIONS, parse_numpy_expression
 from .suite import Observation, Tick
 
 DEFAULT_CHUNK = 1_000_000
-
-# OpenCL C built-ins with a NumPy meaning close enough for a baseline.
-_FUNCTIONS: dict[str, Callable[..., object]] = {
-    "exp": np.exp, "exp2": np.exp2, "expm1": np.expm1, "log": np.log, "log2": np.log2, "log10": np.log10,
-    "log1p": np.log1p, "sqrt": np.sqrt, "cbrt": np.cbrt, "rsqrt": lambda v: 1.0 / np.sqrt(v),
-    "sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin, "acos": np.arccos, "atan": np.arctan,
-    "atan2": np.arctan2, "sinh": np.sinh, "cosh": np.cosh, "tanh": np.tanh, "pow": np.power, "powr": np.power,
-    "pown": np.power, "fabs": np.abs, "fmin": np.minimum, "fmax": np.maximum, "floor": np.floor, "ceil": np.ceil,
-    "hypot": np.hypot,
-    "native_exp": np.exp, "native_log": np.log, "native_sqrt": np.sqrt, "native_sin": np.sin,
-    "native_cos": np.cos, "native_recip": lambda v: 1.0 / v, "native_rsqrt": lambda v: 1.0 / np.sqrt(v),
-    "half_exp": np.exp, "half_log": np.log, "half_sqrt": np.sqrt,
-}
-_CONSTANTS = {"M_PI": math.pi, "M_PI_F": math.pi, "M_E": math.e, "M_E_F": math.e,
-              "M_SQRT2": math.sqrt(2), "M_SQRT2_F": math.sqrt(2), "M_LN2": math.log(2), "M_LN2_F": math.log(2)}
 
 _TOKEN = re.compile(
     r"\s*(?:(?P<num>(?:\d+\.\d*|\.\d+|\d+)(?:[eE][+-]?\d+)?[fF]?)|(?P<ident>[A-Za-z_]\w*)"
@@ -58,7 +44,7 @@ def translate_opencl(code: str) -> str:
     Only plain arithmetic expressions are translated: numbers (an ``f``
     suffix is dropped, integer literals become real numbers), ``x[k]``, the
     operators ``+ - * / ( )`` and comparisons, and the built-ins in
-    ``_FUNCTIONS``.  Function bodies, ternaries, ``&&``/``||`` (whose
+    ``OPENCL_FUNCTIONS``.  Function bodies, ternaries, ``&&``/``||`` (whose
     precedence differs in Python) and anything else raise
     :class:`TranslationError` naming what stopped the translation.
     """
@@ -81,7 +67,7 @@ def translate_opencl(code: str) -> str:
                 out.append(num if real else num + ".0")
         elif m.group("ident"):
             name = m.group("ident")
-            if name == "x" or name in _FUNCTIONS or name in _CONSTANTS:
+            if name == "x" or name in OPENCL_FUNCTIONS or name in CONSTANTS:
                 out.append(name)
             elif name == "return":
                 raise TranslationError("function bodies (with return) are not translated")
@@ -101,33 +87,30 @@ def translate_opencl(code: str) -> str:
 def compile_numpy(expression: str, dim: int) -> Callable[[np.ndarray], np.ndarray]:
     """A function of ``x`` (shape ``(dim, n)``) returning ``n`` float64 values.
 
-    The expression is Python evaluated with ``np``, ``math``, the OpenCL
-    built-in names above and ``x`` in scope (no other built-ins).  It is
-    checked on a few points.
+    The expression is parsed by the whitelisting translator of
+    :mod:`mcocl.bench.numpy_expression` (arithmetic, comparisons, ``x[k]``,
+    numbers and a fixed set of NumPy functions; never ``eval``) and checked
+    on a few points.
 
     Raises:
-        ValueError: it does not parse, fails on the check points, or does not
-            give one value per point.
+        ValueError: it is refused by the translator, fails on the check
+            points, or does not give one value per point.
     """
-    try:
-        code = compile(expression, "<numpy>", "eval")
-    except SyntaxError as e:
-        raise ValueError(f"not a Python expression: {e.msg}") from None
-    scope: dict[str, object] = {"__builtins__": {}, "np": np, "math": math, **_FUNCTIONS, **_CONSTANTS}
+    g = parse_numpy_expression(expression, dim)
 
     def f(x: np.ndarray) -> np.ndarray:
-        return np.asarray(eval(code, scope, {"x": x}), dtype=np.float64)  # noqa: S307 - the user's own file
+        return np.asarray(g(x), dtype=np.float64)
 
     probe = np.random.default_rng(0).random((dim, 7))
     try:
         with np.errstate(all="ignore"):
             v = f(probe)
-    except Exception as e:  # noqa: BLE001 - any failure of user code is reported, not raised raw
+    except (ArithmeticError, ValueError, TypeError) as e:
         raise ValueError(f"fails on test points: {type(e).__name__}: {e}") from None
     if v.shape not in ((7,), ()):
         raise ValueError(f"gives shape {v.shape} for 7 points; expected one value per point (7,)")
     if v.shape == ():
-        return lambda x: np.full(x.shape[1], float(eval(code, scope, {"x": x})))  # noqa: S307
+        return lambda x: np.full(x.shape[1], float(f(x)))
     return f
 
 

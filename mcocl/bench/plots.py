@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import PlottingUnavailableError
+from ..output_files import write_atomically
 from .runner import BenchResult, ProblemRecord
 
 
@@ -105,7 +106,7 @@ def plot_error_vs_time(result: BenchResult, path: str | Path) -> Path:
         _panel_errors(fig.add_subplot(rows, cols, i + 1), p, _colors(p, result.suite), label)
     fig.suptitle(f"mcocl bench {result.suite}: error versus time ({result.device or 'OpenCL'})", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(path)
+    write_atomically(path, fig.savefig)
     return Path(path)
 
 
@@ -132,7 +133,7 @@ def plot_efficiency(result: BenchResult, path: str | Path) -> Path:
         ax.grid(True, axis="x", linewidth=0.3, alpha=0.5)
     fig.suptitle(f"mcocl bench {result.suite}: efficiency relative to {result.reference}", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.96))
-    fig.savefig(path)
+    write_atomically(path, fig.savefig)
     return Path(path)
 
 

@@ -22,7 +22,10 @@ takes (a short string, a factor object, a list of factors).  ``numpy`` is a
 Python expression over ``x`` of shape ``(dim, n)`` for the NumPy baseline;
 without it the bench translates simple OpenCL C expressions itself (integer
 literals become real numbers) or says that it cannot.  ``estimators`` adds
-named estimators as keyword arguments of ``mcocl.integrate``.
+named estimators as keyword arguments of ``mcocl.integrate``, limited to the
+estimator options (:data:`ESTIMATOR_OPTIONS`).  A problem file is data: its
+``numpy`` twin is parsed by a whitelisting translator, never evaluated as Python,
+and it cannot name files, devices or schedulers.
 
 Every error names the file, the problem and the field; unknown fields are
 errors too (a typo must not silently drop a proposal).
@@ -35,8 +38,15 @@ import math
 from pathlib import Path
 from typing import Any
 
+from ..datafile import loads_json, read_utf8
 from ..errors import InputError
 from .integrate_problem import IntegrationProblem
+from .numpy_baseline import compile_numpy
+
+# The keyword arguments of mcocl.integrate that choose an estimator; everything else (where to
+# write, where to connect, which device, how long) is the bench's business, never a data file's.
+ESTIMATOR_OPTIONS = ("sampler", "proposal", "proposals", "shares", "heuristic", "beta", "control",
+                     "control_integral", "roulette", "design_samples")
 
 REQUIRED = ("name", "expression", "dim", "exact")
 OPTIONAL = ("description", "numpy", "proposals", "proposal_names", "shares", "control", "estimators")
@@ -95,6 +105,11 @@ def parse_problem(obj: Any, where: str, source: str = "") -> IntegrationProblem:
     exact = _number(obj["exact"], field("exact"))
     description = _text(obj["description"], field("description")) if "description" in obj else ""
     numpy_expr = _text(obj["numpy"], field("numpy")) if "numpy" in obj else None
+    if numpy_expr is not None:
+        try:
+            compile_numpy(numpy_expr, dim)
+        except ValueError as e:
+            raise InputError(f"{field('numpy')}: {e}") from None
 
     proposals = obj.get("proposals", [])
     if not isinstance(proposals, list):
@@ -124,6 +139,13 @@ def parse_problem(obj: Any, where: str, source: str = "") -> IntegrationProblem:
     extra = obj.get("estimators", {})
     if not isinstance(extra, dict) or any(not isinstance(v, dict) for v in extra.values()):
         raise InputError(f"{field('estimators')}: expected {{name: {{keyword: value}}}}, got {extra!r}")
+    for ename, kw in extra.items():
+        refused = sorted(set(kw) - set(ESTIMATOR_OPTIONS))
+        if refused:
+            raise InputError(f"{field('estimators')}.{ename}: {', '.join(map(repr, refused))} "
+                             f"{'is not an estimator option' if len(refused) == 1 else 'are not estimator options'}"
+                             f" (allowed: {', '.join(ESTIMATOR_OPTIONS)}; outputs, devices and run limits are "
+                             "options of the bench command, not of a problem file)")
 
     p = IntegrationProblem(name, expression, dim, exact, description, numpy_expr, proposals, list(names), shares,
                            control, control_integral, {}, source=source or where)
@@ -137,12 +159,9 @@ def parse_problem(obj: Any, where: str, source: str = "") -> IntegrationProblem:
 def load_problem_file(path: str | Path) -> list[IntegrationProblem]:
     """The problems of one JSON file (parsed, not yet compiled: see ``IntegrationProblem.check``)."""
     p = Path(path)
+    text = read_utf8(p, f"problem file {str(p)!r}")
     try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as e:
-        raise InputError(f"problem file {str(p)!r}: cannot read it: {e.strerror or e}") from None
-    try:
-        data = json.loads(text)
+        data = loads_json(text, f"problem file {str(p)!r}")
     except json.JSONDecodeError as e:
         raise InputError(f"problem file {str(p)!r}: not valid JSON: {e.msg} at line {e.lineno}, column {e.colno}") from None
     return [parse_problem(o, f"{p}: problem #{i + 1}", str(p)) for i, o in enumerate(_problem_list(data, str(p)))]

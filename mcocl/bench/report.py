@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..output_files import write_atomically
 from .runner import Z_CONSISTENT, BenchResult, EstimatorRecord, ProblemRecord
 
 CSV_COLUMNS = ("suite", "problem", "estimator", "kind", "checkpoint", "seconds", "samples", "estimate", "stderr",
@@ -131,6 +132,10 @@ def format_table(result: BenchResult) -> str:
 
 def write_csv(result: BenchResult, path: str | Path) -> None:
     """One row per checkpoint (columns :data:`CSV_COLUMNS`)."""
+    write_atomically(path, lambda tmp: _write_csv(result, tmp))
+
+
+def _write_csv(result: BenchResult, path: Path) -> None:
     with open(path, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow(CSV_COLUMNS)
@@ -195,9 +200,8 @@ def summary(result: BenchResult) -> dict[str, Any]:
 
 def write_json(result: BenchResult, path: str | Path) -> None:
     """Write :func:`summary`."""
-    with open(path, "w", encoding="utf-8") as fh:
-        json.dump(summary(result), fh, indent=2)
-        fh.write("\n")
+    text = json.dumps(summary(result), indent=2) + "\n"
+    write_atomically(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
 def write_reports(result: BenchResult, out: str | Path) -> dict[str, Path]:
@@ -206,7 +210,8 @@ def write_reports(result: BenchResult, out: str | Path) -> dict[str, Path]:
     d.mkdir(parents=True, exist_ok=True)
     paths = {"table": d / f"{result.suite}-table.txt", "csv": d / f"{result.suite}-checkpoints.csv",
              "json": d / f"{result.suite}-summary.json"}
-    paths["table"].write_text(format_table(result), encoding="utf-8")
+    table = format_table(result)
+    write_atomically(paths["table"], lambda tmp: tmp.write_text(table, encoding="utf-8"))
     write_csv(result, paths["csv"])
     write_json(result, paths["json"])
     return paths

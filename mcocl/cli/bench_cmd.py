@@ -10,6 +10,7 @@ from ..bench import BenchOptions, available_suites, run_bench
 from ..bench.status import BenchStatus
 from ..bench.suite import load_suite
 from .common import positive
+from .paths import check_files
 
 DEFAULT_BUDGET = 5.0
 QUICK_BUDGET = 0.25
@@ -154,6 +155,9 @@ def run(args: argparse.Namespace) -> int:
         # `mcocl bench --quick` runs every suite's built-in quick subset; render needs a scene of its own
         suites = [s for s in suites if s != "render"]
     options = _options(args)
+    check_files(inputs=[(f"--problem {f}", f) for f in options.problem_files] + [("the scene", s) for s in options.inputs]
+                + [("--reference", options.reference)],
+                folders=[("--out", args.out or DEFAULT_OUT), ("--cache", options.cache_dir)])
     if getattr(args, "list", False):
         _list(suites[0], options)
         return 0

@@ -99,10 +99,18 @@ def run(args: argparse.Namespace) -> int:
         parse_scene(data, src)
     if args.out:
         out_dir = Path(args.out).resolve().parent
+        outside = set()
         for shape in data.get("shapes", []):
             if "obj" in shape:
-                shape["obj"] = Path(os.path.relpath(src.resolve().parent / shape["obj"], out_dir)).as_posix()
+                mesh = src.resolve().parent / shape["obj"]
+                shape["obj"] = Path(os.path.relpath(mesh, out_dir)).as_posix()
+                if shape["obj"].startswith("../"):
+                    outside.add(str(mesh.parent))
         Path(args.out).write_text(format_json(data) + "\n")
+        for folder in sorted(outside):
+            # a scene file reads meshes only from its own folder unless told otherwise (scene_file.load_scene)
+            print(f"note: {args.out} reads meshes from {folder}, outside its folder: "
+                  f"render it with --mesh-folder {folder}", file=sys.stderr)
         print(f"wrote {args.out} ({len(data.get('shapes', []))} shapes, {len(data.get('materials', {}))} materials)",
               file=sys.stderr)
     else:

@@ -6,6 +6,7 @@ import argparse
 
 from .. import runtime
 from ..errors import DeviceError
+from ..pocl_cache import no_device_hint
 from .common import print_json, split_count
 
 
@@ -60,6 +61,9 @@ def _split_of(info: runtime.DeviceInfo, parts: int) -> dict:
 def run(args: argparse.Namespace) -> int:
     """List devices, or show their split."""
     devs = runtime.list_devices()
+    if not devs:  # the same kind of problem every other command reports with status 2
+        raise DeviceError("no OpenCL device found (install an OpenCL driver, e.g. pip install 'mcocl[pocl]')"
+                          + no_device_hint())
     if args.split is not None:
         split = [_split_of(d, args.split) for d in devs]
         if args.json:
@@ -72,13 +76,10 @@ def run(args: argparse.Namespace) -> int:
                       f"({part['compute_units']} compute unit(s), {part['lanes']} lanes)")
             if s.get("note"):
                 print(f"    {s['note']}")
-        return 0 if devs else 1
+        return 0
     if args.json:
         print_json([d.__dict__ for d in devs])
         return 0
-    if not devs:
-        print("no OpenCL devices found")
-        return 1
     for d in devs:
         print(d.describe())
     return 0

@@ -7,6 +7,7 @@ import json
 import sys
 import warnings
 
+from ..datafile import loads_json
 from ..engine.contract import DeviceFailureWarning
 from ..integration import NonFiniteWarning, integrate
 from ..integration.codegen import HEURISTICS
@@ -20,6 +21,7 @@ from .common import (
     print_json,
     run_option_kwargs,
 )
+from .paths import check_files
 
 DESCRIPTION = """\
 Estimate the integral of INTEGRAND over the unit cube [0,1]^dim.
@@ -66,7 +68,7 @@ def _spec(text: str) -> object:
     t = text.strip()
     if t.startswith("{") or t.startswith("["):
         try:
-            return json.loads(t)
+            return loads_json(t, "proposal JSON")
         except json.JSONDecodeError as e:
             raise argparse.ArgumentTypeError(f"proposal JSON: {e}") from None
     return t
@@ -100,6 +102,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run an integration and print the result."""
+    check_files([("--checkpoint", args.checkpoint)], resume=args.resume)
     shared = run_option_kwargs(args)
     samples = args.samples
     if samples is None and shared["time_budget"] is None and shared["target_error"] is None:

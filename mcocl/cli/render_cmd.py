@@ -19,6 +19,7 @@ from .common import (
     run_option_kwargs,
 )
 from .convert_cmd import add_scene_params_args, print_substitution_warnings
+from .paths import check_files
 
 DESCRIPTION = """\
 Render SCENE (a JSON scene file, see scenes/README.md) by path tracing and
@@ -64,6 +65,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="64-bit seed (default 0)")
     p.add_argument("--out", default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
     p.add_argument("--png", default=None, help="also write an sRGB PNG preview")
+    p.add_argument("--mesh-folder", default=None, metavar="DIR",
+                   help="a folder the scene may read OBJ files from, besides the scene file's own folder")
     p.add_argument("--exposure", type=finite_number, default=0.0, help="PNG exposure in stops (default 0)")
     add_persistence_args(p, "scene and settings", "print one JSON object describing the render")
     add_device_args(p)
@@ -74,12 +77,15 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Render, write the image(s), print a summary; 130 if Ctrl-C stopped the render."""
     out = Path(args.out) if args.out else Path(Path(args.scene).stem + ".exr")
+    check_files([("--out", out), ("--png", args.png), ("--checkpoint", args.checkpoint)],
+                [("the scene", args.scene), ("--mesh-folder", args.mesh_folder)], resume=args.resume)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", NonFiniteSampleWarning)
         warnings.simplefilter("always", DeviceFailureWarning)
         r = render(
             args.scene, spp=args.spp, integrator=args.integrator, max_depth=args.max_depth,
-            rr_depth=args.rr_depth, params=dict(args.define) or None, lenient=args.lenient, **run_option_kwargs(args),
+            rr_depth=args.rr_depth, params=dict(args.define) or None, lenient=args.lenient,
+            mesh_folder=args.mesh_folder, **run_option_kwargs(args),
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteSampleWarning, DeviceFailureWarning)):

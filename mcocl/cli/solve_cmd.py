@@ -19,6 +19,7 @@ from .common import (
     print_json,
     run_option_kwargs,
 )
+from .paths import check_files
 
 DESCRIPTION = """\
 Solve f(x) = g(x) + integral over [0,1]^dim of K(x,y) f(y) dy at query points
@@ -105,6 +106,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Solve and print the result."""
+    check_files([("--checkpoint", args.checkpoint)], resume=args.resume)
     shared = run_option_kwargs(args)
     walks = args.walks
     if walks is None and shared["time_budget"] is None and shared["target_error"] is None:

@@ -8,6 +8,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+import numpy as np
+
 from .. import runtime
 from ..accumulate import Accumulator
 from ..engine.contract import Progress
@@ -17,13 +19,16 @@ from ..run_options import RunOptions, renamed_keyword
 from ..usercode import UserFunction
 from ..validate import whole_number
 from .codegen import HEURISTICS, generate
-from .design import Design
-from .job import IntegrationJob, estimate_from_totals, rounding_floor
+from .design import UNBOUNDED_UNITS, design_from_checkpoint
+from .job import ROW, IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
 from .samplers import SAMPLER_SPECS, SamplerSpec, sampler_spec, spec_of
 
 # The registered sampler names, for --help and error messages (mcocl/integration/samplers.py).
 SAMPLERS = tuple(SAMPLER_SPECS)
+# Sample counts travel as 64-bit unsigned integers in the kernels; 2^62 leaves room for rounding up.
+MAX_SAMPLES = 1 << 62
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @dataclass
@@ -269,10 +274,10 @@ def integrate(
     req = _validate(integrand, dim, sampler, opts.seed, proposal, proposals, shares, heuristic, beta,
                     control, control_integral, roulette)
     if samples is not None:
-        samples = whole_number("samples", samples)
+        samples = whole_number("samples", samples, 1, MAX_SAMPLES)
     opts.require_stop("samples", samples)
     if design_samples is not None:
-        design_samples = whole_number("design_samples", design_samples)
+        design_samples = whole_number("design_samples", design_samples, 1, MAX_SAMPLES)
 
     users = UserFunction("integrand", req.integrand, "integrand", (("x", req.dim),))
     control_fn = UserFunction("control", req.control, "control", (("x", req.dim),)) if req.control else None
@@ -282,14 +287,16 @@ def integrate(
     acc: Accumulator | None = None
     if opts.resume is not None:
         acc = Accumulator.load(opts.resume, expect_meta=meta)
-        design = Design(**acc.meta["design"])
-        shift = float(acc.meta["shift"])
+        design = design_from_checkpoint(acc.meta.get("design"), opts.resume, SAMPLER_SPECS)
+        shift = acc.meta_float("shift", opts.resume, FLOAT32_MAX)  # a mean of float32 samples
+        acc.check_shape((ROW,), opts.resume)
     else:
         design = req.sampler.plan(req.dim, code.points, samples, design_samples)
         shift = None
     spec = spec_of(design)
     max_blocks, unit_limit = spec.granules(design, samples)
-    if acc is not None and acc.meta.get("partial_tail") and acc.meta.get("unit_limit") != unit_limit:
+    if (acc is not None and acc.meta.get("partial_tail")
+            and acc.meta_int("unit_limit", opts.resume, 1, UNBOUNDED_UNITS) != unit_limit):
         raise InputError(
             f"checkpoint {opts.resume} ends in a partial block of {spec.units_per_block} units; "
             f"resume it with the same samples ({acc.meta.get('unit_limit') * design.samples_per_unit}) "

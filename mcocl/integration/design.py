@@ -14,7 +14,10 @@ saved in checkpoints and shipped to other processes.
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import asdict, dataclass
+
+from ..errors import InputError
 
 # The independent sampler's "design" is unbounded: any block may end a run.
 UNBOUNDED_UNITS = 1 << 62
@@ -43,3 +46,26 @@ class Design:
     def to_dict(self) -> dict:
         """JSON form (saved in checkpoints)."""
         return asdict(self)
+
+
+def design_from_checkpoint(d: object, where: object, samplers: Collection[str]) -> Design:
+    """The :class:`Design` saved in a checkpoint, every field checked (else :class:`InputError`).
+
+    Args:
+        d: the checkpoint's ``design`` entry.
+        where: the checkpoint, for messages.
+        samplers: the registered sampler names (:mod:`mcocl.integration.samplers`).
+    """
+    fields = {"sampler": str, "units": int, "samples_per_unit": int, "strata_m": int, "granule_blocks": int}
+    if not isinstance(d, dict) or set(d) != set(fields):
+        raise InputError(f"checkpoint {where}: its design is damaged ({d!r})")
+    for k, t in fields.items():
+        v = d[k]
+        if isinstance(v, bool) or not isinstance(v, t):
+            raise InputError(f"checkpoint {where}: its design field {k!r} is {v!r}")
+    if d["sampler"] not in samplers:
+        raise InputError(f"checkpoint {where}: its design has an unknown sampler {d['sampler']!r}")
+    if not (1 <= d["units"] <= UNBOUNDED_UNITS and 1 <= d["samples_per_unit"] <= 1 << 20
+            and 0 <= d["strata_m"] <= MAX_AXIS_CELLS and 1 <= d["granule_blocks"] <= UNBOUNDED_UNITS):
+        raise InputError(f"checkpoint {where}: its design is out of range ({d!r})")
+    return Design(**d)

@@ -27,7 +27,7 @@ from ..errors import InputError, NonFiniteSampleWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
 from .compiled import CompiledScene, compile_scene
-from .film import film_image, relative_error
+from .film import STATS, film_image, relative_error
 from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
 from .scene import INTEGRATORS, Scene, check_integrator_settings
 from .scene_file import load_scene
@@ -127,7 +127,7 @@ class RenderResult:
         return s
 
 
-def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any) -> CompiledScene:
+def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any, mesh_folder: Any = None) -> CompiledScene:
     """A compiled scene with the overrides applied (a given CompiledScene is not modified)."""
     if isinstance(scene, CompiledScene):
         s = check_integrator_settings(
@@ -140,7 +140,8 @@ def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any) -> Comp
         cs.integrator, cs.max_depth, cs.rr_depth = s["integrator"], s["max_depth"], s["rr_depth"]
         return cs
     if isinstance(scene, (str, os.PathLike, Scene)):
-        return compile_scene(scene, integrator=integrator, max_depth=max_depth, rr_depth=rr_depth)
+        return compile_scene(scene, integrator=integrator, max_depth=max_depth, rr_depth=rr_depth,
+                             mesh_folder=mesh_folder)
     raise InputError(f"scene must be a scene file path, a Scene or a CompiledScene, got {type(scene).__name__}")
 
 
@@ -167,6 +168,7 @@ def render(
     noise: float | None = None,
     params: dict[str, Any] | None = None,
     lenient: bool = False,
+    mesh_folder: str | os.PathLike[str] | None = None,
 ) -> RenderResult:
     """Render a scene by path tracing.
 
@@ -192,6 +194,8 @@ def render(
             2^18 paths per block; taken from the checkpoint when resuming).
         params, lenient: for a Mitsuba XML scene file, ``$name`` values and
             whether to substitute what is unsupported (:func:`load_scene`).
+        mesh_folder: a folder the scene file may read OBJ files from, besides
+            its own folder (a scene cannot reach outside them).
         time, noise: deprecated names of ``time_budget`` and ``target_error``.
 
     The shared options (seed, time_budget, target_error, placement, lanes,
@@ -209,13 +213,13 @@ def render(
     time_budget = renamed_keyword("render", "time_budget", time_budget, "time", time)
     target_error = renamed_keyword("render", "target_error", target_error, "noise", noise)
     if isinstance(scene, (str, os.PathLike)):
-        scene = load_scene(scene, params=params, lenient=lenient)
+        scene = load_scene(scene, params=params, lenient=lenient, mesh_folder=mesh_folder)
     cs = _compile(scene, integrator, max_depth, rr_depth)
     opts = RunOptions(seed=seed, time_budget=time_budget, target_error=target_error, device=device, devices=devices,
                       split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)
     seed = opts.seed
     if spp is not None:
-        spp = whole_number("spp", spp)
+        spp = whole_number("spp", spp, 1, UNBOUNDED_SPP - 1)
     elif opts.time_budget is None and opts.target_error is None:
         spp = int(cs.spp)
     if spp is not None and spp >= UNBOUNDED_SPP:
@@ -237,11 +241,12 @@ def render(
     resume = opts.resume
     if resume is not None:
         acc = Accumulator.load(resume, expect_meta=meta)
-        saved_block = int(acc.meta.get("spp_per_block", 0))
+        saved_block = acc.meta_int("spp_per_block", resume, 1, UNBOUNDED_SPP - 1)
         if spp_per_block is not None and whole_number("spp_per_block", spp_per_block) != saved_block:
             raise InputError(f"checkpoint {resume} uses spp_per_block={saved_block}, not {spp_per_block}")
         spp_per_block = saved_block
-        saved_limit = int(acc.meta.get("spp_limit", UNBOUNDED_SPP))
+        saved_limit = acc.meta_int("spp_limit", resume, 1, UNBOUNDED_SPP)
+        acc.check_shape((cs.height, cs.width, STATS), resume)
         if acc.blocks_done * spp_per_block > saved_limit and saved_limit != spp_limit:
             raise InputError(
                 f"checkpoint {resume} ends in a partial block ({saved_limit} spp, blocks of {spp_per_block}); "
@@ -251,7 +256,7 @@ def render(
         if spp is not None:
             spp_per_block = max(1, min(spp_per_block, spp))
     else:
-        spp_per_block = whole_number("spp_per_block", spp_per_block)
+        spp_per_block = whole_number("spp_per_block", spp_per_block, 1, UNBOUNDED_SPP - 1)
 
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
                     spp_per_block, spp_limit, opts.lanes)

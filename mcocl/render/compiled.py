@@ -185,7 +185,7 @@ def _shape_triangles(shape) -> np.ndarray:
 def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, max_depth: int | None = None,
                   rr_depth: int | None = None, spp: int | None = None, max_leaf: int = 8,
                   bins: int = 16, traversal_cost: float = C_TRAV, all_axes: bool = True,
-                  bvh_method: str | None = None) -> CompiledScene:
+                  bvh_method: str | None = None, mesh_folder: str | Path | None = None) -> CompiledScene:
     """Flatten a scene (or scene file) into a :class:`CompiledScene`; keyword settings override the file's.
 
     ``max_leaf``, ``bins``, ``traversal_cost``, ``all_axes`` and
@@ -194,12 +194,14 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     all-axes binned SAH tree (0.3 s at 10^5 triangles, the cheapest trees),
     larger ones the clustered build (10^6 triangles: about 0.6 CPU-s against
     3.5 s, for trees 3-15 % costlier by the SAH on the bench's meshes).
+    ``mesh_folder`` lets a scene file read OBJ files from that folder too
+    (:func:`mcocl.render.scene_file.load_scene`).
 
     Raises:
         InputError: the scene file or an override is invalid.
     """
     if not isinstance(scene, Scene):
-        scene = load_scene(scene)
+        scene = load_scene(scene, mesh_folder=mesh_folder)
     tris, tri_shape, spheres, sphere_flip, sphere_shape = [], [], [], [], []
     for k, sh in enumerate(scene.shapes):
         if sh.kind == "sphere":

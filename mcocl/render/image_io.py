@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..output_files import write_atomically
 
 _META_PREFIX = "mcocl."
 
@@ -49,7 +50,7 @@ def write_exr(path: str | Path, mean: np.ndarray, variance: np.ndarray | None = 
               samples: np.ndarray | None = None, metadata: dict | None = None) -> None:
     """Write an OpenEXR file with the mean (RGB), the variance layer and the sample counts.
 
-    The file is written to a temporary name beside ``path`` and renamed, so
+    The file is written to a unique temporary name beside ``path`` and renamed, so
     an interrupted write never leaves a truncated image under ``path``.
     """
     import OpenEXR
@@ -73,11 +74,11 @@ def write_exr(path: str | Path, mean: np.ndarray, variance: np.ndarray | None = 
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     for k, v in (metadata or {}).items():
         header[_META_PREFIX + str(k)] = str(v)
-    p = Path(path)
-    tmp = p.with_name(p.name + ".partial.exr")
-    with OpenEXR.File(header, channels) as f:
-        f.write(str(tmp))
-    tmp.replace(p)
+    def write(tmp: Path) -> None:
+        with OpenEXR.File(header, channels) as f:
+            f.write(str(tmp))
+
+    write_atomically(path, write)
 
 
 def read_exr(path: str | Path) -> ExrImage:
@@ -143,7 +144,8 @@ def encode_png(rgb8: np.ndarray) -> bytes:
 
 def write_png(path: str | Path, linear_rgb: np.ndarray, exposure: float = 0.0) -> None:
     """Write an sRGB preview of a linear RGB image (H, W, 3)."""
-    Path(path).write_bytes(encode_png(srgb_encode(_check_rgb(linear_rgb, "image"), exposure)))
+    data = encode_png(srgb_encode(_check_rgb(linear_rgb, "image"), exposure))
+    write_atomically(path, lambda tmp: tmp.write_bytes(data))
 
 
 def decode_png(data: bytes) -> np.ndarray:

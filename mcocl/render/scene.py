@@ -16,12 +16,14 @@ kernels read.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..datafile import decode_utf8
 from ..errors import InputError
 from ..layouts import Integrator, MaterialKind
 from . import shapes as shape_lib
@@ -41,6 +43,19 @@ DEFAULT_SPP = 64
 DEFAULT_INT_IOR = 1.5046
 DEFAULT_EXT_IOR = 1.0
 DEFAULT_ALPHA = 0.1
+
+# What the kernels take: depths are 32-bit ints; coordinates are float32, and a point or matrix
+# entry beyond 1e15 leaves no precision for ray intersection (and products of two of them stay
+# finite in float32).  Pixels: the film keeps STATS float64 sums per pixel, plus a block's
+# partials and the output image (film.BYTES_PER_PIXEL); refuse an image that cannot fit.
+MAX_DEPTH_LIMIT = 2**31 - 1
+GEOMETRY_LIMIT = 1e15
+RGB_LIMIT = 1e30  # float32 radiance, with room for the film's sums of squares in float64
+IOR_LIMIT = 1e6
+MAX_IMAGE_SIDE = 2**20
+MAX_SPP = 2**32 - 2  # below render.job.UNBOUNDED_SPP, the 32-bit "no limit" marker
+# float64 totals and a float64 copy (STATS each), float32 block partials, float32 mean/variance/count
+BYTES_PER_PIXEL = 8 * 8 * 2 + 8 * 4 + 7 * 4
 
 
 @dataclass
@@ -142,12 +157,14 @@ class _Checker:
             self.fail(key, f"must be {'<' if hi_open else '<='} {hi:g}, got {x:g}")
         return x
 
-    def integer(self, value: Any, key: str, lo: int | None = None) -> int:
-        """A JSON integer (``3``, not ``3.0`` or ``"3"``) at least ``lo``."""
+    def integer(self, value: Any, key: str, lo: int | None = None, hi: int | None = None) -> int:
+        """A JSON integer (``3``, not ``3.0`` or ``"3"``) in ``[lo, hi]``."""
         if isinstance(value, bool) or not isinstance(value, int):
             self.fail(key, f"expected an integer, got {_kind(value)}")
         if lo is not None and value < lo:
             self.fail(key, f"must be >= {lo}, got {value}")
+        if hi is not None and value > hi:
+            self.fail(key, f"must be <= {hi}, got {value}")
         return int(value)
 
     def string(self, value: Any, key: str, choices: tuple[str, ...] | None = None) -> str:
@@ -164,18 +181,19 @@ class _Checker:
             self.fail(key, f"expected true or false, got {_kind(value)}")
         return value
 
-    def vector(self, value: Any, key: str, n: int = 3) -> np.ndarray:
-        """A list of ``n`` finite numbers."""
+    def vector(self, value: Any, key: str, n: int = 3, limit: float | None = None) -> np.ndarray:
+        """A list of ``n`` finite numbers (of magnitude at most ``limit`` when given)."""
         if not isinstance(value, list) or len(value) != n:
             self.fail(key, f"expected a list of {n} numbers, got {_kind(value)}")
-        return np.array([self.number(x, f"{key}[{i}]") for i, x in enumerate(value)], dtype=np.float64)
+        lo = -limit if limit is not None else None
+        return np.array([self.number(x, f"{key}[{i}]", lo, limit) for i, x in enumerate(value)], dtype=np.float64)
 
     def rgb(self, value: Any, key: str) -> np.ndarray:
         """An RGB triple of non-negative numbers, or one number for grey."""
         if isinstance(value, list):
-            v = self.vector(value, key, 3)
+            v = self.vector(value, key, 3, limit=RGB_LIMIT)
         else:
-            v = np.full(3, self.number(value, key))
+            v = np.full(3, self.number(value, key, -RGB_LIMIT, RGB_LIMIT))
         if np.any(v < 0):
             self.fail(key, "RGB values must be >= 0")
         return v
@@ -191,10 +209,11 @@ class _Checker:
                 ok = isinstance(x, int) if integer else isinstance(x, (int, float))
                 if isinstance(x, bool) or not ok:
                     self.fail(f"{key}[{i}][{j}]", f"expected {'an integer' if integer else 'a number'}, got {_kind(x)}")
+        big = [(i, x) for i, row in enumerate(value) for x in row if abs(x) > (2**31 - 1 if integer else GEOMETRY_LIMIT)]
+        if big:
+            self.fail(f"{key}[{big[0][0]}]", f"the number {big[0][1]:g} is out of range (at most "
+                      f"{'2**31 - 1' if integer else f'{GEOMETRY_LIMIT:g}'} in magnitude)")
         a = np.array(value, dtype=np.int64 if integer else np.float64).reshape(-1, width)
-        if not integer and not np.all(np.isfinite(a)):
-            bad = int(np.flatnonzero(~np.all(np.isfinite(a), axis=1))[0])
-            self.fail(f"{key}[{bad}]", "non-finite number")
         return a
 
 
@@ -212,14 +231,36 @@ def _kind(v: Any) -> str:
     return "null" if v is None else type(v).__name__
 
 
+def check_image_size(width: int, height: int, checker: _Checker | None = None, key: str = "camera") -> None:
+    """Refuse an image whose film would not fit in memory (an estimate, before anything is allocated)."""
+    c = checker or _Checker("settings")
+    need = width * height * BYTES_PER_PIXEL
+    have = _memory_bytes()
+    if width * height >= 2**31 or (have and need > have // 2):
+        c.fail(f"{key}.width", f"a {width}x{height} image needs about {need / 2**30:.3g} GiB for its film"
+               + (f", more than half of this machine's {have / 2**30:.3g} GiB" if have else ""))
+
+
+def _memory_bytes() -> int:
+    """Physical memory in bytes (0 where the system does not say)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 0
+
+
 def _join(key: str, k: str) -> str:
     return f"{key}.{k}" if key else k
 
 
 
 
-def parse_scene(data: Any, path: str | Path = "<scene>") -> Scene:
-    """Validate an already-parsed scene description (``path`` names it in errors and resolves OBJ paths)."""
+def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path | None = None) -> Scene:
+    """Validate an already-parsed scene description.
+
+    ``path`` names it in errors; OBJ paths are resolved in its folder and must
+    stay inside it (or inside ``mesh_folder`` when given).
+    """
     p = Path(path)
     c = _Checker(str(p))
     top = c.obj(data, "", ("camera",), ("integrator", "materials", "shapes", "environment"))
@@ -229,7 +270,8 @@ def parse_scene(data: Any, path: str | Path = "<scene>") -> Scene:
     raw_shapes = top.get("shapes", [])
     if not isinstance(raw_shapes, list):
         c.fail("shapes", f"expected a list of shapes, got {_kind(raw_shapes)}")
-    shape_list = [_shape(c, s, f"shapes[{i}]", index, p.parent) for i, s in enumerate(raw_shapes)]
+    roots = [p.parent] + ([Path(mesh_folder)] if mesh_folder is not None else [])
+    shape_list = [_shape(c, s, f"shapes[{i}]", index, roots) for i, s in enumerate(raw_shapes)]
     env = np.zeros(3)
     if "environment" in top:
         e = c.obj(top["environment"], "environment", ("type", "radiance"))
@@ -240,12 +282,13 @@ def parse_scene(data: Any, path: str | Path = "<scene>") -> Scene:
 
 def _camera(c: _Checker, v: Any, key: str) -> Camera:
     o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up",))
-    origin = c.vector(o["origin"], f"{key}.origin")
-    target = c.vector(o["target"], f"{key}.target")
-    up = c.vector(o.get("up", [0, 1, 0]), f"{key}.up")
+    origin = c.vector(o["origin"], f"{key}.origin", limit=GEOMETRY_LIMIT)
+    target = c.vector(o["target"], f"{key}.target", limit=GEOMETRY_LIMIT)
+    up = c.vector(o.get("up", [0, 1, 0]), f"{key}.up", limit=GEOMETRY_LIMIT)
     fov = c.number(o["fov"], f"{key}.fov", 0.0, 180.0, lo_open=True, hi_open=True)
-    width = c.integer(o["width"], f"{key}.width", 1)
-    height = c.integer(o["height"], f"{key}.height", 1)
+    width = c.integer(o["width"], f"{key}.width", 1, MAX_IMAGE_SIDE)
+    height = c.integer(o["height"], f"{key}.height", 1, MAX_IMAGE_SIDE)
+    check_image_size(width, height, c, key)
     fwd = target - origin
     if np.linalg.norm(fwd) == 0.0:
         c.fail(f"{key}.target", "the target coincides with the origin")
@@ -273,9 +316,9 @@ def check_integrator_settings(integrator: Any, max_depth: Any, rr_depth: Any, sp
     c = checker or _Checker("settings")
     return {
         "integrator": c.string(integrator, f"{key}.type", INTEGRATORS),
-        "max_depth": c.integer(max_depth, f"{key}.max_depth", -1),
-        "rr_depth": c.integer(rr_depth, f"{key}.rr_depth", 1),
-        "spp": c.integer(spp, f"{key}.spp", 1),
+        "max_depth": c.integer(max_depth, f"{key}.max_depth", -1, MAX_DEPTH_LIMIT),
+        "rr_depth": c.integer(rr_depth, f"{key}.rr_depth", 1, MAX_DEPTH_LIMIT),
+        "spp": c.integer(spp, f"{key}.spp", 1, MAX_SPP),
     }
 
 
@@ -301,8 +344,8 @@ def _materials(c: _Checker, v: Any, key: str) -> tuple[list[Material], dict[str,
             mat = Material(name, kind, rgb, alpha=alpha)
         else:
             o = c.obj(m, k, ("type",), ("int_ior", "ext_ior"))
-            ni = c.number(o.get("int_ior", DEFAULT_INT_IOR), f"{k}.int_ior", 0.0, lo_open=True)
-            ne = c.number(o.get("ext_ior", DEFAULT_EXT_IOR), f"{k}.ext_ior", 0.0, lo_open=True)
+            ni = c.number(o.get("int_ior", DEFAULT_INT_IOR), f"{k}.int_ior", 0.0, IOR_LIMIT, lo_open=True)
+            ne = c.number(o.get("ext_ior", DEFAULT_EXT_IOR), f"{k}.ext_ior", 0.0, IOR_LIMIT, lo_open=True)
             if ni == ne:
                 c.fail(f"{k}.int_ior", "int_ior equals ext_ior: the interface would be invisible")
             mat = Material(name, kind, np.ones(3), int_ior=ni, ext_ior=ne)
@@ -328,22 +371,23 @@ def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:
         name = names[0]
         val, kk = op[name], f"{k}.{name}"
         if name == "translate":
-            ops.append(tf.translate(c.vector(val, kk)))
+            ops.append(tf.translate(c.vector(val, kk, limit=GEOMETRY_LIMIT)))
         elif name == "rotate":
             r = c.obj(val, kk, ("axis", "angle"))
-            axis = c.vector(r["axis"], f"{kk}.axis")
+            axis = c.vector(r["axis"], f"{kk}.axis", limit=GEOMETRY_LIMIT)
             if np.linalg.norm(axis) == 0.0:
                 c.fail(f"{kk}.axis", "the rotation axis is zero")
             ops.append(tf.rotate(axis, c.number(r["angle"], f"{kk}.angle")))
         elif name == "scale":
-            s = c.vector(val, kk) if isinstance(val, list) else np.full(3, c.number(val, kk))
-            if np.any(s == 0.0):
+            s = (c.vector(val, kk, limit=GEOMETRY_LIMIT) if isinstance(val, list)
+                 else np.full(3, c.number(val, kk, -GEOMETRY_LIMIT, GEOMETRY_LIMIT)))
+            if np.any(np.abs(s) < 1.0 / GEOMETRY_LIMIT):
                 c.fail(kk, "a scale factor of zero flattens the shape")
             ops.append(tf.scale(s))
         else:
             if not isinstance(val, list) or len(val) not in (3, 4):
                 c.fail(kk, "expected 4 rows of 4 numbers (or 3 rows: the affine part)")
-            rows = [c.vector(r, f"{kk}[{j}]", 4) for j, r in enumerate(val)]
+            rows = [c.vector(r, f"{kk}[{j}]", 4, limit=GEOMETRY_LIMIT) for j, r in enumerate(val)]
             m = np.eye(4)
             m[: len(rows)] = np.array(rows)
             if len(rows) == 4 and not np.allclose(m[3], [0, 0, 0, 1]):
@@ -351,10 +395,35 @@ def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:
             if abs(np.linalg.det(m[:3, :3])) < 1e-12:
                 c.fail(kk, "the matrix is singular")
             ops.append(m)
-    return tf.compose(ops)
+    out = tf.compose(ops)
+    if not np.all(np.abs(out) <= GEOMETRY_LIMIT):
+        c.fail(key, f"the composed transform has entries beyond {GEOMETRY_LIMIT:g} (float32 geometry would overflow)")
+    return out
 
 
-def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], base: Path) -> Shape:
+def _mesh_file(c: _Checker, rel: str, key: str, roots: list[Path]) -> Path:
+    """The OBJ file ``rel`` names, resolved in the scene's folder; it must lie inside one of ``roots``.
+
+    A scene file is data: it must not read ``/etc/passwd`` or climb out with
+    ``..`` (links are resolved first, so a link cannot leave either).  The
+    file must be UTF-8 text (the parser reads it next).
+    """
+    if "\0" in rel or not rel.strip():
+        c.fail(key, f"not a file name: {rel!r}")
+    path = (roots[0] / rel).resolve()
+    allowed = [r.resolve() for r in roots]
+    if not any(path.is_relative_to(r) for r in allowed):
+        c.fail(key, f"{rel!r} lies outside the scene's folder {allowed[0]}; mesh files must be inside it"
+               + (f" or inside {allowed[1]}" if len(allowed) > 1 else " (the mesh_folder option allows another)"))
+    if path.is_file():
+        try:
+            decode_utf8(path.read_bytes(), f"{c.file}: {key}: {path}")
+        except OSError:
+            pass  # the parser reports an unreadable file
+    return path
+
+
+def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], roots: list[Path]) -> Shape:
     common = ("material",)
     optional = ("transform", "flip_normals", "emitter", "name")
     if not isinstance(v, dict):
@@ -381,8 +450,8 @@ def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], base: Path)
     elif kind == "cube":
         shp.vertices, shp.faces = shape_lib.cube()
     elif kind == "sphere":
-        shp.center = c.vector(o.get("center", [0, 0, 0]), f"{key}.center")
-        shp.radius = c.number(o.get("radius", 1.0), f"{key}.radius", 0.0, lo_open=True)
+        shp.center = c.vector(o.get("center", [0, 0, 0]), f"{key}.center", limit=GEOMETRY_LIMIT)
+        shp.radius = c.number(o.get("radius", 1.0), f"{key}.radius", 0.0, GEOMETRY_LIMIT, lo_open=True)
         if tf.uniform_scale_of(m) is None:
             c.fail(f"{key}.transform", "a sphere allows only translations, rotations and uniform scales")
     else:
@@ -391,7 +460,15 @@ def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], base: Path)
             c.fail(f"{key}.obj", "give either vertices/faces or obj, not both")
         if "obj" in o:
             rel = c.string(o["obj"], f"{key}.obj")
-            shp.vertices, shp.faces = shape_lib.read_obj(base / rel, f"{c.file}: {key}.obj")
+            path = _mesh_file(c, rel, f"{key}.obj", roots)
+            try:
+                shp.vertices, shp.faces = shape_lib.read_obj(path, f"{c.file}: {key}.obj")
+            except (OverflowError, MemoryError, RecursionError) as e:  # numbers no mesh can hold
+                c.fail(f"{key}.obj", f"{path}: a number out of range ({type(e).__name__}: {e})")
+            if not len(shp.faces):
+                c.fail(f"{key}.obj", f"{path} holds no faces (no 'f' lines): is it an OBJ mesh?")
+            if not np.all(np.abs(shp.vertices) <= GEOMETRY_LIMIT):
+                c.fail(f"{key}.obj", f"{path}: a vertex coordinate beyond {GEOMETRY_LIMIT:g}")
         else:
             for k in ("vertices", "faces"):
                 if k not in o:

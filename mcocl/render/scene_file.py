@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from ..datafile import decode_utf8, loads_json
 from ..errors import InputError
 from .mitsuba import load_mitsuba
 from .scene import Scene, parse_scene
@@ -21,14 +22,19 @@ def _reject_constant(name: str) -> float:
     raise ValueError(f"{name} is not valid JSON")
 
 
-def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = False) -> Scene:
+def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = False,
+               mesh_folder: str | Path | None = None) -> Scene:
     """Read and validate a scene file: mcocl JSON, or Mitsuba XML (``.xml``, see :mod:`mcocl.render.mitsuba`).
 
-    ``params`` (``$name`` values) and ``lenient`` (substitute what is unsupported) apply to XML files.
+    Args:
+        params: ``$name`` values of an XML file (``-D name=value``).
+        lenient: substitute what an XML file uses and mcocl does not support.
+        mesh_folder: a folder OBJ files may also come from (by default only
+            the scene file's folder and the folders below it).
 
     Raises:
-        InputError: the file cannot be read, is not JSON, or breaks the
-            format; the message names the file and the key path.
+        InputError: the file cannot be read, is not UTF-8 JSON (or XML), or
+            breaks the format; the message names the file and the key path.
     """
     p = Path(path)
     if p.suffix.lower() == ".xml":
@@ -36,16 +42,17 @@ def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = 
     if params:
         raise InputError(f"{p}: params (-D name=value) apply to Mitsuba XML scenes only")
     try:
-        text = p.read_text()
+        raw = p.read_bytes()
     except OSError as e:
         raise InputError(f"{p}: cannot read scene file: {e.strerror or e}") from None
+    text = decode_utf8(raw, str(p))
     try:
-        data = json.loads(text, parse_constant=_reject_constant)
+        data = loads_json(text, str(p), parse_constant=_reject_constant)
     except json.JSONDecodeError as e:
         raise InputError(f"{p}:{e.lineno}:{e.colno}: not valid JSON: {e.msg}") from None
     except ValueError as e:
         raise InputError(f"{p}: not valid JSON: {e}") from None
-    return parse_scene(data, p)
+    return parse_scene(data, p, mesh_folder)
 
 
 __all__ = ["load_scene"]

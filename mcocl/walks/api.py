@@ -247,6 +247,7 @@ def solve_fredholm(
     resume = opts.resume
     if resume is not None:
         acc = Accumulator.load(resume, expect_meta=meta)
+        acc.check_shape((len(np.atleast_2d(req.at)), STATS), resume)
         if acc.totals[:, 5].sum() > 0:
             raise ConvergenceError(_divergence_message(acc.totals[:, 5].sum(), acc.totals[:, 0].sum(),
                                                        req.max_walk_length))
@@ -275,7 +276,11 @@ def solve_fredholm(
             raise InputError(f"checkpoint {resume} ends in a partial block of {job.walks_per_block} walks; "
                              f"resume it with the same walks ({acc.meta.get('walk_limit')}) or start runs with a "
                              "multiple of the block size")
-        job.shifts = np.asarray(acc.meta["shifts"], dtype=np.float64)
+        shifts = acc.meta.get("shifts")
+        if (not isinstance(shifts, list) or len(shifts) != job.nq
+                or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in shifts)):
+            raise InputError(f"checkpoint {resume}: its field 'shifts' is damaged ({shifts!r})")
+        job.shifts = np.asarray(shifts, dtype=np.float64)
     else:
         pilot = runner.pilot()
         if pilot[:, 5].sum() > 0:
