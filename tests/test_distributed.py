@@ -151,7 +151,7 @@ def test_address_string_cli_and_bad_placements(cluster, capsys):
     remote = json.loads(capsys.readouterr().out)
     assert (local["estimate"], local["stderr"]) == (remote["estimate"], remote["stderr"])
     with pytest.raises(InputError, match="devices= and split= apply to local runs"):
-        mcocl.integrate(F3, samples=1e5, client=cluster.scheduler_address, split=2)
+        mcocl.integrate(F3, dim=3, samples=1e5, client=cluster.scheduler_address, split=2)
 
 
 def test_a_worker_killed_mid_job_loses_nothing(client, monkeypatch):
