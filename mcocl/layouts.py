@@ -33,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .bsdf_registry import BSDFS, DISPATCHER_PATH, dispatcher_source, with_table
+
 HEADER_PATH = "layouts.cl"  # relative to the kernels folder
 
 # C scalar types: (NumPy dtype, size = alignment in bytes).  float4 is the
@@ -43,13 +45,11 @@ _C_TYPES: dict[str, tuple[str, int]] = {
 }
 
 
-class MaterialKind(enum.IntEnum):
-    """``materials[k].kind``: the BSDF of a material (kernels/render/bsdf.cl)."""
-
-    DIFFUSE = 0
-    CONDUCTOR = 1
-    ROUGHCONDUCTOR = 2
-    DIELECTRIC = 3
+# ``materials[k].kind``: one code per BSDF registered in mcocl/bsdf_registry.py, in code order.
+MaterialKind = enum.IntEnum(
+    "MaterialKind", [(s.name.upper(), s.code) for s in sorted(BSDFS.values(), key=lambda s: s.code)],
+    module=__name__)
+MaterialKind.__doc__ = "``materials[k].kind``: the BSDF of a material (kernels/render/bsdf.cl)."
 
 
 class Integrator(enum.IntEnum):
@@ -282,18 +282,46 @@ def header_file() -> Path:
     return Path(KERNEL_DIR) / HEADER_PATH
 
 
+def dispatcher_file() -> Path:
+    """Where the committed BSDF dispatcher lives (``kernels/render/bsdf.cl``)."""
+    from .runtime import KERNEL_DIR
+
+    return Path(KERNEL_DIR) / DISPATCHER_PATH
+
+
+def scenes_readme() -> Path | None:
+    """scenes/README.md of a source checkout (it holds the generated table of materials), else None."""
+    from .runtime import KERNEL_DIR
+
+    path = Path(KERNEL_DIR).parent / "scenes" / "README.md"
+    return path if path.exists() else None
+
+
+def generated_files() -> list[tuple[Path, str]]:
+    """Every committed generated file with the text the generators write now."""
+    out = [(header_file(), c_header()), (dispatcher_file(), dispatcher_source())]
+    readme = scenes_readme()
+    if readme is not None:
+        out.append((readme, with_table(readme.read_text())))
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Write ``kernels/layouts.cl`` (``--check``: exit 1 if the committed file differs)."""
+    """Write ``kernels/layouts.cl``, ``kernels/render/bsdf.cl`` and the materials table of scenes/README.md.
+
+    ``--check``: write nothing; exit 1 if a committed file differs from the generator's text.
+    """
     args = sys.argv[1:] if argv is None else argv
-    path = header_file()
-    text = c_header()
-    if "--check" in args:
-        same = path.exists() and path.read_text() == text
-        print(f"{path}: {'up to date' if same else 'differs from the generator'}")
-        return 0 if same else 1
-    path.write_text(text)
-    print(f"wrote {path}")
-    return 0
+    stale = 0
+    for path, text in generated_files():
+        if "--check" in args:
+            same = path.exists() and path.read_text() == text
+            stale += not same
+            print(f"{path}: {'up to date' if same else 'differs from the generator'}")
+        elif not path.exists() or path.read_text() != text:
+            path.write_text(text)
+            print(f"wrote {path}")
+    return 1 if stale else 0
 
 
 if __name__ == "__main__":
@@ -302,4 +330,5 @@ if __name__ == "__main__":
 
 __all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_RECORD", "MATERIAL_RECORD",
            "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "FilmStat", "Integrator", "LightShape", "MaterialKind",
-           "Record", "c_header", "header_file"]
+           "Record", "c_header", "dispatcher_file", "generated_files", "header_file",
+           "scenes_readme"]

@@ -72,6 +72,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bsdf_registry import RECORD_FIELDS
 from ..errors import InputError
 from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
@@ -237,7 +238,9 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     # Materials and emitters.
     mats = np.zeros(len(scene.materials), MATERIAL_RECORD.dtype())
     for i, m in enumerate(scene.materials):
-        mats[i] = (MATERIAL_CODES[m.kind], m.rgb, m.alpha, m.int_ior, m.ext_ior, 0.0)
+        mats[i]["kind"] = MATERIAL_CODES[m.kind]
+        for name in RECORD_FIELDS:  # the fields a BSDF registration packs into (mcocl/bsdf_registry.py)
+            mats[i][name] = getattr(m, name)
     mats = mats.view(np.float32).reshape(len(scene.materials), MATERIAL_RECORD.itemsize // 4)
     shape_material = np.array([sh.material for sh in scene.shapes], np.uint32)
     shape_emitter = np.full(len(scene.shapes), -1, np.int32)

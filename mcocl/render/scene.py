@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..bsdf_registry import BSDFS, BsdfSpec, record_values
 from ..errors import InputError
 from ..layouts import Integrator, MaterialKind
 from . import shapes as shape_lib
@@ -32,15 +33,12 @@ INTEGRATORS = tuple(kind.name.lower() for kind in Integrator)
 MATERIAL_KINDS = tuple(kind.name.lower() for kind in MaterialKind)
 SHAPE_KINDS = ("rectangle", "cube", "sphere", "mesh")
 
-# Defaults, with Mitsuba 3's where it has one (max_depth -1, rr_depth 5,
-# dielectric int_ior = BK7 glass 1.5046, roughconductor alpha 0.1).
+# Defaults, with Mitsuba 3's where it has one (max_depth -1, rr_depth 5); the
+# materials' defaults are declared with each BSDF in mcocl/bsdf_registry.py.
 DEFAULT_INTEGRATOR = "mis"
 DEFAULT_MAX_DEPTH = -1
 DEFAULT_RR_DEPTH = 5
 DEFAULT_SPP = 64
-DEFAULT_INT_IOR = 1.5046
-DEFAULT_EXT_IOR = 1.0
-DEFAULT_ALPHA = 0.1
 
 
 @dataclass
@@ -57,7 +55,11 @@ class Camera:
 
 @dataclass
 class Material:
-    """One material: ``kind`` is one of :data:`MATERIAL_KINDS`; ``rgb`` the albedo or specular reflectance."""
+    """One material: ``kind`` is one of :data:`MATERIAL_KINDS`; the rest are its ``material_record`` fields.
+
+    ``rgb`` is the albedo or specular reflectance; which key fills which field is
+    declared by the BSDF's registration (mcocl/bsdf_registry.py).
+    """
 
     name: str
     kind: str
@@ -291,24 +293,26 @@ def _materials(c: _Checker, v: Any, key: str) -> tuple[list[Material], dict[str,
         if not isinstance(m, dict):
             c.fail(k, f"expected a material object, got {_kind(m)}")
         kind = c.string(m.get("type"), f"{k}.type", MATERIAL_KINDS) if "type" in m else c.fail(f"{k}.type", "missing required key")
-        if kind == "diffuse":
-            o = c.obj(m, k, ("type", "reflectance"))
-            mat = Material(name, kind, c.rgb(o["reflectance"], f"{k}.reflectance"))
-        elif kind in ("conductor", "roughconductor"):
-            o = c.obj(m, k, ("type",), ("specular_reflectance",) + (("alpha",) if kind == "roughconductor" else ()))
-            rgb = c.rgb(o.get("specular_reflectance", 1.0), f"{k}.specular_reflectance")
-            alpha = c.number(o.get("alpha", DEFAULT_ALPHA), f"{k}.alpha", 1e-4, 1.0) if kind == "roughconductor" else 0.0
-            mat = Material(name, kind, rgb, alpha=alpha)
-        else:
-            o = c.obj(m, k, ("type",), ("int_ior", "ext_ior"))
-            ni = c.number(o.get("int_ior", DEFAULT_INT_IOR), f"{k}.int_ior", 0.0, lo_open=True)
-            ne = c.number(o.get("ext_ior", DEFAULT_EXT_IOR), f"{k}.ext_ior", 0.0, lo_open=True)
-            if ni == ne:
-                c.fail(f"{k}.int_ior", "int_ior equals ext_ior: the interface would be invisible")
-            mat = Material(name, kind, np.ones(3), int_ior=ni, ext_ior=ne)
-        index[name] = len(out)
-        out.append(mat)
+        out.append(_material(c, m, k, name, BSDFS[kind]))
+        index[name] = len(out) - 1
     return out, index
+
+
+def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec) -> Material:
+    """One material of a registered BSDF: its keys validated as the registration declares them."""
+    required = tuple(p.key for p in spec.params if p.default is None)
+    o = c.obj(m, key, ("type", *required), tuple(p.key for p in spec.params if p.default is not None))
+    given: dict[str, object] = {}
+    for p in spec.params:
+        raw, pk = o.get(p.key, p.default), f"{key}.{p.key}"
+        given[p.field] = c.rgb(raw, pk) if p.kind == "rgb" else \
+            c.number(raw, pk, p.lo, p.hi, lo_open=p.lo_open, hi_open=p.hi_open)
+    values = record_values(spec, given)
+    bad = spec.check(values)
+    if bad is not None:
+        c.fail(f"{key}.{bad[0]}", bad[1])
+    return Material(name, spec.name, np.array(values["rgb"], np.float64).reshape(3), alpha=float(values["alpha"]),
+                    int_ior=float(values["int_ior"]), ext_ior=float(values["ext_ior"]))
 
 
 def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:
