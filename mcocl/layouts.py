@@ -21,7 +21,9 @@ so that a reader of a kernel finds the definitions beside the code and a
 kernel file compiles with a plain ``#include``; ``tests/test_layouts.py``
 regenerates it and fails if the committed bytes differ, and checks on the
 OpenCL device that ``sizeof``/``offsetof`` of every struct equal the dtype's.
-Regenerate with ``python -m mcocl.layouts``.
+Regenerate with ``python -m mcocl.layouts``, which also writes the other
+generated files: the BSDF dispatcher ``kernels/render/bsdf.cl`` and the
+materials table of ``scenes/README.md`` (both from mcocl/bsdf_registry.py).
 """
 
 from __future__ import annotations
