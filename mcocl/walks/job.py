@@ -28,6 +28,7 @@ import pyopencl as cl
 
 from .. import runtime
 from ..accumulate import mean_and_variance
+from ..layouts import WALK_PARAMS
 from .codegen import WalkCode
 from .tabulate import TableGrid, WalkTables, build_tables
 
@@ -96,6 +97,20 @@ class WalkJob:
         return WalkRunner(self, ctx)
 
 
+def walk_params(job: WalkJob, first_block: int, nwork: int, table_args: tuple[int, ...]) -> np.ndarray:
+    """The ``walk_params`` record (mcocl/layouts.py) of a launch of ``nwork`` work-items from ``first_block``.
+
+    ``table_args`` is the table geometry, ``WalkTables.kernel_args()``.
+    """
+    p = np.zeros((), WALK_PARAMS.dtype())
+    p["first_block"], p["walk_limit"], p["seed"] = first_block, job.walk_limit, job.seed
+    p["nwork"], p["nq"], p["wpb"] = nwork, job.nq, job.walks_per_block
+    p["survival"], p["depth"], p["max_len"] = job.survival, job.depth, job.max_len
+    for name, value in zip(("nxa", "nya", "nb", "lognb", "trans_off", "q_off", "src_off"), table_args, strict=True):
+        p[name] = value
+    return p
+
+
 class WalkRunner:
     """A :class:`WalkJob` built for one device."""
 
@@ -148,14 +163,9 @@ class WalkRunner:
         sh = np.ascontiguousarray(shifts, dtype=np.float64)
         bshift = cl.Buffer(ctxt, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=sh)
         tab, targs = self._table_buffer()
+        params = walk_params(job, first_block, nwork, targs)
         gsize, lsize = self.ctx.work_size(nwork)
-        self.kernel(
-            self.ctx.queue, gsize, lsize,
-            np.uint64(first_block), np.uint32(nwork), np.uint32(job.nq), np.uint32(job.walks_per_block),
-            np.uint64(job.walk_limit), np.uint64(job.seed), self.queries, bshift,
-            np.float32(job.survival), np.uint32(job.depth), np.uint32(job.max_len),
-            tab, *targs, bout,
-        )
+        self.kernel(self.ctx.queue, gsize, lsize, params, self.queries, bshift, tab, bout)
         ev = cl.enqueue_copy(self.ctx.queue, out, bout, is_blocking=False)
         return ev, out
 
