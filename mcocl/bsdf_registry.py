@@ -304,7 +304,7 @@ TABLE_END = "<!-- END materials table -->"
 
 
 def markdown_table() -> str:
-    """The table of material types in scenes/README.md, between :data:`TABLE_BEGIN` and :data:`TABLE_END`."""
+    """The table of material types in scenes/README.md, with its markers :data:`TABLE_BEGIN`, :data:`TABLE_END`."""
     rows = [TABLE_BEGIN, "| type | keys | meaning |", "|---|---|---|"]
     for s in sorted(BSDFS.values(), key=lambda s: s.code):
         keys = ", ".join(p.describe() for p in s.params) or "—"
@@ -313,14 +313,5 @@ def markdown_table() -> str:
     return "\n".join(rows)
 
 
-def with_table(readme: str) -> str:
-    """``readme`` with its generated materials table replaced by :func:`markdown_table`."""
-    head, sep, rest = readme.partition(TABLE_BEGIN)
-    _, sep2, tail = rest.partition(TABLE_END)
-    if not sep or not sep2:
-        raise ValueError("scenes/README.md: the materials table markers are missing")
-    return head + markdown_table() + tail
-
-
 __all__ = ["BSDFS", "DISPATCHER_PATH", "RECORD_FIELDS", "TABLE_BEGIN", "TABLE_END", "BsdfSpec", "Param",
-           "dispatcher_source", "markdown_table", "record_values", "register_bsdf", "with_table"]
+           "dispatcher_source", "markdown_table", "record_values", "register_bsdf"]

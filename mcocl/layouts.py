@@ -23,7 +23,8 @@ regenerates it and fails if the committed bytes differ, and checks on the
 OpenCL device that ``sizeof``/``offsetof`` of every struct equal the dtype's.
 Regenerate with ``python -m mcocl.layouts``, which also writes the other
 generated files: the BSDF dispatcher ``kernels/render/bsdf.cl`` and the
-materials table of ``scenes/README.md`` (both from mcocl/bsdf_registry.py).
+materials and shapes tables of ``scenes/README.md`` (from mcocl/bsdf_registry.py
+and mcocl/render/shape_registry.py).
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bsdf_registry import BSDFS, DISPATCHER_PATH, dispatcher_source, with_table
+from .bsdf_registry import BSDFS, DISPATCHER_PATH, dispatcher_source, markdown_table
 
 HEADER_PATH = "layouts.cl"  # relative to the kernels folder
 
@@ -311,17 +312,29 @@ def scenes_readme() -> Path | None:
     return path if path.exists() else None
 
 
+def with_block(text: str, block: str, where: str = "scenes/README.md") -> str:
+    """``text`` with the generated block whose first and last lines (its markers) are ``block``'s replaced."""
+    lines = block.split("\n")
+    head, sep, rest = text.partition(lines[0])
+    _, sep2, tail = rest.partition(lines[-1])
+    if not sep or not sep2:
+        raise ValueError(f"{where}: the markers {lines[0]!r} ... {lines[-1]!r} are missing")
+    return head + block + tail
+
+
 def generated_files() -> list[tuple[Path, str]]:
     """Every committed generated file with the text the generators write now."""
+    from .render.shape_registry import shapes_table
+
     out = [(header_file(), c_header()), (dispatcher_file(), dispatcher_source())]
     readme = scenes_readme()
     if readme is not None:
-        out.append((readme, with_table(readme.read_text())))
+        out.append((readme, with_block(with_block(readme.read_text(), markdown_table()), shapes_table())))
     return out
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Write ``kernels/layouts.cl``, ``kernels/render/bsdf.cl`` and the materials table of scenes/README.md.
+    """Write ``kernels/layouts.cl``, ``kernels/render/bsdf.cl`` and the tables of scenes/README.md.
 
     ``--check``: write nothing; exit 1 if a committed file differs from the generator's text.
     """
@@ -345,4 +358,4 @@ if __name__ == "__main__":
 __all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_RECORD", "MATERIAL_RECORD",
            "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "WALK_PARAMS", "FilmStat", "Integrator", "LightShape", "MaterialKind",
            "Record", "c_header", "dispatcher_file", "generated_files", "header_file",
-           "scenes_readme"]
+           "scenes_readme", "with_block"]

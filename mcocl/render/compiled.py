@@ -80,6 +80,7 @@ from .bvh import BVH, C_TRAV, build_bvh
 from .emitter_choice import LUMINANCE, area_power, cdf_choice_pmf, environment_choice
 from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
+from .shape_registry import SHAPES
 
 MATERIAL_CODES = {kind.name.lower(): int(kind) for kind in MaterialKind}
 
@@ -197,7 +198,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         scene = load_scene(scene)
     tris, tri_shape, spheres, sphere_flip, sphere_shape = [], [], [], [], []
     for k, sh in enumerate(scene.shapes):
-        if sh.kind == "sphere":
+        if SHAPES[sh.kind].sphere:
             s = tf.uniform_scale_of(sh.matrix)
             c = tf.apply_points(sh.matrix, sh.center)
             spheres.append([*c, sh.radius * s])

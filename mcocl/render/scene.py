@@ -25,13 +25,13 @@ import numpy as np
 from ..bsdf_registry import BSDFS, BsdfSpec, record_values
 from ..errors import InputError
 from ..layouts import Integrator, MaterialKind
-from . import shapes as shape_lib
 from . import transform as tf
+from .shape_registry import SHAPES
 
 # The names a scene file uses: the codes of mcocl/layouts.py, lower case.
 INTEGRATORS = tuple(kind.name.lower() for kind in Integrator)
 MATERIAL_KINDS = tuple(kind.name.lower() for kind in MaterialKind)
-SHAPE_KINDS = ("rectangle", "cube", "sphere", "mesh")
+SHAPE_KINDS = tuple(SHAPES)  # mcocl/render/shape_registry.py
 
 # Defaults, with Mitsuba 3's where it has one (max_depth -1, rr_depth 5); the
 # materials' defaults are declared with each BSDF in mcocl/bsdf_registry.py.
@@ -366,8 +366,8 @@ def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], base: Path)
     if "type" not in v:
         c.fail(f"{key}.type", "missing required key")
     kind = c.string(v["type"], f"{key}.type", SHAPE_KINDS)
-    extra = {"sphere": ("center", "radius"), "mesh": ("vertices", "faces", "obj")}.get(kind, ())
-    o = c.obj(v, key, ("type", *common), optional + extra)
+    spec = SHAPES[kind]
+    o = c.obj(v, key, ("type", *common), optional + spec.keys)
     mname = c.string(o["material"], f"{key}.material")
     if mname not in materials:
         known = ", ".join(materials) or "none"
@@ -380,31 +380,7 @@ def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], base: Path)
         e = c.obj(o["emitter"], f"{key}.emitter", ("type", "radiance"))
         c.string(e["type"], f"{key}.emitter.type", ("area",))
         shp.radiance = c.rgb(e["radiance"], f"{key}.emitter.radiance")
-    if kind == "rectangle":
-        shp.vertices, shp.faces = shape_lib.rectangle()
-    elif kind == "cube":
-        shp.vertices, shp.faces = shape_lib.cube()
-    elif kind == "sphere":
-        shp.center = c.vector(o.get("center", [0, 0, 0]), f"{key}.center")
-        shp.radius = c.number(o.get("radius", 1.0), f"{key}.radius", 0.0, lo_open=True)
-        if tf.uniform_scale_of(m) is None:
-            c.fail(f"{key}.transform", "a sphere allows only translations, rotations and uniform scales")
-    else:
-        has_inline = "vertices" in o or "faces" in o
-        if has_inline and "obj" in o:
-            c.fail(f"{key}.obj", "give either vertices/faces or obj, not both")
-        if "obj" in o:
-            rel = c.string(o["obj"], f"{key}.obj")
-            shp.vertices, shp.faces = shape_lib.read_obj(base / rel, f"{c.file}: {key}.obj")
-        else:
-            for k in ("vertices", "faces"):
-                if k not in o:
-                    c.fail(f"{key}.{k}", "missing required key (or give obj)")
-            shp.vertices = c.array(o["vertices"], f"{key}.vertices", 3, integer=False)
-            shp.faces = c.array(o["faces"], f"{key}.faces", 3, integer=True)
-            if shp.faces.size and (shp.faces.min() < 0 or shp.faces.max() >= len(shp.vertices)):
-                bad = int(np.flatnonzero((shp.faces < 0).any(1) | (shp.faces >= len(shp.vertices)).any(1))[0])
-                c.fail(f"{key}.faces[{bad}]", f"vertex index outside 0..{len(shp.vertices) - 1}")
+    spec.build(c, o, key, shp, base)
     return shp
 
 
