@@ -266,6 +266,10 @@ typedef struct {
     float survival;
     uint depth;
     uint max_len;
+} walk_params;
+
+/* the tabulated densities of a walk: grid sizes and where each table starts in the buffer */
+typedef struct {
     uint nxa;
     uint nya;
     uint nb;
@@ -273,6 +277,6 @@ typedef struct {
     uint trans_off;
     uint q_off;
     uint src_off;
-} walk_params;
+} walk_table_geometry;
 
 #endif

@@ -239,20 +239,23 @@ RENDER_PARAMS = Record("render_params", (
     ("env_radiance", "float4", 1),
 ), "scalar parameters of render_blocks (kernels/render/integrator.cl)")
 
-# The walk kernel's scalar parameters, passed by value (host: mcocl/walks/job.py; the
-# table geometry from mcocl/walks/tabulate.py, WalkTables.kernel_args).
+# The walk kernel's scalar parameters, passed by value (host: mcocl/walks/job.py, walk_params).
 WALK_PARAMS = Record("walk_params", (
     ("first_block", "ulong", 1), ("walk_limit", "ulong", 1), ("seed", "ulong", 1),
     ("nwork", "uint", 1), ("nq", "uint", 1), ("wpb", "uint", 1),  # work-items, query points, walks per block
     ("survival", "float", 1), ("depth", "uint", 1), ("max_len", "uint", 1),
-    # tabulated densities (walks/table.cl's walk_tables): cells per axis of x, bins per axis
-    # of y, bins, log2 bins, and the offsets of the transition, survival and source tables
-    ("nxa", "uint", 1), ("nya", "uint", 1), ("nb", "uint", 1), ("lognb", "uint", 1),
-    ("trans_off", "uint", 1), ("q_off", "uint", 1), ("src_off", "uint", 1),
 ), "scalar parameters of walk_blocks (kernels/walks/walk.cl)")
 
+# Where the parts of the walks' table buffer lie (host: mcocl/walks/tabulate.py,
+# WalkTables.geometry; kernels: walks/transition.cl's walk_tables_at).
+WALK_TABLE_GEOMETRY = Record("walk_table_geometry", (
+    ("nxa", "uint", 1), ("nya", "uint", 1),  # cells of x per axis, bins of y per axis
+    ("nb", "uint", 1), ("lognb", "uint", 1),  # bins (nya^DIM) and log2 of it
+    ("trans_off", "uint", 1), ("q_off", "uint", 1), ("src_off", "uint", 1),  # transition CDFs, survival, source CDF
+), "the tabulated densities of a walk: grid sizes and where each table starts in the buffer")
+
 RECORDS: tuple[Record, ...] = (PRIM_RECORD, LIGHT_RECORD, MATERIAL_RECORD, CAMERA_RECORD, BVH_HEADER, BVH_NODE,
-                               RENDER_PARAMS, WALK_PARAMS)
+                               RENDER_PARAMS, WALK_PARAMS, WALK_TABLE_GEOMETRY)
 
 
 def c_header() -> str:
@@ -356,6 +359,6 @@ if __name__ == "__main__":
 
 
 __all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_RECORD", "MATERIAL_RECORD",
-           "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "WALK_PARAMS", "FilmStat", "Integrator", "LightShape", "MaterialKind",
+           "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "WALK_PARAMS", "WALK_TABLE_GEOMETRY", "FilmStat", "Integrator", "LightShape", "MaterialKind",
            "Record", "c_header", "dispatcher_file", "generated_files", "header_file",
            "scenes_readme", "with_block"]

@@ -51,7 +51,6 @@
  *   [0] finite walks   [1] non-finite walks   [2] sum (v - shift)   [3] sum (v - shift)^2
  *   [4] sum of walk lengths (moves, all walks)  [5] guard hits
  */
-#include "layouts.cl"
 #include "walks/walk_rng.cl"
 #include "walks/next_event.cl"
 
@@ -60,9 +59,9 @@
 #define WALK_VLANES 16 /* virtual partial sums */
 #define WALK_NACC (WALK_VLANES / LANES)
 
-/* p: walk_params (layouts.cl, from mcocl/layouts.py; host: mcocl/walks/job.py). */
-kernel void walk_blocks(const walk_params p, global const float *queries, global const double *shifts,
-                        global const uint *tab, global double *out) {
+/* p, g: walk_params and walk_table_geometry (layouts.cl, from mcocl/layouts.py; host: mcocl/walks/job.py). */
+kernel void walk_blocks(const walk_params p, const walk_table_geometry g, global const float *queries,
+                        global const double *shifts, global const uint *tab, global double *out) {
     const ulong first_block = p.first_block, walk_limit = p.walk_limit, seed = p.seed;
     const uint nwork = p.nwork, nq = p.nq, wpb = p.wpb;
     const float survival = p.survival;
@@ -72,9 +71,7 @@ kernel void walk_blocks(const walk_params p, global const float *queries, global
     const uint qi = gid % nq;
     const ulong w0 = (first_block + (ulong)(gid / nq)) * (ulong)wpb;
     const uint nwalks = walk_limit > w0 ? (uint)min((ulong)wpb, walk_limit - w0) : 0u;
-    walk_tables t;
-    t.tab = tab; t.nxa = p.nxa; t.nya = p.nya; t.nb = p.nb; t.lognb = p.lognb;
-    t.trans_off = p.trans_off; t.q_off = p.q_off; t.src_off = p.src_off;
+    const walk_tables t = walk_tables_at(tab, g);
     const uint stream = RNG_STREAM_WALK + qi;
     const double shift = shifts[qi];
 
