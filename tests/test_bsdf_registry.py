@@ -124,3 +124,26 @@ def test_every_registered_bsdf_keeps_the_contract(name: str) -> None:
         w = s["weight"].astype(np.float64)
         mean, se = w.mean(axis=0), w.std(axis=0, ddof=1) / np.sqrt(n)
         assert np.all(mean <= 1.0 + 5.0 * se + 1e-6), (theta, mean, se)
+
+
+def test_mitsuba_import_reads_a_registered_bsdf_by_its_keys(monkeypatch, tmp_path):
+    from mcocl.render.mitsuba import read_mitsuba
+
+    class Sheen(reg.BsdfSpec):
+        name, code, summary = "sheen", 9, "a test"
+        params = (reg.Param("tint", "rgb", "rgb", "", default=0.5), reg.Param("alpha", "number", "alpha", ""))
+
+    monkeypatch.setitem(reg.BSDFS, "sheen", Sheen())  # what @register_bsdf does, undone after the test
+    head = ('<?xml version="1.0"?>\n<scene version="3.0.0">\n<sensor type="perspective">'
+            '<transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>'
+            '</sensor>\n')
+    p = tmp_path / "s.xml"
+    p.write_text(head + '<bsdf type="sheen" id="s"><float name="alpha" value="0.2"/></bsdf>\n</scene>\n')
+    assert read_mitsuba(p)["materials"]["s"] == {"type": "sheen", "tint": 0.5, "alpha": 0.2}
+    p.write_text(head + '<bsdf type="sheen" id="s"><rgb name="tint" value="0.1, 0.2, 0.3"/></bsdf>\n</scene>\n')
+    with pytest.raises(InputError, match="needs the property 'alpha'"):
+        read_mitsuba(p)
+    p.write_text(head + '<bsdf type="sheen" id="s"><float name="alpha" value="0.2"/>'
+                 '<float name="sigma" value="1"/></bsdf>\n</scene>\n')
+    with pytest.raises(InputError, match=r"property 'sigma' of 'sheen'.*supported: tint, alpha"):
+        read_mitsuba(p)
