@@ -4,9 +4,10 @@ Supported exactly: ``diffuse``; ``conductor`` with ``material="none"`` (a
 perfect mirror times ``specular_reflectance``); ``roughconductor`` with
 ``material="none"``, ``distribution="ggx"`` and an isotropic ``alpha``;
 ``dielectric`` with numeric or named ``int_ior``/``ext_ior`` (Mitsuba's
-defaults: BK7 1.5046 inside, air 1.000277 outside).  Everything else is an
-error naming the nearest alternative, or with ``lenient`` the substitute
-listed in :data:`SUBSTITUTES`.
+defaults: BK7 1.5046 inside, air 1.000277 outside).  Any other BSDF registered
+in mcocl/bsdf_registry.py is read property by property, each property named
+like its scene-file key.  Everything else is an error naming the nearest
+alternative, or with ``lenient`` the substitute listed in :data:`SUBSTITUTES`.
 """
 
 from __future__ import annotations
