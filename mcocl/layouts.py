@@ -201,7 +201,8 @@ LIGHT_RECORD = _quad_record(
     ("radiance", "float", 3), ("prim", "uint"),
 )
 
-# Material record (host: compiled.compile_scene; kernel: bsdf.cl material_load).
+# Material record (host: compiled.compile_scene, fields packed as mcocl/bsdf_registry.py declares;
+# kernel: render/material.cl material_load).
 MATERIAL_RECORD = _quad_record(
     "material_record", "a material: its MaterialKind code (as a float) and parameters",
     ("kind", "float"), ("rgb", "float", 3),  # albedo (diffuse) or specular reflectance (conductors)
