@@ -255,4 +255,28 @@ typedef struct {
     float4 env_radiance;
 } render_params;
 
+/* scalar parameters of walk_blocks (kernels/walks/walk.cl) */
+typedef struct {
+    ulong first_block;
+    ulong walk_limit;
+    ulong seed;
+    uint nwork;
+    uint nq;
+    uint wpb;
+    float survival;
+    uint depth;
+    uint max_len;
+} walk_params;
+
+/* the tabulated densities of a walk: grid sizes and where each table starts in the buffer */
+typedef struct {
+    uint nxa;
+    uint nya;
+    uint nb;
+    uint lognb;
+    uint trans_off;
+    uint q_off;
+    uint src_off;
+} walk_table_geometry;
+
 #endif

@@ -21,7 +21,10 @@ so that a reader of a kernel finds the definitions beside the code and a
 kernel file compiles with a plain ``#include``; ``tests/test_layouts.py``
 regenerates it and fails if the committed bytes differ, and checks on the
 OpenCL device that ``sizeof``/``offsetof`` of every struct equal the dtype's.
-Regenerate with ``python -m mcocl.layouts``.
+Regenerate with ``python -m mcocl.layouts``, which also writes the other
+generated files: the BSDF dispatcher ``kernels/render/bsdf.cl`` and the
+materials and shapes tables of ``scenes/README.md`` (from mcocl/bsdf_registry.py
+and mcocl/render/shape_registry.py).
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .bsdf_registry import BSDFS, DISPATCHER_PATH, dispatcher_source, markdown_table
+
 HEADER_PATH = "layouts.cl"  # relative to the kernels folder
 
 # C scalar types: (NumPy dtype, size = alignment in bytes).  float4 is the
@@ -43,13 +48,11 @@ _C_TYPES: dict[str, tuple[str, int]] = {
 }
 
 
-class MaterialKind(enum.IntEnum):
-    """``materials[k].kind``: the BSDF of a material (kernels/render/bsdf.cl)."""
-
-    DIFFUSE = 0
-    CONDUCTOR = 1
-    ROUGHCONDUCTOR = 2
-    DIELECTRIC = 3
+# ``materials[k].kind``: one code per BSDF registered in mcocl/bsdf_registry.py, in code order.
+MaterialKind = enum.IntEnum(
+    "MaterialKind", [(s.name.upper(), s.code) for s in sorted(BSDFS.values(), key=lambda s: s.code)],
+    module=__name__)
+MaterialKind.__doc__ = "``materials[k].kind``: the BSDF of a material (kernels/render/bsdf.cl)."
 
 
 class Integrator(enum.IntEnum):
@@ -198,7 +201,8 @@ LIGHT_RECORD = _quad_record(
     ("radiance", "float", 3), ("prim", "uint"),
 )
 
-# Material record (host: compiled.compile_scene; kernel: bsdf.cl material_load).
+# Material record (host: compiled.compile_scene, fields packed as mcocl/bsdf_registry.py declares;
+# kernel: render/material.cl material_load).
 MATERIAL_RECORD = _quad_record(
     "material_record", "a material: its MaterialKind code (as a float) and parameters",
     ("kind", "float"), ("rgb", "float", 3),  # albedo (diffuse) or specular reflectance (conductors)
@@ -236,8 +240,23 @@ RENDER_PARAMS = Record("render_params", (
     ("env_radiance", "float4", 1),
 ), "scalar parameters of render_blocks (kernels/render/integrator.cl)")
 
+# The walk kernel's scalar parameters, passed by value (host: mcocl/walks/job.py, walk_params).
+WALK_PARAMS = Record("walk_params", (
+    ("first_block", "ulong", 1), ("walk_limit", "ulong", 1), ("seed", "ulong", 1),
+    ("nwork", "uint", 1), ("nq", "uint", 1), ("wpb", "uint", 1),  # work-items, query points, walks per block
+    ("survival", "float", 1), ("depth", "uint", 1), ("max_len", "uint", 1),
+), "scalar parameters of walk_blocks (kernels/walks/walk.cl)")
+
+# Where the parts of the walks' table buffer lie (host: mcocl/walks/tabulate.py,
+# WalkTables.geometry; kernels: walks/transition.cl's walk_tables_at).
+WALK_TABLE_GEOMETRY = Record("walk_table_geometry", (
+    ("nxa", "uint", 1), ("nya", "uint", 1),  # cells of x per axis, bins of y per axis
+    ("nb", "uint", 1), ("lognb", "uint", 1),  # bins (nya^DIM) and log2 of it
+    ("trans_off", "uint", 1), ("q_off", "uint", 1), ("src_off", "uint", 1),  # transition CDFs, survival, source CDF
+), "the tabulated densities of a walk: grid sizes and where each table starts in the buffer")
+
 RECORDS: tuple[Record, ...] = (PRIM_RECORD, LIGHT_RECORD, MATERIAL_RECORD, CAMERA_RECORD, BVH_HEADER, BVH_NODE,
-                               RENDER_PARAMS)
+                               RENDER_PARAMS, WALK_PARAMS, WALK_TABLE_GEOMETRY)
 
 
 def c_header() -> str:
@@ -282,18 +301,58 @@ def header_file() -> Path:
     return Path(KERNEL_DIR) / HEADER_PATH
 
 
+def dispatcher_file() -> Path:
+    """Where the committed BSDF dispatcher lives (``kernels/render/bsdf.cl``)."""
+    from .runtime import KERNEL_DIR
+
+    return Path(KERNEL_DIR) / DISPATCHER_PATH
+
+
+def scenes_readme() -> Path | None:
+    """scenes/README.md of a source checkout (it holds the generated table of materials), else None."""
+    from .runtime import KERNEL_DIR
+
+    path = Path(KERNEL_DIR).parent / "scenes" / "README.md"
+    return path if path.exists() else None
+
+
+def with_block(text: str, block: str, where: str = "scenes/README.md") -> str:
+    """``text`` with the generated block whose first and last lines (its markers) are ``block``'s replaced."""
+    lines = block.split("\n")
+    head, sep, rest = text.partition(lines[0])
+    _, sep2, tail = rest.partition(lines[-1])
+    if not sep or not sep2:
+        raise ValueError(f"{where}: the markers {lines[0]!r} ... {lines[-1]!r} are missing")
+    return head + block + tail
+
+
+def generated_files() -> list[tuple[Path, str]]:
+    """Every committed generated file with the text the generators write now."""
+    from .render.shape_registry import shapes_table
+
+    out = [(header_file(), c_header()), (dispatcher_file(), dispatcher_source())]
+    readme = scenes_readme()
+    if readme is not None:
+        out.append((readme, with_block(with_block(readme.read_text(), markdown_table()), shapes_table())))
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Write ``kernels/layouts.cl`` (``--check``: exit 1 if the committed file differs)."""
+    """Write ``kernels/layouts.cl``, ``kernels/render/bsdf.cl`` and the tables of scenes/README.md.
+
+    ``--check``: write nothing; exit 1 if a committed file differs from the generator's text.
+    """
     args = sys.argv[1:] if argv is None else argv
-    path = header_file()
-    text = c_header()
-    if "--check" in args:
-        same = path.exists() and path.read_text() == text
-        print(f"{path}: {'up to date' if same else 'differs from the generator'}")
-        return 0 if same else 1
-    path.write_text(text)
-    print(f"wrote {path}")
-    return 0
+    stale = 0
+    for path, text in generated_files():
+        if "--check" in args:
+            same = path.exists() and path.read_text() == text
+            stale += not same
+            print(f"{path}: {'up to date' if same else 'differs from the generator'}")
+        elif not path.exists() or path.read_text() != text:
+            path.write_text(text)
+            print(f"wrote {path}")
+    return 1 if stale else 0
 
 
 if __name__ == "__main__":
@@ -301,5 +360,6 @@ if __name__ == "__main__":
 
 
 __all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_RECORD", "MATERIAL_RECORD",
-           "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "FilmStat", "Integrator", "LightShape", "MaterialKind",
-           "Record", "c_header", "header_file"]
+           "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "WALK_PARAMS", "WALK_TABLE_GEOMETRY", "FilmStat", "Integrator", "LightShape", "MaterialKind",
+           "Record", "c_header", "dispatcher_file", "generated_files", "header_file",
+           "scenes_readme", "with_block"]

@@ -1,14 +1,11 @@
-/* bsdf.cl — the materials of a scene and one entry point per BSDF query.
+/* bsdf.cl — GENERATED from mcocl/bsdf_registry.py by `python -m mcocl.layouts`; do not edit.
  *
- * Materials come from CompiledScene.materials, one material_record each
- * (layouts.cl, from mcocl/layouts.py): kind (a MaterialKind code: MAT_DIFFUSE,
- * MAT_CONDUCTOR (mirror), MAT_ROUGHCONDUCTOR (GGX), MAT_DIELECTRIC), rgb,
- * alpha, int_ior, ext_ior.
- *
- * In a lane build the eight paths of a packet may sit on different
- * materials: every kind present in the packet is evaluated and the lanes
- * take their own kind's result (a kind absent from the packet costs one
- * test).  In the scalar build the same code is an ordinary branch.
+ * One entry point per BSDF query, dispatching on material_record.kind to the
+ * functions of each registered BSDF's kernel file (render/bsdf_<name>.cl).
+ * In a lane build the paths of a packet may sit on different materials: every
+ * kind present in the packet is evaluated and the lanes take their own kind's
+ * result (a kind absent from the packet costs one test); in the scalar build
+ * the same code is an ordinary branch.
  *
  * Conventions (Mitsuba 3): directions in the local frame of the surface's
  * front normal, both pointing away from the surface; eval returns f cos(theta_o)
@@ -17,33 +14,11 @@
 #ifndef MCOCL_BSDF_CL
 #define MCOCL_BSDF_CL
 
-#include "layouts.cl"
-#include "render/vec3.cl"
-#include "sampling/gather.cl"
-#include "render/lane_io.cl"
+#include "render/material.cl"
 #include "render/bsdf_diffuse.cl"
 #include "render/bsdf_conductor.cl"
 #include "render/bsdf_roughconductor.cl"
 #include "render/bsdf_dielectric.cl"
-
-
-typedef struct {
-    intv kind;
-    vec3v color;  /* albedo (diffuse), specular reflectance (conductors), tint (dielectric) */
-    floatv alpha; /* GGX roughness */
-    floatv eta;   /* int_ior / ext_ior */
-} material_v;
-
-/* The material record `index` of every lane (MATERIAL_RECORD_QUADS float4 per material). */
-MC_INLINE material_v material_load(global const float4 *mats, uintv index) {
-    MATERIAL_RECORD_GATHER(q, mats, index);
-    material_v m;
-    m.kind = to_intv(REC_FIELD(q, MATERIAL_RECORD_KIND));
-    m.color = REC_VEC3(q, MATERIAL_RECORD_RGB);
-    m.alpha = REC_FIELD(q, MATERIAL_RECORD_ALPHA);
-    m.eta = REC_FIELD(q, MATERIAL_RECORD_INT_IOR) / REC_FIELD(q, MATERIAL_RECORD_EXT_IOR);
-    return m;
-}
 
 /* Lanes whose material has a non-delta lobe: light sampling applies there. */
 MC_INLINE intv bsdf_is_smooth(const material_v *m) {
@@ -55,19 +30,19 @@ MC_INLINE intv bsdf_is_smooth(const material_v *m) {
 MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {
     vec3v f = v3s(0.0f);
     floatv p = (floatv)(0.0f);
-    intv is_d = m->kind == MAT_DIFFUSE;
-    if (lane_any(is_d)) {
-        floatv pd;
-        vec3v fd = diffuse_eval(m->color, wi, wo, &pd);
-        f = v3_select(f, fd, is_d);
-        p = lane_select(p, pd, is_d);
+    intv is_diffuse = m->kind == MAT_DIFFUSE;
+    if (lane_any(is_diffuse)) {
+        floatv pk;
+        vec3v fk = diffuse_bsdf_eval(m, wi, wo, &pk);
+        f = v3_select(f, fk, is_diffuse);
+        p = lane_select(p, pk, is_diffuse);
     }
-    intv is_r = m->kind == MAT_ROUGHCONDUCTOR;
-    if (lane_any(is_r)) {
-        floatv pr;
-        vec3v fr = roughconductor_eval(m->color, m->alpha, wi, wo, &pr);
-        f = v3_select(f, fr, is_r);
-        p = lane_select(p, pr, is_r);
+    intv is_roughconductor = m->kind == MAT_ROUGHCONDUCTOR;
+    if (lane_any(is_roughconductor)) {
+        floatv pk;
+        vec3v fk = roughconductor_bsdf_eval(m, wi, wo, &pk);
+        f = v3_select(f, fk, is_roughconductor);
+        p = lane_select(p, pk, is_roughconductor);
     }
     *pdf = p;
     return f;
@@ -89,42 +64,42 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
     s.pdf = (floatv)(0.0f);
     s.eta = (floatv)(1.0f);
     s.delta = (m->kind == MAT_CONDUCTOR) | (m->kind == MAT_DIELECTRIC);
-    intv is_d = m->kind == MAT_DIFFUSE;
-    if (lane_any(is_d)) {
-        vec3v wo;
-        floatv p;
-        vec3v w = diffuse_sample(m->color, wi, u1, u2, &wo, &p);
-        s.wo = v3_select(s.wo, wo, is_d);
-        s.weight = v3_select(s.weight, w, is_d);
-        s.pdf = lane_select(s.pdf, p, is_d);
-    }
-    intv is_c = m->kind == MAT_CONDUCTOR;
-    if (lane_any(is_c)) {
-        vec3v wo;
-        floatv p;
-        vec3v w = conductor_sample(m->color, wi, &wo, &p);
-        s.wo = v3_select(s.wo, wo, is_c);
-        s.weight = v3_select(s.weight, w, is_c);
-        s.pdf = lane_select(s.pdf, p, is_c);
-    }
-    intv is_r = m->kind == MAT_ROUGHCONDUCTOR;
-    if (lane_any(is_r)) {
-        vec3v wo;
-        floatv p;
-        vec3v w = roughconductor_sample(m->color, m->alpha, wi, u1, u2, &wo, &p);
-        s.wo = v3_select(s.wo, wo, is_r);
-        s.weight = v3_select(s.weight, w, is_r);
-        s.pdf = lane_select(s.pdf, p, is_r);
-    }
-    intv is_g = m->kind == MAT_DIELECTRIC;
-    if (lane_any(is_g)) {
+    intv is_diffuse = m->kind == MAT_DIFFUSE;
+    if (lane_any(is_diffuse)) {
         vec3v wo;
         floatv p, e;
-        vec3v w = dielectric_sample(m->color, m->eta, wi, u_lobe, &wo, &p, &e);
-        s.wo = v3_select(s.wo, wo, is_g);
-        s.weight = v3_select(s.weight, w, is_g);
-        s.pdf = lane_select(s.pdf, p, is_g);
-        s.eta = lane_select(s.eta, e, is_g);
+        vec3v w = diffuse_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e);
+        s.wo = v3_select(s.wo, wo, is_diffuse);
+        s.weight = v3_select(s.weight, w, is_diffuse);
+        s.pdf = lane_select(s.pdf, p, is_diffuse);
+    }
+    intv is_conductor = m->kind == MAT_CONDUCTOR;
+    if (lane_any(is_conductor)) {
+        vec3v wo;
+        floatv p, e;
+        vec3v w = conductor_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e);
+        s.wo = v3_select(s.wo, wo, is_conductor);
+        s.weight = v3_select(s.weight, w, is_conductor);
+        s.pdf = lane_select(s.pdf, p, is_conductor);
+    }
+    intv is_roughconductor = m->kind == MAT_ROUGHCONDUCTOR;
+    if (lane_any(is_roughconductor)) {
+        vec3v wo;
+        floatv p, e;
+        vec3v w = roughconductor_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e);
+        s.wo = v3_select(s.wo, wo, is_roughconductor);
+        s.weight = v3_select(s.weight, w, is_roughconductor);
+        s.pdf = lane_select(s.pdf, p, is_roughconductor);
+    }
+    intv is_dielectric = m->kind == MAT_DIELECTRIC;
+    if (lane_any(is_dielectric)) {
+        vec3v wo;
+        floatv p, e;
+        vec3v w = dielectric_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e);
+        s.wo = v3_select(s.wo, wo, is_dielectric);
+        s.weight = v3_select(s.weight, w, is_dielectric);
+        s.pdf = lane_select(s.pdf, p, is_dielectric);
+        s.eta = lane_select(s.eta, e, is_dielectric);
     }
     return s;
 }

@@ -5,15 +5,18 @@
 #ifndef MCOCL_BSDF_CONDUCTOR_CL
 #define MCOCL_BSDF_CONDUCTOR_CL
 
-#include "render/vec3.cl"
+#include "render/material.cl"
 
 MC_INLINE vec3v reflect_local(vec3v w) { return v3(-w.x, -w.y, w.z); }
 
-MC_INLINE vec3v conductor_sample(vec3v spec, vec3v wi, vec3v *wo, floatv *pdf) {
+/* mat->color is the specular reflectance R; the uniforms are unused (a delta lobe), eta 1. */
+MC_INLINE vec3v conductor_bsdf_sample(const material_v *mat, vec3v wi, floatv u_lobe, floatv u1, floatv u2,
+                                      vec3v *wo, floatv *pdf, floatv *eta) {
     *wo = reflect_local(wi);
     intv ok = wi.z > 0.0f;  /* one-sided: black from behind */
     *pdf = lane_select((floatv)(0.0f), (floatv)(1.0f), ok);
-    return v3_select(v3s(0.0f), spec, ok);
+    *eta = (floatv)(1.0f);
+    return v3_select(v3s(0.0f), mat->color, ok);
 }
 
 #endif

@@ -11,7 +11,7 @@
 #ifndef MCOCL_BSDF_DIELECTRIC_CL
 #define MCOCL_BSDF_DIELECTRIC_CL
 
-#include "render/vec3.cl"
+#include "render/material.cl"
 
 /* Unpolarised Fresnel reflectance of a dielectric interface (pbrt-v4
  * §9.3.6).  Returns R; *cos_t = cosine of the refracted direction (sign
@@ -36,10 +36,14 @@ MC_INLINE floatv fresnel_dielectric(floatv cos_i, floatv eta, floatv *cos_t, flo
 }
 
 /* Returns the weight; *pdf is the discrete probability of the chosen lobe,
- * *eta_path the factor eta_t / eta_i of the move (1 on reflection). */
-MC_INLINE vec3v dielectric_sample(vec3v tint, floatv eta, vec3v wi, floatv u, vec3v *wo, floatv *pdf, floatv *eta_path) {
+ * *eta_path the factor eta_t / eta_i of the move (1 on reflection).  u picks
+ * the lobe; (u1, u2) are unused (both lobes are deltas).  mat->color is the tint,
+ * mat->eta = int_ior / ext_ior. */
+MC_INLINE vec3v dielectric_bsdf_sample(const material_v *mat, vec3v wi, floatv u, floatv u1, floatv u2,
+                                       vec3v *wo, floatv *pdf, floatv *eta_path) {
+    vec3v tint = mat->color;
     floatv cos_t, eta_it, eta_ti;
-    floatv r = fresnel_dielectric(wi.z, eta, &cos_t, &eta_it, &eta_ti);
+    floatv r = fresnel_dielectric(wi.z, mat->eta, &cos_t, &eta_it, &eta_ti);
     intv refl = u < r;
     vec3v wr = v3(-wi.x, -wi.y, wi.z);
     vec3v wt = v3(-eta_ti * wi.x, -eta_ti * wi.y, cos_t);

@@ -15,7 +15,7 @@
 #ifndef MCOCL_BSDF_ROUGHCONDUCTOR_CL
 #define MCOCL_BSDF_ROUGHCONDUCTOR_CL
 
-#include "render/vec3.cl"
+#include "render/material.cl"
 
 /* Roughness below this is clamped: D would overflow float. */
 #define GGX_MIN_ALPHA 1e-4f
@@ -54,8 +54,10 @@ MC_INLINE vec3v ggx_sample_visible_normal(vec3v wi, floatv alpha, floatv u1, flo
     return v3_normalize(v3(alpha * nh.x, alpha * nh.y, lane_max(nh.z, 0.0f)));
 }
 
-MC_INLINE vec3v roughconductor_eval(vec3v spec, floatv alpha, vec3v wi, vec3v wo, floatv *pdf) {
-    alpha = lane_max(alpha, GGX_MIN_ALPHA);
+/* mat->color is the Fresnel factor F, mat->alpha the roughness. */
+MC_INLINE vec3v roughconductor_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, floatv *pdf) {
+    vec3v spec = mat->color;
+    floatv alpha = lane_max(mat->alpha, GGX_MIN_ALPHA);
     floatv a2 = alpha * alpha;
     intv ok = (wi.z > 0.0f) & (wo.z > 0.0f);
     vec3v m = v3_normalize(v3_add(wi, wo));
@@ -67,8 +69,12 @@ MC_INLINE vec3v roughconductor_eval(vec3v spec, floatv alpha, vec3v wi, vec3v wo
     return v3_scale(spec, lane_select((floatv)(0.0f), fc, ok));
 }
 
-MC_INLINE vec3v roughconductor_sample(vec3v spec, floatv alpha, vec3v wi, floatv u1, floatv u2, vec3v *wo, floatv *pdf) {
-    alpha = lane_max(alpha, GGX_MIN_ALPHA);
+/* u_lobe unused (one lobe), eta 1. */
+MC_INLINE vec3v roughconductor_bsdf_sample(const material_v *mat, vec3v wi, floatv u_lobe, floatv u1, floatv u2,
+                                           vec3v *wo, floatv *pdf, floatv *eta) {
+    vec3v spec = mat->color;
+    floatv alpha = lane_max(mat->alpha, GGX_MIN_ALPHA);
+    *eta = (floatv)(1.0f);
     floatv a2 = alpha * alpha;
     intv front = wi.z > 0.0f;
     /* from behind the sample is discarded anyway; keep the maths finite */

@@ -10,15 +10,13 @@
 #include "walks/walk_rng.cl"
 #include "walks/next_event.cl"
 
-kernel void walk_sample_check(uint n, ulong seed, global const float *xs, global const uint *tab, uint nxa,
-                              uint nya, uint nb, uint lognb, uint trans_off, uint q_off, uint src_off,
+kernel void walk_sample_check(uint n, ulong seed, global const float *xs, global const uint *tab,
+                              const walk_table_geometry g,
                               global float *ys, global float *ms, global float *qs, global float *zs,
                               global float *es) {
     const uint gid = get_global_id(0);
     if (gid * LANES >= n) return;
-    walk_tables t;
-    t.tab = tab; t.nxa = nxa; t.nya = nya; t.nb = nb; t.lognb = lognb;
-    t.trans_off = trans_off; t.q_off = q_off; t.src_off = src_off;
+    const walk_tables t = walk_tables_at(tab, g);
     const uintv idx = (uintv)(gid * LANES) + LANE_IOTA;
     floatv u[WALK_NUI]; /* the first step's uniforms come first */
     mc_sampler_t smp = sampler_start_at(seed, 0ul, idx, RNG_STREAM_WALK);

@@ -22,6 +22,7 @@
 #ifndef MCOCL_WALK_TRANSITION_CL
 #define MCOCL_WALK_TRANSITION_CL
 
+#include "layouts.cl"
 #include "walks/table.cl"
 
 typedef struct {
@@ -34,6 +35,14 @@ typedef struct {
     uint q_off;     /* survival probabilities, one float per cell */
     uint src_off;   /* the source CDF (next-event estimation) */
 } walk_tables;
+
+/* The tables of buffer `tab` laid out as `g` says (host: WalkTables.geometry, mcocl/walks/tabulate.py). */
+MC_INLINE walk_tables walk_tables_at(global const uint *tab, const walk_table_geometry g) {
+    walk_tables t;
+    t.tab = tab; t.nxa = g.nxa; t.nya = g.nya; t.nb = g.nb; t.lognb = g.lognb;
+    t.trans_off = g.trans_off; t.q_off = g.q_off; t.src_off = g.src_off;
+    return t;
+}
 
 /* The multiplier K(x,y)/p(y|x) of the move x -> y, y sampled here from the
  * uniforms u (layout WALK_U_* of the generated code); *q is the survival

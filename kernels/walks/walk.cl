@@ -59,19 +59,19 @@
 #define WALK_VLANES 16 /* virtual partial sums */
 #define WALK_NACC (WALK_VLANES / LANES)
 
-kernel void walk_blocks(ulong first_block, uint nwork, uint nq, uint wpb, ulong walk_limit, ulong seed,
-                        global const float *queries, global const double *shifts,
-                        float survival, uint depth, uint max_len,
-                        global const uint *tab, uint nxa, uint nya, uint nb, uint lognb,
-                        uint trans_off, uint q_off, uint src_off, global double *out) {
+/* p, g: walk_params and walk_table_geometry (layouts.cl, from mcocl/layouts.py; host: mcocl/walks/job.py). */
+kernel void walk_blocks(const walk_params p, const walk_table_geometry g, global const float *queries,
+                        global const double *shifts, global const uint *tab, global double *out) {
+    const ulong first_block = p.first_block, walk_limit = p.walk_limit, seed = p.seed;
+    const uint nwork = p.nwork, nq = p.nq, wpb = p.wpb;
+    const float survival = p.survival;
+    const uint depth = p.depth, max_len = p.max_len;
     const uint gid = get_global_id(0);
     if (gid >= nwork) return;
     const uint qi = gid % nq;
     const ulong w0 = (first_block + (ulong)(gid / nq)) * (ulong)wpb;
     const uint nwalks = walk_limit > w0 ? (uint)min((ulong)wpb, walk_limit - w0) : 0u;
-    walk_tables t;
-    t.tab = tab; t.nxa = nxa; t.nya = nya; t.nb = nb; t.lognb = lognb;
-    t.trans_off = trans_off; t.q_off = q_off; t.src_off = src_off;
+    const walk_tables t = walk_tables_at(tab, g);
     const uint stream = RNG_STREAM_WALK + qi;
     const double shift = shifts[qi];
 

@@ -72,6 +72,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bsdf_registry import RECORD_FIELDS
 from ..errors import InputError
 from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
@@ -79,6 +80,7 @@ from .bvh import BVH, C_TRAV, build_bvh
 from .emitter_choice import LUMINANCE, area_power, cdf_choice_pmf, environment_choice
 from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
+from .shape_registry import SHAPES
 
 # Primitives up to which compile_scene builds the binned SAH tree (see there).
 BINNED_UP_TO = 200_000
@@ -204,7 +206,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         scene = load_scene(scene, mesh_folder=mesh_folder)
     tris, tri_shape, spheres, sphere_flip, sphere_shape = [], [], [], [], []
     for k, sh in enumerate(scene.shapes):
-        if sh.kind == "sphere":
+        if SHAPES[sh.kind].sphere:
             s = tf.uniform_scale_of(sh.matrix)
             c = tf.apply_points(sh.matrix, sh.center)
             spheres.append([*c, sh.radius * s])
@@ -246,7 +248,9 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     # Materials and emitters.
     mats = np.zeros(len(scene.materials), MATERIAL_RECORD.dtype())
     for i, m in enumerate(scene.materials):
-        mats[i] = (MATERIAL_CODES[m.kind], m.rgb, m.alpha, m.int_ior, m.ext_ior, 0.0)
+        mats[i]["kind"] = MATERIAL_CODES[m.kind]
+        for name in RECORD_FIELDS:  # the fields a BSDF registration packs into (mcocl/bsdf_registry.py)
+            mats[i][name] = getattr(m, name)
     mats = mats.view(np.float32).reshape(len(scene.materials), MATERIAL_RECORD.itemsize // 4)
     shape_material = np.array([sh.material for sh in scene.shapes], np.uint32)
     shape_emitter = np.full(len(scene.shapes), -1, np.int32)

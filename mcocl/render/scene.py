@@ -23,35 +23,31 @@ from typing import Any
 
 import numpy as np
 
+from ..bsdf_registry import BSDFS, BsdfSpec, record_values
 from ..datafile import decode_utf8
 from ..errors import InputError
 from ..layouts import Integrator, MaterialKind
-from . import shapes as shape_lib
 from . import transform as tf
+from .shape_registry import GEOMETRY_LIMIT, SHAPES
 
 # The names a scene file uses: the codes of mcocl/layouts.py, lower case.
 INTEGRATORS = tuple(kind.name.lower() for kind in Integrator)
 MATERIAL_KINDS = tuple(kind.name.lower() for kind in MaterialKind)
-SHAPE_KINDS = ("rectangle", "cube", "sphere", "mesh")
+SHAPE_KINDS = tuple(SHAPES)  # mcocl/render/shape_registry.py
 
-# Defaults, with Mitsuba 3's where it has one (max_depth -1, rr_depth 5,
-# dielectric int_ior = BK7 glass 1.5046, roughconductor alpha 0.1).
+# Defaults, with Mitsuba 3's where it has one (max_depth -1, rr_depth 5); the
+# materials' defaults are declared with each BSDF in mcocl/bsdf_registry.py.
 DEFAULT_INTEGRATOR = "mis"
 DEFAULT_MAX_DEPTH = -1
 DEFAULT_RR_DEPTH = 5
 DEFAULT_SPP = 64
-DEFAULT_INT_IOR = 1.5046
-DEFAULT_EXT_IOR = 1.0
-DEFAULT_ALPHA = 0.1
 
 # What the kernels take: depths are 32-bit ints; coordinates are float32, and a point or matrix
 # entry beyond 1e15 leaves no precision for ray intersection (and products of two of them stay
 # finite in float32).  Pixels: the film keeps STATS float64 sums per pixel, plus a block's
 # partials and the output image (film.BYTES_PER_PIXEL); refuse an image that cannot fit.
 MAX_DEPTH_LIMIT = 2**31 - 1
-GEOMETRY_LIMIT = 1e15
 RGB_LIMIT = 1e30  # float32 radiance, with room for the film's sums of squares in float64
-IOR_LIMIT = 1e6
 MAX_IMAGE_SIDE = 2**20
 MAX_SPP = 2**32 - 2  # below render.job.UNBOUNDED_SPP, the 32-bit "no limit" marker
 # float64 totals and a float64 copy (STATS each), float32 block partials, float32 mean/variance/count
@@ -72,7 +68,11 @@ class Camera:
 
 @dataclass
 class Material:
-    """One material: ``kind`` is one of :data:`MATERIAL_KINDS`; ``rgb`` the albedo or specular reflectance."""
+    """One material: ``kind`` is one of :data:`MATERIAL_KINDS`; the rest are its ``material_record`` fields.
+
+    ``rgb`` is the albedo or specular reflectance; which key fills which field is
+    declared by the BSDF's registration (mcocl/bsdf_registry.py).
+    """
 
     name: str
     kind: str
@@ -216,6 +216,27 @@ class _Checker:
         a = np.array(value, dtype=np.int64 if integer else np.float64).reshape(-1, width)
         return a
 
+    def mesh_file(self, rel: str, key: str, roots: list[Path]) -> Path:
+        """The OBJ file ``rel`` names, resolved in the scene's folder; it must lie inside one of ``roots``.
+
+        A scene file is data: it must not read ``/etc/passwd`` or climb out with
+        ``..`` (links are resolved first, so a link cannot leave either).  The
+        file must be UTF-8 text (the parser reads it next).
+        """
+        if "\0" in rel or not rel.strip():
+            self.fail(key, f"not a file name: {rel!r}")
+        path = (roots[0] / rel).resolve()
+        allowed = [r.resolve() for r in roots]
+        if not any(path.is_relative_to(r) for r in allowed):
+            self.fail(key, f"{rel!r} lies outside the scene's folder {allowed[0]}; mesh files must be inside it"
+                   + (f" or inside {allowed[1]}" if len(allowed) > 1 else " (the mesh_folder option allows another)"))
+        if path.is_file():
+            try:
+                decode_utf8(path.read_bytes(), f"{self.file}: {key}: {path}")
+            except OSError:
+                pass  # the parser reports an unreadable file
+        return path
+
 
 def _kind(v: Any) -> str:
     if isinstance(v, bool):
@@ -334,24 +355,26 @@ def _materials(c: _Checker, v: Any, key: str) -> tuple[list[Material], dict[str,
         if not isinstance(m, dict):
             c.fail(k, f"expected a material object, got {_kind(m)}")
         kind = c.string(m.get("type"), f"{k}.type", MATERIAL_KINDS) if "type" in m else c.fail(f"{k}.type", "missing required key")
-        if kind == "diffuse":
-            o = c.obj(m, k, ("type", "reflectance"))
-            mat = Material(name, kind, c.rgb(o["reflectance"], f"{k}.reflectance"))
-        elif kind in ("conductor", "roughconductor"):
-            o = c.obj(m, k, ("type",), ("specular_reflectance",) + (("alpha",) if kind == "roughconductor" else ()))
-            rgb = c.rgb(o.get("specular_reflectance", 1.0), f"{k}.specular_reflectance")
-            alpha = c.number(o.get("alpha", DEFAULT_ALPHA), f"{k}.alpha", 1e-4, 1.0) if kind == "roughconductor" else 0.0
-            mat = Material(name, kind, rgb, alpha=alpha)
-        else:
-            o = c.obj(m, k, ("type",), ("int_ior", "ext_ior"))
-            ni = c.number(o.get("int_ior", DEFAULT_INT_IOR), f"{k}.int_ior", 0.0, IOR_LIMIT, lo_open=True)
-            ne = c.number(o.get("ext_ior", DEFAULT_EXT_IOR), f"{k}.ext_ior", 0.0, IOR_LIMIT, lo_open=True)
-            if ni == ne:
-                c.fail(f"{k}.int_ior", "int_ior equals ext_ior: the interface would be invisible")
-            mat = Material(name, kind, np.ones(3), int_ior=ni, ext_ior=ne)
-        index[name] = len(out)
-        out.append(mat)
+        out.append(_material(c, m, k, name, BSDFS[kind]))
+        index[name] = len(out) - 1
     return out, index
+
+
+def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec) -> Material:
+    """One material of a registered BSDF: its keys validated as the registration declares them."""
+    required = tuple(p.key for p in spec.params if p.default is None)
+    o = c.obj(m, key, ("type", *required), tuple(p.key for p in spec.params if p.default is not None))
+    given: dict[str, object] = {}
+    for p in spec.params:
+        raw, pk = o.get(p.key, p.default), f"{key}.{p.key}"
+        given[p.field] = c.rgb(raw, pk) if p.kind == "rgb" else \
+            c.number(raw, pk, p.lo, p.hi, lo_open=p.lo_open, hi_open=p.hi_open)
+    values = record_values(spec, given)
+    bad = spec.check(values)
+    if bad is not None:
+        c.fail(f"{key}.{bad[0]}", bad[1])
+    return Material(name, spec.name, np.array(values["rgb"], np.float64).reshape(3), alpha=float(values["alpha"]),
+                    int_ior=float(values["int_ior"]), ext_ior=float(values["ext_ior"]))
 
 
 def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:
@@ -401,28 +424,6 @@ def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:
     return out
 
 
-def _mesh_file(c: _Checker, rel: str, key: str, roots: list[Path]) -> Path:
-    """The OBJ file ``rel`` names, resolved in the scene's folder; it must lie inside one of ``roots``.
-
-    A scene file is data: it must not read ``/etc/passwd`` or climb out with
-    ``..`` (links are resolved first, so a link cannot leave either).  The
-    file must be UTF-8 text (the parser reads it next).
-    """
-    if "\0" in rel or not rel.strip():
-        c.fail(key, f"not a file name: {rel!r}")
-    path = (roots[0] / rel).resolve()
-    allowed = [r.resolve() for r in roots]
-    if not any(path.is_relative_to(r) for r in allowed):
-        c.fail(key, f"{rel!r} lies outside the scene's folder {allowed[0]}; mesh files must be inside it"
-               + (f" or inside {allowed[1]}" if len(allowed) > 1 else " (the mesh_folder option allows another)"))
-    if path.is_file():
-        try:
-            decode_utf8(path.read_bytes(), f"{c.file}: {key}: {path}")
-        except OSError:
-            pass  # the parser reports an unreadable file
-    return path
-
-
 def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], roots: list[Path]) -> Shape:
     common = ("material",)
     optional = ("transform", "flip_normals", "emitter", "name")
@@ -431,8 +432,8 @@ def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], roots: list
     if "type" not in v:
         c.fail(f"{key}.type", "missing required key")
     kind = c.string(v["type"], f"{key}.type", SHAPE_KINDS)
-    extra = {"sphere": ("center", "radius"), "mesh": ("vertices", "faces", "obj")}.get(kind, ())
-    o = c.obj(v, key, ("type", *common), optional + extra)
+    spec = SHAPES[kind]
+    o = c.obj(v, key, ("type", *common), optional + spec.keys)
     mname = c.string(o["material"], f"{key}.material")
     if mname not in materials:
         known = ", ".join(materials) or "none"
@@ -445,39 +446,7 @@ def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], roots: list
         e = c.obj(o["emitter"], f"{key}.emitter", ("type", "radiance"))
         c.string(e["type"], f"{key}.emitter.type", ("area",))
         shp.radiance = c.rgb(e["radiance"], f"{key}.emitter.radiance")
-    if kind == "rectangle":
-        shp.vertices, shp.faces = shape_lib.rectangle()
-    elif kind == "cube":
-        shp.vertices, shp.faces = shape_lib.cube()
-    elif kind == "sphere":
-        shp.center = c.vector(o.get("center", [0, 0, 0]), f"{key}.center", limit=GEOMETRY_LIMIT)
-        shp.radius = c.number(o.get("radius", 1.0), f"{key}.radius", 0.0, GEOMETRY_LIMIT, lo_open=True)
-        if tf.uniform_scale_of(m) is None:
-            c.fail(f"{key}.transform", "a sphere allows only translations, rotations and uniform scales")
-    else:
-        has_inline = "vertices" in o or "faces" in o
-        if has_inline and "obj" in o:
-            c.fail(f"{key}.obj", "give either vertices/faces or obj, not both")
-        if "obj" in o:
-            rel = c.string(o["obj"], f"{key}.obj")
-            path = _mesh_file(c, rel, f"{key}.obj", roots)
-            try:
-                shp.vertices, shp.faces = shape_lib.read_obj(path, f"{c.file}: {key}.obj")
-            except (OverflowError, MemoryError, RecursionError) as e:  # numbers no mesh can hold
-                c.fail(f"{key}.obj", f"{path}: a number out of range ({type(e).__name__}: {e})")
-            if not len(shp.faces):
-                c.fail(f"{key}.obj", f"{path} holds no faces (no 'f' lines): is it an OBJ mesh?")
-            if not np.all(np.abs(shp.vertices) <= GEOMETRY_LIMIT):
-                c.fail(f"{key}.obj", f"{path}: a vertex coordinate beyond {GEOMETRY_LIMIT:g}")
-        else:
-            for k in ("vertices", "faces"):
-                if k not in o:
-                    c.fail(f"{key}.{k}", "missing required key (or give obj)")
-            shp.vertices = c.array(o["vertices"], f"{key}.vertices", 3, integer=False)
-            shp.faces = c.array(o["faces"], f"{key}.faces", 3, integer=True)
-            if shp.faces.size and (shp.faces.min() < 0 or shp.faces.max() >= len(shp.vertices)):
-                bad = int(np.flatnonzero((shp.faces < 0).any(1) | (shp.faces >= len(shp.vertices)).any(1))[0])
-                c.fail(f"{key}.faces[{bad}]", f"vertex index outside 0..{len(shp.vertices) - 1}")
+    spec.build(c, o, key, shp, roots)
     return shp
 
 

@@ -28,6 +28,7 @@ import pyopencl as cl
 
 from .. import runtime
 from ..accumulate import mean_and_variance
+from ..layouts import WALK_PARAMS
 from .codegen import WalkCode
 from .tabulate import TableGrid, WalkTables, build_tables
 
@@ -96,6 +97,15 @@ class WalkJob:
         return WalkRunner(self, ctx)
 
 
+def walk_params(job: WalkJob, first_block: int, nwork: int) -> np.ndarray:
+    """The ``walk_params`` record (mcocl/layouts.py) of a launch of ``nwork`` work-items from ``first_block``."""
+    p = np.zeros((), WALK_PARAMS.dtype())
+    p["first_block"], p["walk_limit"], p["seed"] = first_block, job.walk_limit, job.seed
+    p["nwork"], p["nq"], p["wpb"] = nwork, job.nq, job.walks_per_block
+    p["survival"], p["depth"], p["max_len"] = job.survival, job.depth, job.max_len
+    return p
+
+
 class WalkRunner:
     """A :class:`WalkJob` built for one device."""
 
@@ -126,7 +136,8 @@ class WalkRunner:
         """The lane width actually built."""
         return self.program.lanes
 
-    def _table_buffer(self) -> tuple[cl.Buffer, tuple[np.uint32, ...]]:
+    def _table_buffer(self) -> tuple[cl.Buffer, np.ndarray]:
+        """The device buffer of the job's tables (empty ones without tables) and their geometry record."""
         tabs = self.job.tables
         if tabs is None:
             if self._empty is None:
@@ -136,7 +147,7 @@ class WalkRunner:
             mf = cl.mem_flags
             self._tables = cl.Buffer(self.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tabs.data)
             self._tables_of = tabs
-        return self._tables, tabs.kernel_args()
+        return self._tables, tabs.geometry()
 
     def _launch(self, first_block: int, nblocks: int, shifts: np.ndarray) -> tuple[cl.Event, np.ndarray]:
         job = self.job
@@ -147,15 +158,10 @@ class WalkRunner:
         bout = cl.Buffer(ctxt, mf.WRITE_ONLY, out.nbytes)
         sh = np.ascontiguousarray(shifts, dtype=np.float64)
         bshift = cl.Buffer(ctxt, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=sh)
-        tab, targs = self._table_buffer()
+        tab, geometry = self._table_buffer()
         gsize, lsize = self.ctx.work_size(nwork)
-        self.kernel(
-            self.ctx.queue, gsize, lsize,
-            np.uint64(first_block), np.uint32(nwork), np.uint32(job.nq), np.uint32(job.walks_per_block),
-            np.uint64(job.walk_limit), np.uint64(job.seed), self.queries, bshift,
-            np.float32(job.survival), np.uint32(job.depth), np.uint32(job.max_len),
-            tab, *targs, bout,
-        )
+        self.kernel(self.ctx.queue, gsize, lsize, walk_params(job, first_block, nwork), geometry, self.queries, bshift,
+                    tab, bout)
         ev = cl.enqueue_copy(self.ctx.queue, out, bout, is_blocking=False)
         return ev, out
 
@@ -234,10 +240,10 @@ class WalkRunner:
         res = {"y": np.empty((n, dim), np.float32), "m": np.empty(n, np.float32), "q": np.empty(n, np.float32),
                "z": np.empty((n, dim), np.float32), "e": np.empty(n, np.float32)}
         bufs = {k: cl.Buffer(ctxt, mf.WRITE_ONLY, v.nbytes) for k, v in res.items()}
-        tab, targs = self._table_buffer()
+        tab, geometry = self._table_buffer()
         gsize, lsize = self.ctx.work_size(-(-n // self.lanes))
         runtime.kernel(self.program.program, "walk_sample_check")(
-            self.ctx.queue, gsize, lsize, np.uint32(n), np.uint64(seed), bx, tab, *targs,
+            self.ctx.queue, gsize, lsize, np.uint32(n), np.uint64(seed), bx, tab, geometry,
             bufs["y"], bufs["m"], bufs["q"], bufs["z"], bufs["e"],
         )
         for k in res:

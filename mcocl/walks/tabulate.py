@@ -47,6 +47,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..layouts import WALK_TABLE_GEOMETRY
 from ..rng import GRID_CELLS
 
 DEFENSIVE = 0.05  # share of the uniform density in every tabulated density
@@ -123,11 +124,13 @@ class WalkTables:
         """A hash of the tables (a resumed run must sample the same densities)."""
         return hashlib.sha256(np.ascontiguousarray(self.data).tobytes()).hexdigest()[:16]
 
-    def kernel_args(self) -> tuple[np.uint32, ...]:
-        """(nxa, nya, nb, log2 nb, trans_off, q_off, src_off) as walk.cl takes them."""
+    def geometry(self) -> np.ndarray:
+        """The ``walk_table_geometry`` record (mcocl/layouts.py) the walk kernels take by value."""
         g = self.grid
-        return tuple(np.uint32(v) for v in (g.cells, g.bins, g.nbins, g.log2_nbins, self.trans_off, self.q_off,
-                                            self.src_off))
+        rec = np.zeros((), WALK_TABLE_GEOMETRY.dtype())
+        rec["nxa"], rec["nya"], rec["nb"], rec["lognb"] = g.cells, g.bins, g.nbins, g.log2_nbins
+        rec["trans_off"], rec["q_off"], rec["src_off"] = self.trans_off, self.q_off, self.src_off
+        return rec
 
     def transition_mass(self, cell: int) -> np.ndarray:
         """Probability of every bin of the transition density of ``cell``."""

@@ -4,9 +4,10 @@ Supported exactly: ``diffuse``; ``conductor`` with ``material="none"`` (a
 perfect mirror times ``specular_reflectance``); ``roughconductor`` with
 ``material="none"``, ``distribution="ggx"`` and an isotropic ``alpha``;
 ``dielectric`` with numeric or named ``int_ior``/``ext_ior`` (Mitsuba's
-defaults: BK7 1.5046 inside, air 1.000277 outside).  Everything else is an
-error naming the nearest alternative, or with ``lenient`` the substitute
-listed in :data:`SUBSTITUTES`.
+defaults: BK7 1.5046 inside, air 1.000277 outside).  Any other BSDF registered
+in mcocl/bsdf_registry.py is read property by property, each property named
+like its scene-file key.  Everything else is an error naming the nearest
+alternative, or with ``lenient`` the substitute listed in :data:`SUBSTITUTES`.
 """
 
 from __future__ import annotations
@@ -15,12 +16,16 @@ from typing import Any
 
 import numpy as np
 
+from ...bsdf_registry import BSDFS
 from .properties import split_children
 from .report import Reporter, nearest
 from .spectra import named_ior, nearest_ior_names
 from .xml_source import Node
 
-SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric")
+# Every registered BSDF (mcocl/bsdf_registry.py).  The four below have their own
+# translators (Mitsuba's properties differ from mcocl's keys); any other is read
+# by :func:`_registered`, property name = scene-file key.
+SUPPORTED = tuple(BSDFS)
 
 # Unsupported BSDF plugin → (nearest supported alternative, lenient substitute).
 SUBSTITUTES = {
@@ -102,6 +107,8 @@ def translate_bsdf(node: Node, rep: Reporter, resolve) -> dict:
         mat = {"type": "dielectric", "int_ior": ni, "ext_ior": ne}
         rep.leftover(node, props.unread(), ("int_ior", "ext_ior", "specular_reflectance",
                                             "specular_transmittance"), comments)
+    elif kind in BSDFS:
+        mat = _registered(node, kind, props, rep, comments)
     elif kind in SUBSTITUTES:
         alt, sub = SUBSTITUTES[kind]
         rep.unsupported(node, f"the {kind!r} BSDF", alt, sub, comments)
@@ -117,6 +124,25 @@ def translate_bsdf(node: Node, rep: Reporter, resolve) -> dict:
         mat = {"type": "diffuse", "reflectance": 0.5}
     if comments:
         mat["comment"] = comments
+    return mat
+
+
+def _registered(node: Node, kind: str, props, rep: Reporter, comments: list[str]) -> dict:
+    """A registered BSDF without a translator of its own: each scene-file key read from the property of its name."""
+    mat: dict[str, Any] = {"type": kind}
+    spec = BSDFS[kind]
+    for p in spec.params:
+        if p.kind == "rgb":
+            v = props.colour(p.key, p.default)
+            if v is not None:
+                mat[p.key] = rgb_json(v)
+        else:
+            v = props.get(p.key, ("float",), p.default)
+            if v is not None:
+                mat[p.key] = float(v)
+        if p.key not in mat:
+            node.fail(f"a {kind!r} BSDF needs the property {p.key!r}")
+    rep.leftover(node, props.unread(), tuple(p.key for p in spec.params), comments)
     return mat
 
 

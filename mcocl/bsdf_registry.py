@@ -1,0 +1,320 @@
+"""The BSDFs of the renderer, each declared once: one :func:`register_bsdf` class per BSDF.
+
+A registration says everything the rest of mcocl needs to know about a BSDF:
+
+- ``name`` (the scene file's ``"type"``) and ``code`` (its
+  :class:`mcocl.layouts.MaterialKind` value, ``MAT_<NAME>`` in C, stored in
+  ``material_record.kind``);
+- its scene-file keys (:class:`Param`): type, default, range, and the
+  ``material_record`` field each one packs into (``rgb``, ``alpha``,
+  ``int_ior``, ``ext_ior``; :data:`mcocl.layouts.MATERIAL_RECORD`), plus
+  fixed values of fields it has no key for and a check across keys;
+- its kernel file ``kernels/render/bsdf_<name>.cl`` and the functions it defines
+  (:attr:`BsdfSpec.eval_function`, :attr:`BsdfSpec.sample_function`, with the
+  signatures written in :func:`dispatcher_source`);
+- its flags: ``delta`` (every lobe is a Dirac delta: no ``eval``, no light
+  sampling at its surfaces) and ``transmissive`` (sampling may refract and
+  report the path's ``eta``).
+
+From the registrations come the ``MaterialKind`` enum (mcocl/layouts.py),
+the validation of the scene file's materials (mcocl/render/scene.py), the
+packing of material records (mcocl/render/compiled.py), the C dispatcher
+``kernels/render/bsdf.cl`` (:func:`dispatcher_source`), the names the Mitsuba
+importer accepts (mcocl/render/mitsuba/bsdf.py) and the table of materials in
+``scenes/README.md`` (:func:`markdown_table`).  The two generated files are
+committed and rewritten by ``python -m mcocl.layouts``; tests/test_bsdf_registry.py
+fails when either is stale.
+
+Adding a BSDF: its kernel file, one class here, its test (docs/architecture.md).
+This module imports nothing from mcocl, so that mcocl/layouts.py can derive
+its enum from it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+# The material_record fields a key can pack into (mcocl/layouts.py, MATERIAL_RECORD),
+# with the value a material that does not set them stores.
+# Indices of refraction beyond this are refused (no material has one; float32 Fresnel terms degrade).
+IOR_LIMIT = 1e6
+
+RECORD_FIELDS: dict[str, object] = {"rgb": (1.0, 1.0, 1.0), "alpha": 0.0, "int_ior": 1.0, "ext_ior": 1.0}
+
+DISPATCHER_PATH = "render/bsdf.cl"  # relative to the kernels folder
+
+
+@dataclass(frozen=True)
+class Param:
+    """One scene-file key of a material.
+
+    Attributes:
+        key: the JSON key.
+        kind: ``"rgb"`` (three numbers >= 0, or one for grey) or ``"number"``.
+        field: the ``material_record`` field it fills (a key of :data:`RECORD_FIELDS`).
+        doc: the meaning, for scenes/README.md.
+        default: the value when the key is absent; ``None`` makes the key required.
+        lo, hi: bounds of a number (``None``: unbounded); ``lo_open``/``hi_open`` exclude them.
+    """
+
+    key: str
+    kind: str
+    field: str
+    doc: str
+    default: float | None = None
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+
+    def describe(self) -> str:
+        """The key's type, range and default as scenes/README.md writes them."""
+        if self.kind == "rgb":
+            what = "RGB"
+        elif self.lo is not None and self.hi is not None:
+            what = f"number in {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}{')' if self.hi_open else ']'}"
+        elif self.lo is not None:
+            what = f"number {'>' if self.lo_open else '≥'} {self.lo:g}"
+        else:
+            what = "number"
+        tail = "required" if self.default is None else f"default {self.default:g}"
+        return f"`{self.key}` ({what}, {tail}{'; ' + self.doc if self.doc else ''})"
+
+
+class BsdfSpec:
+    """A registered BSDF (see the module docstring).
+
+    Class attributes:
+        name: the scene file's ``"type"``.
+        code: the ``MaterialKind`` code; never reuse or renumber one (saved scenes and
+            records carry it).
+        params: the scene-file keys, validated in this order.
+        fixed: values of record fields that no key sets (e.g. a dielectric's tint 1).
+        delta: every lobe is a Dirac delta.
+        transmissive: sampling may refract (writes the path's ``eta``).
+        summary: one line for scenes/README.md.
+    """
+
+    name: ClassVar[str]
+    code: ClassVar[int]
+    params: ClassVar[tuple[Param, ...]] = ()
+    fixed: ClassVar[dict[str, object]] = {}
+    delta: ClassVar[bool] = False
+    transmissive: ClassVar[bool] = False
+    summary: ClassVar[str]
+
+    @property
+    def kernel_file(self) -> str:
+        """The BSDF's kernel file, relative to the kernels folder."""
+        return f"render/bsdf_{self.name}.cl"
+
+    @property
+    def eval_function(self) -> str:
+        """``vec3v <name>_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, floatv *pdf)``: f cos and pdf."""
+        return f"{self.name}_bsdf_eval"
+
+    @property
+    def sample_function(self) -> str:
+        """``vec3v <name>_bsdf_sample(mat, wi, u_lobe, u1, u2, &wo, &pdf, &eta)``: the weight f cos / pdf."""
+        return f"{self.name}_bsdf_sample"
+
+    @property
+    def c_code(self) -> str:
+        """The C name of the code (layouts.cl)."""
+        return f"MAT_{self.name.upper()}"
+
+    def check(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """A check across keys on the validated record ``values``: ``(key, message)`` when it fails."""
+        return None
+
+
+BSDFS: dict[str, BsdfSpec] = {}
+
+
+def register_bsdf(cls: type[BsdfSpec]) -> type[BsdfSpec]:
+    """Class decorator: make ``cls`` a material type of scene files and a branch of the kernels' dispatcher."""
+    spec = cls()
+    if spec.name in BSDFS or any(s.code == spec.code for s in BSDFS.values()):
+        raise ValueError(f"BSDF {spec.name!r} (code {spec.code}): name or code already registered")
+    unknown = [p.field for p in spec.params if p.field not in RECORD_FIELDS] + \
+              [f for f in spec.fixed if f not in RECORD_FIELDS]
+    if unknown:
+        raise ValueError(f"BSDF {spec.name!r}: no material_record field {unknown[0]!r}")
+    BSDFS[spec.name] = spec
+    return cls
+
+
+def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]:
+    """Every record field of a material: the validated keys, the spec's fixed values, else the defaults."""
+    out = dict(RECORD_FIELDS)
+    out.update(spec.fixed)
+    out.update(given)
+    return out
+
+
+@register_bsdf
+class Diffuse(BsdfSpec):
+    """Lambertian, one-sided (kernels/render/bsdf_diffuse.cl)."""
+
+    name = "diffuse"
+    code = 0
+    params = (Param("reflectance", "rgb", "rgb", ""),)
+    summary = "Lambertian with that albedo, one-sided (black from behind)"
+
+
+@register_bsdf
+class Conductor(BsdfSpec):
+    """A perfect mirror (kernels/render/bsdf_conductor.cl)."""
+
+    name = "conductor"
+    code = 1
+    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0),)
+    delta = True
+    summary = "a perfect mirror"
+
+
+@register_bsdf
+class RoughConductor(BsdfSpec):
+    """GGX microfacet reflection (kernels/render/bsdf_roughconductor.cl); alpha's default is Mitsuba 3's."""
+
+    name = "roughconductor"
+    code = 2
+    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0),
+              Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0))
+    summary = "GGX microfacet reflection with roughness α, sampled by visible normals"
+
+
+@register_bsdf
+class Dielectric(BsdfSpec):
+    """Smooth glass (kernels/render/bsdf_dielectric.cl); int_ior's default is Mitsuba 3's (BK7 glass)."""
+
+    name = "dielectric"
+    code = 3
+    params = (Param("int_ior", "number", "int_ior", "BK7", default=1.5046, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT))
+    fixed = {"rgb": (1.0, 1.0, 1.0)}
+    delta = True
+    transmissive = True
+    summary = "smooth glass: Fresnel reflection and refraction; `int_ior` is inside (behind the front side)"
+
+    def check(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """An interface between equal indices would be invisible."""
+        if values["int_ior"] == values["ext_ior"]:
+            return "int_ior", "int_ior equals ext_ior: the interface would be invisible"
+        return None
+
+
+def _any_kind(specs: list[BsdfSpec]) -> str:
+    """C: the lanes whose material is one of ``specs``."""
+    if not specs:
+        return "(intv)(0)"
+    return " | ".join(f"(m->kind == {s.c_code})" for s in specs)
+
+
+def dispatcher_source() -> str:
+    """The text of ``kernels/render/bsdf.cl``: one branch per registered BSDF, in code order.
+
+    In a lane build the paths of a packet may sit on different materials: every
+    kind present in the packet runs and each lane keeps its own kind's result
+    (an absent kind costs one test); in the scalar build it is an ordinary branch.
+    """
+    specs = sorted(BSDFS.values(), key=lambda s: s.code)
+    smooth = [s for s in specs if not s.delta]
+    out = [
+        "/* bsdf.cl — GENERATED from mcocl/bsdf_registry.py by `python -m mcocl.layouts`; do not edit.",
+        " *",
+        " * One entry point per BSDF query, dispatching on material_record.kind to the",
+        " * functions of each registered BSDF's kernel file (render/bsdf_<name>.cl).",
+        " * In a lane build the paths of a packet may sit on different materials: every",
+        " * kind present in the packet is evaluated and the lanes take their own kind's",
+        " * result (a kind absent from the packet costs one test); in the scalar build",
+        " * the same code is an ordinary branch.",
+        " *",
+        " * Conventions (Mitsuba 3): directions in the local frame of the surface's",
+        " * front normal, both pointing away from the surface; eval returns f cos(theta_o)",
+        " * and the solid-angle pdf of sampling wo; sample returns f cos / pdf.",
+        " */",
+        "#ifndef MCOCL_BSDF_CL",
+        "#define MCOCL_BSDF_CL",
+        "",
+        '#include "render/material.cl"',
+        *[f'#include "{s.kernel_file}"' for s in specs],
+        "",
+        "/* Lanes whose material has a non-delta lobe: light sampling applies there. */",
+        "MC_INLINE intv bsdf_is_smooth(const material_v *m) {",
+        f"    return {_any_kind(smooth)};",
+        "}",
+        "",
+        "/* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi.",
+        " * Zero for the delta materials (a mirror never reflects a sampled light). */",
+        "MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {",
+        "    vec3v f = v3s(0.0f);",
+        "    floatv p = (floatv)(0.0f);",
+    ]
+    for s in smooth:
+        out += [
+            f"    intv is_{s.name} = m->kind == {s.c_code};",
+            f"    if (lane_any(is_{s.name})) {{",
+            "        floatv pk;",
+            f"        vec3v fk = {s.eval_function}(m, wi, wo, &pk);",
+            f"        f = v3_select(f, fk, is_{s.name});",
+            f"        p = lane_select(p, pk, is_{s.name});",
+            "    }",
+        ]
+    out += [
+        "    *pdf = p;",
+        "    return f;",
+        "}",
+        "",
+        "typedef struct {",
+        "    vec3v wo;      /* sampled direction (local frame) */",
+        "    vec3v weight;  /* f cos / pdf; zero when the sample failed */",
+        "    floatv pdf;    /* solid-angle pdf, or the lobe's probability for a delta lobe */",
+        "    floatv eta;    /* eta_t / eta_i of the move (refraction), else 1 */",
+        "    intv delta;    /* the sampled lobe is a Dirac delta */",
+        "} bsdf_sample_v;",
+        "",
+        "/* Sample wo given wi; u_lobe picks a lobe (dielectric), (u1, u2) the direction. */",
+        "MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe, floatv u1, floatv u2) {",
+        "    bsdf_sample_v s;",
+        "    s.wo = v3(0.0f, 0.0f, 1.0f);",
+        "    s.weight = v3s(0.0f);",
+        "    s.pdf = (floatv)(0.0f);",
+        "    s.eta = (floatv)(1.0f);",
+        f"    s.delta = {_any_kind([s for s in specs if s.delta])};",
+    ]
+    for s in specs:
+        out += [
+            f"    intv is_{s.name} = m->kind == {s.c_code};",
+            f"    if (lane_any(is_{s.name})) {{",
+            "        vec3v wo;",
+            "        floatv p, e;",
+            f"        vec3v w = {s.sample_function}(m, wi, u_lobe, u1, u2, &wo, &p, &e);",
+            f"        s.wo = v3_select(s.wo, wo, is_{s.name});",
+            f"        s.weight = v3_select(s.weight, w, is_{s.name});",
+            f"        s.pdf = lane_select(s.pdf, p, is_{s.name});",
+        ]
+        if s.transmissive:
+            out.append(f"        s.eta = lane_select(s.eta, e, is_{s.name});")
+        out.append("    }")
+    out += ["    return s;", "}", "", "#endif"]
+    return "\n".join(out) + "\n"
+
+
+TABLE_BEGIN = "<!-- BEGIN materials table: generated from mcocl/bsdf_registry.py by `python -m mcocl.layouts` -->"
+TABLE_END = "<!-- END materials table -->"
+
+
+def markdown_table() -> str:
+    """The table of material types in scenes/README.md, with its markers :data:`TABLE_BEGIN`, :data:`TABLE_END`."""
+    rows = [TABLE_BEGIN, "| type | keys | meaning |", "|---|---|---|"]
+    for s in sorted(BSDFS.values(), key=lambda s: s.code):
+        keys = ", ".join(p.describe() for p in s.params) or "—"
+        rows.append(f"| `{s.name}` | {keys} | {s.summary} |")
+    rows.append(TABLE_END)
+    return "\n".join(rows)
+
+
+__all__ = ["BSDFS", "DISPATCHER_PATH", "RECORD_FIELDS", "TABLE_BEGIN", "TABLE_END", "BsdfSpec", "Param",
+           "dispatcher_source", "markdown_table", "record_values", "register_bsdf"]
