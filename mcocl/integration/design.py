@@ -32,6 +32,8 @@ class Design:
         samples_per_unit: integrand evaluations per unit.
         strata_m: strata per axis (stratified), else 0.
         granule_blocks: kernel blocks per scheduler block (a design, or 1).
+        replicates: designs a sample budget runs (sobol: its R independent
+            scramblings), else 0 (the budget decides, see ``granules``).
     """
 
     sampler: str
@@ -39,6 +41,7 @@ class Design:
     samples_per_unit: int
     strata_m: int
     granule_blocks: int
+    replicates: int = 0
 
     def to_dict(self) -> dict:
         """JSON form (saved in checkpoints)."""
