@@ -45,6 +45,10 @@
 #define SAMPLER_BACKEND SAMPLER_BACKEND_PHILOX
 #endif
 
+/* Before the choice: includes are resolved once per program, as text, so a
+ * file two back ends share must not sit inside one back end's #if. */
+#include "rng/uniform.cl"
+
 #if SAMPLER_BACKEND == SAMPLER_BACKEND_PHILOX
 #include "samplers/philox_sampler.cl"
 #elif SAMPLER_BACKEND == SAMPLER_BACKEND_SOBOL

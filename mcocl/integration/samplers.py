@@ -351,8 +351,9 @@ class Sobol(DesignSpread):
     replicates: N is rounded down to R * 2^m * P (up to R * P when smaller).
     Past 2^30 points per replicate the replicates grow instead: N // (2^30 P).
     ``design_samples`` fixes 2^m (rounded down to a power of two) and R
-    becomes N // (2^m P), at least 2.  Unbounded runs (time or target only)
-    use replicates of 2^18 until the halting rule stops them.
+    becomes N // (2^m P), at least 2 (so a resumed run may ask for more).
+    Unbounded runs (time or target only) use replicates of 2^18 until the
+    halting rule stops them.  A resumed run keeps its checkpoint's design.
     Standard error: the sample variance of the R replicate means / R.
     """
 
@@ -387,21 +388,25 @@ class Sobol(DesignSpread):
             if log2 > self.MAX_LOG2_POINTS:
                 raise InputError(f"design_samples: a Sobol' replicate holds at most 2^{self.MAX_LOG2_POINTS} "
                                  f"point tuples, got {design_samples // points}")
-            count = max(samples // ((1 << log2) * points), self.min_designs) if samples else 0
+            count = 0
         elif samples is None:
             log2, count = self.UNBOUNDED_LOG2_POINTS, 0
         else:
             r = self.REPLICATES if replicates is None else replicates
-            log2 = min(max(samples // (r * points), 1).bit_length() - 1, self.MAX_LOG2_POINTS)
-            count = max(r, samples // ((1 << log2) * points))
+            log2 = max(samples // (r * points), 1).bit_length() - 1
+            count = r if log2 <= self.MAX_LOG2_POINTS else 0
+            log2 = min(log2, self.MAX_LOG2_POINTS)
         units = 1 << log2
         return Design(self.name, units, points, 0, -(-units // self.units_per_block), count)
 
     def granules(self, design: Design, samples: int | None) -> tuple[int | None, int]:
-        """The design's replicates (``None`` when unbounded), each whole."""
-        if samples is None or design.replicates == 0:
+        """Exactly the design's R replicates; without R (``design_samples``, or 2^m capped) the
+        budget rounded down to whole replicates, at least two; ``None`` when unbounded."""
+        if samples is None:
             return None, design.units
-        return design.replicates, design.units
+        if design.replicates:
+            return design.replicates, design.units
+        return super().granules(design, samples)
 
     def defines(self, design: Design, dim: int, points: int) -> list[str]:
         """The Sobol' back end: points per scrambling and the table's dimensions."""
@@ -414,7 +419,8 @@ class Sobol(DesignSpread):
         m = design.units.bit_length() - 1
         per = f"2^{m} point tuples" if design.samples_per_unit == 1 else f"2^{m} units of {design.samples_per_unit} points"
         if design.replicates == 0:
-            return [f"Owen-scrambled Sobol' replicates of {per}, run until the time or error target"]
+            return [f"independent Owen-scrambled Sobol' replicates of {per}: the sample budget is rounded "
+                    "down to whole replicates (at least 2), or they run until the time or error target"]
         return [f"{design.replicates} independent Owen-scrambled Sobol' replicates of {per}: "
                 f"the sample budget is rounded down to replicates x 2^{m}"
                 + (f" x {design.samples_per_unit}" if design.samples_per_unit > 1 else "")]
