@@ -358,8 +358,7 @@ class Sobol(DesignSpread):
     """
 
     name = "sobol"
-    # The independent branch of integrate.cl: only the sampler back end differs.
-    kernel_code = 0
+    kernel_code = 3  # integrate.cl's branch of independent units; the sampler back end differs
     units_per_block = 4096
     min_designs = 2
     variance_method = "spread of the means of independent Owen-scrambled Sobol' replicates"
