@@ -216,6 +216,9 @@ def test_lanes_launch_splits_and_resume_give_the_same_result(tmp_path) -> None:
     kw = dict(dim=3, sampler="sobol", seed=5, samples=1 << 20, replicates=8)
     base = mcocl.integrate(f, **kw)
     assert mcocl.integrate(f, lanes=1, **kw).estimate == base.estimate
+    # replicates of 4 points: a 16-lane packet spans four scramblings
+    small = {**kw, "samples": 64, "replicates": 16}
+    assert mcocl.integrate(f, lanes=1, **small).estimate == mcocl.integrate(f, **small).estimate
     split = mcocl.integrate(f, split=2, **kw)
     assert (split.estimate, split.stderr) == (base.estimate, base.stderr)
     # resume: replicates of a fixed size (design_samples), the budget given in two steps
