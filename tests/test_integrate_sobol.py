@@ -26,8 +26,9 @@ LOG2_POINTS = 16  # points per scrambling in the point-reading builds below
 LK = (0x6C50B47C, 0xB82F1E52, 0xC7AFE638, 0x8D22F6E6)
 
 
-def _device_points(dim: int, first: int, n: int, seed: int, log2_points: int = LOG2_POINTS) -> np.ndarray:
-    """Coordinates 0..dim-1 of samples first..first+n-1, read through kernels/samplers/sampler_points.cl."""
+def _device_points(dim: int, first: int, n: int, seed: int, log2_points: int = LOG2_POINTS, how: int = 0) -> np.ndarray:
+    """Coordinates 0..dim-1 of samples first..first+n-1, read through kernels/samplers/sampler_points.cl
+    (``how``: 0 one sampler_next_nd, 1 sampler_next_1d each, 2 sampler_next_2d pairs)."""
     ctx = runtime.device_context()
     table = -(-dim // 64) * 64
     src = runtime.compose(["samplers/sampler_points.cl"])
@@ -38,7 +39,8 @@ def _device_points(dim: int, first: int, n: int, seed: int, log2_points: int = L
 
     out = np.empty((n, dim), np.float32)
     buf = cl.Buffer(ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
-    runtime.kernel(prg, "sampler_points")(ctx.queue, (n,), None, np.uint64(first), np.uint32(n), np.uint64(seed), buf)
+    runtime.kernel(prg, "sampler_points")(ctx.queue, (n,), None, np.uint64(first), np.uint32(n), np.uint64(seed),
+                                          np.uint32(how), buf)
     cl.enqueue_copy(ctx.queue, out, buf)
     return out
 
@@ -95,7 +97,9 @@ def test_the_table_is_scipys_joe_kuo_sequence() -> None:
 @pytest.mark.parametrize(("first", "seed"), [(0, 1), ((5 << LOG2_POINTS) + 12345, 2**40 + 7)])
 def test_device_points_equal_the_numpy_twin(first: int, seed: int) -> None:
     dim = 70  # past one 64-dimension chunk of the table
-    assert np.array_equal(_device_points(dim, first, 2048, seed), _twin_points(dim, first, 2048, seed))
+    twin = _twin_points(dim, first, 2048, seed)
+    for how in (0, 1, 2):  # next_nd, next_1d, next_2d
+        assert np.array_equal(_device_points(dim, first, 2048, seed, how=how), twin), how
 
 
 @pytest.mark.parametrize("m", [4, 10, 14])
