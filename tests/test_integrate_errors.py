@@ -33,7 +33,7 @@ def test_unfinished_expression() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "needle"),
     [
-        ({"sampler": "sobol"}, "sampler"),
+        ({"sampler": "halton"}, "sampler"),
         ({"dim": 0}, "dim"),
         ({"dim": 2.5}, "dim"),
         ({"samples": 0}, "samples"),
@@ -121,7 +121,7 @@ def test_cli_errors_exit_nonzero_with_a_message() -> None:
     p = _cli("integrate", "exp(-x[0]*y)", "--samples", "1000")
     assert p.returncode == 2
     assert "integrand, line 1" in p.stderr and "Traceback" not in p.stderr
-    p = _cli("integrate", "x[0]", "--sampler", "sobol")
+    p = _cli("integrate", "x[0]", "--sampler", "halton")
     assert p.returncode == 2 and "invalid choice" in p.stderr
     p = _cli("integrate", "x[0]", "--samples", "0")
     assert p.returncode == 2 and "samples" in p.stderr

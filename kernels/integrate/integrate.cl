@@ -2,7 +2,8 @@
  *
  * One work-item computes one block: UNITS_PER_BLOCK consecutive units of one
  * design, LANES units at a time.  A *unit* is what the estimator averages:
- *   independent, nrooks   one point tuple, value v = unit_value(tau);
+ *   independent, nrooks,  one point tuple, value v = unit_value(tau);
+ *   sobol
  *   stratified            one stratum holding two point tuples (see
  *                         sampling/stratified.cl), values v1, v2.
  * A point tuple is POINTS points of DIM coordinates (POINTS > 1 for combined
@@ -31,6 +32,7 @@
 #define SAMPLER_INDEPENDENT 0
 #define SAMPLER_STRATIFIED 1
 #define SAMPLER_NROOKS 2
+#define SAMPLER_SOBOL 3 /* as independent; the uniforms come from the Sobol' back end */
 
 #define NCOORD (POINTS * DIM)
 #define STATS 6

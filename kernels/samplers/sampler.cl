@@ -27,6 +27,9 @@
  * Back ends, chosen at build time by -DSAMPLER_BACKEND=...:
  *   SAMPLER_BACKEND_PHILOX  independent uniforms from Philox4x32-10
  *                           (samplers/philox_sampler.cl); the default.
+ *   SAMPLER_BACKEND_SOBOL   Owen-scrambled Sobol' points, one scrambling per
+ *                           2^SOBOL_LOG2_POINTS consecutive indices
+ *                           (samplers/sobol_sampler.cl).
  * A new back end (e.g. Owen-scrambled Sobol) is one file defining mc_sampler_t
  * and the functions above, plus a line below; the estimators do not change.
  * Random numbers that are not sample coordinates (N-rooks permutation keys)
@@ -36,13 +39,20 @@
 #define MCOCL_SAMPLER_CL
 
 #define SAMPLER_BACKEND_PHILOX 0
+#define SAMPLER_BACKEND_SOBOL 1
 
 #ifndef SAMPLER_BACKEND
 #define SAMPLER_BACKEND SAMPLER_BACKEND_PHILOX
 #endif
 
+/* Before the choice: includes are resolved once per program, as text, so a
+ * file two back ends share must not sit inside one back end's #if. */
+#include "rng/uniform.cl"
+
 #if SAMPLER_BACKEND == SAMPLER_BACKEND_PHILOX
 #include "samplers/philox_sampler.cl"
+#elif SAMPLER_BACKEND == SAMPLER_BACKEND_SOBOL
+#include "samplers/sobol_sampler.cl"
 #else
 #error "unknown SAMPLER_BACKEND"
 #endif

@@ -37,6 +37,10 @@ Samplers (how the uniform points are placed):
                sample variance)
   nrooks       Latin hypercube designs (N-rooks); the standard error comes
                from the spread of independent designs
+  sobol        randomised quasi-Monte Carlo: --replicates R (default 16)
+               independent Owen scramblings of 2^m Sobol' points; the
+               samples are rounded down to R x 2^m and the standard error
+               comes from the spread of the R replicate means
 
 Estimators (combine with any sampler):
   --proposal SPEC          importance sampling, x = P^-1(u), f(x)/p(x)
@@ -54,6 +58,7 @@ EXAMPLES = """\
 examples:
   mcocl integrate "exp(-x[0]*x[0])" --dim 1 --samples 1e6 --sampler nrooks --seed 7
   mcocl integrate "exp(-x[0]*x[0])" --samples 1e6 --json
+  mcocl integrate "exp(-(x[0]+x[1]))*cos(x[2])" --dim 3 --sampler sobol --samples 1e8 --replicates 32
   mcocl integrate "exp(-3*x[0])" --proposal exponential:rate=3
   mcocl integrate "1/sqrt(x[0])" --proposal power:a=-0.5
   mcocl integrate "exp(-x[0])" --control "1 - x[0]" --control-integral 0.5
@@ -94,7 +99,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--control-integral", type=float, default=None, help="exact integral J of g")
     p.add_argument("--roulette", type=float, default=None, help="Russian roulette survival probability P in (0, 1]")
     add_halting_args(p, "stop once the standard error is at most this", "--target-stderr")
-    p.add_argument("--design-samples", type=count, default=None, help="samples per stratified / N-rooks design")
+    p.add_argument("--design-samples", type=count, default=None,
+                   help="samples per stratified / N-rooks design / Sobol' replicate")
+    p.add_argument("--replicates", type=count, default=None,
+                   help="independent scramblings of --sampler sobol (default 16)")
     add_persistence_args(p, "job")
     add_device_args(p)
     p.set_defaults(func=run)
@@ -115,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
             args.integrand, dim=args.dim, samples=samples, sampler=args.sampler,
             proposal=proposal, proposals=proposals, shares=args.shares, heuristic=args.heuristic, beta=args.beta,
             control=args.control, control_integral=args.control_integral, roulette=args.roulette,
-            design_samples=args.design_samples, **shared,
+            design_samples=args.design_samples, replicates=args.replicates, **shared,
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteWarning, DeviceFailureWarning)):

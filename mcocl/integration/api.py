@@ -216,6 +216,7 @@ def integrate(
     time_budget: float | None = None,
     target_error: float | None = None,
     design_samples: int | None = None,
+    replicates: int | None = None,
     device: Any = None,
     devices: Any = None,
     split: int | None = None,
@@ -236,7 +237,8 @@ def integrate(
             stratified and N-rooks designs round it).  ``None``: no limit,
             give ``time_budget`` or ``target_error``.
         sampler: ``independent`` (the secondary estimator), ``stratified``
-            (jittered, 2 samples per stratum) or ``nrooks`` (Latin hypercube).
+            (jittered, 2 samples per stratum), ``nrooks`` (Latin hypercube) or
+            ``sobol`` (Owen-scrambled Sobol' points, randomised quasi-Monte Carlo).
         seed: 64-bit seed; the result depends on nothing else.
         proposal: importance sampling density (see :mod:`mcocl.integration.proposals`).
         proposals: two or more densities for a combined estimator.
@@ -247,7 +249,10 @@ def integrate(
         roulette: survival probability P of the single-integral Russian roulette.
         time_budget: stop after this many seconds.
         target_error: stop once the standard error is at most this.
-        design_samples: samples per stratified / N-rooks design (default: see samplers.py).
+        design_samples: samples per stratified / N-rooks design / Sobol' replicate (default: see samplers.py).
+        replicates: independent scramblings of a ``sobol`` run (default 16);
+            the standard error is their spread, and ``samples`` is rounded
+            down to ``replicates`` x 2^m (``Sobol`` in samplers.py).
         device: device index or name substring (``mcocl devices``).
         devices: several devices (a list of specs, or ``"all"``).
         split: partition each CPU device into this many sub-devices.
@@ -278,6 +283,8 @@ def integrate(
     opts.require_stop("samples", samples)
     if design_samples is not None:
         design_samples = whole_number("design_samples", design_samples, 1, MAX_SAMPLES)
+    if replicates is not None:
+        replicates = whole_number("replicates", replicates, 1, 1 << 20)
 
     users = UserFunction("integrand", req.integrand, "integrand", (("x", req.dim),))
     control_fn = UserFunction("control", req.control, "control", (("x", req.dim),)) if req.control else None
@@ -291,7 +298,7 @@ def integrate(
         shift = acc.meta_float("shift", opts.resume, FLOAT32_MAX)  # a mean of float32 samples
         acc.check_shape((ROW,), opts.resume)
     else:
-        design = req.sampler.plan(req.dim, code.points, samples, design_samples)
+        design = req.sampler.plan_replicated(req.dim, code.points, samples, design_samples, replicates)
         shift = None
     spec = spec_of(design)
     max_blocks, unit_limit = spec.granules(design, samples)

@@ -14,6 +14,7 @@ saved in checkpoints and shipped to other processes.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Collection
 from dataclasses import asdict, dataclass
 
@@ -35,6 +36,8 @@ class Design:
         samples_per_unit: integrand evaluations per unit.
         strata_m: strata per axis (stratified), else 0.
         granule_blocks: kernel blocks per scheduler block (a design, or 1).
+        replicates: designs a sample budget runs (sobol: its R independent
+            scramblings), else 0 (the budget decides, see ``granules``).
     """
 
     sampler: str
@@ -42,6 +45,7 @@ class Design:
     samples_per_unit: int
     strata_m: int
     granule_blocks: int
+    replicates: int = 0
 
     def to_dict(self) -> dict:
         """JSON form (saved in checkpoints)."""
@@ -57,9 +61,13 @@ def design_from_checkpoint(d: object, where: object, samplers: Collection[str]) 
         samplers: the registered sampler names (:mod:`mcocl.integration.samplers`).
     """
     fields = {"sampler": str, "units": int, "samples_per_unit": int, "strata_m": int, "granule_blocks": int}
-    if not isinstance(d, dict) or set(d) != set(fields):
+    # fields added later default to 0 in Design, so checkpoints written before them still load
+    optional = {f.name: int for f in dataclasses.fields(Design) if f.name not in fields}
+    if not isinstance(d, dict) or not set(fields) <= set(d) <= set(fields) | set(optional):
         raise InputError(f"checkpoint {where}: its design is damaged ({d!r})")
-    for k, t in fields.items():
+    for k, t in {**fields, **optional}.items():
+        if k not in d:
+            continue
         v = d[k]
         if isinstance(v, bool) or not isinstance(v, t):
             raise InputError(f"checkpoint {where}: its design field {k!r} is {v!r}")
@@ -67,5 +75,7 @@ def design_from_checkpoint(d: object, where: object, samplers: Collection[str]) 
         raise InputError(f"checkpoint {where}: its design has an unknown sampler {d['sampler']!r}")
     if not (1 <= d["units"] <= UNBOUNDED_UNITS and 1 <= d["samples_per_unit"] <= 1 << 20
             and 0 <= d["strata_m"] <= MAX_AXIS_CELLS and 1 <= d["granule_blocks"] <= UNBOUNDED_UNITS):
+        raise InputError(f"checkpoint {where}: its design is out of range ({d!r})")
+    if any(not 0 <= d.get(k, 0) <= UNBOUNDED_UNITS for k in optional):
         raise InputError(f"checkpoint {where}: its design is out of range ({d!r})")
     return Design(**d)

@@ -47,6 +47,16 @@ class SamplerSpec:
         """The design of a run of at most ``samples`` (``None``: unbounded) evaluations."""
         raise NotImplementedError
 
+    def plan_replicated(self, dim: int, points: int, samples: int | None, design_samples: int | None,
+                        replicates: int | None) -> Design:
+        """:meth:`plan` with the user's ``replicates`` (``None``: the sampler's default).
+
+        Only a sampler made of independent replicates (sobol) takes a count.
+        """
+        if replicates is not None:
+            raise InputError(f"replicates: sampler {self.name!r} has no replicates; they belong to sampler='sobol'")
+        return self.plan(dim, points, samples, design_samples)
+
     def defines(self, design: Design, dim: int, points: int) -> list[str]:
         """The ``-D`` options of the kernel skeleton (kernels/integrate/integrate.cl)."""
         return [
@@ -260,8 +270,33 @@ class Stratified(SamplerSpec):
         return "stratified_points", 2 * strata, strata, (size, strata)
 
 
+class DesignSpread(SamplerSpec):
+    """A sampler whose standard error is the spread of independent design means (nrooks, sobol).
+
+    Each scheduler block is one design; its mean goes to accumulator columns
+    5-7, and the estimate is the mean of the design means.
+    """
+
+    def fill_rows(self, per_block: np.ndarray, rows: np.ndarray) -> None:
+        """Columns 5-7: one design, its mean (shifted) and the mean squared."""
+        n = per_block[:, 0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m = np.where(n > 0, per_block[:, 2] / np.where(n > 0, n, 1), 0.0)
+        rows[:, 5] = (n > 0).astype(np.float64)
+        rows[:, 6] = m
+        rows[:, 7] = m * m
+
+    def statistics(self, t: np.ndarray, shift: float) -> tuple[float, float, float]:
+        """Mean of the design means; variance = their sample variance / designs."""
+        r = t[5]
+        if r <= 0:
+            return math.nan, math.nan, t[0]
+        mean, var = mean_and_variance(r, t[6], t[7], shift)
+        return mean, (var / r if r > 1 else math.nan), t[0]
+
+
 @register
-class NRooks(SamplerSpec):
+class NRooks(DesignSpread):
     """Latin hypercube (N-rooks) designs.
 
     A design is one Latin hypercube of n points: n = design_samples // points,
@@ -294,23 +329,6 @@ class NRooks(SamplerSpec):
         w = max((design.units - 1).bit_length(), 0)
         return [f"-DNROOKS_MASK={(1 << w) - 1}u", f"-DNROOKS_S1={max(1, w // 2)}u", f"-DNROOKS_S2={max(1, (w + 2) // 3)}u"]
 
-    def fill_rows(self, per_block: np.ndarray, rows: np.ndarray) -> None:
-        """Columns 5-7: one design, its mean (shifted) and the mean squared."""
-        n = per_block[:, 0]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            m = np.where(n > 0, per_block[:, 2] / np.where(n > 0, n, 1), 0.0)
-        rows[:, 5] = (n > 0).astype(np.float64)
-        rows[:, 6] = m
-        rows[:, 7] = m * m
-
-    def statistics(self, t: np.ndarray, shift: float) -> tuple[float, float, float]:
-        """Mean of the design means; variance = their sample variance / designs."""
-        r = t[5]
-        if r <= 0:
-            return math.nan, math.nan, t[0]
-        mean, var = mean_and_variance(r, t[6], t[7], shift)
-        return mean, (var / r if r > 1 else math.nan), t[0]
-
     def notes(self, design: Design, dim: int) -> list[str]:
         """The size of a design."""
         return [f"Latin hypercube designs of {design.units} points"]
@@ -318,6 +336,93 @@ class NRooks(SamplerSpec):
     def design_point_launch(self, size: int, dim: int) -> tuple[str, int, int, tuple[int, ...]]:
         """``size`` = points n, one work-item per point."""
         return "nrooks_points", size, size, (size,)
+
+
+@register
+class Sobol(DesignSpread):
+    """Randomised quasi-Monte Carlo: Owen-scrambled Sobol' points (kernels/samplers/sobol_sampler.cl).
+
+    A design is one replicate: 2^m point tuples of one independent Owen
+    scrambling, consecutive sample indices (one scheduler block, so launch
+    splits, devices and resume cannot change a replicate).  With N samples,
+    R replicates (``replicates``, default 16) and P points per unit
+    (combined estimators), 2^m is the largest power of two with
+    R * 2^m * P <= N (at least 1, at most 2^30), and the run is exactly R
+    replicates: N is rounded down to R * 2^m * P (up to R * P when smaller).
+    Past 2^30 points per replicate the replicates grow instead: N // (2^30 P).
+    ``design_samples`` fixes 2^m (rounded down to a power of two) and R
+    becomes N // (2^m P), at least 2 (so a resumed run may ask for more).
+    Unbounded runs (time or target only) use replicates of 2^18 until the
+    halting rule stops them.  A resumed run keeps its checkpoint's design.
+    Standard error: the sample variance of the R replicate means / R.
+    """
+
+    name = "sobol"
+    kernel_code = 3  # integrate.cl's branch of independent units; the sampler back end differs
+    units_per_block = 4096
+    min_designs = 2
+    variance_method = "spread of the means of independent Owen-scrambled Sobol' replicates"
+    REPLICATES = 16
+    MAX_LOG2_POINTS = 30
+    UNBOUNDED_LOG2_POINTS = 18
+    MAX_COORDINATES = 1024  # dimensions of kernels/samplers/sobol_joe_kuo_1024.cl
+    TABLE_CHUNK = 64
+
+    def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
+        """The default number of replicates (see :meth:`plan_replicated`)."""
+        return self.plan_replicated(dim, points, samples, design_samples, None)
+
+    def plan_replicated(self, dim: int, points: int, samples: int | None, design_samples: int | None,
+                        replicates: int | None) -> Design:
+        """R replicates of 2^m point tuples, as in the class docstring."""
+        if dim * points > self.MAX_COORDINATES:
+            raise InputError(f"sampler='sobol' draws at most {self.MAX_COORDINATES} coordinates per sample "
+                             f"(dim x points per unit), got {dim} x {points} = {dim * points}")
+        if replicates is not None and design_samples is not None:
+            raise InputError("sampler='sobol': give replicates or design_samples, not both")
+        if replicates is not None and not 2 <= replicates <= 1 << 20:
+            raise InputError(f"replicates must be between 2 and {1 << 20} (the standard error needs two), got {replicates}")
+        if design_samples is not None:
+            log2 = max(design_samples // points, 1).bit_length() - 1
+            if log2 > self.MAX_LOG2_POINTS:
+                raise InputError(f"design_samples: a Sobol' replicate holds at most 2^{self.MAX_LOG2_POINTS} "
+                                 f"point tuples, got {design_samples // points}")
+            count = 0
+        elif samples is None:
+            log2, count = self.UNBOUNDED_LOG2_POINTS, 0
+        else:
+            r = self.REPLICATES if replicates is None else replicates
+            log2 = max(samples // (r * points), 1).bit_length() - 1
+            count = r if log2 <= self.MAX_LOG2_POINTS else 0
+            log2 = min(log2, self.MAX_LOG2_POINTS)
+        units = 1 << log2
+        return Design(self.name, units, points, 0, -(-units // self.units_per_block), count)
+
+    def granules(self, design: Design, samples: int | None) -> tuple[int | None, int]:
+        """Exactly the design's R replicates; without R (``design_samples``, or 2^m capped) the
+        budget rounded down to whole replicates, at least two; ``None`` when unbounded."""
+        if samples is None:
+            return None, design.units
+        if design.replicates:
+            return design.replicates, design.units
+        return super().granules(design, samples)
+
+    def defines(self, design: Design, dim: int, points: int) -> list[str]:
+        """The Sobol' back end: points per scrambling and the table's dimensions."""
+        table = -(-dim * points // self.TABLE_CHUNK) * self.TABLE_CHUNK
+        return [*super().defines(design, dim, points), "-DSAMPLER_BACKEND=SAMPLER_BACKEND_SOBOL",
+                f"-DSOBOL_LOG2_POINTS={design.units.bit_length() - 1}", f"-DSOBOL_TABLE_DIMS={table}"]
+
+    def notes(self, design: Design, dim: int) -> list[str]:
+        """The replicates and how the sample budget was rounded."""
+        m = design.units.bit_length() - 1
+        per = f"2^{m} point tuples" if design.samples_per_unit == 1 else f"2^{m} units of {design.samples_per_unit} points"
+        if design.replicates == 0:
+            return [f"independent Owen-scrambled Sobol' replicates of {per}: the sample budget is rounded "
+                    "down to whole replicates (at least 2), or they run until the time or error target"]
+        return [f"{design.replicates} independent Owen-scrambled Sobol' replicates of {per}: "
+                f"the sample budget is rounded down to replicates x 2^{m}"
+                + (f" x {design.samples_per_unit}" if design.samples_per_unit > 1 else "")]
 
 
 def _int_root(target: float, dim: int) -> int:

@@ -1,0 +1,208 @@
+/* sobol_sampler.cl — the sampler back end of randomised quasi-Monte Carlo
+ * (samplers/sampler.cl): Owen-scrambled Sobol' points.
+ *
+ * Addressing.  Sample index i (64-bit) is point p = i mod 2^SOBOL_LOG2_POINTS
+ * of scrambling (replicate) r = i >> SOBOL_LOG2_POINTS, so a replicate's
+ * points are one contiguous index range; its first 2^m points (m <=
+ * SOBOL_LOG2_POINTS) are a (0, m, 2)-net in dimensions 0-1 whatever the
+ * scrambling (Owen 1995: nested uniform scrambling keeps the net property).
+ *
+ * Coordinate j of the point, 32 bits, in three steps:
+ *   1. Sobol' (Joe-Kuo direction numbers, samplers/sobol_joe_kuo_1024.cl),
+ *      evaluated directly, not in Gray-code order: x = XOR of V_k over the
+ *      set bits k of p.  Each sample costs the same and depends on p alone.
+ *      The table holds V_k bit-reversed, and XOR commutes with bit reversal,
+ *      so x comes out reversed, as step 2 wants it.
+ *   2. Nested uniform (Owen) scrambling by hashing (Laine and Karras 2011;
+ *      Burley 2020, "Practical Hash-based Owen Scrambling", JCGT 9(4), sec. 3):
+ *      on the reversed bits, the Laine-Karras permutation with seed s_j
+ *      flips each bit by a hash of the bits below it (the more significant
+ *      bits of the coordinate), which is Owen's nested scrambling.  Burley's
+ *      constants.  Then reverse back.
+ *   3. The top 23 bits -> the cell centre of rng/uniform.cl's grid (never 0
+ *      nor 1, unbiased on the grid).
+ * s_j, the seed of dimension j of replicate r, is word j % 4 of
+ * Philox4x32-10(counter = (lo32(r), hi32(r), j / 4, stream), key = seed)
+ * (rng/uniform.cl, with the replicate in place of the sample index): every
+ * replicate and every dimension is an independent scrambling.
+ *
+ * The numbers of (seed, i, j, stream) depend on nothing else: not the lane,
+ * the device, nor the launch split.  Dimensions j < SOBOL_TABLE_DIMS (the
+ * host sizes the table to the coordinates a program draws, at most 1024).
+ */
+#ifndef MCOCL_SOBOL_SAMPLER_CL
+#define MCOCL_SOBOL_SAMPLER_CL
+
+#include "rng/uniform.cl"
+#include "samplers/sobol_joe_kuo_1024.cl"
+
+/* log2 of the points of one scrambling (host: mcocl/integration/samplers.py, Sobol). */
+#ifndef SOBOL_LOG2_POINTS
+#define SOBOL_LOG2_POINTS 16
+#endif
+#if SOBOL_LOG2_POINTS < 0 || SOBOL_LOG2_POINTS > 31
+#error "SOBOL_LOG2_POINTS must be in 0..31"
+#endif
+
+typedef struct {
+    rng_t replicate;  /* which scrambling (index >> SOBOL_LOG2_POINTS), seed, stream */
+    uintv point;      /* index within the scrambling, per lane */
+    uintv dim;        /* the next dimension, per lane */
+    uint high;        /* the point's bits from SOBOL_LANE_BITS up, when the same in every lane */
+    int same_high;    /* whether they are (a packet of consecutive points, as integrate.cl draws) */
+} mc_sampler_t;
+
+#if LANES == 1
+#define SOBOL_LANE0(x) (x)
+#define SOBOL_LANE_BITS 0
+#else
+#define SOBOL_LANE0(x) ((x).s0)
+#define SOBOL_LANE_BITS (LANES == 2 ? 1 : LANES == 4 ? 2 : LANES == 8 ? 3 : 4)
+#endif
+#define SOBOL_LOW_MASK ((1u << SOBOL_LANE_BITS) - 1u)
+
+/* Split the index (lo, hi words) into replicate and point. */
+MC_INLINE mc_sampler_t sobol_split(uintv lo, uintv hi, ulong seed, uint stream) {
+    mc_sampler_t s;
+#if SOBOL_LOG2_POINTS == 0
+    s.point = (uintv)(0u);
+    s.replicate.lo = lo;
+    s.replicate.hi = hi;
+#else
+    s.point = lo & (uintv)((1u << SOBOL_LOG2_POINTS) - 1u);
+    s.replicate.lo = (lo >> SOBOL_LOG2_POINTS) | (hi << (32 - SOBOL_LOG2_POINTS));
+    s.replicate.hi = hi >> SOBOL_LOG2_POINTS;
+#endif
+    s.replicate.k0 = (uint)(seed & 0xffffffffu);
+    s.replicate.k1 = (uint)(seed >> 32);
+    s.replicate.stream = stream;
+    s.dim = (uintv)(0u);
+    s.high = SOBOL_LANE0(s.point) & ~SOBOL_LOW_MASK;
+    s.same_high = !lane_any((s.point & ~SOBOL_LOW_MASK) != (uintv)(s.high));
+    return s;
+}
+
+MC_INLINE mc_sampler_t sampler_start(ulong seed, ulongv index, uint stream) {
+    return sobol_split(to_uintv(index & (ulong)0xffffffffu), to_uintv(index >> 32), seed, stream);
+}
+
+MC_INLINE mc_sampler_t sampler_start_at(ulong seed, ulong base, uintv offset, uint stream) {
+    const rng_t r = rng_init_offset(base, offset, seed, stream);
+    return sobol_split(r.lo, r.hi, seed, stream);
+}
+
+MC_INLINE void sampler_seek(mc_sampler_t *s, uintv dim) { s->dim = dim; }
+
+/* Step 1: the bit-reversed Sobol' coordinate of dimension d (the same in every
+ * lane) at the points p: XOR of the reversed V_k over the set bits of p. */
+MC_INLINE uintv sobol_reversed(uintv p, uint d) {
+    constant uint *rv = SOBOL_RV + 32u * d;
+    uintv x = (uintv)(0u);
+    for (int k = 0; k < SOBOL_LOG2_POINTS; ++k) x ^= (uintv)(rv[k]) & ((uintv)(0u) - ((p >> k) & 1u));
+    return x;
+}
+
+MC_INLINE uint sobol_reversed1(uint p, uint d) {
+    constant uint *rv = SOBOL_RV + 32u * d;
+    uint x = 0u;
+    for (int k = 0; k < SOBOL_LOG2_POINTS; ++k) x ^= rv[k] & (0u - ((p >> k) & 1u));
+    return x;
+}
+
+/* Step 1 for a packet whose points share their bits from SOBOL_LANE_BITS up
+ * (s->same_high): by linearity over GF(2), x(p) = x(high) ^ x(p mod LANES),
+ * the first a scalar loop, the second a vector loop of SOBOL_LANE_BITS steps.
+ * The same bits as sobol_reversed, at a fraction of the vector work. */
+MC_INLINE uintv sobol_reversed_packet(const mc_sampler_t *s, uint d) {
+    if (!s->same_high) return sobol_reversed(s->point, d);
+    constant uint *rv = SOBOL_RV + 32u * d;
+    uint xh = 0u;
+    for (int k = SOBOL_LANE_BITS; k < SOBOL_LOG2_POINTS; ++k) xh ^= rv[k] & (0u - ((s->high >> k) & 1u));
+    uintv x = (uintv)(xh);
+    for (int k = 0; k < SOBOL_LANE_BITS && k < SOBOL_LOG2_POINTS; ++k)
+        x ^= (uintv)(rv[k]) & ((uintv)(0u) - ((s->point >> k) & 1u));
+    return x;
+}
+
+/* Step 1 where the lanes may be at different dimensions (after a per-lane
+ * sampler_seek): one lane at a time. */
+MC_INLINE uintv sobol_reversed_lanes(uintv p, uintv d) {
+    if (!lane_any(d != (uintv)(SOBOL_LANE0(d)))) return sobol_reversed(p, SOBOL_LANE0(d));
+#if LANES == 1
+    return sobol_reversed1(p, d);
+#else
+    uint pl[LANES], dl[LANES], xl[LANES];
+    MC_CAT(vstore, LANES)(p, 0, pl);
+    MC_CAT(vstore, LANES)(d, 0, dl);
+    for (int l = 0; l < LANES; ++l) xl[l] = sobol_reversed1(pl[l], dl[l]);
+    return MC_CAT(vload, LANES)(0, xl);
+#endif
+}
+
+MC_INLINE uintv reverse_bits(uintv x) {
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
+    return (x >> 16) | (x << 16);
+}
+
+/* Steps 2 and 3: Laine-Karras permutation of the reversed bits with seed s
+ * (Burley 2020, sec. 3: each step changes a bit only by bits below it, so
+ * bit k of the coordinate is flipped by a hash of bits 0..k-1, the bits above
+ * it once reversed back), reverse back, map to the uniform grid. */
+MC_INLINE floatv owen_uniform(uintv x, uintv s) {
+    x += s;
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return u01(reverse_bits(x));
+}
+
+MC_INLINE uintv philox_word(philox_ctr c, uintv w) {
+    return lane_select(lane_select(c.v0, c.v1, w == 1u), lane_select(c.v2, c.v3, w == 3u), w >= 2u);
+}
+
+MC_INLINE floatv sampler_next_1d(mc_sampler_t *s) {
+    const uintv seed = philox_word(rng_block(s->replicate, s->dim >> 2), s->dim & 3u);
+    const uintv x = sobol_reversed_lanes(s->point, s->dim);
+    s->dim += 1u;
+    return owen_uniform(x, seed);
+}
+
+/* n consecutive dimensions: one Philox call (four scrambling seeds) per four
+ * dimensions when the counter is a multiple of 4 and the same in every lane
+ * (as in every present consumer); else one dimension at a time. */
+MC_INLINE void sampler_next_nd(mc_sampler_t *s, int n, floatv *u) {
+    const uint d0 = SOBOL_LANE0(s->dim);
+    if ((d0 & 3u) != 0u || lane_any(s->dim != (uintv)(d0))) {
+        for (int j = 0; j < n; ++j) u[j] = sampler_next_1d(s);
+        return;
+    }
+    for (int j = 0; j < n; j += 4) {
+        const philox_ctr c = rng_block(s->replicate, (uintv)((d0 + (uint)j) >> 2));
+        u[j] = owen_uniform(sobol_reversed_packet(s, d0 + (uint)j), c.v0);
+        if (j + 1 < n) u[j + 1] = owen_uniform(sobol_reversed_packet(s, d0 + (uint)j + 1u), c.v1);
+        if (j + 2 < n) u[j + 2] = owen_uniform(sobol_reversed_packet(s, d0 + (uint)j + 2u), c.v2);
+        if (j + 3 < n) u[j + 3] = owen_uniform(sobol_reversed_packet(s, d0 + (uint)j + 3u), c.v3);
+    }
+    s->dim += (uint)n;
+}
+
+MC_INLINE void sampler_next_2d(mc_sampler_t *s, floatv *u) {
+    u[0] = sampler_next_1d(s);
+    u[1] = sampler_next_1d(s);
+}
+
+MC_INLINE mc_sampler_t sampler_select(mc_sampler_t a, mc_sampler_t b, intv m) {
+    a.replicate.lo = lane_select(a.replicate.lo, b.replicate.lo, m);
+    a.replicate.hi = lane_select(a.replicate.hi, b.replicate.hi, m);
+    a.point = lane_select(a.point, b.point, m);
+    a.dim = lane_select(a.dim, b.dim, m);
+    a.high = SOBOL_LANE0(a.point) & ~SOBOL_LOW_MASK;
+    a.same_high = !lane_any((a.point & ~SOBOL_LOW_MASK) != (uintv)(a.high));
+    return a;
+}
+
+#endif
