@@ -32,6 +32,7 @@ class Design:
         samples_per_unit: integrand evaluations per unit.
         strata_m: strata per axis (stratified), else 0.
         granule_blocks: kernel blocks per scheduler block (a design, or 1).
+        bins: bins per dimension of the VEGAS grid (vegas), else 0.
     """
 
     sampler: str
@@ -39,6 +40,7 @@ class Design:
     samples_per_unit: int
     strata_m: int
     granule_blocks: int
+    bins: int = 0
 
     def to_dict(self) -> dict:
         """JSON form (saved in checkpoints)."""

@@ -328,3 +328,38 @@ def _int_root(target: float, dim: int) -> int:
     while m > 1 and m**dim > target:
         m -= 1
     return m
+
+
+@register
+class Vegas(Independent):
+    """VEGAS adaptive importance sampling (Lepage 1978), driven by :mod:`mcocl.integration.vegas`.
+
+    A run is ``vegas_iterations`` iterations (default 10).  Each draws
+    independent samples through the current grid (kernels/sampling/vegas_grid.cl),
+    is estimated as the independent sampler is (sample variance / n), and
+    trains the next grid.  The first iterations//4 are warm-up iterations with
+    half the samples of the others; they only adapt the grid.  The estimate is
+    the inverse-variance weighted mean of the other iterations, with chi^2/dof
+    across them reported.  A sample budget N is split so: each main iteration
+    gets N / (iterations - warmup/2) samples, rounded down to whole blocks of
+    4096 (at least one block each); a time budget alone is split in the same
+    proportions of seconds.  One point tuple per sample (no combined estimators).
+    """
+
+    name = "vegas"
+    kernel_code = 4
+    variance_method = ("inverse-variance weighted mean of the iterations after the warm-up, "
+                       "each: sample variance of f J / n")
+
+    def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
+        """The independent sampler's unbounded design; one point tuple per sample."""
+        if points != 1:
+            raise InputError("sampler='vegas' adapts one point per sample; it does not combine proposals= "
+                             "(use a single proposal=, or another sampler)")
+        if design_samples is not None:
+            raise InputError("design_samples does not apply to sampler='vegas' (use samples= and vegas_iterations=)")
+        return Design(self.name, UNBOUNDED_UNITS, points, 0, 1)
+
+    def extra_defines(self, design: Design) -> list[str]:
+        """The grid's bins per dimension (kernels/sampling/vegas_grid.cl)."""
+        return [f"-DVEGAS_BINS={design.bins}u"]

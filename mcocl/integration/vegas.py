@@ -1,0 +1,343 @@
+"""``sampler="vegas"``: the iterations of VEGAS (Lepage 1978) around the integration kernel.
+
+Each iteration is one ordinary run of the integration job (the engine's
+blocks, placements, halting and block-order folding) with the current grid
+uploaded as a buffer; its accumulator rows carry, after the usual columns,
+the per-dimension, per-bin training sums of (f J)^2
+(kernels/sampling/vegas_grid.cl), folded in block order like every other
+statistic, so the next grid does not depend on the launch split or the lane
+width.  Between iterations the host refines the grid
+(:meth:`mcocl.integration.vegas_grid.VegasGrid.refine`).
+
+Iteration k draws the sample indices that follow those of iteration k-1 in
+the one sample stream of the seed.  The schedule (how many iterations, their
+sizes, the warm-up) is the :class:`mcocl.integration.samplers.Vegas`
+docstring's.  The result combines the iterations after the warm-up by inverse
+variance weights (Lepage 1978, eq. 6):
+
+    I = sum_k I_k / s_k^2 / sum_k 1 / s_k^2,   s^2 = 1 / sum_k 1 / s_k^2,
+    chi^2 = sum_k (I_k - I)^2 / s_k^2 on (iterations - 1) degrees of freedom.
+
+A chi^2 whose upper-tail probability Q is below ``CHI2_Q_WARN`` says the
+iterations disagree beyond their errors (too few samples per iteration for
+the integrand, or a grid still moving): the result carries a note.
+
+Checkpoints hold the whole state in the metadata of the current iteration's
+accumulator: the grid, the finished iterations, the schedule and where the
+current iteration's samples start.  A resumed run continues the same
+adaptation; with the same arguments it ends with the same numbers.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import pyopencl as cl
+
+from .. import runtime
+from ..accumulate import Accumulator
+from ..engine.dispatch import execute
+from ..errors import InputError
+from ..run_options import RunOptions
+from .codegen import EstimatorCode
+from .design import Design
+from .job import ROW, IntegrationJob, IntegrationRunner, estimate_from_totals, reduce_blocks, rounding_floor
+from .vegas_grid import VegasGrid, check_bins
+
+DEFAULT_ITERATIONS = 10
+DEFAULT_BINS = 256
+DEFAULT_ALPHA = 1.5  # measured: 0.5 (the vegas package's) adapts too slowly for 10 iterations (stderr 2.5x-10x larger on peaks, chi2/dof 3)
+CHI2_Q_WARN = 0.01
+BLOCK_UNITS = 4096  # units_per_block of the Vegas spec
+
+
+@dataclass(frozen=True)
+class VegasSettings:
+    """The user's VEGAS options, checked."""
+
+    iterations: int = DEFAULT_ITERATIONS
+    bins: int = DEFAULT_BINS
+    alpha: float = DEFAULT_ALPHA
+
+    @classmethod
+    def parse(cls, iterations: Any, bins: Any, alpha: Any) -> VegasSettings:
+        """Validate ``vegas_iterations``, ``vegas_bins`` and ``alpha`` (``None``: the default)."""
+        it = DEFAULT_ITERATIONS if iterations is None else iterations
+        if isinstance(it, bool) or not isinstance(it, (int, np.integer)) or not 1 <= int(it) <= 10_000:
+            raise InputError(f"vegas_iterations must be a whole number from 1 to 10000, got {iterations!r}")
+        b = check_bins(DEFAULT_BINS if bins is None else bins)
+        a = DEFAULT_ALPHA if alpha is None else alpha
+        try:
+            a = float(a)
+        except (TypeError, ValueError):
+            raise InputError(f"alpha (VEGAS damping) must be a number in [0, 4], got {alpha!r}") from None
+        if not 0.0 <= a <= 4.0:
+            raise InputError(f"alpha (VEGAS damping) must be a number in [0, 4], got {alpha!r}")
+        return cls(int(it), b, a)
+
+    @property
+    def warmup(self) -> int:
+        """Iterations that only adapt the grid (not combined): iterations // 4."""
+        return self.iterations // 4
+
+    def shares(self) -> list[float]:
+        """Relative size of each iteration: 1/2 for the warm-up ones, 1 for the others."""
+        return [0.5 if k < self.warmup else 1.0 for k in range(self.iterations)]
+
+    def block_plan(self, samples: int | None) -> list[int] | None:
+        """Blocks of each iteration for a sample budget (``None``: sized by time)."""
+        if samples is None:
+            return None
+        main = samples / sum(self.shares()) / BLOCK_UNITS
+        return [max(int(main * s), 1) for s in self.shares()]
+
+    def meta(self) -> dict[str, Any]:
+        """What a checkpoint must match."""
+        return {"iterations": self.iterations, "bins": self.bins, "alpha": self.alpha}
+
+
+@dataclass
+class VegasJob(IntegrationJob):
+    """The integration job of one iteration: the grid and where its samples start."""
+
+    grid_table: np.ndarray | None = None
+    block_offset: int = 0
+
+    def runner(self, ctx: runtime.DeviceContext) -> VegasRunner:
+        """Build for ``ctx``."""
+        return VegasRunner(self, ctx)
+
+
+class VegasRunner(IntegrationRunner):
+    """The integration runner with the grid buffer and the training rows (one build for every iteration)."""
+
+    def __init__(self, job: VegasJob, ctx: runtime.DeviceContext) -> None:
+        super().__init__(job, ctx)
+        self.bind(job)
+
+    def bind(self, job: VegasJob) -> None:
+        """Run ``job`` (the next iteration of the same program) from now on."""
+        self.job = job
+        mf = cl.mem_flags
+        self.grid = cl.Buffer(self.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=job.grid_table)
+        self.row = job.dim * job.design.bins
+
+    def sampler_args(self, nkblocks: int) -> tuple[cl.Buffer, ...]:
+        """The grid and a fresh buffer of one training row per block."""
+        return self.grid, cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, 8 * self.row * max(nkblocks, 1))
+
+    def _launch(self, first_kblock: int, nkblocks: int, shift: float,
+                extra: tuple[cl.Buffer, ...] | None = None) -> tuple[cl.Event, np.ndarray]:
+        return super()._launch(first_kblock + self.job.block_offset, nkblocks, shift, extra)
+
+    def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, cl.Event, np.ndarray, np.ndarray, int]:
+        """Launch blocks ``first_block ..`` of this iteration and read back their training rows too."""
+        extra = self.sampler_args(nblocks)
+        ev, out = self._launch(first_block, nblocks, self.job.shift, extra)
+        train = np.empty((nblocks, self.row), dtype=np.float64)
+        ev_train = cl.enqueue_copy(self.ctx.queue, train, extra[1], is_blocking=False)
+        return ev, ev_train, out, train, nblocks
+
+    def collect(self, handle: tuple[cl.Event, cl.Event, np.ndarray, np.ndarray, int]) -> np.ndarray:
+        """Accumulator rows: the integration columns, then the training sums."""
+        ev, ev_train, out, train, nblocks = handle
+        ev.wait()
+        ev_train.wait()
+        return np.concatenate([reduce_blocks(out, nblocks, self.job.design), train], axis=1)
+
+
+@dataclass
+class Iteration:
+    """One finished iteration: its estimate, the variance of it, and what the result reports."""
+
+    estimate: float
+    variance: float
+    samples: int
+    nonfinite: int
+    floor: float
+    warmup: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON form (checkpoints and the result)."""
+        return {"estimate": self.estimate, "variance": self.variance, "samples": self.samples,
+                "nonfinite": self.nonfinite, "floor": self.floor, "warmup": self.warmup}
+
+
+def combine(iterations: list[Iteration]) -> tuple[float, float, float, int]:
+    """(estimate, variance, chi^2, degrees of freedom) of the iterations by inverse-variance weights.
+
+    Iterations with a non-finite variance carry no weight; when some have
+    variance 0 (an integrand the grid made constant) those alone are averaged.
+    """
+    its = [it for it in iterations if math.isfinite(it.variance) and math.isfinite(it.estimate)]
+    if not its:
+        return math.nan, math.nan, math.nan, 0
+    exact = [it for it in its if it.variance <= 0]
+    if exact:
+        return float(np.mean([it.estimate for it in exact])), 0.0, 0.0, len(exact) - 1
+    w = np.array([1.0 / it.variance for it in its])
+    m = np.array([it.estimate for it in its])
+    est = float(np.sum(w * m) / np.sum(w))
+    chi2 = float(np.sum(w * (m - est) ** 2))
+    return est, float(1.0 / np.sum(w)), chi2, len(its) - 1
+
+
+def chi2_q(chi2: float, dof: int) -> float:
+    """Upper-tail probability of chi^2 on ``dof`` degrees of freedom (Wilson-Hilferty cube-root normal)."""
+    if dof <= 0 or not math.isfinite(chi2):
+        return 1.0
+    k = float(dof)
+    z = ((chi2 / k) ** (1.0 / 3.0) - (1.0 - 2.0 / (9.0 * k))) / math.sqrt(2.0 / (9.0 * k))
+    return 0.5 * math.erfc(z / math.sqrt(2.0))
+
+
+@dataclass
+class VegasOutcome:
+    """What :func:`run_vegas` hands back to :func:`mcocl.integrate`."""
+
+    estimate: float
+    variance: float
+    samples: int
+    nonfinite: int
+    floor: float
+    seconds: float
+    stopped_by: str
+    devices: list[str]
+    lanes: int
+    build_seconds: float
+    program_note: str
+    notes: list[str] = field(default_factory=list)
+    summary: dict[str, Any] = field(default_factory=dict)
+
+
+def _fresh_state(settings: VegasSettings, dim: int, samples: int | None) -> dict[str, Any]:
+    return {"plan": settings.block_plan(samples), "iteration": 0, "offset": 0,
+            "grid": VegasGrid.uniform(dim, settings.bins).to_list(), "done": [], "shift": None}
+
+
+def run_vegas(
+    code: EstimatorCode,
+    dim: int,
+    seed: int,
+    design: Design,
+    opts: RunOptions,
+    samples: int | None,
+    settings: VegasSettings,
+    meta: dict[str, Any],
+    progress_label: str,
+) -> VegasOutcome:
+    """Run (or resume) the iterations of one VEGAS integration (module docstring)."""
+    if samples is None and opts.time_budget is None:
+        raise InputError("sampler='vegas' sizes its iterations by samples= or time_budget=; give one of them")
+    meta = {**meta, "vegas": {**settings.meta(), "samples": samples}}
+    if opts.resume is not None:
+        acc = Accumulator.load(opts.resume, expect_meta=meta)
+        design = Design(**acc.meta["design"])
+        state = acc.meta["vegas_state"]
+    else:
+        design = replace(design, bins=settings.bins)
+        state = _fresh_state(settings, dim, samples)
+        acc = None
+    grid = VegasGrid.from_list(state["grid"])
+    done = [Iteration(**d) for d in state["done"]]
+    ctx = runtime.device_context(opts.device)
+    job = VegasJob(code, dim, design, seed, 1 << 62, opts.lanes, stat_shape=(ROW + dim * settings.bins,),
+                   grid_table=grid.device_table(), block_offset=state["offset"])
+    runner = job.runner(ctx)
+    callback, bar = opts.progress_reporter(progress_label, "samples", BLOCK_UNITS)
+    t0 = time.perf_counter()
+    shares = settings.shares()
+    stopped_by, devices = "samples", [ctx.name]
+    report_notes: list[str] = []
+    partial: Iteration | None = None
+    while state["iteration"] < settings.iterations:
+        k = state["iteration"]
+        job = replace(job, grid_table=grid.device_table(), block_offset=state["offset"])
+        runner.bind(job)
+        if state["shift"] is None:
+            state["shift"] = runner.pilot_shift()
+        job.shift = state["shift"]
+        if acc is None:
+            acc = Accumulator(job.stat_shape, {**meta, "design": design.to_dict()})
+        acc.meta["vegas_state"] = state
+        elapsed = time.perf_counter() - t0
+        if opts.time_budget is None:
+            budget = None
+        elif state["plan"] is None:  # time alone: this iteration's share of what is left
+            budget = max(opts.time_budget - elapsed, 0.0) * shares[k] / sum(shares[k:])
+        else:
+            budget = max(opts.time_budget - elapsed, 0.0)
+        blocks = None if state["plan"] is None else state["plan"][k]
+        halting = replace(opts.halting(blocks, None), time_budget=budget)
+        report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
+        devices = report.devices or devices
+        report_notes = list(getattr(report, "notes", []) or [])
+        t = acc.totals
+        est, var, _ = estimate_from_totals(t[:ROW], design, job.shift)
+        now = Iteration(est, var, int(t[0] + t[1]), int(t[1]), rounding_floor(t), k < settings.warmup)
+        if acc.blocks_done == 0:
+            stopped_by = report.stopped_by
+            break
+        if report.stopped_by == "interrupt" or (report.stopped_by == "time" and state["plan"] is not None):
+            # cut short inside a planned iteration: reported, and resumable from the checkpoint
+            stopped_by, partial = report.stopped_by, now
+            break
+        done.append(now)
+        grid = grid.refine(t[ROW:], settings.alpha)
+        state = {**state, "iteration": k + 1, "offset": state["offset"] + acc.blocks_done,
+                 "grid": grid.to_list(), "done": [it.to_dict() for it in done], "shift": None}
+        acc = Accumulator(job.stat_shape, {**meta, "design": design.to_dict(), "vegas_state": state})
+        if report.stopped_by == "time":
+            stopped_by = "time"
+        if opts.target_error is not None and not now.warmup:
+            v = combine([it for it in done if not it.warmup])[1]
+            if math.isfinite(v) and math.sqrt(v) <= opts.target_error:
+                stopped_by = "stderr"
+                break
+    if bar is not None:
+        bar.close()
+    if opts.checkpoint and acc is not None:
+        acc.save(opts.checkpoint)
+    seconds = time.perf_counter() - t0
+    return _outcome(done + ([partial] if partial else []), settings, grid, seconds, stopped_by, devices, runner, report_notes)
+
+
+def _outcome(its: list[Iteration], settings: VegasSettings, grid: VegasGrid, seconds: float, stopped_by: str,
+             devices: list[str], runner: VegasRunner, report_notes: list[str]) -> VegasOutcome:
+    main = [it for it in its if not it.warmup]
+    est, var, chi2, dof = combine(main)
+    floor = 0.0
+    if main and all(it.variance > 0 for it in main if math.isfinite(it.variance)):
+        w = np.array([1.0 / it.variance for it in main if math.isfinite(it.variance)])
+        f = np.array([it.floor for it in main if math.isfinite(it.variance)])
+        floor = float(math.sqrt(np.sum((w * f) ** 2)) / np.sum(w)) if len(w) else 0.0
+    q = chi2_q(chi2, dof)
+    notes = list(report_notes)
+    notes.append(f"VEGAS: {len(main)} iterations combined after {len(its) - len(main)} warm-up, "
+                 f"{settings.bins} bins per dimension, alpha {settings.alpha:g}, chi2/dof "
+                 + (f"{chi2 / dof:.3g} (Q = {q:.3g})" if dof > 0 else "n/a (one iteration)"))
+    if dof > 0 and q < CHI2_Q_WARN:
+        notes.append(f"WARNING: the VEGAS iterations disagree (chi2/dof = {chi2 / dof:.3g}, Q = {q:.2g}): "
+                     "the estimate and its error are not trustworthy; use more samples per iteration "
+                     "(fewer vegas_iterations or more samples) or a smaller alpha")
+    if not main:
+        notes.append("VEGAS: no iteration after the warm-up finished; no estimate (give more samples or time)")
+    summary = {
+        "iterations": [it.to_dict() for it in its],
+        "chi2_dof": chi2 / dof if dof > 0 else None,
+        "q": q if dof > 0 else None,
+        "bins": settings.bins,
+        "alpha": settings.alpha,
+        "warmup": settings.warmup,
+        "grid_dim": grid.dim,
+    }
+    return VegasOutcome(
+        estimate=est, variance=var, samples=sum(it.samples for it in its),
+        nonfinite=sum(it.nonfinite for it in its), floor=floor, seconds=seconds, stopped_by=stopped_by,
+        devices=devices, lanes=runner.lanes, build_seconds=runner.build_seconds,
+        program_note=runner.program.note or "", notes=notes, summary=summary)
+
