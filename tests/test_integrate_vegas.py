@@ -213,3 +213,10 @@ def test_cli_json_reports_the_iterations() -> None:
     assert d["sampler"] == "vegas" and len(d["vegas"]["iterations"]) == 4 and d["vegas"]["bins"] == 64
     assert d["vegas"]["chi2_dof"] is not None
     assert abs(d["estimate"] - (1 - math.exp(-1)) ** 2) <= Z * d["stderr"]
+
+
+def test_vegas_splits_a_time_budget_over_its_iterations() -> None:
+    f, exact = _gauss_peaks(3, 0.05)
+    r = mcocl.integrate(f, dim=3, samples=None, time_budget=0.5, sampler="vegas", seed=2, vegas_iterations=5)
+    assert r.stopped_by == "time" and len(r.vegas["iterations"]) >= 3
+    assert abs(r.estimate - exact) <= Z * r.stderr

@@ -254,6 +254,7 @@ def run_vegas(
     stopped_by, devices = "samples", [ctx.name]
     report_notes: list[str] = []
     partial: Iteration | None = None
+    sampled, sampled_seconds = 0, 0.0  # samples and seconds of this run's iterations: the rate
     while state["iteration"] < settings.iterations:
         k = state["iteration"]
         job = replace(job, grid_table=grid.device_table(), block_offset=state["offset"])
@@ -264,17 +265,22 @@ def run_vegas(
         if acc is None:
             acc = Accumulator(job.stat_shape, {**meta, "design": design.to_dict()})
         acc.meta["vegas_state"] = state
-        elapsed = time.perf_counter() - t0
-        if opts.time_budget is None:
-            budget = None
-        elif state["plan"] is None:  # time alone: this iteration's share of what is left
-            budget = max(opts.time_budget - elapsed, 0.0) * shares[k] / sum(shares[k:])
-        else:
-            budget = max(opts.time_budget - elapsed, 0.0)
+        budget = None if opts.time_budget is None else max(opts.time_budget - (time.perf_counter() - t0), 0.0)
         blocks = None if state["plan"] is None else state["plan"][k]
+        if state["plan"] is None:
+            # time alone: this iteration's share of the time left, in blocks at the rate measured so far
+            # (the first iteration, unmeasured, stops by its share of the time)
+            share = shares[k] / sum(shares[k:])
+            if sampled_seconds > 0:
+                blocks = max(int(sampled / sampled_seconds * budget * share / BLOCK_UNITS), 1)
+            else:
+                budget *= share
         halting = replace(opts.halting(blocks, None), time_budget=budget)
+        blocks_before = acc.blocks_done
         report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
         devices = report.devices or devices
+        sampled_seconds += report.seconds
+        sampled += BLOCK_UNITS * (acc.blocks_done - blocks_before)
         report_notes = list(getattr(report, "notes", []) or [])
         t = acc.totals
         est, var, _ = estimate_from_totals(t[:ROW], design, job.shift)
@@ -282,7 +288,7 @@ def run_vegas(
         if acc.blocks_done == 0:
             stopped_by = report.stopped_by
             break
-        if report.stopped_by == "interrupt" or (report.stopped_by == "time" and state["plan"] is not None):
+        if report.stopped_by == "interrupt" or (report.stopped_by == "time" and blocks is not None):
             # cut short inside a planned iteration: reported, and resumable from the checkpoint
             stopped_by, partial = report.stopped_by, now
             break
@@ -291,7 +297,7 @@ def run_vegas(
         state = {**state, "iteration": k + 1, "offset": state["offset"] + acc.blocks_done,
                  "grid": grid.to_list(), "done": [it.to_dict() for it in done], "shift": None}
         acc = Accumulator(job.stat_shape, {**meta, "design": design.to_dict(), "vegas_state": state})
-        if report.stopped_by == "time":
+        if state["plan"] is None:
             stopped_by = "time"
         if opts.target_error is not None and not now.warmup:
             v = combine([it for it in done if not it.warmup])[1]
