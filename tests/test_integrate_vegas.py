@@ -81,11 +81,13 @@ def test_vegas_stderr_is_calibrated_over_seeds() -> None:
 PEAKED_POLY = "x[0]*x[0]*x[0]*x[0]*x[0]*x[0]*x[0]*x[0]*x[1]*x[1]*x[1]*x[1] + x[2]*x[2]*x[2]"
 
 
-def test_vegas_results_do_not_depend_on_the_lane_width() -> None:
+def test_vegas_results_do_not_depend_on_the_lane_width_nor_sub_devices() -> None:
     runs = [mcocl.integrate(PEAKED_POLY, dim=3, samples=1 << 18, sampler="vegas", seed=7, lanes=lanes)
             for lanes in (1, 4, None)]
     assert len({(r.estimate, r.stderr) for r in runs}) == 1
     assert runs[0].vegas["iterations"] == runs[2].vegas["iterations"]
+    split = mcocl.integrate(PEAKED_POLY, dim=3, samples=1 << 18, sampler="vegas", seed=7, split=2)
+    assert (split.estimate, split.stderr) == (runs[2].estimate, runs[2].stderr)
 
 
 def test_vegas_block_rows_do_not_depend_on_the_launch_split() -> None:
