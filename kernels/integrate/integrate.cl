@@ -34,6 +34,9 @@
 #if SAMPLER == SAMPLER_VEGAS
 #include "sampling/vegas_grid.cl"
 #endif
+#ifndef VEGAS_STRATIFIED
+#define VEGAS_STRATIFIED 0 /* 1: vegas iterations in stratified designs (mcocl/integration/vegas.py) */
+#endif
 
 #define SAMPLER_INDEPENDENT 0
 #define SAMPLER_STRATIFIED 1
@@ -112,16 +115,24 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             const intv valid = (uintv)(k) + LANE_IOTA < (uintv)(nunits);
             const ulong ubase = design_base + unit0 + k;
             floatv tau[NCOORD];
-#if SAMPLER == SAMPLER_STRATIFIED
+#if SAMPLER == SAMPLER_STRATIFIED || VEGAS_STRATIFIED
             /* two samples (indices 2 unit, 2 unit + 1) in stratum `in_design` */
             doublev cell[DIM];
             stratum_cells(in_design, DIM, (double)STRATA_M, 1.0 / (double)STRATA_M, cell);
             floatv v2[2];
+#if VEGAS_STRATIFIED
+            uintv vbin[2][DIM];
+#endif
             for (int t = 0; t < 2; ++t) {
                 sample_uniforms(2ul * ubase + (ulong)t, 2u, seed, tau);
                 for (uint a = 0; a < NCOORD; ++a)
                     tau[a] = cell_to_unit(cell[a % DIM], tau[a], (double)STRATA_M, 1.0 / (double)STRATA_M);
+#if VEGAS_STRATIFIED
+                const floatv vjac = vegas_warp(tau, vegas_grid, vbin[t]);
+                v2[t] = unit_value(tau, tables) * vjac;
+#else
                 v2[t] = unit_value(tau, tables);
+#endif
             }
             const intv fin0 = lane_finite(v2[0]), fin1 = lane_finite(v2[1]);
             const intv ok = valid & fin0 & fin1;
@@ -133,6 +144,9 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             fabsv[acc] += lane_abs(a0) + lane_abs(a1);
             fpairs[acc] += okf;
             nvalid += 2u * to_uintv(mask_bit(ok));
+#if VEGAS_STRATIFIED
+            vegas_train_add_pair(train_row, vbin[0], a0, vbin[1], a1);
+#endif
 #else
             sample_uniforms(ubase, 1u, seed, tau);
 #if SAMPLER == SAMPLER_NROOKS

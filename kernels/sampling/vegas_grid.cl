@@ -16,7 +16,7 @@
  *
  * Training: for every valid sample, (f J)^2 is added to row[d * VEGAS_BINS + b_d]
  * for each d — per dimension, the sum over the samples in a bin of the
- * squared weighted value (Lepage 1978, eq. 11's m_i before smoothing).  A
+ * squared weighted value (Lepage 1978: the bin weights before smoothing).  A
  * work-item owns its row of one block and adds the samples in unit order,
  * lane by lane, so the sums do not depend on the lane width.
  */
@@ -50,22 +50,45 @@ MC_INLINE void vegas_train_clear(global double *row) {
     for (uint i = 0; i < VEGAS_ROW; ++i) row[i] = 0.0;
 }
 
-/* Add (v)^2 of every lane (v = f J, 0 in invalid lanes) to the bins its
- * coordinates fell in, lane 0 first. */
-MC_INLINE void vegas_train_add(global double *row, const uintv *bin, floatv v) {
+/* Add v^2 of every lane (v = f J, 0 in invalid lanes) to the bins its
+ * coordinates fell in: lane 0 first, and within a lane the `count` (1 or 2:
+ * the two samples of a stratum) values in order, so the order of the adds is
+ * the order of the samples whatever the lane width. */
+MC_INLINE void vegas_train_add_n(global double *row, int count, const uintv *bin0, floatv v0,
+                                 const uintv *bin1, floatv v1) {
 #if LANES == 1
-    const double w = (double)v * (double)v;
-    for (uint d = 0; d < DIM; ++d) row[d * VEGAS_BINS + bin[d]] += w;
+    const double w0 = (double)v0 * (double)v0;
+    for (uint d = 0; d < DIM; ++d) row[d * VEGAS_BINS + bin0[d]] += w0;
+    if (count > 1) {
+        const double w1 = (double)v1 * (double)v1;
+        for (uint d = 0; d < DIM; ++d) row[d * VEGAS_BINS + bin1[d]] += w1;
+    }
 #else
-    float vl[LANES];
-    uint bl[DIM][LANES];
-    MC_CAT(vstore, LANE_SUFFIX)(v, 0, vl);
-    for (uint d = 0; d < DIM; ++d) MC_CAT(vstore, LANE_SUFFIX)(bin[d], 0, bl[d]);
+    float vl[2][LANES];
+    uint bl[2][DIM][LANES];
+    MC_CAT(vstore, LANE_SUFFIX)(v0, 0, vl[0]);
+    MC_CAT(vstore, LANE_SUFFIX)(v1, 0, vl[1]);
+    for (uint d = 0; d < DIM; ++d) {
+        MC_CAT(vstore, LANE_SUFFIX)(bin0[d], 0, bl[0][d]);
+        MC_CAT(vstore, LANE_SUFFIX)(bin1[d], 0, bl[1][d]);
+    }
     for (int l = 0; l < LANES; ++l) {
-        const double w = (double)vl[l] * (double)vl[l];
-        for (uint d = 0; d < DIM; ++d) row[d * VEGAS_BINS + bl[d][l]] += w;
+        for (int t = 0; t < count; ++t) {
+            const double w = (double)vl[t][l] * (double)vl[t][l];
+            for (uint d = 0; d < DIM; ++d) row[d * VEGAS_BINS + bl[t][d][l]] += w;
+        }
     }
 #endif
+}
+
+/* One sample per lane. */
+MC_INLINE void vegas_train_add(global double *row, const uintv *bin, floatv v) {
+    vegas_train_add_n(row, 1, bin, v, bin, v);
+}
+
+/* The two samples of a stratum per lane. */
+MC_INLINE void vegas_train_add_pair(global double *row, const uintv *bin0, floatv v0, const uintv *bin1, floatv v1) {
+    vegas_train_add_n(row, 2, bin0, v0, bin1, v1);
 }
 
 #endif

@@ -293,8 +293,8 @@ def integrate(
     meta = req.meta()
     vegas_options = (vegas_iterations, vegas_bins, alpha)
     if isinstance(req.sampler, Vegas):
-        design = req.sampler.plan(req.dim, code.points, samples, design_samples)
-        outcome = run_vegas(code, req.dim, req.seed, design, opts, samples, VegasSettings.parse(*vegas_options),
+        req.sampler.plan(req.dim, code.points, samples, design_samples)  # checks what vegas cannot do
+        outcome = run_vegas(code, req.dim, req.seed, opts, samples, VegasSettings.parse(*vegas_options),
                             meta, f"integrate [{req.sampler.name}]")
         return _vegas_result(outcome, req)
     if any(v is not None for v in vegas_options):

@@ -334,25 +334,27 @@ def _int_root(target: float, dim: int) -> int:
 class Vegas(Independent):
     """VEGAS adaptive importance sampling (Lepage 1978), driven by :mod:`mcocl.integration.vegas`.
 
-    A run is ``vegas_iterations`` iterations (default 10).  Each draws
-    independent samples through the current grid (kernels/sampling/vegas_grid.cl),
-    is estimated as the independent sampler is (sample variance / n), and
-    trains the next grid.  The first iterations//4 are warm-up iterations with
-    half the samples of the others; they only adapt the grid.  The estimate is
-    the inverse-variance weighted mean of the other iterations, with chi^2/dof
-    across them reported.  A sample budget N is split so: each main iteration
-    gets N / (iterations - warmup/2) samples, rounded down to whole blocks of
-    4096 (at least one block each); a time budget alone is split in the same
-    proportions of seconds.  One point tuple per sample (no combined estimators).
+    A run is ``vegas_iterations`` iterations (default 10) of samples // iterations
+    samples each.  Each draws samples through the current grid
+    (kernels/sampling/vegas_grid.cl) and trains the next grid.  Where an
+    iteration holds m^dim strata with m >= 2 (m the largest with
+    2 m^dim <= its samples; whole designs), its uniforms are stratified as
+    ``stratified``'s are, two per stratum, and its variance is the stratum
+    pairs' one; else they are independent (sample variance / n).  The first
+    iterations // 4 are warm-up: they only adapt the grid.  The estimate is
+    the inverse-variance weighted mean of the others, with chi^2/dof across
+    them reported.  A time budget alone runs independent samples, each
+    iteration sized from the rate measured so far.  One point tuple per
+    sample (no combined estimators).
     """
 
     name = "vegas"
     kernel_code = 4
-    variance_method = ("inverse-variance weighted mean of the iterations after the warm-up, "
-                       "each: sample variance of f J / n")
+    variance_method = ("inverse-variance weighted mean of the iterations after the warm-up, each: "
+                       "stratum pairs (stratified iterations) or sample variance / n of f J")
 
     def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
-        """The independent sampler's unbounded design; one point tuple per sample."""
+        """The independent sampler's unbounded design (mcocl/integration/vegas.py plans the iterations)."""
         if points != 1:
             raise InputError("sampler='vegas' adapts one point per sample; it does not combine proposals= "
                              "(use a single proposal=, or another sampler)")
@@ -361,5 +363,11 @@ class Vegas(Independent):
         return Design(self.name, UNBOUNDED_UNITS, points, 0, 1)
 
     def extra_defines(self, design: Design) -> list[str]:
-        """The grid's bins per dimension (kernels/sampling/vegas_grid.cl)."""
-        return [f"-DVEGAS_BINS={design.bins}u"]
+        """The grid's bins per dimension and whether iterations are stratified (kernels/sampling/vegas_grid.cl)."""
+        return [f"-DVEGAS_BINS={design.bins}u", f"-DVEGAS_STRATIFIED={int(design.strata_m > 1)}"]
+
+    def statistics(self, t: np.ndarray, shift: float) -> tuple[float, float, float]:
+        """Stratified iterations (stratum pairs counted) as ``stratified``; else as ``independent``."""
+        if t[4] > 0:
+            return SAMPLER_SPECS["stratified"].statistics(t, shift)
+        return super().statistics(t, shift)

@@ -13,7 +13,7 @@ Iteration k draws the sample indices that follow those of iteration k-1 in
 the one sample stream of the seed.  The schedule (how many iterations, their
 sizes, the warm-up) is the :class:`mcocl.integration.samplers.Vegas`
 docstring's.  The result combines the iterations after the warm-up by inverse
-variance weights (Lepage 1978, eq. 6):
+variance weights (Lepage 1978):
 
     I = sum_k I_k / s_k^2 / sum_k 1 / s_k^2,   s^2 = 1 / sum_k 1 / s_k^2,
     chi^2 = sum_k (I_k - I)^2 / s_k^2 on (iterations - 1) degrees of freedom.
@@ -44,7 +44,7 @@ from ..engine.dispatch import execute
 from ..errors import InputError
 from ..run_options import RunOptions
 from .codegen import EstimatorCode
-from .design import Design
+from .design import MAX_AXIS_CELLS, UNBOUNDED_UNITS, Design
 from .job import ROW, IntegrationJob, IntegrationRunner, estimate_from_totals, reduce_blocks, rounding_floor
 from .vegas_grid import VegasGrid, check_bins
 
@@ -53,6 +53,7 @@ DEFAULT_BINS = 256
 DEFAULT_ALPHA = 1.5  # measured: 0.5 (the vegas package's) adapts too slowly for 10 iterations (stderr 2.5x-10x larger on peaks, chi2/dof 3)
 CHI2_Q_WARN = 0.01
 BLOCK_UNITS = 4096  # units_per_block of the Vegas spec
+MAX_STRATA = 1 << 31
 
 
 @dataclass(frozen=True)
@@ -84,16 +85,25 @@ class VegasSettings:
         """Iterations that only adapt the grid (not combined): iterations // 4."""
         return self.iterations // 4
 
-    def shares(self) -> list[float]:
-        """Relative size of each iteration: 1/2 for the warm-up ones, 1 for the others."""
-        return [0.5 if k < self.warmup else 1.0 for k in range(self.iterations)]
+    def plan(self, dim: int, samples: int | None) -> tuple[Design, list[int] | None]:
+        """The design of every iteration and its scheduler blocks per iteration (``None``: sized by time).
 
-    def block_plan(self, samples: int | None) -> list[int] | None:
-        """Blocks of each iteration for a sample budget (``None``: sized by time)."""
+        With a sample budget, each iteration gets samples // iterations: in
+        stratified designs of m^dim strata of the uniforms (before the grid),
+        two samples each, m the largest with 2 m^dim <= that (as many whole
+        designs as fit), when m >= 2; else in blocks of 4096 independent
+        samples.  A time budget alone runs independent samples.
+        """
         if samples is None:
-            return None
-        main = samples / sum(self.shares()) / BLOCK_UNITS
-        return [max(int(main * s), 1) for s in self.shares()]
+            return Design("vegas", UNBOUNDED_UNITS, 1, 0, 1, self.bins), None
+        per_iteration = max(samples // self.iterations, 1)
+        m = _strata_per_axis(per_iteration // 2, dim)
+        if m >= 2:
+            units = m**dim
+            design = Design("vegas", units, 1, m, -(-units // BLOCK_UNITS), self.bins)
+            return design, [max(per_iteration // (2 * units), 1)] * self.iterations
+        design = Design("vegas", UNBOUNDED_UNITS, 1, 0, 1, self.bins)
+        return design, [max(per_iteration // BLOCK_UNITS, 1)] * self.iterations
 
     def meta(self) -> dict[str, Any]:
         """What a checkpoint must match."""
@@ -136,9 +146,10 @@ class VegasRunner(IntegrationRunner):
 
     def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, cl.Event, np.ndarray, np.ndarray, int]:
         """Launch blocks ``first_block ..`` of this iteration and read back their training rows too."""
-        extra = self.sampler_args(nblocks)
-        ev, out = self._launch(first_block, nblocks, self.job.shift, extra)
-        train = np.empty((nblocks, self.row), dtype=np.float64)
+        g = self.job.design.granule_blocks
+        extra = self.sampler_args(nblocks * g)
+        ev, out = self._launch(first_block * g, nblocks * g, self.job.shift, extra)
+        train = np.empty((nblocks * g, self.row), dtype=np.float64)
         ev_train = cl.enqueue_copy(self.ctx.queue, train, extra[1], is_blocking=False)
         return ev, ev_train, out, train, nblocks
 
@@ -147,6 +158,9 @@ class VegasRunner(IntegrationRunner):
         ev, ev_train, out, train, nblocks = handle
         ev.wait()
         ev_train.wait()
+        g = self.job.design.granule_blocks
+        if g > 1:  # the kernel blocks of one design, added in order (as reduce_blocks does)
+            train = np.add.accumulate(train.reshape(nblocks, g, self.row), axis=1)[:, -1, :]
         return np.concatenate([reduce_blocks(out, nblocks, self.job.design), train], axis=1)
 
 
@@ -214,8 +228,18 @@ class VegasOutcome:
     summary: dict[str, Any] = field(default_factory=dict)
 
 
-def _fresh_state(settings: VegasSettings, dim: int, samples: int | None) -> dict[str, Any]:
-    return {"plan": settings.block_plan(samples), "iteration": 0, "offset": 0,
+def _strata_per_axis(strata: int, dim: int) -> int:
+    """The largest m with m^dim <= strata, at most MAX_AXIS_CELLS and m^dim <= MAX_STRATA."""
+    m = max(int(strata ** (1.0 / dim)), 1)
+    while (m + 1) ** dim <= strata:
+        m += 1
+    while m > 1 and (m**dim > strata or m**dim > MAX_STRATA):
+        m -= 1
+    return min(m, MAX_AXIS_CELLS)
+
+
+def _fresh_state(settings: VegasSettings, dim: int, plan: list[int] | None) -> dict[str, Any]:
+    return {"plan": plan, "iteration": 0, "offset": 0,
             "grid": VegasGrid.uniform(dim, settings.bins).to_list(), "done": [], "shift": None}
 
 
@@ -223,7 +247,6 @@ def run_vegas(
     code: EstimatorCode,
     dim: int,
     seed: int,
-    design: Design,
     opts: RunOptions,
     samples: int | None,
     settings: VegasSettings,
@@ -239,8 +262,8 @@ def run_vegas(
         design = Design(**acc.meta["design"])
         state = acc.meta["vegas_state"]
     else:
-        design = replace(design, bins=settings.bins)
-        state = _fresh_state(settings, dim, samples)
+        design, plan = settings.plan(dim, samples)
+        state = _fresh_state(settings, dim, plan)
         acc = None
     grid = VegasGrid.from_list(state["grid"])
     done = [Iteration(**d) for d in state["done"]]
@@ -249,8 +272,7 @@ def run_vegas(
                    grid_table=grid.device_table(), block_offset=state["offset"])
     runner = job.runner(ctx)
     callback, bar = opts.progress_reporter(progress_label, "samples", BLOCK_UNITS)
-    t0 = time.perf_counter()
-    shares = settings.shares()
+    t0: float | None = None  # the clock starts after the first pilot launch (its lazy compilation is build time)
     stopped_by, devices = "samples", [ctx.name]
     report_notes: list[str] = []
     partial: Iteration | None = None
@@ -260,7 +282,12 @@ def run_vegas(
         job = replace(job, grid_table=grid.device_table(), block_offset=state["offset"])
         runner.bind(job)
         if state["shift"] is None:
+            t_pilot = time.perf_counter()
             state["shift"] = runner.pilot_shift()
+            if sampled_seconds == 0:  # one block: the first, pessimistic (build-laden) measure of the rate
+                sampled, sampled_seconds = BLOCK_UNITS, time.perf_counter() - t_pilot
+        if t0 is None:
+            t0 = time.perf_counter()
         job.shift = state["shift"]
         if acc is None:
             acc = Accumulator(job.stat_shape, {**meta, "design": design.to_dict()})
@@ -269,12 +296,9 @@ def run_vegas(
         blocks = None if state["plan"] is None else state["plan"][k]
         if state["plan"] is None:
             # time alone: this iteration's share of the time left, in blocks at the rate measured so far
-            # (the first iteration, unmeasured, stops by its share of the time)
-            share = shares[k] / sum(shares[k:])
-            if sampled_seconds > 0:
-                blocks = max(int(sampled / sampled_seconds * budget * share / BLOCK_UNITS), 1)
-            else:
-                budget *= share
+            share = 1.0 / (settings.iterations - k)
+            rate = sampled / sampled_seconds if sampled_seconds > 0 else 0.0
+            blocks = max(int(rate * budget * share / BLOCK_UNITS), 1)
         halting = replace(opts.halting(blocks, None), time_budget=budget)
         blocks_before = acc.blocks_done
         report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
@@ -294,7 +318,7 @@ def run_vegas(
             break
         done.append(now)
         grid = grid.refine(t[ROW:], settings.alpha)
-        state = {**state, "iteration": k + 1, "offset": state["offset"] + acc.blocks_done,
+        state = {**state, "iteration": k + 1, "offset": state["offset"] + acc.blocks_done * design.granule_blocks,
                  "grid": grid.to_list(), "done": [it.to_dict() for it in done], "shift": None}
         acc = Accumulator(job.stat_shape, {**meta, "design": design.to_dict(), "vegas_state": state})
         if state["plan"] is None:
@@ -308,7 +332,7 @@ def run_vegas(
         bar.close()
     if opts.checkpoint and acc is not None:
         acc.save(opts.checkpoint)
-    seconds = time.perf_counter() - t0
+    seconds = time.perf_counter() - t0 if t0 is not None else 0.0
     return _outcome(done + ([partial] if partial else []), settings, grid, seconds, stopped_by, devices, runner, report_notes)
 
 
@@ -325,7 +349,7 @@ def _outcome(its: list[Iteration], settings: VegasSettings, grid: VegasGrid, sec
     notes = list(report_notes)
     notes.append(f"VEGAS: {len(main)} iterations combined after {len(its) - len(main)} warm-up, "
                  f"{settings.bins} bins per dimension, alpha {settings.alpha:g}, chi2/dof "
-                 + (f"{chi2 / dof:.3g} (Q = {q:.3g})" if dof > 0 else "n/a (one iteration)"))
+                 + (f"{chi2 / dof:.3g} (Q = {q:.3g})" if dof > 0 else "n/a (fewer than two iterations)"))
     if dof > 0 and q < CHI2_Q_WARN:
         notes.append(f"WARNING: the VEGAS iterations disagree (chi2/dof = {chi2 / dof:.3g}, Q = {q:.2g}): "
                      "the estimate and its error are not trustworthy; use more samples per iteration "

@@ -7,10 +7,10 @@ device applies the map (kernels/sampling/vegas_grid.cl) and returns, per
 dimension and bin, the sum of (f J)^2 over the samples that fell in the bin;
 :meth:`VegasGrid.refine` turns those sums into the next grid:
 
-1. smoothing (Lepage 1978, sec. 3): m_i <- (m_{i-1} + m_i + m_{i+1}) / 3, the
+1. smoothing (Lepage 1978): m_i <- (m_{i-1} + m_i + m_{i+1}) / 3, the
    end bins averaged with their one neighbour;
 2. normalisation r_i = m_i / sum m and damping with exponent alpha
-   (Lepage's eq. for m_i): r_i <- ((1 - r_i) / ln(1 / r_i))^alpha, which
+   (Lepage 1978): r_i <- ((1 - r_i) / ln(1 / r_i))^alpha, which
    compresses the range of r and so slows the adaptation and keeps it stable;
 3. a floor: every r_i at least FLOOR times the mean, so no region the
    training happened to miss loses its density (an estimator stays unbiased
