@@ -337,10 +337,11 @@ class Vegas(Independent):
     A run is ``vegas_iterations`` iterations (default 10) of samples // iterations
     samples each.  Each draws samples through the current grid
     (kernels/sampling/vegas_grid.cl) and trains the next grid.  Where an
-    iteration holds m^dim strata with m >= 2 (m the largest with
-    2 m^dim <= its samples; whole designs), its uniforms are stratified as
-    ``stratified``'s are, two per stratum, and its variance is the stratum
-    pairs' one; else they are independent (sample variance / n).  The first
+    iteration holds 8 designs of m^dim strata with m >= 2 (m the largest with
+    16 m^dim <= its samples; whole designs), its uniforms are stratified as
+    ``stratified``'s are, two per stratum, and its variance is the larger of
+    the stratum pairs' one and the spread of the design means; else they are
+    independent (sample variance / n).  The first
     iterations // 4 are warm-up: they only adapt the grid.  The estimate is
     the inverse-variance weighted mean of the others, with chi^2/dof across
     them reported.  A time budget alone runs independent samples, each
@@ -366,8 +367,17 @@ class Vegas(Independent):
         """The grid's bins per dimension and whether iterations are stratified (kernels/sampling/vegas_grid.cl)."""
         return [f"-DVEGAS_BINS={design.bins}u", f"-DVEGAS_STRATIFIED={int(design.strata_m > 1)}"]
 
+    def fill_rows(self, per_block: np.ndarray, rows: np.ndarray) -> None:
+        """Stratified iterations: columns 5-7 as ``nrooks`` (one design per row), for the spread of design means."""
+        if np.any(per_block[:, 4] > 0):
+            SAMPLER_SPECS["nrooks"].fill_rows(per_block, rows)
+
     def statistics(self, t: np.ndarray, shift: float) -> tuple[float, float, float]:
-        """Stratified iterations (stratum pairs counted) as ``stratified``; else as ``independent``."""
-        if t[4] > 0:
-            return SAMPLER_SPECS["stratified"].statistics(t, shift)
-        return super().statistics(t, shift)
+        """Independent iterations as ``independent``.  Stratified ones: the mean of all samples and the
+        larger of the stratum pairs' variance and the spread of the design means (both unbiased; the
+        pairs miss a jump whose stratum's two samples fall on one side, the spread does not)."""
+        if t[4] <= 0:
+            return super().statistics(t, shift)
+        est, pairs_var, n = SAMPLER_SPECS["stratified"].statistics(t, shift)
+        spread_var = SAMPLER_SPECS["nrooks"].statistics(t, shift)[1]
+        return est, max(pairs_var, spread_var) if math.isfinite(spread_var) else pairs_var, n

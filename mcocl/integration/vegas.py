@@ -54,6 +54,11 @@ DEFAULT_ALPHA = 1.5  # measured: 0.5 (the vegas package's) adapts too slowly for
 CHI2_Q_WARN = 0.01
 BLOCK_UNITS = 4096  # units_per_block of the Vegas spec
 MAX_STRATA = 1 << 31
+# Independent stratified designs per iteration: the spread of their means is
+# a second variance estimate, kept when larger than the stratum pairs' one
+# (which misses the variance of a jump that both samples of its stratum see
+# on the same side; mcocl.integration.samplers.Vegas.statistics).
+STRATIFIED_DESIGNS = 8
 
 
 @dataclass(frozen=True)
@@ -90,14 +95,14 @@ class VegasSettings:
 
         With a sample budget, each iteration gets samples // iterations: in
         stratified designs of m^dim strata of the uniforms (before the grid),
-        two samples each, m the largest with 2 m^dim <= that (as many whole
-        designs as fit), when m >= 2; else in blocks of 4096 independent
-        samples.  A time budget alone runs independent samples.
+        two samples each, m the largest with 2 m^dim STRATIFIED_DESIGNS <=
+        that (as many whole designs as fit, at least STRATIFIED_DESIGNS), when
+        m >= 2; else in blocks of 4096 independent samples.  A time budget alone runs independent samples.
         """
         if samples is None:
             return Design("vegas", UNBOUNDED_UNITS, 1, 0, 1, self.bins), None
         per_iteration = max(samples // self.iterations, 1)
-        m = _strata_per_axis(per_iteration // 2, dim)
+        m = _strata_per_axis(per_iteration // (2 * STRATIFIED_DESIGNS), dim)
         if m >= 2:
             units = m**dim
             design = Design("vegas", units, 1, m, -(-units // BLOCK_UNITS), self.bins)
