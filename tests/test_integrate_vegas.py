@@ -229,5 +229,5 @@ def test_cli_json_reports_the_iterations() -> None:
 def test_vegas_splits_a_time_budget_over_its_iterations() -> None:
     f, exact = _gauss_peaks(3, 0.05)
     r = mcocl.integrate(f, dim=3, samples=None, time_budget=0.5, sampler="vegas", seed=2, vegas_iterations=5)
-    assert r.stopped_by == "time" and len(r.vegas["iterations"]) >= 3
+    assert r.stopped_by == "time" and len(r.vegas["iterations"]) >= 2
     assert abs(r.estimate - exact) <= Z * r.stderr
