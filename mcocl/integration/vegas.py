@@ -276,7 +276,8 @@ def run_vegas(
     job = VegasJob(code, dim, design, seed, 1 << 62, opts.lanes, stat_shape=(ROW + dim * settings.bins,),
                    grid_table=grid.device_table(), block_offset=state["offset"])
     runner = job.runner(ctx)
-    callback, bar = opts.progress_reporter(progress_label, "samples", BLOCK_UNITS)
+    per_block = 2 * design.units if design.strata_m > 1 else BLOCK_UNITS  # samples per scheduler block
+    callback, bar = opts.progress_reporter(progress_label, "samples", per_block)
     t0: float | None = None  # the clock starts after the first pilot launch (its lazy compilation is build time)
     stopped_by, devices = "samples", [ctx.name]
     report_notes: list[str] = []
