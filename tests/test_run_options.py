@@ -118,7 +118,7 @@ def test_old_cli_flags_still_work_and_say_so(api, flag, capsys) -> None:
 
 
 def test_every_sampler_is_one_registered_spec() -> None:
-    assert list(SAMPLER_SPECS) == ["independent", "stratified", "nrooks", "sobol"]
+    assert list(SAMPLER_SPECS) == ["independent", "stratified", "nrooks", "sobol", "vegas"]
     for name, spec in SAMPLER_SPECS.items():
         assert isinstance(spec, SamplerSpec) and spec.name == name and sampler_spec(name) is spec
         design = spec.plan(dim=2, points=1, samples=10**6, design_samples=None)
@@ -126,7 +126,7 @@ def test_every_sampler_is_one_registered_spec() -> None:
         defines = spec.defines(design, 2, 1)
         assert f"-DSAMPLER={spec.kernel_code}" in defines
         assert len({s.kernel_code for s in SAMPLER_SPECS.values()}) == len(SAMPLER_SPECS)
-    with pytest.raises(InputError, match="unknown sampler 'halton'; choose one of independent, stratified, nrooks, sobol"):
+    with pytest.raises(InputError, match="unknown sampler 'halton'; choose one of independent, stratified, nrooks, sobol, vegas"):
         sampler_spec("halton")
     with pytest.raises(InputError, match="design points exist for stratified, nrooks, not 'independent'"):
         SAMPLER_SPECS["independent"].design_point_launch(8, 2)

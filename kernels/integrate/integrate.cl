@@ -3,7 +3,9 @@
  * One work-item computes one block: UNITS_PER_BLOCK consecutive units of one
  * design, LANES units at a time.  A *unit* is what the estimator averages:
  *   independent, nrooks,  one point tuple, value v = unit_value(tau);
- *   sobol
+ *   sobol                 (sobol: the uniforms come from the Sobol' back end)
+ *   vegas                 one point tuple through the VEGAS grid,
+ *                         v = unit_value(x) J (sampling/vegas_grid.cl);
  *   stratified            one stratum holding two point tuples (see
  *                         sampling/stratified.cl), values v1, v2.
  * A point tuple is POINTS points of DIM coordinates (POINTS > 1 for combined
@@ -28,6 +30,14 @@
 #include "samplers/sampler.cl"
 #include "sampling/stratified.cl"
 #include "sampling/nrooks.cl"
+
+#define SAMPLER_VEGAS 4
+#if SAMPLER == SAMPLER_VEGAS
+#include "sampling/vegas_grid.cl"
+#endif
+#ifndef VEGAS_STRATIFIED
+#define VEGAS_STRATIFIED 0 /* 1: vegas iterations in stratified designs (mcocl/integration/vegas.py) */
+#endif
 
 #define SAMPLER_INDEPENDENT 0
 #define SAMPLER_STRATIFIED 1
@@ -60,7 +70,12 @@ MC_INLINE void sample_uniforms(ulong base, uint stride, ulong seed, floatv *u) {
 #define FLUSH 4
 
 kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit, ulong seed, double shift,
-                             global const uint *tables, global double *out) {
+                             global const uint *tables, global double *out
+#if SAMPLER == SAMPLER_VEGAS
+                             /* the grid and one training row per block (sampling/vegas_grid.cl) */
+                             , global const float *vegas_grid, global double *vegas_train
+#endif
+                             ) {
     if (get_global_id(0) >= nblocks) return;
     const ulong b = first_block + get_global_id(0);
     const ulong design = b / (ulong)BLOCKS_PER_DESIGN;
@@ -78,6 +93,10 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
     uintv nvalid = (uintv)(0u), nbad = (uintv)(0u);
     const float fshift = (float)shift; /* the host rounds the shift to float */
 
+#if SAMPLER == SAMPLER_VEGAS
+    global double *train_row = vegas_train + get_global_id(0) * (ulong)VEGAS_ROW;
+    vegas_train_clear(train_row);
+#endif
 #if SAMPLER == SAMPLER_NROOKS
     perm_key keys[NCOORD];
     for (uint a = 0; a < NCOORD; ++a) keys[a] = nrooks_key(seed, design, a);
@@ -98,16 +117,24 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             const intv valid = (uintv)(k) + LANE_IOTA < (uintv)(nunits);
             const ulong ubase = design_base + unit0 + k;
             floatv tau[NCOORD];
-#if SAMPLER == SAMPLER_STRATIFIED
+#if SAMPLER == SAMPLER_STRATIFIED || VEGAS_STRATIFIED
             /* two samples (indices 2 unit, 2 unit + 1) in stratum `in_design` */
             doublev cell[DIM];
             stratum_cells(in_design, DIM, (double)STRATA_M, 1.0 / (double)STRATA_M, cell);
             floatv v2[2];
+#if VEGAS_STRATIFIED
+            uintv vbin[2][DIM];
+#endif
             for (int t = 0; t < 2; ++t) {
                 sample_uniforms(2ul * ubase + (ulong)t, 2u, seed, tau);
                 for (uint a = 0; a < NCOORD; ++a)
                     tau[a] = cell_to_unit(cell[a % DIM], tau[a], (double)STRATA_M, 1.0 / (double)STRATA_M);
+#if VEGAS_STRATIFIED
+                const floatv vjac = vegas_warp(tau, vegas_grid, vbin[t]);
+                v2[t] = unit_value(tau, tables) * vjac;
+#else
                 v2[t] = unit_value(tau, tables);
+#endif
             }
             const intv fin0 = lane_finite(v2[0]), fin1 = lane_finite(v2[1]);
             const intv ok = valid & fin0 & fin1;
@@ -119,6 +146,9 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             fabsv[acc] += lane_abs(a0) + lane_abs(a1);
             fpairs[acc] += okf;
             nvalid += 2u * to_uintv(mask_bit(ok));
+#if VEGAS_STRATIFIED
+            vegas_train_add_pair(train_row, vbin[0], a0, vbin[1], a1);
+#endif
 #else
             sample_uniforms(ubase, 1u, seed, tau);
 #if SAMPLER == SAMPLER_NROOKS
@@ -127,7 +157,13 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
                 tau[a] = cell_to_unit(to_doublev(cell), tau[a], (double)DESIGN_UNITS, 1.0 / (double)DESIGN_UNITS);
             }
 #endif
+#if SAMPLER == SAMPLER_VEGAS
+            uintv vbin[DIM];
+            const floatv vjac = vegas_warp(tau, vegas_grid, vbin);
+            const floatv v = unit_value(tau, tables) * vjac;
+#else
             const floatv v = unit_value(tau, tables);
+#endif
             const intv fin = lane_finite(v);
             const intv ok = valid & fin;
             nbad += to_uintv(mask_bit(valid & !fin));
@@ -136,6 +172,9 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             f2[acc] += d * d;
             fabsv[acc] += lane_abs(lane_select((floatv)(0.0f), v, ok));
             nvalid += to_uintv(mask_bit(ok));
+#if SAMPLER == SAMPLER_VEGAS
+            vegas_train_add(train_row, vbin, lane_select((floatv)(0.0f), v, ok));
+#endif
 #endif
         }
         if ((k0 / VLANES) % FLUSH == FLUSH - 1 || k0 + VLANES >= nunits) {

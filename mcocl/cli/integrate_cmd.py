@@ -103,6 +103,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per stratified / N-rooks design / Sobol' replicate")
     p.add_argument("--replicates", type=count, default=None,
                    help="independent scramblings of --sampler sobol (default 16)")
+    p.add_argument("--iterations", type=int, default=None, help="--sampler vegas: iterations (default 10)")
+    p.add_argument("--vegas-bins", type=int, default=None,
+                   help="--sampler vegas: grid bins per dimension, a power of two (default 256)")
+    p.add_argument("--alpha", type=float, default=None, help="--sampler vegas: damping of the grid refinement (default 1.5)")
     add_persistence_args(p, "job")
     add_device_args(p)
     p.set_defaults(func=run)
@@ -123,7 +127,8 @@ def run(args: argparse.Namespace) -> int:
             args.integrand, dim=args.dim, samples=samples, sampler=args.sampler,
             proposal=proposal, proposals=proposals, shares=args.shares, heuristic=args.heuristic, beta=args.beta,
             control=args.control, control_integral=args.control_integral, roulette=args.roulette,
-            design_samples=args.design_samples, replicates=args.replicates, **shared,
+            design_samples=args.design_samples, replicates=args.replicates,
+            vegas_iterations=args.iterations, vegas_bins=args.vegas_bins, alpha=args.alpha, **shared,
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteWarning, DeviceFailureWarning)):

@@ -22,7 +22,8 @@ from .codegen import HEURISTICS, generate
 from .design import UNBOUNDED_UNITS, design_from_checkpoint
 from .job import ROW, IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
-from .samplers import SAMPLER_SPECS, SamplerSpec, sampler_spec, spec_of
+from .samplers import SAMPLER_SPECS, SamplerSpec, Vegas, sampler_spec, spec_of
+from .vegas import VegasOutcome, VegasSettings, run_vegas
 
 # The registered sampler names, for --help and error messages (mcocl/integration/samplers.py).
 SAMPLERS = tuple(SAMPLER_SPECS)
@@ -55,6 +56,9 @@ class IntegrationResult:
             rounding of the integrand (2^-24 times the mean |value|), added in
             quadrature; when it dominates, more samples no longer help.
         notes: anything the user should know (scalar fallback, rounding).
+        vegas: for ``sampler="vegas"``: the iterations (estimate, variance,
+            samples, warm-up or not), ``chi2_dof`` and its tail probability
+            ``q``, ``bins``, ``alpha``, ``warmup``; else None.
     """
 
     estimate: float
@@ -75,6 +79,7 @@ class IntegrationResult:
     build_seconds: float = 0.0
     rounding_floor: float = 0.0
     notes: list[str] = field(default_factory=list)
+    vegas: dict[str, Any] | None = None
 
     @property
     def samples_per_second(self) -> float:
@@ -226,6 +231,9 @@ def integrate(
     resume: str | None = None,
     progress: bool | Callable[[Progress], None] = False,
     target_stderr: float | None = None,
+    vegas_iterations: int | None = None,
+    vegas_bins: int | None = None,
+    alpha: float | None = None,
 ) -> IntegrationResult:
     """Estimate the integral of ``integrand`` over the unit cube [0, 1]^dim.
 
@@ -262,6 +270,10 @@ def integrate(
         resume: continue from a checkpoint; the job must match.
         progress: True for a progress bar on stderr, or a callback.
         target_stderr: deprecated name of ``target_error``.
+        vegas_iterations, vegas_bins, alpha: ``sampler="vegas"`` only: iterations
+            (default 10), grid bins per dimension (a power of two, default 256)
+            and the damping exponent of the grid refinement (default 1.5); see
+            :class:`mcocl.integration.samplers.Vegas` for how the budget is split.
 
     The shared options (seed, time_budget, target_error, placement, lanes,
     checkpoint, resume, progress) are checked by :class:`mcocl.run_options.RunOptions`.
@@ -291,6 +303,14 @@ def integrate(
     code = generate(users, req.dim, req.proposals, req.shares, req.heuristic, req.beta, control_fn, req.roulette)
 
     meta = req.meta()
+    vegas_options = (vegas_iterations, vegas_bins, alpha)
+    if isinstance(req.sampler, Vegas):
+        req.sampler.plan(req.dim, code.points, samples, design_samples)  # checks what vegas cannot do
+        outcome = run_vegas(code, req.dim, req.seed, opts, samples, VegasSettings.parse(*vegas_options),
+                            meta, f"integrate [{req.sampler.name}]")
+        return _vegas_result(outcome, req)
+    if any(v is not None for v in vegas_options):
+        raise InputError("vegas_iterations, vegas_bins and alpha apply only to sampler='vegas'")
     acc: Accumulator | None = None
     if opts.resume is not None:
         acc = Accumulator.load(opts.resume, expect_meta=meta)
@@ -372,4 +392,24 @@ def integrate(
             NonFiniteWarning,
             stacklevel=2,
         )
+    return result
+
+
+def _vegas_result(out: VegasOutcome, req: _Request) -> IntegrationResult:
+    """The :class:`IntegrationResult` of a VEGAS run (mcocl/integration/vegas.py)."""
+    var = out.variance
+    result = IntegrationResult(
+        estimate=out.estimate + (req.control_integral if req.control else 0.0),
+        stderr=math.sqrt(var) if var >= 0 else math.nan,
+        variance=var * out.samples if math.isfinite(var) else math.nan,
+        samples=out.samples, seconds=out.seconds, device=", ".join(out.devices), sampler=req.sampler.name,
+        seed=req.seed, nonfinite=out.nonfinite, dim=req.dim, estimator=req.describe(),
+        variance_method=req.sampler.variance_method, lanes=out.lanes, designs=0,
+        stopped_by={"blocks": "samples", "target": "stderr"}.get(out.stopped_by, out.stopped_by),
+        build_seconds=out.build_seconds, rounding_floor=out.floor,
+        notes=([out.program_note] if out.program_note else []) + out.notes, vegas=out.summary,
+    )
+    if out.nonfinite:
+        warnings.warn(f"{out.nonfinite} of {out.samples} samples were NaN or infinite and were left out of the estimate",
+                      NonFiniteWarning, stacklevel=3)
     return result

@@ -38,6 +38,7 @@ class Design:
         granule_blocks: kernel blocks per scheduler block (a design, or 1).
         replicates: designs a sample budget runs (sobol: its R independent
             scramblings), else 0 (the budget decides, see ``granules``).
+        bins: bins per dimension of the VEGAS grid (vegas), else 0.
     """
 
     sampler: str
@@ -46,6 +47,7 @@ class Design:
     strata_m: int
     granule_blocks: int
     replicates: int = 0
+    bins: int = 0
 
     def to_dict(self) -> dict:
         """JSON form (saved in checkpoints)."""

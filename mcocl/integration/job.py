@@ -99,14 +99,19 @@ class IntegrationRunner:
         """The lane width actually built."""
         return self.program.lanes
 
-    def _launch(self, first_kblock: int, nkblocks: int, shift: float) -> tuple[cl.Event, np.ndarray]:
+    def sampler_args(self, nkblocks: int) -> tuple[cl.Buffer, ...]:
+        """Kernel arguments after ``out`` that only the sampler's branch of the kernel takes (none by default)."""
+        return ()
+
+    def _launch(self, first_kblock: int, nkblocks: int, shift: float,
+                extra: tuple[cl.Buffer, ...] | None = None) -> tuple[cl.Event, np.ndarray]:
         out = np.empty((nkblocks, KERNEL_STATS), dtype=np.float64)
         buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
         gsize, lsize = self.ctx.work_size(nkblocks)
         self.kernel(
             self.ctx.queue, gsize, lsize,
             np.uint64(first_kblock), np.uint64(nkblocks), np.uint64(self.job.unit_limit), np.uint64(self.job.seed),
-            np.float64(shift), self.tables, buf,
+            np.float64(shift), self.tables, buf, *(self.sampler_args(nkblocks) if extra is None else extra),
         )
         ev = cl.enqueue_copy(self.ctx.queue, out, buf, is_blocking=False)
         return ev, out

@@ -433,3 +433,56 @@ def _int_root(target: float, dim: int) -> int:
     while m > 1 and m**dim > target:
         m -= 1
     return m
+
+
+@register
+class Vegas(Independent):
+    """VEGAS adaptive importance sampling (Lepage 1978), driven by :mod:`mcocl.integration.vegas`.
+
+    A run is ``vegas_iterations`` iterations (default 10) of samples // iterations
+    samples each.  Each draws samples through the current grid
+    (kernels/sampling/vegas_grid.cl) and trains the next grid.  Where an
+    iteration holds 8 designs of m^dim strata with m >= 2 (m the largest with
+    16 m^dim <= its samples; whole designs), its uniforms are stratified as
+    ``stratified``'s are, two per stratum, and its variance is the larger of
+    the stratum pairs' one and the spread of the design means; else they are
+    independent (sample variance / n).  The first
+    iterations // 4 are warm-up: they only adapt the grid.  The estimate is
+    the inverse-variance weighted mean of the others, with chi^2/dof across
+    them reported.  A time budget alone runs independent samples, each
+    iteration sized from the rate measured so far.  One point tuple per
+    sample (no combined estimators).
+    """
+
+    name = "vegas"
+    kernel_code = 4
+    variance_method = ("inverse-variance weighted mean of the iterations after the warm-up, each: "
+                       "stratum pairs (stratified iterations) or sample variance / n of f J")
+
+    def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
+        """The independent sampler's unbounded design (mcocl/integration/vegas.py plans the iterations)."""
+        if points != 1:
+            raise InputError("sampler='vegas' adapts one point per sample; it does not combine proposals= "
+                             "(use a single proposal=, or another sampler)")
+        if design_samples is not None:
+            raise InputError("design_samples does not apply to sampler='vegas' (use samples= and vegas_iterations=)")
+        return Design(self.name, UNBOUNDED_UNITS, points, 0, 1)
+
+    def extra_defines(self, design: Design) -> list[str]:
+        """The grid's bins per dimension and whether iterations are stratified (kernels/sampling/vegas_grid.cl)."""
+        return [f"-DVEGAS_BINS={design.bins}u", f"-DVEGAS_STRATIFIED={int(design.strata_m > 1)}"]
+
+    def fill_rows(self, per_block: np.ndarray, rows: np.ndarray) -> None:
+        """Stratified iterations: columns 5-7 as ``nrooks`` (one design per row), for the spread of design means."""
+        if np.any(per_block[:, 4] > 0):
+            SAMPLER_SPECS["nrooks"].fill_rows(per_block, rows)
+
+    def statistics(self, t: np.ndarray, shift: float) -> tuple[float, float, float]:
+        """Independent iterations as ``independent``.  Stratified ones: the mean of all samples and the
+        larger of the stratum pairs' variance and the spread of the design means (both unbiased; the
+        pairs miss a jump whose stratum's two samples fall on one side, the spread does not)."""
+        if t[4] <= 0:
+            return super().statistics(t, shift)
+        est, pairs_var, n = SAMPLER_SPECS["stratified"].statistics(t, shift)
+        spread_var = SAMPLER_SPECS["nrooks"].statistics(t, shift)[1]
+        return est, max(pairs_var, spread_var) if math.isfinite(spread_var) else pairs_var, n
