@@ -13,6 +13,14 @@
  * Conventions (Mitsuba 3): directions in the local frame of the surface's
  * front normal, both pointing away from the surface; eval returns f cos(theta_o)
  * and the solid-angle pdf of sampling wo; sample returns f cos / pdf.
+ *
+ * Transport modes (Veach's thesis §5.2; pbrt-v4's TransportMode, Mitsuba 3's
+ * TransportMode): camera paths carry radiance (TRANSPORT_RADIANCE), light
+ * paths importance (TRANSPORT_IMPORTANCE: wi points to the previous vertex of
+ * the light path, wo towards the camera side).  Every BSDF here is symmetric
+ * except the dielectric's refraction, whose (eta_i / eta_t)^2 radiance scaling
+ * the adjoint leaves out; eval is therefore the same in both modes, and only
+ * bsdf_sample takes the mode.
  */
 #ifndef MCOCL_BSDF_CL
 #define MCOCL_BSDF_CL
@@ -26,6 +34,9 @@
 #include "render/bsdf_roughconductor.cl"
 #include "render/bsdf_dielectric.cl"
 
+
+#define TRANSPORT_RADIANCE 0
+#define TRANSPORT_IMPORTANCE 1
 
 typedef struct {
     intv kind;
@@ -81,8 +92,9 @@ typedef struct {
     intv delta;    /* the sampled lobe is a Dirac delta */
 } bsdf_sample_v;
 
-/* Sample wo given wi; u_lobe picks a lobe (dielectric), (u1, u2) the direction. */
-MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe, floatv u1, floatv u2) {
+/* Sample wo given wi; u_lobe picks a lobe (dielectric), (u1, u2) the direction;
+ * mode: TRANSPORT_RADIANCE or TRANSPORT_IMPORTANCE. */
+MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe, floatv u1, floatv u2, int mode) {
     bsdf_sample_v s;
     s.wo = v3(0.0f, 0.0f, 1.0f);
     s.weight = v3s(0.0f);
@@ -120,7 +132,7 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
     if (lane_any(is_g)) {
         vec3v wo;
         floatv p, e;
-        vec3v w = dielectric_sample(m->color, m->eta, wi, u_lobe, &wo, &p, &e);
+        vec3v w = dielectric_sample(m->color, m->eta, wi, u_lobe, mode == TRANSPORT_IMPORTANCE, &wo, &p, &e);
         s.wo = v3_select(s.wo, wo, is_g);
         s.weight = v3_select(s.weight, w, is_g);
         s.pdf = lane_select(s.pdf, p, is_g);

@@ -303,7 +303,7 @@ kernel void render_blocks(
             }
 #endif
             /* -- BSDF sampling continues the path -- */
-            bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2]);
+            bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2], TRANSPORT_RADIANCE);
             vec3v wo = frame_to_world(fr, bs.wo);
             thr = v3_select(thr, v3_mul(thr, bs.weight), cont);
             eta = lane_select(eta, eta * bs.eta, cont);

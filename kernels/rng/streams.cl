@@ -34,6 +34,13 @@
 #define RENDER_DIM_BSDF(depth) (4u + 8u * (depth))  /* lobe, direction 2D, roulette */
 #define RENDER_DIM_LIGHT(depth) (8u + 8u * (depth)) /* environment or area, which light, position 2D */
 
+/* ---- light tracing (render/lt.cl) ---- */
+/* Light path i (i = s * W * H + k for the k-th path of "sample" s, as the
+ * camera samples of path tracing are counted) has index i.  Dimensions: */
+#define RNG_STREAM_LIGHT_TRACE 11u
+#define LT_DIM_EMIT 0u                        /* environment or area, which light, position 2D, direction 2D */
+#define LT_DIM_BSDF(depth) (8u + 4u * (depth)) /* lobe, direction 2D, roulette at light vertex `depth` */
+
 /* ---- sampling tests (render/bsdf_sample_test.cl, render/light_sample_test.cl) ---- */
 #define RNG_STREAM_BSDF_TEST 9u
 #define RNG_STREAM_LIGHT_TEST 10u

