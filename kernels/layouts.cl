@@ -12,10 +12,11 @@
 #define MAT_ROUGHCONDUCTOR 2
 #define MAT_DIELECTRIC 3
 
-/* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl). */
+/* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl). */
 #define INTEGRATOR_PATH 0
 #define INTEGRATOR_NEE 1
 #define INTEGRATOR_MIS 2
+#define INTEGRATOR_LT 3
 
 /* LightShape: ``light_record.shape``: how light sampling places a point on the emitter (kernels/render/lights.cl). */
 #define LIGHT_TRIANGLE 0

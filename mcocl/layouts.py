@@ -53,11 +53,12 @@ class MaterialKind(enum.IntEnum):
 
 
 class Integrator(enum.IntEnum):
-    """The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl)."""
+    """The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl)."""
 
     PATH = 0
     NEE = 1
     MIS = 2
+    LT = 3
 
 
 class LightShape(enum.IntEnum):

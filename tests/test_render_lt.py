@@ -15,18 +15,25 @@
 from __future__ import annotations
 
 import math
+import os
+import signal
 from pathlib import Path
 
 import numpy as np
 import pyopencl as cl
 import pytest
 from chi2 import Chi2Family
+from scipy import stats
 
 from mcocl import runtime
+from mcocl.accumulate import Accumulator
+from mcocl.render.api import render
 from mcocl.render.compiled import compile_scene
 from mcocl.render.device_scene import scene_params, scene_tables
 from mcocl.render.emitter_choice import bounding_sphere
+from mcocl.render.job import RenderJob
 from mcocl.render.scene import parse_scene
+from mcocl.render.scene_file import load_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 N = 1 << 17
@@ -227,3 +234,144 @@ def test_camera_importance_and_raster_positions(emit) -> None:
     x = 4 * math.pi * c["importance"] * np.maximum(c["cos"], 0)
     assert np.all(c["importance"][~c["valid"]] == 0)
     assert abs(x.mean() - 1) <= 5 * x.std() / math.sqrt(len(x)), (x.mean(), x.std() / math.sqrt(len(x)))
+
+
+# ---- the renders -----------------------------------------------------------
+
+RHO = np.array([0.8, 0.5, 0.2])
+LE = np.array([0.2, 0.5, 0.8])
+
+
+def furnace_closed_form(max_depth: int) -> np.ndarray:
+    """L = Le (1 - rho^D) / (1 - rho), Le / (1 - rho) unbounded (scenes/furnace.json)."""
+    return LE / (1 - RHO) if max_depth < 0 else LE * (1 - RHO**max_depth) / (1 - RHO)
+
+
+def downscaled(name: str, size: int):
+    sc = load_scene(SCENES / name)
+    sc.camera.width = sc.camera.height = size
+    return compile_scene(sc)
+
+
+@pytest.mark.parametrize("scene", ["furnace.json", "furnace_sphere.json"])
+@pytest.mark.parametrize("max_depth", [-1, 0, 1, 3])
+def test_furnace_closed_form(scene: str, max_depth: int) -> None:
+    r = render(SCENES / scene, spp=32, integrator="lt", max_depth=max_depth, seed=11)
+    assert r.spp == 32 and r.nonfinite == 0 and r.integrator == "lt"
+    assert np.all(r.count == 16)  # sixteen batches of 2 light paths per pixel
+    m = r.mean.reshape(-1, 3).astype(np.float64)
+    v = r.variance.reshape(-1, 3).astype(np.float64)
+    est, se = m.mean(axis=0), np.sqrt(v.sum(axis=0)) / len(m)
+    want = furnace_closed_form(max_depth)
+    assert np.all(np.abs(est - want) <= 5 * se + 1e-7), (est, want, se)
+
+
+def test_reported_stderr_matches_the_spread_over_seeds() -> None:
+    """The batch variance is honest: per pixel, the spread of 12 seeds' means against the reported variance."""
+    runs = [render(SCENES / "furnace.json", spp=16, integrator="lt", max_depth=3, seed=s) for s in range(300, 312)]
+    means = np.stack([r.mean for r in runs]).astype(np.float64)
+    reported = np.stack([r.variance for r in runs]).astype(np.float64).mean(axis=0)
+    ratio = means.var(axis=0, ddof=1).sum() / reported.sum()
+    dof = 11 * means[0].size
+    # the reported variances are themselves estimates from 16 batches: allow 15 % beyond the chi-square range
+    assert 0.85 * stats.chi2.ppf(1e-4, dof) / dof < ratio < 1.15 * stats.chi2.ppf(1 - 1e-4, dof) / dof, ratio
+
+
+def test_lt_agrees_with_mis_on_cornell() -> None:
+    """8 x 8-pixel blocks of a 32 x 32 Cornell box: z-tests of every block and channel, Sidak-corrected.
+
+    A block's variance is the sum of its pixels' reported variances over 64^2: exact for mis (pixels are
+    independent), and for lt up to the covariance of pixels that one light path splats into (a few splats
+    per path among 1024 pixels)."""
+    cs = downscaled("cornell.json", 32)
+    a = render(cs, spp=1024, integrator="mis", seed=1)
+    # 64 batches: a variance estimate good enough for per-pixel z-scores too
+    b = render(cs, spp=512, integrator="lt", seed=2, spp_per_block=8)
+    assert b.nonfinite == 0
+
+    def blocks(x: np.ndarray) -> np.ndarray:
+        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
+
+    def block_var(x: np.ndarray) -> np.ndarray:
+        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).sum(axis=(1, 3)) / 64**2
+
+    z = (blocks(a.mean) - blocks(b.mean)) / np.sqrt(block_var(a.variance) + block_var(b.variance))
+    p = 2 * stats.norm.sf(np.abs(z))
+    level = 1 - (1 - 1e-3) ** (1 / z.size)
+    assert p.min() > level, f"largest |z| {np.abs(z).max():.2f} (level {level:.2e})"
+    # and per pixel the lt image has no wild outliers either: |z| below the Sidak level for 3072 tests
+    zp = (a.mean - b.mean) / np.sqrt(a.variance + b.variance)
+    assert np.all(np.isfinite(zp))
+    assert 2 * stats.norm.sf(np.abs(zp).max()) > 1 - (1 - 1e-3) ** (1 / zp.size), np.abs(zp).max()
+
+
+def test_image_does_not_depend_on_how_blocks_are_launched() -> None:
+    cs = downscaled("cornell.json", 16)
+    job = RenderJob(scene_tables(cs), cs.width, cs.height, "lt", cs.max_depth, cs.rr_depth, seed=42,
+                    spp_per_block=2, spp_limit=15, bounding_sphere=(0.0, 0.0, 0.0, 1.0))
+    runner = job.runner(runtime.device_context())
+    runner.per_launch = 3  # several launches share the scratch images inside one chunk too
+    films = []
+    for chunks in ([1] * 8, [3, 5], [8], [2, 1, 4, 1]):
+        acc = Accumulator(job.stat_shape)
+        first = 0
+        for n in chunks:
+            acc.add(first, runner.collect(runner.enqueue(first, n)))
+            first += n
+        films.append(acc.totals)
+    for f in films[1:]:
+        np.testing.assert_array_equal(f, films[0])
+    assert films[0][..., 6].min() == 8  # eight batches, the last one partial
+    assert films[0][..., 0].max() > 0
+
+
+def test_sub_devices_give_the_same_image() -> None:
+    cs = downscaled("cornell.json", 12)
+    one = render(cs, spp=8, seed=4, integrator="lt", spp_per_block=2)
+    two = render(cs, spp=8, seed=4, integrator="lt", spp_per_block=2, split=2)
+    np.testing.assert_array_equal(one.mean, two.mean)
+    np.testing.assert_array_equal(one.variance, two.variance)
+
+
+def test_resumed_render_is_identical(tmp_path: Path) -> None:
+    cs = downscaled("cornell.json", 16)
+    whole = render(cs, spp=12, seed=7, integrator="lt", spp_per_block=2)
+    ckpt = tmp_path / "run.ckpt"
+    calls = []
+
+    def interrupt_after_first_fold(p) -> None:
+        calls.append(p.blocks_done)
+        if len(calls) == 1:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    part = render(cs, spp=12, seed=7, integrator="lt", spp_per_block=2, checkpoint=ckpt,
+                  progress=interrupt_after_first_fold)
+    assert part.stopped_by == "interrupt" and 0 < part.spp < 12
+    rest = render(cs, spp=12, seed=7, integrator="lt", resume=ckpt)
+    assert rest.spp == 12 and rest.spp_this_run == 12 - part.spp
+    np.testing.assert_array_equal(rest.mean, whole.mean)
+    np.testing.assert_array_equal(rest.variance, whole.variance)
+
+
+def test_noise_halting_uses_the_batch_variance() -> None:
+    r = render(SCENES / "furnace.json", target_error=0.05, integrator="lt", max_depth=3, seed=3, spp_per_block=1)
+    assert r.stopped_by == "noise" and r.relative_error <= 0.05
+    assert r.count.min() >= 2
+
+
+def test_specular_surfaces_seen_directly_are_black() -> None:
+    """What light tracing cannot see: a mirror in front of the pinhole (documented in kernels/render/lt.cl)."""
+    scene = {
+        "camera": {"origin": [0, 0, 3], "target": [0, 0, 0], "fov": 20, "width": 8, "height": 8},
+        "materials": {"mirror": {"type": "conductor"}, "white": {"type": "diffuse", "reflectance": 0.8}},
+        "shapes": [
+            {"name": "mirror", "type": "rectangle", "material": "mirror", "transform": [{"scale": [3, 3, 1]}]},
+            {"name": "lamp", "type": "sphere", "material": "white", "center": [0, 0, 3.5], "radius": 0.3,
+             "emitter": {"type": "area", "radiance": [1, 1, 1]}},
+        ],
+    }
+    cs = compile_scene(parse_scene(scene))
+    path = render(cs, spp=64, integrator="path", seed=1)
+    lt = render(cs, spp=64, integrator="lt", seed=1)
+    assert path.mean.max() > 0.1  # path tracing sees the lamp in the mirror
+    assert lt.mean.max() == 0.0
