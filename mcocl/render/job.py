@@ -123,7 +123,7 @@ class RenderJob:
 
     def runner(self, ctx: runtime.DeviceContext) -> RenderRunner | SplatRunner:
         """Build for ``ctx`` (see :class:`RenderRunner` and :class:`~mcocl.render.splat_film.SplatRunner`)."""
-        return SplatRunner(self, ctx) if self.splats else RenderRunner(self, ctx)
+        return SplatRunner(self, ctx, KERNEL_BUFFERS) if self.splats else RenderRunner(self, ctx)
 
 
 class RenderRunner:

@@ -82,14 +82,15 @@ def splat_spp_per_block(default: int, spp: int | None) -> int:
 class SplatRunner:
     """A splatting render job (``job.integrator == "lt"``) built on one device.
 
+    ``buffer_names``: the scene tables the kernel takes after its
+    ``render_params``, in order (mcocl.render.job.KERNEL_BUFFERS).
+
     ``enqueue`` runs ``lt_trace`` and ``lt_fold_groups`` over the blocks asked
     for, in launches of at most :func:`blocks_per_launch` blocks that share one
     scratch buffer (the queue is in order), and copies the batches back.
     """
 
-    def __init__(self, job, ctx: runtime.DeviceContext) -> None:
-        from .job import KERNEL_BUFFERS
-
+    def __init__(self, job, ctx: runtime.DeviceContext, buffer_names: tuple[str, ...]) -> None:
         self.job = job
         self.ctx = ctx
         self.lanes = int(job.lanes) if job.lanes is not None else ctx.lanes
@@ -101,11 +102,11 @@ class SplatRunner:
         self.build_seconds = time.perf_counter() - t0
         self.trace = runtime.kernel(self.program, "lt_trace")
         self.fold = runtime.kernel(self.program, "lt_fold_groups")
-        self.buffer_names = KERNEL_BUFFERS
+        self.buffer_names = buffer_names
         mf = cl.mem_flags
         self.buffers = {
             name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(job.tables[name]))
-            for name in KERNEL_BUFFERS
+            for name in buffer_names
         }
         self.per_launch = blocks_per_launch(job.width, job.height, job.ntiles)
         item = np.dtype(self.film_dtype).itemsize
