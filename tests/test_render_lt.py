@@ -62,14 +62,14 @@ def _emit_scene() -> dict:
 
 
 class AdjointKernels:
-    """The test kernels of emit_sample_test.cl for one compiled scene."""
+    """The test kernels of adjoint_test.cl for one compiled scene."""
 
     def __init__(self, scene: dict, lanes: int = 8) -> None:
         self.cs = compile_scene(parse_scene(scene))
         self.t = scene_tables(self.cs)
         self.ctx = runtime.device_context()
         self.lanes = lanes
-        src = runtime.compose(["render/emit_sample_test.cl"])
+        src = runtime.compose(["render/adjoint_test.cl"])
         self.prg = runtime.build(self.ctx, src, [f"-DLANES={lanes}"], what="adjoint test kernels")
         mf = cl.mem_flags
         self.buf = {k: cl.Buffer(self.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.t[k])
@@ -234,6 +234,34 @@ def test_camera_importance_and_raster_positions(emit) -> None:
     x = 4 * math.pi * c["importance"] * np.maximum(c["cos"], 0)
     assert np.all(c["importance"][~c["valid"]] == 0)
     assert abs(x.mean() - 1) <= 5 * x.std() / math.sqrt(len(x)), (x.mean(), x.std() / math.sqrt(len(x)))
+
+
+@pytest.mark.parametrize("kind", [0, 1, 2, 3])
+def test_transport_modes_differ_only_by_the_dielectrics_refraction_scale(emit, kind: int) -> None:
+    """Same uniforms, both modes: the same directions; the same weights except refraction, where radiance
+    carries (eta_i / eta_t)^2 and importance does not (Veach's thesis §5.2)."""
+    k, _ = emit
+    eta = 1.5
+    mat = np.array([kind, 0.9, 0.7, 0.5, 0.3, eta, 1.0, 0.0], np.float32)
+    wi = np.array([0.3, 0.2, math.sqrt(1 - 0.13)], np.float32)
+    n = 4096
+    mf = cl.mem_flags
+    bm = cl.Buffer(k.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=mat)
+    out = np.empty((12, n), np.float32)
+    bo = cl.Buffer(k.ctx.context, mf.WRITE_ONLY, out.nbytes)
+    g, lsz = k.ctx.work_size(n // k.lanes)
+    runtime.kernel(k.prg, "bsdf_sample_modes")(k.ctx.queue, g, lsz, bm, np.array([*wi, 0], np.float32),
+                                               np.uint64(9), np.uint32(n), bo)
+    cl.enqueue_copy(k.ctx.queue, out, bo)
+    wo_r, w_r, wo_i, w_i = out[0:3].T, out[3:6].T, out[6:9].T, out[9:12].T
+    np.testing.assert_array_equal(wo_r, wo_i)
+    refract = wo_r[:, 2] < 0
+    if kind == 3:  # MaterialKind.DIELECTRIC, entering the glass from outside
+        assert 0 < refract.sum() < n
+        np.testing.assert_allclose(w_r[refract], w_i[refract] / eta**2, rtol=1e-6)
+        np.testing.assert_array_equal(w_r[~refract], w_i[~refract])
+    else:  # symmetric BSDFs (a rough conductor's samples below the horizon have weight 0 in both modes)
+        np.testing.assert_array_equal(w_r, w_i)
 
 
 # ---- the renders -----------------------------------------------------------

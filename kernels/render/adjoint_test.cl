@@ -1,11 +1,13 @@
-/* emit_sample_test.cl — the adjoint queries exposed to the tests: light rays
- * drawn by sample_emitter_ray (render/lights_emit.cl) and the camera's
- * importance and raster position of given directions (render/camera.cl).
+/* adjoint_test.cl — the adjoint queries exposed to the tests: light rays
+ * drawn by sample_emitter_ray (render/lights_emit.cl), the camera's
+ * importance and raster position of given directions (render/camera.cl), and
+ * BSDF samples in both transport modes (render/bsdf.cl).
  * Outputs are structure of arrays (component c of item i at c * n + i). */
 #include "samplers/sampler.cl"
 #include "render/lane_io.cl"
 #include "render/lights_emit.cl"
 #include "render/camera.cl"
+#include "render/bsdf.cl"
 
 /* out: pos.xyz, n.xyz, d.xyz, radiance.rgb, pdf_area, pdf_solid_angle, cos, env, valid (17 components) */
 kernel void emitter_ray_samples(const render_params scene, global const float4 *emitter_radiance,
@@ -38,4 +40,21 @@ kernel void camera_directions(global const float4 *camera, uint width, uint heig
     floatv comp[7] = {c.raster_x, c.raster_y, to_floatv(c.pixel), c.importance, c.pdf_solid_angle, c.cos_theta,
                       to_floatv(mask_bit(c.valid))};
     for (int k = 0; k < 7; ++k) store_floatv(comp[k], out + k * n + base);
+}
+
+/* The same uniforms sampled in radiance and in importance mode:
+ * wo.xyz (radiance), weight.rgb (radiance), wo.xyz (importance), weight.rgb (importance) (12) */
+kernel void bsdf_sample_modes(global const float4 *mats, float4 wi4, ulong seed, uint n, global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    material_v m = material_load(mats, (uintv)(0u));
+    vec3v wi = v3((floatv)(wi4.x), (floatv)(wi4.y), (floatv)(wi4.z));
+    mc_sampler_t smp = sampler_start(seed, to_ulongv((uintv)(base) + LANE_IOTA), RNG_STREAM_BSDF_TEST);
+    floatv u[3];
+    sampler_next_nd(&smp, 3, u);
+    bsdf_sample_v r = bsdf_sample(&m, wi, u[0], u[1], u[2], TRANSPORT_RADIANCE);
+    bsdf_sample_v i = bsdf_sample(&m, wi, u[0], u[1], u[2], TRANSPORT_IMPORTANCE);
+    floatv comp[12] = {r.wo.x, r.wo.y, r.wo.z, r.weight.x, r.weight.y, r.weight.z,
+                       i.wo.x, i.wo.y, i.wo.z, i.weight.x, i.weight.y, i.weight.z};
+    for (int c = 0; c < 12; ++c) store_floatv(comp[c], out + c * n + base);
 }
