@@ -137,12 +137,12 @@ typedef struct {
 #define MATERIAL_RECORD_PAD_QUAD 1
 #define MATERIAL_RECORD_PAD_COMP w
 
-/* pinhole camera: origin and the right/up/forward axes (right, up scaled by the fov) */
+/* perspective camera: origin and the right/up/forward axes (right, up scaled by the fov); thin lens: aperture radius (0: a pinhole) and focus distance */
 typedef struct {
     float origin[3];
-    float pad0;
+    float aperture_radius;
     float right[3];
-    float pad1;
+    float focus_distance;
     float up[3];
     float pad2;
     float forward[3];
@@ -155,14 +155,14 @@ typedef struct {
 #define CAMERA_RECORD_ORIGIN_COMP x
 #define CAMERA_RECORD_ORIGIN_COMP1 y
 #define CAMERA_RECORD_ORIGIN_COMP2 z
-#define CAMERA_RECORD_PAD0_QUAD 0
-#define CAMERA_RECORD_PAD0_COMP w
+#define CAMERA_RECORD_APERTURE_RADIUS_QUAD 0
+#define CAMERA_RECORD_APERTURE_RADIUS_COMP w
 #define CAMERA_RECORD_RIGHT_QUAD 1
 #define CAMERA_RECORD_RIGHT_COMP x
 #define CAMERA_RECORD_RIGHT_COMP1 y
 #define CAMERA_RECORD_RIGHT_COMP2 z
-#define CAMERA_RECORD_PAD1_QUAD 1
-#define CAMERA_RECORD_PAD1_COMP w
+#define CAMERA_RECORD_FOCUS_DISTANCE_QUAD 1
+#define CAMERA_RECORD_FOCUS_DISTANCE_COMP w
 #define CAMERA_RECORD_UP_QUAD 2
 #define CAMERA_RECORD_UP_COMP x
 #define CAMERA_RECORD_UP_COMP1 y

@@ -89,7 +89,7 @@ class AdjointKernels:
         return {"pos": o[0:3].T, "n": o[3:6].T, "d": o[6:9].T, "radiance": o[9:12].T, "pdf_area": o[12],
                 "pdf_solid_angle": o[13], "cos": o[14], "env": out[15] != 0, "valid": out[16] != 0}
 
-    def camera(self, dirs: np.ndarray) -> dict[str, np.ndarray]:
+    def camera(self, dirs: np.ndarray, lens_u: tuple[float, float] = (0.5, 0.5)) -> dict[str, np.ndarray]:
         n0 = len(dirs)
         n = -(-n0 // 16) * 16
         d = np.zeros((3, n), np.float32)
@@ -102,7 +102,7 @@ class AdjointKernels:
         g, lsz = self.ctx.work_size(n // self.lanes)
         runtime.kernel(self.prg, "camera_directions")(
             self.ctx.queue, g, lsz, self.buf["camera"], np.uint32(self.cs.width), np.uint32(self.cs.height),
-            np.uint32(n), bd, bo)
+            np.array([*lens_u, 0, 0], np.float32), np.uint32(n), bd, bo)
         cl.enqueue_copy(self.ctx.queue, out, bo)
         o = out[:, :n0].astype(np.float64)
         return {"raster": o[0:2].T, "pixel": out[2, :n0].astype(np.int64), "importance": o[3],
@@ -264,6 +264,63 @@ def test_transport_modes_differ_only_by_the_dielectrics_refraction_scale(emit, k
         np.testing.assert_array_equal(w_r, w_i)
 
 
+THIN_LENS = {**CAMERA, "aperture_radius": 0.25, "focus_distance": 3.0}
+
+
+@pytest.fixture(scope="module")
+def lens() -> AdjointKernels:
+    return AdjointKernels({**_emit_scene(), "camera": THIN_LENS})
+
+
+def test_thin_lens_rays(lens) -> None:
+    """Lens points uniform on the aperture disk (chi-square), rays through a film point meet on the focal
+    plane, and the film position of a ray is the film point it was made from."""
+    k = lens
+    cs = k.cs
+    n = 1 << 16
+    out = np.empty((8, n), np.float32)
+    bo = cl.Buffer(k.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+    g, lsz = k.ctx.work_size(n // k.lanes)
+    runtime.kernel(k.prg, "camera_rays")(k.ctx.queue, g, lsz, k.buf["camera"], np.uint32(cs.width),
+                                         np.uint32(cs.height), np.uint64(4), np.uint32(n), bo)
+    cl.enqueue_copy(k.ctx.queue, out, bo)
+    o64 = out.astype(np.float64)
+    film, org, d = o64[0:2].T, o64[2:5].T, o64[5:8].T
+    origin, right, up, fwd = (cs.camera[i, :3].astype(np.float64) for i in range(4))
+    assert cs.camera[0, 3] == np.float32(0.25) and cs.camera[1, 3] == np.float32(3.0)
+    rel = org - origin
+    x, y = rel @ (right / np.linalg.norm(right)), rel @ (up / np.linalg.norm(up))
+    np.testing.assert_allclose(rel @ fwd, 0, atol=1e-6)
+    rho2, phi = (x * x + y * y) / 0.25**2, np.arctan2(y, x)
+    i = np.clip(np.floor(rho2 * 8), 0, 7).astype(int)
+    j = np.clip(np.floor((phi + np.pi) / (2 * np.pi) * 8), 0, 7).astype(int)
+    FAMILY_LENS.check("lens points", np.bincount(i * 8 + j, minlength=64), np.full(64, n / 64))
+    # every ray passes the focal-plane point of its pinhole ray
+    ndc_x, ndc_y = 2 * film[:, 0] / cs.width - 1, 1 - 2 * film[:, 1] / cs.height
+    focal = origin + 3.0 * (fwd + ndc_x[:, None] * right + ndc_y[:, None] * up)
+    t = 3.0 / (d @ fwd)
+    np.testing.assert_allclose(org + t[:, None] * d, focal, atol=2e-4)
+    # and camera_importance maps (lens point, direction) back to the film point
+    for lens_u in ((0.3, 0.7), (0.9, 0.1)):
+        rr, ph = 0.25 * math.sqrt(lens_u[0]), 2 * math.pi * lens_u[1]
+        xl = origin + rr * math.cos(ph) * right / np.linalg.norm(right) + rr * math.sin(ph) * up / np.linalg.norm(up)
+        dd = focal[:2048] - xl
+        dd /= np.linalg.norm(dd, axis=1, keepdims=True)
+        c = k.camera(dd, lens_u)
+        assert np.all(c["valid"])
+        np.testing.assert_allclose(c["raster"], film[:2048], atol=3e-3)
+    # the importance integrates to 1 / A_lens over the directions from one lens point
+    rng = np.random.default_rng(6)
+    u = rng.normal(size=(1 << 18, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    c = k.camera(u, (0.6, 0.2))
+    xw = 4 * math.pi * c["importance"] * np.maximum(c["cos"], 0) * math.pi * 0.25**2
+    assert abs(xw.mean() - 1) <= 5 * xw.std() / math.sqrt(len(xw)), xw.mean()
+
+
+FAMILY_LENS = Chi2Family("thin lens", 1)
+
+
 # ---- the renders -----------------------------------------------------------
 
 RHO = np.array([0.8, 0.5, 0.2])
@@ -403,3 +460,50 @@ def test_specular_surfaces_seen_directly_are_black() -> None:
     lt = render(cs, spp=64, integrator="lt", seed=1)
     assert path.mean.max() > 0.1  # path tracing sees the lamp in the mirror
     assert lt.mean.max() == 0.0
+
+
+def test_thin_lens_lt_agrees_with_mis_and_blurs() -> None:
+    """Depth of field: lt (connections to lens points) and mis (rays from lens points) agree per 8 x 8
+    block, and the thin lens's image differs from the pinhole's where the box is out of focus."""
+    sc = load_scene(SCENES / "cornell.json")
+    sc.camera.width = sc.camera.height = 32
+    pin = compile_scene(sc)
+    sc.camera.aperture_radius, sc.camera.focus_distance = 0.15, 2.5
+    cs = compile_scene(sc)
+    a = render(cs, spp=1024, integrator="mis", seed=3)
+    b = render(cs, spp=512, integrator="lt", seed=4, spp_per_block=8)
+    p = render(pin, spp=1024, integrator="mis", seed=3)
+
+    def blocks(x: np.ndarray) -> np.ndarray:
+        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
+
+    def block_var(x: np.ndarray) -> np.ndarray:
+        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).sum(axis=(1, 3)) / 64**2
+
+    z = (blocks(a.mean) - blocks(b.mean)) / np.sqrt(block_var(a.variance) + block_var(b.variance))
+    level = 1 - (1 - 1e-3) ** (1 / z.size)
+    assert 2 * stats.norm.sf(np.abs(z).max()) > level, np.abs(z).max()
+    zb = (a.mean - b.mean) / np.sqrt(a.variance + b.variance)
+    assert 2 * stats.norm.sf(np.abs(zb).max()) > 1 - (1 - 1e-3) ** (1 / zb.size), np.abs(zb).max()
+    zp = (a.mean - p.mean) / np.sqrt(a.variance + p.variance)
+    assert np.abs(zp).max() > 10  # edges blurred by the lens
+
+
+@pytest.mark.parametrize("camera,match", [
+    ({"aperture_radius": -0.1}, "camera.aperture_radius: must be >= 0"),
+    ({"aperture_radius": 0.1, "focus_distance": 0}, "camera.focus_distance: must be > 0"),
+    ({"aperture_radius": "wide"}, "camera.aperture_radius: expected a number"),
+])
+def test_bad_thin_lens_settings(camera: dict, match: str) -> None:
+    from mcocl.errors import InputError
+
+    with pytest.raises(InputError, match=match):
+        parse_scene({**_emit_scene(), "camera": {**CAMERA, **camera}})
+
+
+def test_thin_lens_focus_defaults_to_the_target() -> None:
+    cs = compile_scene(parse_scene({**_emit_scene(), "camera": {**CAMERA, "aperture_radius": 0.1}}))
+    dist = float(np.linalg.norm(np.array(CAMERA["origin"]) - np.array(CAMERA["target"])))
+    assert cs.camera[1, 3] == np.float32(dist) and cs.camera[0, 3] == np.float32(0.1)
+    pin = compile_scene(parse_scene(_emit_scene()))
+    assert pin.camera[0, 3] == 0 and pin.camera[1, 3] == 0  # a pinhole's record is what it always was

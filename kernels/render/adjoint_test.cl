@@ -30,13 +30,15 @@ kernel void emitter_ray_samples(const render_params scene, global const float4 *
     for (int c = 0; c < 17; ++c) store_floatv(comp[c], out + c * n + base);
 }
 
-/* For unit directions d from the camera: raster x, y, pixel, importance, pdf_solid_angle, cos, valid (7) */
-kernel void camera_directions(global const float4 *camera, uint width, uint height, uint n, global const float *dirs,
-                              global float *out) {
+/* For unit directions d from the lens point of the uniforms (lens_u.x, lens_u.y): raster x, y, pixel,
+ * importance, pdf_solid_angle, cos, valid (7) */
+kernel void camera_directions(global const float4 *camera, uint width, uint height, float4 lens_u, uint n,
+                              global const float *dirs, global float *out) {
     uint base = (uint)get_global_id(0) * LANES;
     if (base >= n) return;
     vec3v d = v3(load_floatv(dirs + 0 * n + base), load_floatv(dirs + 1 * n + base), load_floatv(dirs + 2 * n + base));
-    camera_direction_v c = camera_importance(camera, d, width, height);
+    vec3v xl = camera_lens_point(camera, (floatv)(lens_u.x), (floatv)(lens_u.y));
+    camera_direction_v c = camera_importance(camera, xl, d, width, height);
     floatv comp[7] = {c.raster_x, c.raster_y, to_floatv(c.pixel), c.importance, c.pdf_solid_angle, c.cos_theta,
                       to_floatv(mask_bit(c.valid))};
     for (int k = 0; k < 7; ++k) store_floatv(comp[k], out + k * n + base);
@@ -57,4 +59,18 @@ kernel void bsdf_sample_modes(global const float4 *mats, float4 wi4, ulong seed,
     floatv comp[12] = {r.wo.x, r.wo.y, r.wo.z, r.weight.x, r.weight.y, r.weight.z,
                        i.wo.x, i.wo.y, i.wo.z, i.weight.x, i.weight.y, i.weight.z};
     for (int c = 0; c < 12; ++c) store_floatv(comp[c], out + c * n + base);
+}
+
+/* Primary rays through uniform film points: film sx, sy, origin.xyz, direction.xyz (8) */
+kernel void camera_rays(global const float4 *camera, uint width, uint height, ulong seed, uint n, global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    mc_sampler_t smp = sampler_start(seed, to_ulongv((uintv)(base) + LANE_IOTA), RNG_STREAM_LIGHT_TEST);
+    floatv u[4];
+    sampler_next_nd(&smp, 4, u);
+    floatv sx = u[0] * (float)width, sy = u[1] * (float)height;
+    vec3v o;
+    vec3v d = camera_ray_lens(camera, sx, sy, 1.0f / (float)width, 1.0f / (float)height, u[2], u[3], &o);
+    floatv comp[8] = {sx, sy, o.x, o.y, o.z, d.x, d.y, d.z};
+    for (int c = 0; c < 8; ++c) store_floatv(comp[c], out + c * n + base);
 }

@@ -1,9 +1,12 @@
 /* lt.cl — light tracing with next-event estimation to the camera (the
  * lecture's "Light Tracing – šíření světla" and "NEE pro Light Tracing"):
  * paths start at the emitters (render/lights_emit.cl), and every non-delta
- * vertex, the emitter's own included, is connected to the pinhole
- * (render/camera.cl, camera_connect); an unoccluded connection adds its
- * contribution to the pixel it lands on.
+ * vertex, the emitter's own included, is connected to the camera
+ * (render/camera.cl, camera_connect: the pinhole, or a point uniform on a
+ * thin lens); an unoccluded connection adds its contribution to the pixel it
+ * lands on.  Light reaching a thin lens is counted by these connections (a
+ * light path that happened to cross the lens disk would estimate the same
+ * paths again; it is not counted).
  *
  * Estimator (Veach's thesis §10.2, the s >= 1, t = 1 strategies of BDPT).
  * With beta the light path's throughput at vertex y_i (beta_0 = L_e / pdf_area
@@ -19,7 +22,7 @@
  *
  * What light tracing cannot see.  A pinhole is a point: no light path hits
  * it, so light reaches the image only through a connection from a non-delta
- * vertex.  A mirror or glass surface seen directly (or through other delta
+ * vertex (a thin lens too, since crossings of the lens are not counted).  A mirror or glass surface seen directly (or through other delta
  * vertices only) is therefore black, and so is everything visible only in
  * it: those paths (camera - delta ... - first non-delta vertex) need a
  * camera subpath (path tracing, BDPT).
@@ -33,8 +36,9 @@
  * scale of the emitter's power.
  *
  * Random numbers: light path i draws, in stream RNG_STREAM_LIGHT_TRACE,
- * LT_DIM_EMIT (emitter choice, position, direction) and LT_DIM_BSDF(i)
- * at light vertex i (rng/streams.cl).  Light path i of a render is the same
+ * LT_DIM_EMIT (emitter choice, position, direction, lens point of y_0's
+ * connection), LT_DIM_BSDF(i) and LT_DIM_LENS(i) at light vertex i
+ * (rng/streams.cl).  Light path i of a render is the same
  * whatever the launch.
  *
  * The splat film (mcocl/render/splat_film.py).  A block of the job is
@@ -124,11 +128,10 @@ MC_INLINE intv assign_paths(intv need, ulong *next, ulong total, ulongv *j) {
 #endif
 }
 
-/* A shadow ray from p (normal n) to the camera: is the connection clear? */
-MC_INLINE intv camera_visible(const scene_geom *geom, global const float4 *camera, vec3v p, vec3v n,
-                              const camera_connection_v *k, intv active) {
+/* A shadow ray from p (normal n) to the connection's lens point: is it clear? */
+MC_INLINE intv camera_visible(const scene_geom *geom, vec3v p, vec3v n, const camera_connection_v *k, intv active) {
     vec3v so = offset_origin(p, n, k->wo);
-    floatv dist = lane_sqrt(v3_len2(v3_sub(cam_row(camera[CAMERA_RECORD_ORIGIN_QUAD]), so)));
+    floatv dist = lane_sqrt(v3_len2(v3_sub(k->lens, so)));
     return active & !trace_any_v(geom, so, k->wo, dist * (1.0f - SHADOW_EPSILON), active);
 }
 
@@ -181,7 +184,7 @@ kernel void lt_trace(
     lt.env_pmf = params.env_pmf;
     lt.env_radiance = params.env_radiance;
     const float pixels = (float)npix;
-    const vec3v cam_o = cam_row(camera[CAMERA_RECORD_ORIGIN_QUAD]);
+    const float lens_area = camera_lens_area(camera);
     const uint depth_limit = max_depth >= 0 ? min((uint)max_depth, (uint)DEPTH_GUARD) : (uint)DEPTH_GUARD;
 
     /* per-lane path state */
@@ -207,21 +210,23 @@ kernel void lt_trace(
             intv area = er.valid & !er.env;
             if (lane_any(area)) {
                 /* the light vertex itself: L_e(y_0 -> camera) cos_y W_e / (pdf_area pdf_camera) */
-                camera_connection_v k = camera_connect(camera, er.pos, width, height);
+                camera_connection_v k = camera_connect(camera, er.pos, ue[6], ue[7], width, height);
                 floatv cos_y = v3_dot(er.n, k.wo);
                 floatv w = pixels * cos_y * k.film.importance / (er.pdf_area * k.pdf_solid_angle);
                 intv ok = area & k.valid & (cos_y > 0.0f);
-                ok = camera_visible(&geom, camera, er.pos, er.n, &k, ok);
+                ok = camera_visible(&geom, er.pos, er.n, &k, ok);
                 if (lane_any(ok)) splat(img, k.film.pixel, v3_scale(er.radiance, w), ok);
             }
             intv env = er.valid & er.env;
             if (lane_any(env)) {
-                /* the environment seen directly: the camera looks along -d */
+                /* the environment seen directly: the camera looks along -d from a lens point
+                 * uniform on the lens (density 1 / A_lens) */
                 vec3v look = v3_neg(er.d);
-                camera_direction_v c = camera_importance(camera, look, width, height);
-                floatv w = pixels * c.importance * c.cos_theta / (lt.env_pmf * RT_INV_4PI);
+                vec3v xl = camera_lens_point(camera, ue[6], ue[7]);
+                camera_direction_v c = camera_importance(camera, xl, look, width, height);
+                floatv w = pixels * lens_area * c.importance * c.cos_theta / (lt.env_pmf * RT_INV_4PI);
                 intv ok = env & c.valid;
-                ok = ok & !trace_any_v(&geom, cam_o, look, (floatv)(INFINITY), ok);
+                ok = ok & !trace_any_v(&geom, xl, look, (floatv)(INFINITY), ok);
                 if (lane_any(ok)) splat(img, c.pixel, v3_scale(er.radiance, w), ok);
             }
             /* beta_1 = L_e cos / (pdf_area pdf_solid_angle); the ray leaves y_0 */
@@ -249,12 +254,15 @@ kernel void lt_trace(
         /* ---- next-event estimation to the camera ---- */
         intv conn = hit & bsdf_is_smooth(&m);
         if (lane_any(conn)) {
-            camera_connection_v k = camera_connect(camera, p, width, height);
+            floatv ul[2];
+            sampler_seek(&smp, LT_DIM_LENS(depth));
+            sampler_next_2d(&smp, ul);
+            camera_connection_v k = camera_connect(camera, p, ul[0], ul[1], width, height);
             floatv bpdf;
             vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, k.wo), &bpdf);
             vec3v c = v3_scale(v3_mul(beta, f), pixels * k.film.importance / k.pdf_solid_angle);
             intv ok = conn & k.valid & (v3_maxc(c) > 0.0f);
-            ok = camera_visible(&geom, camera, p, n, &k, ok);
+            ok = camera_visible(&geom, p, n, &k, ok);
             if (lane_any(ok)) splat(img, k.film.pixel, c, ok);
         }
 

@@ -45,7 +45,11 @@ DEFAULT_ALPHA = 0.1
 
 @dataclass
 class Camera:
-    """A perspective pinhole camera; ``fov`` is the full angle in degrees on the image's smaller axis."""
+    """A perspective camera; ``fov`` is the full angle in degrees on the image's smaller axis.
+
+    ``aperture_radius`` 0 is a pinhole; above 0 a thin lens (Mitsuba's ``thinlens``) focused at
+    ``focus_distance`` along the viewing direction (None: the distance to ``target``).
+    """
 
     origin: np.ndarray
     target: np.ndarray
@@ -53,6 +57,8 @@ class Camera:
     fov: float
     width: int
     height: int
+    aperture_radius: float = 0.0
+    focus_distance: float | None = None
 
 
 @dataclass
@@ -239,7 +245,7 @@ def parse_scene(data: Any, path: str | Path = "<scene>") -> Scene:
 
 
 def _camera(c: _Checker, v: Any, key: str) -> Camera:
-    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up",))
+    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance"))
     origin = c.vector(o["origin"], f"{key}.origin")
     target = c.vector(o["target"], f"{key}.target")
     up = c.vector(o.get("up", [0, 1, 0]), f"{key}.up")
@@ -251,7 +257,11 @@ def _camera(c: _Checker, v: Any, key: str) -> Camera:
         c.fail(f"{key}.target", "the target coincides with the origin")
     if np.linalg.norm(np.cross(fwd, up)) <= 1e-9 * np.linalg.norm(fwd) * np.linalg.norm(up):
         c.fail(f"{key}.up", "the up vector is zero or parallel to the viewing direction")
-    return Camera(origin, target, up, fov, width, height)
+    aperture = c.number(o.get("aperture_radius", 0.0), f"{key}.aperture_radius", 0.0)
+    focus = None
+    if "focus_distance" in o:
+        focus = c.number(o["focus_distance"], f"{key}.focus_distance", 0.0, lo_open=True)
+    return Camera(origin, target, up, fov, width, height, aperture, focus)
 
 
 def _integrator(c: _Checker, v: Any, key: str) -> dict:
