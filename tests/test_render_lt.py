@@ -507,3 +507,36 @@ def test_thin_lens_focus_defaults_to_the_target() -> None:
     assert cs.camera[1, 3] == np.float32(dist) and cs.camera[0, 3] == np.float32(0.1)
     pin = compile_scene(parse_scene(_emit_scene()))
     assert pin.camera[0, 3] == 0 and pin.camera[1, 3] == 0  # a pinhole's record is what it always was
+
+
+def test_lt_agrees_with_mis_under_the_environment() -> None:
+    """Emitter rays of every kind in a render: a constant environment (seen directly and through its disk),
+    a spherical and a rectangular light over a diffuse floor, with a lens; 8 x 8 blocks as above."""
+    scene = {
+        "camera": {"origin": [0.0, 1.5, 4.0], "target": [0, 0, 0], "fov": 60, "width": 32, "height": 32,
+                   "aperture_radius": 0.05},
+        "materials": {"white": {"type": "diffuse", "reflectance": [0.7, 0.6, 0.5]},
+                      "grey": {"type": "diffuse", "reflectance": 0.3}},
+        "environment": {"type": "constant", "radiance": [0.3, 0.4, 0.5]},
+        "shapes": [
+            {"name": "floor", "type": "rectangle", "material": "white",
+             "transform": [{"scale": [2, 2, 1]}, {"rotate": {"axis": [1, 0, 0], "angle": -90}}]},
+            {"name": "ball", "type": "sphere", "material": "grey", "center": [0.6, 0.5, 0.0], "radius": 0.5},
+            {"name": "lamp", "type": "sphere", "material": "grey", "center": [-0.8, 0.4, 0.5], "radius": 0.2,
+             "emitter": {"type": "area", "radiance": [4, 4, 4]}},
+        ],
+    }
+    cs = compile_scene(parse_scene(scene))
+    a = render(cs, spp=1024, integrator="mis", max_depth=4, seed=5)
+    b = render(cs, spp=512, integrator="lt", max_depth=4, seed=6, spp_per_block=8)
+
+    def blocks(x: np.ndarray) -> np.ndarray:
+        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
+
+    def block_var(x: np.ndarray) -> np.ndarray:
+        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).sum(axis=(1, 3)) / 64**2
+
+    z = (blocks(a.mean) - blocks(b.mean)) / np.sqrt(block_var(a.variance) + block_var(b.variance))
+    level = 1 - (1 - 1e-3) ** (1 / z.size)
+    assert 2 * stats.norm.sf(np.abs(z).max()) > level, np.abs(z).max()
+    assert np.isclose(blocks(a.mean).mean(), blocks(b.mean).mean(), rtol=0.02)
