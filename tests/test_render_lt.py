@@ -338,6 +338,30 @@ def downscaled(name: str, size: int):
     return compile_scene(sc)
 
 
+def block_means(x: np.ndarray) -> np.ndarray:
+    """Means of the 8 x 8-pixel blocks of a 32 x 32 image, per channel."""
+    return x.astype(np.float64).reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
+
+
+def block_variances(var: np.ndarray) -> np.ndarray:
+    """Variances of those block means from the pixels' reported variances (pixels taken as independent)."""
+    return var.astype(np.float64).reshape(4, 8, 4, 8, 3).sum(axis=(1, 3)) / 64**2
+
+
+def assert_blocks_agree(a, b) -> None:
+    """No 8 x 8-block z-score of two renders beyond the Sidak-corrected level (family-wise 1e-3)."""
+    z = (block_means(a.mean) - block_means(b.mean)) / np.sqrt(block_variances(a.variance) + block_variances(b.variance))
+    level = 1 - (1 - 1e-3) ** (1 / z.size)
+    assert 2 * stats.norm.sf(np.abs(z).max()) > level, f"largest |z| {np.abs(z).max():.2f} (level {level:.2e})"
+
+
+def assert_pixels_agree(a, b) -> None:
+    """No per-pixel z-score beyond the Sidak-corrected level (family-wise 1e-3)."""
+    z = (a.mean - b.mean) / np.sqrt(a.variance + b.variance)
+    assert np.all(np.isfinite(z))
+    assert 2 * stats.norm.sf(np.abs(z).max()) > 1 - (1 - 1e-3) ** (1 / z.size), np.abs(z).max()
+
+
 @pytest.mark.parametrize("scene", ["furnace.json", "furnace_sphere.json"])
 @pytest.mark.parametrize("max_depth", [-1, 0, 1, 3])
 def test_furnace_closed_form(scene: str, max_depth: int) -> None:
@@ -373,21 +397,9 @@ def test_lt_agrees_with_mis_on_cornell() -> None:
     # 64 batches: a variance estimate good enough for per-pixel z-scores too
     b = render(cs, spp=512, integrator="lt", seed=2, spp_per_block=8)
     assert b.nonfinite == 0
-
-    def blocks(x: np.ndarray) -> np.ndarray:
-        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
-
-    def block_var(x: np.ndarray) -> np.ndarray:
-        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).sum(axis=(1, 3)) / 64**2
-
-    z = (blocks(a.mean) - blocks(b.mean)) / np.sqrt(block_var(a.variance) + block_var(b.variance))
-    p = 2 * stats.norm.sf(np.abs(z))
-    level = 1 - (1 - 1e-3) ** (1 / z.size)
-    assert p.min() > level, f"largest |z| {np.abs(z).max():.2f} (level {level:.2e})"
-    # and per pixel the lt image has no wild outliers either: |z| below the Sidak level for 3072 tests
-    zp = (a.mean - b.mean) / np.sqrt(a.variance + b.variance)
-    assert np.all(np.isfinite(zp))
-    assert 2 * stats.norm.sf(np.abs(zp).max()) > 1 - (1 - 1e-3) ** (1 / zp.size), np.abs(zp).max()
+    assert_blocks_agree(a, b)
+    # and per pixel the lt image has no wild outliers either
+    assert_pixels_agree(a, b)
 
 
 def test_image_does_not_depend_on_how_blocks_are_launched() -> None:
@@ -473,18 +485,8 @@ def test_thin_lens_lt_agrees_with_mis_and_blurs() -> None:
     a = render(cs, spp=1024, integrator="mis", seed=3)
     b = render(cs, spp=512, integrator="lt", seed=4, spp_per_block=8)
     p = render(pin, spp=1024, integrator="mis", seed=3)
-
-    def blocks(x: np.ndarray) -> np.ndarray:
-        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
-
-    def block_var(x: np.ndarray) -> np.ndarray:
-        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).sum(axis=(1, 3)) / 64**2
-
-    z = (blocks(a.mean) - blocks(b.mean)) / np.sqrt(block_var(a.variance) + block_var(b.variance))
-    level = 1 - (1 - 1e-3) ** (1 / z.size)
-    assert 2 * stats.norm.sf(np.abs(z).max()) > level, np.abs(z).max()
-    zb = (a.mean - b.mean) / np.sqrt(a.variance + b.variance)
-    assert 2 * stats.norm.sf(np.abs(zb).max()) > 1 - (1 - 1e-3) ** (1 / zb.size), np.abs(zb).max()
+    assert_blocks_agree(a, b)
+    assert_pixels_agree(a, b)
     zp = (a.mean - p.mean) / np.sqrt(a.variance + p.variance)
     assert np.abs(zp).max() > 10  # edges blurred by the lens
 
@@ -529,14 +531,5 @@ def test_lt_agrees_with_mis_under_the_environment() -> None:
     cs = compile_scene(parse_scene(scene))
     a = render(cs, spp=1024, integrator="mis", max_depth=4, seed=5)
     b = render(cs, spp=512, integrator="lt", max_depth=4, seed=6, spp_per_block=8)
-
-    def blocks(x: np.ndarray) -> np.ndarray:
-        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
-
-    def block_var(x: np.ndarray) -> np.ndarray:
-        return x.astype(np.float64).reshape(4, 8, 4, 8, 3).sum(axis=(1, 3)) / 64**2
-
-    z = (blocks(a.mean) - blocks(b.mean)) / np.sqrt(block_var(a.variance) + block_var(b.variance))
-    level = 1 - (1 - 1e-3) ** (1 / z.size)
-    assert 2 * stats.norm.sf(np.abs(z).max()) > level, np.abs(z).max()
-    assert np.isclose(blocks(a.mean).mean(), blocks(b.mean).mean(), rtol=0.02)
+    assert_blocks_agree(a, b)
+    assert np.isclose(a.mean.mean(), b.mean.mean(), rtol=0.02)
