@@ -538,3 +538,21 @@ def test_lt_agrees_with_mis_under_the_environment() -> None:
     b = render(cs, spp=512, integrator="lt", max_depth=4, seed=6, spp_per_block=8)
     assert_blocks_agree(a, b)
     assert np.isclose(a.mean.mean(), b.mean.mean(), rtol=0.02)
+
+
+def test_mitsuba_thinlens(tmp_path: Path) -> None:
+    from mcocl.errors import InputError
+
+    def sensor(extra: str) -> Path:
+        p = tmp_path / "s.xml"
+        p.write_text('<scene version="3.0.0"><sensor type="thinlens"><float name="fov" value="40"/>' + extra
+                     + '<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>'
+                     '</film></sensor><shape type="cube"/></scene>')
+        return p
+
+    cs = compile_scene(sensor('<float name="aperture_radius" value="0.2"/><float name="focus_distance" value="3"/>'))
+    assert cs.camera[0, 3] == np.float32(0.2) and cs.camera[1, 3] == np.float32(3.0)
+    cs = compile_scene(sensor('<float name="aperture_radius" value="0.2"/>'))
+    assert cs.camera[1, 3] == np.float32(1e4)  # Mitsuba's far_clip
+    with pytest.raises(InputError, match="aperture_radius"):
+        compile_scene(sensor(""))

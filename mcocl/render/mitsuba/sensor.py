@@ -9,6 +9,9 @@
   ``fov = 2 atan(√(36² + 24²) / (2 f))`` on the diagonal.  ``to_world``:
   a lone ``<lookat>`` gives origin/target/up as written; any other rigid
   transform gives origin = M·0, target = origin + M·ẑ, up = M·ŷ.
+- ``thinlens``: the same, plus ``aperture_radius`` (required, as in Mitsuba)
+  and ``focus_distance`` (Mitsuba's default: ``far_clip``, 10^4) → mcocl's
+  thin-lens camera.
 - ``hdrfilm``: ``width``/``height`` (Mitsuba's defaults 768 × 576).
 - samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
   ``ldsampler``: ``sample_count`` (default 4) → ``spp``; mcocl always draws from
@@ -35,6 +38,8 @@ INTEGRATORS = ("path", "volpath", "direct")
 FILM_SIZE = (768, 576)
 SAMPLE_COUNT = 4
 FOV_AXES = ("x", "y", "diagonal", "smaller", "larger")
+SENSORS = ("perspective", "thinlens")
+FAR_CLIP = 1e4  # Mitsuba's far_clip, the default focus_distance of a thinlens
 
 
 def fov_on_smaller_axis(fov: float, axis: str, width: int, height: int) -> float:
@@ -51,9 +56,8 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     """(the mcocl camera, spp from the sampler) of a ``<sensor>``."""
     kind = node.attrib.get("type", "")
     comments: list[str] = []
-    if kind != "perspective":
-        rep.unsupported(node, f"the sensor {kind!r}", 'perspective', "a pinhole perspective camera with its fov"
-                        if kind == "thinlens" else None, comments)
+    if kind not in SENSORS:
+        rep.unsupported(node, f"the sensor {kind!r}", ", ".join(SENSORS), None, comments)
     props, objects = split_children(node)
     width, height, spp = FILM_SIZE[0], FILM_SIZE[1], SAMPLE_COUNT
     films = [o for o in objects if o.tag == "film"]
@@ -99,12 +103,23 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     cam: dict[str, Any] = {"comment": comments}
     cam.update(_orientation(node, props, rep, comments))
     cam.update({"fov": fov_small, "width": width, "height": height})
+    lens_keys: tuple[str, ...] = ()
+    if kind == "thinlens":
+        lens_keys = ("aperture_radius", "focus_distance")
+        aperture = props.get("aperture_radius", ("float",), None)
+        if aperture is None:
+            node.fail("a thinlens sensor needs an aperture_radius")
+        focus = props.get("focus_distance", ("float",), None)
+        if focus is None:
+            focus = FAR_CLIP
+            comments.append(f"focus_distance: Mitsuba's default, far_clip = {FAR_CLIP:g}")
+        cam.update({"aperture_radius": aperture, "focus_distance": focus})
     for k in ("near_clip", "far_clip"):
         if k in props:
             props.read.add(k)
             rep.unsupported(props.node(k), f"{k} (mcocl does not clip along the view ray)", "leave it out",
                             "no clipping", comments)
-    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world"), comments)
+    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", *lens_keys), comments)
     return cam, spp
 
 
