@@ -556,3 +556,12 @@ def test_mitsuba_thinlens(tmp_path: Path) -> None:
     assert cs.camera[1, 3] == np.float32(1e4)  # Mitsuba's far_clip
     with pytest.raises(InputError, match="aperture_radius"):
         compile_scene(sensor(""))
+
+
+def test_mitsuba_ptracer_is_lt(tmp_path: Path) -> None:
+    p = tmp_path / "s.xml"
+    p.write_text('<scene version="3.0.0"><integrator type="ptracer"><integer name="max_depth" value="4"/>'
+                 '<integer name="samples_per_pass" value="1024"/></integrator>'
+                 '<sensor type="perspective"><float name="fov" value="40"/></sensor><shape type="cube"/></scene>')
+    cs = compile_scene(p)
+    assert (cs.integrator, cs.max_depth, cs.rr_depth) == ("lt", 4, 5)

@@ -19,7 +19,8 @@
   expectation.
 - integrators ``path`` and ``volpath`` → ``mis`` with the same ``max_depth`` and
   ``rr_depth`` (Mitsuba's conventions, defaults −1 and 5); ``direct`` → ``mis``
-  with max_depth 2.
+  with max_depth 2; ``ptracer`` (Mitsuba's particle tracer) → ``lt``, light
+  tracing with the same ``max_depth`` and ``rr_depth``.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from .report import Reporter, nearest
 from .xml_source import Node
 
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
-INTEGRATORS = ("path", "volpath", "direct")
+INTEGRATORS = ("path", "volpath", "direct", "ptracer")
 FILM_SIZE = (768, 576)
 SAMPLE_COUNT = 4
 FOV_AXES = ("x", "y", "diagonal", "smaller", "larger")
@@ -223,10 +224,15 @@ def translate_integrator(node: Node, rep: Reporter) -> dict:
             props.node("max_depth").fail(f"max_depth must be >= -1, got {md}")
         if rr < 1:
             props.node("rr_depth").fail(f"rr_depth must be >= 1, got {rr}")
-        out = {"type": "mis", "max_depth": md, "rr_depth": rr}
-        comments.append(f"{kind} -> mis (light and BSDF sampling combined by the power heuristic), "
-                        f"max_depth {md}, rr_depth {rr} (Mitsuba's conventions"
+        light = kind == "ptracer"
+        out = {"type": "lt" if light else "mis", "max_depth": md, "rr_depth": rr}
+        how = ("lt (light tracing, every non-delta vertex connected to the camera)" if light else
+               "mis (light and BSDF sampling combined by the power heuristic)")
+        comments.append(f"{kind} -> {how}, max_depth {md}, rr_depth {rr} (Mitsuba's conventions"
                         f"{'; defaults -1 and 5' if 'max_depth' not in props or 'rr_depth' not in props else ''})")
+        if light and "samples_per_pass" in props:
+            props.read.add("samples_per_pass")
+            comments.append("samples_per_pass: ignored (mcocl splits the work into blocks itself)")
     if props.get("hide_emitters", ("boolean",), False):
         rep.unsupported(props.node("hide_emitters"), "hide_emitters=true", "hide_emitters=false",
                         "visible emitters", comments)
