@@ -12,10 +12,11 @@
 #define MAT_ROUGHCONDUCTOR 2
 #define MAT_DIELECTRIC 3
 
-/* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl). */
+/* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl). */
 #define INTEGRATOR_PATH 0
 #define INTEGRATOR_NEE 1
 #define INTEGRATOR_MIS 2
+#define INTEGRATOR_LT 3
 
 /* LightShape: ``light_record.shape``: how light sampling places a point on the emitter (kernels/render/lights.cl). */
 #define LIGHT_TRIANGLE 0
@@ -136,12 +137,12 @@ typedef struct {
 #define MATERIAL_RECORD_PAD_QUAD 1
 #define MATERIAL_RECORD_PAD_COMP w
 
-/* pinhole camera: origin and the right/up/forward axes (right, up scaled by the fov) */
+/* perspective camera: origin and the right/up/forward axes (right, up scaled by the fov); thin lens: aperture radius (0: a pinhole) and focus distance */
 typedef struct {
     float origin[3];
-    float pad0;
+    float aperture_radius;
     float right[3];
-    float pad1;
+    float focus_distance;
     float up[3];
     float pad2;
     float forward[3];
@@ -154,14 +155,14 @@ typedef struct {
 #define CAMERA_RECORD_ORIGIN_COMP x
 #define CAMERA_RECORD_ORIGIN_COMP1 y
 #define CAMERA_RECORD_ORIGIN_COMP2 z
-#define CAMERA_RECORD_PAD0_QUAD 0
-#define CAMERA_RECORD_PAD0_COMP w
+#define CAMERA_RECORD_APERTURE_RADIUS_QUAD 0
+#define CAMERA_RECORD_APERTURE_RADIUS_COMP w
 #define CAMERA_RECORD_RIGHT_QUAD 1
 #define CAMERA_RECORD_RIGHT_COMP x
 #define CAMERA_RECORD_RIGHT_COMP1 y
 #define CAMERA_RECORD_RIGHT_COMP2 z
-#define CAMERA_RECORD_PAD1_QUAD 1
-#define CAMERA_RECORD_PAD1_COMP w
+#define CAMERA_RECORD_FOCUS_DISTANCE_QUAD 1
+#define CAMERA_RECORD_FOCUS_DISTANCE_COMP w
 #define CAMERA_RECORD_UP_QUAD 2
 #define CAMERA_RECORD_UP_COMP x
 #define CAMERA_RECORD_UP_COMP1 y

@@ -116,7 +116,7 @@ class BsdfSpec:
 
     @property
     def sample_function(self) -> str:
-        """``vec3v <name>_bsdf_sample(mat, wi, u_lobe, u1, u2, &wo, &pdf, &eta)``: the weight f cos / pdf."""
+        """``vec3v <name>_bsdf_sample(mat, wi, u_lobe, u1, u2, &wo, &pdf, &eta, mode)``: the weight f cos / pdf."""
         return f"{self.name}_bsdf_sample"
 
     @property
@@ -234,11 +234,20 @@ def dispatcher_source() -> str:
         " * Conventions (Mitsuba 3): directions in the local frame of the surface's",
         " * front normal, both pointing away from the surface; eval returns f cos(theta_o)",
         " * and the solid-angle pdf of sampling wo; sample returns f cos / pdf.",
+        " *",
+        " * Transport modes (Veach's thesis §5.2; pbrt-v4's and Mitsuba 3's TransportMode):",
+        " * camera paths carry radiance (TRANSPORT_RADIANCE), light paths importance",
+        " * (TRANSPORT_IMPORTANCE).  eval is the same in both modes for the BSDFs here",
+        " * (all symmetric but for refraction's radiance scaling), so only sample takes",
+        " * the mode, and passes it to every BSDF's sample function.",
         " */",
         "#ifndef MCOCL_BSDF_CL",
         "#define MCOCL_BSDF_CL",
         "",
         '#include "render/material.cl"',
+        "",
+        "#define TRANSPORT_RADIANCE 0",
+        "#define TRANSPORT_IMPORTANCE 1",
         *[f'#include "{s.kernel_file}"' for s in specs],
         "",
         "/* Lanes whose material has a non-delta lobe: light sampling applies there. */",
@@ -275,8 +284,10 @@ def dispatcher_source() -> str:
         "    intv delta;    /* the sampled lobe is a Dirac delta */",
         "} bsdf_sample_v;",
         "",
-        "/* Sample wo given wi; u_lobe picks a lobe (dielectric), (u1, u2) the direction. */",
-        "MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe, floatv u1, floatv u2) {",
+        "/* Sample wo given wi; u_lobe picks a lobe (dielectric), (u1, u2) the direction;",
+        " * mode: TRANSPORT_RADIANCE or TRANSPORT_IMPORTANCE. */",
+        "MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe, floatv u1, floatv u2,",
+        "                                    int mode) {",
         "    bsdf_sample_v s;",
         "    s.wo = v3(0.0f, 0.0f, 1.0f);",
         "    s.weight = v3s(0.0f);",
@@ -290,7 +301,7 @@ def dispatcher_source() -> str:
             f"    if (lane_any(is_{s.name})) {{",
             "        vec3v wo;",
             "        floatv p, e;",
-            f"        vec3v w = {s.sample_function}(m, wi, u_lobe, u1, u2, &wo, &p, &e);",
+            f"        vec3v w = {s.sample_function}(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);",
             f"        s.wo = v3_select(s.wo, wo, is_{s.name});",
             f"        s.weight = v3_select(s.weight, w, is_{s.name});",
             f"        s.pdf = lane_select(s.pdf, p, is_{s.name});",

@@ -56,11 +56,12 @@ MaterialKind.__doc__ = "``materials[k].kind``: the BSDF of a material (kernels/r
 
 
 class Integrator(enum.IntEnum):
-    """The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl)."""
+    """The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl)."""
 
     PATH = 0
     NEE = 1
     MIS = 2
+    LT = 3
 
 
 class LightShape(enum.IntEnum):
@@ -211,8 +212,9 @@ MATERIAL_RECORD = _quad_record(
 
 # Camera (host: compiled.camera_matrix; kernel: camera.cl), one per scene.
 CAMERA_RECORD = _quad_record(
-    "camera_record", "pinhole camera: origin and the right/up/forward axes (right, up scaled by the fov)",
-    ("origin", "float", 3), ("pad0", "float"), ("right", "float", 3), ("pad1", "float"),
+    "camera_record", "perspective camera: origin and the right/up/forward axes (right, up scaled by the fov); "
+    "thin lens: aperture radius (0: a pinhole) and focus distance",
+    ("origin", "float", 3), ("aperture_radius", "float"), ("right", "float", 3), ("focus_distance", "float"),
     ("up", "float", 3), ("pad2", "float"), ("forward", "float", 3), ("pad3", "float"),
 )
 

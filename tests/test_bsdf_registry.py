@@ -74,7 +74,7 @@ def test_new_registration_gets_a_dispatcher_branch(monkeypatch):
     src = reg.dispatcher_source()
     assert '#include "render/bsdf_sheen.cl"' in src
     assert "vec3v fk = sheen_bsdf_eval(m, wi, wo, &pk);" in src
-    assert "sheen_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e);" in src
+    assert "sheen_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);" in src
     assert "(m->kind == MAT_SHEEN)" in src.split("bsdf_is_smooth")[1].split("}")[0]
     assert "`sheen` | `tint` (RGB, default 0.5) | a test |" in reg.markdown_table()
 

@@ -99,13 +99,14 @@ def test_dask_gives_the_local_random_walk_sums(client, tmp_path):
     assert np.array_equal(r1.values, r2.values) and np.array_equal(r1.stderr, r2.stderr)
 
 
-def test_dask_gives_the_local_film(client, tmp_path):
+@pytest.mark.parametrize("integrator", ["mis", "lt"])
+def test_dask_gives_the_local_film(client, tmp_path, integrator):
     from mcocl.render.api import render
 
     cs = small_cornell()
     one, two = tmp_path / "one.npz", tmp_path / "two.npz"
-    r1 = render(cs, spp=16, seed=8, spp_per_block=2, checkpoint=one)
-    r2 = render(cs, spp=16, seed=8, spp_per_block=2, checkpoint=two, client=client)
+    r1 = render(cs, spp=16, seed=8, spp_per_block=2, checkpoint=one, integrator=integrator)
+    r2 = render(cs, spp=16, seed=8, spp_per_block=2, checkpoint=two, client=client, integrator=integrator)
     with np.load(one) as a, np.load(two) as b:
         assert np.array_equal(a["totals"], b["totals"])
     assert np.array_equal(r1.mean, r2.mean) and r2.spp == 16

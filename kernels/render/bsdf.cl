@@ -10,11 +10,20 @@
  * Conventions (Mitsuba 3): directions in the local frame of the surface's
  * front normal, both pointing away from the surface; eval returns f cos(theta_o)
  * and the solid-angle pdf of sampling wo; sample returns f cos / pdf.
+ *
+ * Transport modes (Veach's thesis §5.2; pbrt-v4's and Mitsuba 3's TransportMode):
+ * camera paths carry radiance (TRANSPORT_RADIANCE), light paths importance
+ * (TRANSPORT_IMPORTANCE).  eval is the same in both modes for the BSDFs here
+ * (all symmetric but for refraction's radiance scaling), so only sample takes
+ * the mode, and passes it to every BSDF's sample function.
  */
 #ifndef MCOCL_BSDF_CL
 #define MCOCL_BSDF_CL
 
 #include "render/material.cl"
+
+#define TRANSPORT_RADIANCE 0
+#define TRANSPORT_IMPORTANCE 1
 #include "render/bsdf_diffuse.cl"
 #include "render/bsdf_conductor.cl"
 #include "render/bsdf_roughconductor.cl"
@@ -56,8 +65,10 @@ typedef struct {
     intv delta;    /* the sampled lobe is a Dirac delta */
 } bsdf_sample_v;
 
-/* Sample wo given wi; u_lobe picks a lobe (dielectric), (u1, u2) the direction. */
-MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe, floatv u1, floatv u2) {
+/* Sample wo given wi; u_lobe picks a lobe (dielectric), (u1, u2) the direction;
+ * mode: TRANSPORT_RADIANCE or TRANSPORT_IMPORTANCE. */
+MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe, floatv u1, floatv u2,
+                                    int mode) {
     bsdf_sample_v s;
     s.wo = v3(0.0f, 0.0f, 1.0f);
     s.weight = v3s(0.0f);
@@ -68,7 +79,7 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
     if (lane_any(is_diffuse)) {
         vec3v wo;
         floatv p, e;
-        vec3v w = diffuse_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e);
+        vec3v w = diffuse_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);
         s.wo = v3_select(s.wo, wo, is_diffuse);
         s.weight = v3_select(s.weight, w, is_diffuse);
         s.pdf = lane_select(s.pdf, p, is_diffuse);
@@ -77,7 +88,7 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
     if (lane_any(is_conductor)) {
         vec3v wo;
         floatv p, e;
-        vec3v w = conductor_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e);
+        vec3v w = conductor_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);
         s.wo = v3_select(s.wo, wo, is_conductor);
         s.weight = v3_select(s.weight, w, is_conductor);
         s.pdf = lane_select(s.pdf, p, is_conductor);
@@ -86,7 +97,7 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
     if (lane_any(is_roughconductor)) {
         vec3v wo;
         floatv p, e;
-        vec3v w = roughconductor_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e);
+        vec3v w = roughconductor_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);
         s.wo = v3_select(s.wo, wo, is_roughconductor);
         s.weight = v3_select(s.weight, w, is_roughconductor);
         s.pdf = lane_select(s.pdf, p, is_roughconductor);
@@ -95,7 +106,7 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
     if (lane_any(is_dielectric)) {
         vec3v wo;
         floatv p, e;
-        vec3v w = dielectric_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e);
+        vec3v w = dielectric_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);
         s.wo = v3_select(s.wo, wo, is_dielectric);
         s.weight = v3_select(s.weight, w, is_dielectric);
         s.pdf = lane_select(s.pdf, p, is_dielectric);

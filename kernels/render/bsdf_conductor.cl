@@ -11,7 +11,7 @@ MC_INLINE vec3v reflect_local(vec3v w) { return v3(-w.x, -w.y, w.z); }
 
 /* mat->color is the specular reflectance R; the uniforms are unused (a delta lobe), eta 1. */
 MC_INLINE vec3v conductor_bsdf_sample(const material_v *mat, vec3v wi, floatv u_lobe, floatv u1, floatv u2,
-                                      vec3v *wo, floatv *pdf, floatv *eta) {
+                                      vec3v *wo, floatv *pdf, floatv *eta, int mode) {
     *wo = reflect_local(wi);
     intv ok = wi.z > 0.0f;  /* one-sided: black from behind */
     *pdf = lane_select((floatv)(0.0f), (floatv)(1.0f), ok);

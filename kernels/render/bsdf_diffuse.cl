@@ -33,7 +33,7 @@ MC_INLINE vec3v diffuse_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, flo
 
 /* Weight f cos / pdf = albedo on the front side, 0 from behind (u_lobe unused; eta 1). */
 MC_INLINE vec3v diffuse_bsdf_sample(const material_v *mat, vec3v wi, floatv u_lobe, floatv u1, floatv u2,
-                                    vec3v *wo, floatv *pdf, floatv *eta) {
+                                    vec3v *wo, floatv *pdf, floatv *eta, int mode) {
     *wo = square_to_cosine_hemisphere(u1, u2, pdf);
     intv ok = wi.z > 0.0f;
     *pdf = lane_select((floatv)(0.0f), *pdf, ok);

@@ -71,7 +71,7 @@ MC_INLINE vec3v roughconductor_bsdf_eval(const material_v *mat, vec3v wi, vec3v 
 
 /* u_lobe unused (one lobe), eta 1. */
 MC_INLINE vec3v roughconductor_bsdf_sample(const material_v *mat, vec3v wi, floatv u_lobe, floatv u1, floatv u2,
-                                           vec3v *wo, floatv *pdf, floatv *eta) {
+                                           vec3v *wo, floatv *pdf, floatv *eta, int mode) {
     vec3v spec = mat->color;
     floatv alpha = lane_max(mat->alpha, GGX_MIN_ALPHA);
     *eta = (floatv)(1.0f);

@@ -16,7 +16,7 @@ kernel void bsdf_sample_dirs(global const float4 *mats, float4 wi4, ulong seed, 
     mc_sampler_t smp = sampler_start(seed, to_ulongv((uintv)(base) + LANE_IOTA), RNG_STREAM_BSDF_TEST);
     floatv u[3];
     sampler_next_nd(&smp, 3, u);
-    bsdf_sample_v s = bsdf_sample(&m, wi, u[0], u[1], u[2]);
+    bsdf_sample_v s = bsdf_sample(&m, wi, u[0], u[1], u[2], TRANSPORT_RADIANCE);
     store_floatv(s.wo.x, out + 0 * n + base);
     store_floatv(s.wo.y, out + 1 * n + base);
     store_floatv(s.wo.z, out + 2 * n + base);

@@ -1,13 +1,35 @@
-/* camera.cl — primary rays of the perspective pinhole camera.
+/* camera.cl — the perspective camera, pinhole or thin lens, in both
+ * directions: primary rays (path tracing) and the importance of a
+ * connection from the scene (light tracing, kernels/render/lt.cl).
  *
  * CompiledScene.camera is one camera_record (layouts.cl): origin, right, up,
- * forward, one float4 each.  A
- * film point (sx, sy) in pixels (row 0 at the top, column 0 at the left)
- * maps to ndc_x = 2 sx / W - 1, ndc_y = 1 - 2 sy / H and the direction
- * normalize(forward + ndc_x right + ndc_y up); `right` and `up` already
- * carry the tangent of the half field of view and the aspect ratio.
+ * forward, one float4 each, with the aperture radius in origin.w (0: a
+ * pinhole) and the focus distance in right.w.  A film point (sx, sy) in
+ * pixels (row 0 at the top, column 0 at the left) maps to
+ * ndc_x = 2 sx / W - 1, ndc_y = 1 - 2 sy / H and the pinhole direction
+ * d = forward + ndc_x right + ndc_y up (forward component 1); `right` and `up`
+ * already carry the tangent of the half field of view and the aspect ratio.
  * The pixel filter is a box: (sx, sy) = pixel corner + a uniform jitter, so a
  * pixel's value is the plain mean of its samples.
+ *
+ * Thin lens (Mitsuba 3's `thinlens`, pbrt-v4 §5.2.3): a point x_l uniform on
+ * the aperture disk of radius a (area A_lens = pi a^2) in the plane of right
+ * and up through the origin, and the ray from x_l through the point of the
+ * focal plane the pinhole ray meets, origin + focus_distance d.  Points at
+ * the focus distance are sharp; the pinhole is the limit a -> 0.
+ *
+ * The adjoint half.  With the image plane at distance 1, of area
+ * A = 4 |right| |up|, and uniform film points, a primary ray of angle theta to
+ * `forward` has the density pdf_solid_angle = 1 / (A cos^3 theta) from its lens
+ * point (dA = dw / cos^3 theta, on the focal plane as on the image plane),
+ * and the importance that makes the whole image's measurement the mean
+ * radiance over film and lens is W_e = 1 / (A A_lens cos^4 theta) (A_lens = 1
+ * for the pinhole), so that W_e cos theta integrates to 1 over the image's
+ * directions and the lens (Veach's thesis §10.2, pbrt-v3's
+ * PerspectiveCamera::We).  Pixel j, a box of A / (W H), has
+ * W_e^(j) = W H W_e on its directions.  A scene point p connects to a lens
+ * point sampled uniformly (the pinhole: its one point) with the density
+ * d^2 / (cos theta A_lens) in solid angle at p.
  */
 #ifndef MCOCL_RENDER_CAMERA_CL
 #define MCOCL_RENDER_CAMERA_CL
@@ -17,14 +39,132 @@
 
 MC_INLINE vec3v cam_row(float4 r) { return v3((floatv)(r.x), (floatv)(r.y), (floatv)(r.z)); }
 
-/* The ray through film point (sx, sy); the origin is the same for all lanes. */
-MC_INLINE vec3v camera_ray(global const float4 *cam, floatv sx, floatv sy, float inv_w, float inv_h, vec3v *origin) {
-    *origin = cam_row(cam[CAMERA_RECORD_ORIGIN_QUAD]);
+/* The thin lens's aperture radius, 0 for a pinhole. */
+MC_INLINE float camera_aperture(global const float4 *cam) {
+    return cam[CAMERA_RECORD_APERTURE_RADIUS_QUAD].CAMERA_RECORD_APERTURE_RADIUS_COMP;
+}
+
+/* The lens's area: pi a^2, or 1 for the pinhole (whose importance is per unit "area"). */
+MC_INLINE float camera_lens_area(global const float4 *cam) {
+    float a = camera_aperture(cam);
+    return a > 0.0f ? RT_PI * a * a : 1.0f;
+}
+
+/* A point uniform on the aperture disk from (u1, u2) (polar map r = a sqrt(u1),
+ * phi = 2 pi u2); the origin for a pinhole. */
+MC_INLINE vec3v camera_lens_point(global const float4 *cam, floatv u1, floatv u2) {
+    vec3v o = cam_row(cam[CAMERA_RECORD_ORIGIN_QUAD]);
+    float a = camera_aperture(cam);
+    if (a <= 0.0f) return o;
+    float4 r4 = cam[CAMERA_RECORD_RIGHT_QUAD], u4 = cam[CAMERA_RECORD_UP_QUAD];
+    float inv_r = rsqrt(r4.x * r4.x + r4.y * r4.y + r4.z * r4.z);
+    float inv_u = rsqrt(u4.x * u4.x + u4.y * u4.y + u4.z * u4.z);
+    floatv c;
+    floatv s = lane_sincos_2pi(u2, &c);
+    floatv rr = a * lane_sqrt(u1);
+    return v3_madd(v3_madd(o, rr * c * inv_r, cam_row(r4)), rr * s * inv_u, cam_row(u4));
+}
+
+/* The pinhole direction through film point (sx, sy), forward component 1. */
+MC_INLINE vec3v camera_film_direction(global const float4 *cam, floatv sx, floatv sy, float inv_w, float inv_h) {
     floatv ndc_x = 2.0f * sx * inv_w - 1.0f;
     floatv ndc_y = 1.0f - 2.0f * sy * inv_h;
-    vec3v d = v3_madd(v3_madd(cam_row(cam[CAMERA_RECORD_FORWARD_QUAD]), ndc_x, cam_row(cam[CAMERA_RECORD_RIGHT_QUAD])),
-                      ndc_y, cam_row(cam[CAMERA_RECORD_UP_QUAD]));
-    return v3_normalize(d);
+    return v3_madd(v3_madd(cam_row(cam[CAMERA_RECORD_FORWARD_QUAD]), ndc_x, cam_row(cam[CAMERA_RECORD_RIGHT_QUAD])),
+                   ndc_y, cam_row(cam[CAMERA_RECORD_UP_QUAD]));
+}
+
+/* The pinhole's ray through film point (sx, sy); the origin is the same for all lanes. */
+MC_INLINE vec3v camera_ray(global const float4 *cam, floatv sx, floatv sy, float inv_w, float inv_h, vec3v *origin) {
+    *origin = cam_row(cam[CAMERA_RECORD_ORIGIN_QUAD]);
+    return v3_normalize(camera_film_direction(cam, sx, sy, inv_w, inv_h));
+}
+
+/* The thin lens's ray through film point (sx, sy) from the lens point of (ul1, ul2). */
+MC_INLINE vec3v camera_ray_lens(global const float4 *cam, floatv sx, floatv sy, float inv_w, float inv_h, floatv ul1,
+                                floatv ul2, vec3v *origin) {
+    vec3v d = camera_film_direction(cam, sx, sy, inv_w, inv_h);
+    float focus = cam[CAMERA_RECORD_FOCUS_DISTANCE_QUAD].CAMERA_RECORD_FOCUS_DISTANCE_COMP;
+    vec3v focal = v3_madd(cam_row(cam[CAMERA_RECORD_ORIGIN_QUAD]), (floatv)(focus), d);
+    *origin = camera_lens_point(cam, ul1, ul2);
+    return v3_normalize(v3_sub(focal, *origin));
+}
+
+/* Where the ray from lens point xl in the unit direction d meets the film:
+ * raster position (sx, sy) in pixels and the pixel index (row-major); cos theta
+ * to `forward`.  Valid when d points forwards and lands inside the image. */
+typedef struct {
+    floatv raster_x, raster_y;
+    uintv pixel;
+    floatv cos_theta;
+    floatv importance;       /* W_e of the whole image, 1 / (A A_lens cos^4 theta) */
+    floatv pdf_solid_angle;  /* density of d among primary rays from xl, 1 / (A cos^3 theta) */
+    intv valid;
+} camera_direction_v;
+
+MC_INLINE camera_direction_v camera_importance(global const float4 *cam, vec3v xl, vec3v d, uint width,
+                                               uint height) {
+    vec3v fwd = cam_row(cam[CAMERA_RECORD_FORWARD_QUAD]);
+    vec3v right = cam_row(cam[CAMERA_RECORD_RIGHT_QUAD]);
+    vec3v up = cam_row(cam[CAMERA_RECORD_UP_QUAD]);
+    float4 r4 = cam[CAMERA_RECORD_RIGHT_QUAD], u4 = cam[CAMERA_RECORD_UP_QUAD];
+    float r2 = r4.x * r4.x + r4.y * r4.y + r4.z * r4.z;
+    float u2 = u4.x * u4.x + u4.y * u4.y + u4.z * u4.z;
+    float inv_area = 0.25f * rsqrt(r2 * u2);
+    camera_direction_v c;
+    c.cos_theta = v3_dot(d, fwd);
+    intv front = c.cos_theta > 0.0f;
+    floatv z = lane_select((floatv)(1.0f), c.cos_theta, front);
+    /* the film point: the pinhole direction of the focal-plane point the ray passes (d itself for a pinhole) */
+    vec3v v = d;
+    if (camera_aperture(cam) > 0.0f) {
+        float focus = cam[CAMERA_RECORD_FOCUS_DISTANCE_QUAD].CAMERA_RECORD_FOCUS_DISTANCE_COMP;
+        v = v3_scale(v3_sub(v3_madd(xl, focus / z, d), cam_row(cam[CAMERA_RECORD_ORIGIN_QUAD])), 1.0f / focus);
+    }
+    floatv vz = lane_select((floatv)(1.0f), v3_dot(v, fwd), front);
+    floatv ndc_x = v3_dot(v, right) / (vz * r2);
+    floatv ndc_y = v3_dot(v, up) / (vz * u2);
+    c.raster_x = 0.5f * (ndc_x + 1.0f) * (float)width;
+    c.raster_y = 0.5f * (1.0f - ndc_y) * (float)height;
+    intv inside = front & (c.raster_x >= 0.0f) & (c.raster_x < (float)width) & (c.raster_y >= 0.0f) &
+                  (c.raster_y < (float)height);
+    floatv rx = lane_select((floatv)(0.0f), c.raster_x, inside);
+    floatv ry = lane_select((floatv)(0.0f), c.raster_y, inside);
+    uintv px = lane_min_u(to_uintv_rtz(rx), (uintv)(width - 1u));
+    uintv py = lane_min_u(to_uintv_rtz(ry), (uintv)(height - 1u));
+    c.pixel = py * width + px;
+    floatv c2 = z * z;
+    c.pdf_solid_angle = lane_select((floatv)(0.0f), inv_area / (c2 * z), inside);
+    c.importance = lane_select((floatv)(0.0f), inv_area / (camera_lens_area(cam) * c2 * c2), inside);
+    c.valid = inside;
+    return c;
+}
+
+/* A scene point p connected to the lens point of (ul1, ul2) (the pinhole:
+ * its one point): the unit direction wo from p to that point, the distance,
+ * where it lands on the film and with what importance, and the
+ * pdf_solid_angle (at p) d^2 / (cos theta A_lens) of the connection.
+ * Visibility is the caller's shadow ray from p to `lens`. */
+typedef struct {
+    vec3v lens;
+    vec3v wo;
+    floatv dist;
+    camera_direction_v film;
+    floatv pdf_solid_angle;
+    intv valid;
+} camera_connection_v;
+
+MC_INLINE camera_connection_v camera_connect(global const float4 *cam, vec3v p, floatv ul1, floatv ul2, uint width,
+                                             uint height) {
+    camera_connection_v k;
+    k.lens = camera_lens_point(cam, ul1, ul2);
+    vec3v v = v3_sub(k.lens, p);
+    floatv d2 = v3_len2(v);
+    k.dist = lane_sqrt(d2);
+    k.wo = v3_scale(v, 1.0f / k.dist);
+    k.film = camera_importance(cam, k.lens, v3_neg(k.wo), width, height);
+    k.valid = k.film.valid & (d2 > 0.0f);
+    k.pdf_solid_angle = lane_select((floatv)(0.0f), d2 / (k.film.cos_theta * camera_lens_area(cam)), k.valid);
+    return k;
 }
 
 #endif

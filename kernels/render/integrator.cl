@@ -21,7 +21,8 @@
  *
  * Random numbers.  Sample (pixel, s) has the 64-bit index s * W * H + pixel
  * and draws, through the sampler (samplers/sampler.cl) in stream
- * RNG_STREAM_RENDER, dimensions 0-1 (pixel jitter) and, at depth d,
+ * RNG_STREAM_RENDER, dimensions 0-1 (pixel jitter), 2-3 (the point on a
+ * thin lens; render/camera.cl) and, at depth d,
  * RENDER_DIM_BSDF(d) = 4 + 8d .. 7 + 8d (lobe choice, direction 2D, roulette)
  * and RENDER_DIM_LIGHT(d) = 8 + 8d .. 11 + 8d (emitter choice: environment or
  * area, which area light, position 2D) (rng/streams.cl): the image depends on
@@ -183,6 +184,7 @@ kernel void render_blocks(
     const bool has_env = env_radiance.x > 0.0f || env_radiance.y > 0.0f || env_radiance.z > 0.0f;
     const vec3v env_le = v3((floatv)(env_radiance.x), (floatv)(env_radiance.y), (floatv)(env_radiance.z));
     const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;
+    const bool thin_lens = camera_aperture(camera) > 0.0f;
 
     /* per-lane path state */
     intv alive = (intv)(0);
@@ -211,8 +213,14 @@ kernel void render_blocks(
             uintv py = px / width;
             floatv sx = to_floatv(px - py * width) + uc[0];
             floatv sy = to_floatv(py) + uc[1];
-            vec3v co;
-            vec3v cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
+            vec3v co, cd;
+            if (thin_lens) {
+                floatv ul[2]; /* the lens point: dimensions 2-3 of the camera's block */
+                sampler_next_2d(&fs, ul);
+                cd = camera_ray_lens(camera, sx, sy, inv_w, inv_h, ul[0], ul[1], &co);
+            } else {
+                cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
+            }
             pixel = lane_select(pixel, px, fresh);
             o = v3_select(o, co, fresh);
             d = v3_select(d, cd, fresh);
@@ -303,7 +311,7 @@ kernel void render_blocks(
             }
 #endif
             /* -- BSDF sampling continues the path -- */
-            bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2]);
+            bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2], TRANSPORT_RADIANCE);
             vec3v wo = frame_to_world(fr, bs.wo);
             thr = v3_select(thr, v3_mul(thr, bs.weight), cont);
             eta = lane_select(eta, eta * bs.eta, cont);

@@ -30,9 +30,17 @@
 /* ---- path tracing (render/integrator.cl) ---- */
 /* Sample (pixel, s) has index s * W * H + pixel.  Dimensions: */
 #define RNG_STREAM_RENDER 8u
-#define RENDER_DIM_CAMERA 0u                    /* pixel jitter x, y (block 0) */
+#define RENDER_DIM_CAMERA 0u                    /* pixel jitter x, y; lens point 2D (block 0) */
 #define RENDER_DIM_BSDF(depth) (4u + 8u * (depth))  /* lobe, direction 2D, roulette */
 #define RENDER_DIM_LIGHT(depth) (8u + 8u * (depth)) /* environment or area, which light, position 2D */
+
+/* ---- light tracing (render/lt.cl) ---- */
+/* Light path i (i = s * W * H + k for the k-th path of "sample" s, as the
+ * camera samples of path tracing are counted) has index i.  Dimensions: */
+#define RNG_STREAM_LIGHT_TRACE 11u
+#define LT_DIM_EMIT 0u /* environment or area, which light, position 2D, direction 2D, lens point 2D */
+#define LT_DIM_BSDF(depth) (8u + 8u * (depth))  /* lobe, direction 2D, roulette at light vertex `depth` */
+#define LT_DIM_LENS(depth) (12u + 8u * (depth)) /* the lens point of light vertex `depth`'s connection */
 
 /* ---- sampling tests (render/bsdf_sample_test.cl, render/light_sample_test.cl) ---- */
 #define RNG_STREAM_BSDF_TEST 9u

@@ -53,6 +53,7 @@ DESCRIPTIONS = {
     "path": "BSDF sampling only; emitters count when hit",
     "nee": "light sampling at every vertex (next-event estimation), BSDF sampling to continue",
     "mis": "both, combined by the power heuristic (beta 2)",
+    "lt": "light tracing: paths from the emitters, every non-delta vertex connected to the camera",
 }
 REFERENCE_FACTOR = 8.0
 REFERENCE_SEED = 0x5EED_0F_2EF
@@ -150,7 +151,7 @@ class RenderProblem:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def estimators(self) -> list[EstimatorSpec]:
-        """path, nee, mis."""
+        """path, nee, mis, lt."""
         out = []
         for name in INTEGRATORS:
             def start(name: str = name) -> RenderRun:

@@ -45,6 +45,7 @@ examples:
   mcocl render scenes/cornell.json --spp 256 --out cornell.exr
   mcocl render scenes/cornell.json --time 60 --integrator mis --out cornell.exr --png cornell.png
   mcocl render scenes/veach_mis.json --integrator nee --spp 64 --out nee.exr
+  mcocl render scenes/cornell.json --integrator lt --time 30 --out lt.exr
   mcocl render scenes/cornell.json --target-error 0.01 --checkpoint cornell.ckpt --out cornell.exr
   mcocl render scenes/cornell.json --resume cornell.ckpt --spp 1024 --out cornell.exr
 """

@@ -1,7 +1,9 @@
-"""``mcocl.render``: progressive path tracing of a scene file on OpenCL.
+"""``mcocl.render``: progressive path tracing and light tracing of a scene file on OpenCL.
 
 One call compiles the scene (:mod:`mcocl.render.compiled`), builds the
-megakernel for the chosen integrator (``kernels/render/integrator.cl``) and
+megakernel for the chosen integrator (``kernels/render/integrator.cl``;
+``kernels/render/lt.cl`` on the splatting film of
+:mod:`mcocl.render.splat_film` for ``lt``) and
 runs blocks of samples per pixel through :func:`mcocl.engine.dispatch.execute`
 until the spp count, the time budget or the target error is reached (or
 Ctrl-C): checkpoints, resuming and several devices work as for integration,
@@ -27,10 +29,12 @@ from ..errors import InputError, NonFiniteSampleWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
 from .compiled import CompiledScene, compile_scene
+from .emitter_choice import bounding_sphere
 from .film import STATS, film_image, relative_error
 from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
 from .scene import INTEGRATORS, Scene, check_integrator_settings
 from .scene_file import load_scene
+from .splat_film import splat_spp_per_block
 
 
 @dataclass
@@ -40,7 +44,8 @@ class RenderResult:
     Attributes:
         mean: (H, W, 3) float32 radiance (box filter: the plain mean of each pixel's samples).
         variance: (H, W, 3) float32 variance of the mean, per pixel and channel.
-        count: (H, W) float32 finite samples per pixel.
+        count: (H, W) float32 finite samples per pixel; for ``lt``, the number of
+            batches (blocks) the variance was estimated from (:mod:`mcocl.render.splat_film`).
         spp: samples per pixel computed (``count`` plus the non-finite ones).
         nonfinite: NaN/Inf samples, counted and left out of the image.
         seconds: wall time of the sampling (build excluded).
@@ -181,7 +186,10 @@ def render(
         time_budget: stop after this many seconds of sampling.
         target_error: stop once the relative error (mean over pixels of
             stderr / mean) is at most this, e.g. 0.01.
-        integrator: ``path``, ``nee`` or ``mis`` (default: the scene's, else ``mis``).
+        integrator: ``path``, ``nee``, ``mis`` or ``lt`` (light tracing with
+            next-event estimation to the camera; ``spp`` then counts light paths
+            per pixel of the image, and mirrors or glass seen directly stay
+            black) (default: the scene's, else ``mis``).
         max_depth, rr_depth: Mitsuba 3's conventions (max_depth -1 unbounded,
             1 emitters seen directly, 2 direct light only); default: the scene's.
         seed: 64-bit seed; the image depends on nothing else.
@@ -253,13 +261,17 @@ def render(
                 f"resume it with spp={saved_limit}, or start renders with a multiple of {spp_per_block} spp")
     elif spp_per_block is None:
         spp_per_block = default_spp_per_block(cs.width, cs.height)
-        if spp is not None:
+        if cs.integrator == "lt":
+            # the variance of a splatted image comes from its batches: have a few
+            spp_per_block = splat_spp_per_block(spp_per_block, spp)
+        elif spp is not None:
             spp_per_block = max(1, min(spp_per_block, spp))
     else:
         spp_per_block = whole_number("spp_per_block", spp_per_block, 1, UNBOUNDED_SPP - 1)
 
+    centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
-                    spp_per_block, spp_limit, opts.lanes)
+                    spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius))
     ctx = runtime.device_context(opts.device)
     runner = job.runner(ctx)
     if acc is None:
@@ -292,6 +304,9 @@ def render(
     nonfinite = img.nonfinite
     spp_done = job.spp_done(acc.blocks_done)
     notes = list(getattr(report, "notes", []) or [])
+    if job.splats:
+        notes.append(f"light tracing: variance from {acc.blocks_done} independent batches of "
+                     f"{spp_per_block} light paths per pixel; specular surfaces seen directly are black")
     result = RenderResult(
         mean=img.mean,
         variance=img.variance,

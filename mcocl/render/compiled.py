@@ -6,7 +6,9 @@ and the integrator half (camera, BSDFs, lights, megakernel) of the renderer.
 Arrays of :class:`CompiledScene` (all C-contiguous):
 
 - ``width``, ``height``: image size in pixels.
-- ``camera``: float32 (4, 4), rows ``origin, right, up, forward`` (w = 0).
+- ``camera``: float32 (4, 4), rows ``origin, right, up, forward``; the w of
+  ``origin`` is the thin lens's aperture radius (0: a pinhole), the w of
+  ``right`` its focus distance (0 for a pinhole), the others 0.
   A film point (sx, sy) in pixels (sx in [0, W), sy in [0, H), row 0 = top of
   the image, column 0 = left) looks along
   ``normalize(forward + ndc_x·right + ndc_y·up)`` with ``ndc_x = 2·sx/W − 1``,
@@ -160,8 +162,13 @@ class CompiledScene:
 
 
 def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: float,
-                  width: int, height: int) -> np.ndarray:
-    """The (4, 4) float32 camera rows ``origin, right, up, forward`` of the contract."""
+                  width: int, height: int, aperture_radius: float = 0.0,
+                  focus_distance: float | None = None) -> np.ndarray:
+    """The (4, 4) float32 camera rows ``origin, right, up, forward`` of the contract.
+
+    A thin lens (``aperture_radius`` > 0) focuses at ``focus_distance`` along
+    ``forward`` (None: the distance from ``origin`` to ``target``).
+    """
     fwd = np.asarray(target, np.float64) - origin
     fwd /= np.linalg.norm(fwd)
     right = np.cross(fwd, up)
@@ -172,6 +179,10 @@ def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: f
     sx, sy = (t * width / height, t) if width >= height else (t, t * height / width)
     cam = np.zeros(1, CAMERA_RECORD.dtype())
     cam["origin"], cam["right"], cam["up"], cam["forward"] = origin, right * sx, true_up * sy, fwd
+    if aperture_radius > 0.0:
+        dist = float(np.linalg.norm(np.asarray(target, np.float64) - origin))
+        cam["aperture_radius"] = aperture_radius
+        cam["focus_distance"] = dist if focus_distance is None else focus_distance
     return cam.view(np.float32).reshape(4, 4)
 
 
@@ -290,7 +301,8 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     env_threshold, env_pmf = environment_choice(env, bounds, p_area)
     cs = CompiledScene(
         width=cam.width, height=cam.height,
-        camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height),
+        camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height,
+                             cam.aperture_radius, cam.focus_distance),
         tri_vertices=np.ascontiguousarray(tri_vertices), spheres=np.ascontiguousarray(sph32),
         sphere_flip=np.array(sphere_flip, np.uint32), prim_shape=prim_shape,
         bvh_nodes=np.ascontiguousarray(bvh.nodes), bvh_prims=np.ascontiguousarray(bvh.prims),

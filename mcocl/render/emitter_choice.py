@@ -61,14 +61,20 @@ def area_power(radiance_rgb: np.ndarray, area: np.ndarray) -> float:
     return float(np.sum(lum * np.asarray(area, np.float32).astype(np.float64) * math.pi))
 
 
+def bounding_sphere(bounds: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre (float64 (3,)) and radius of the scene's bounding sphere: the box's centre and half its
+    diagonal, at least ``MIN_ENV_RADIUS`` (the sphere the environment's power and light rays refer to)."""
+    lo, hi = np.asarray(bounds, np.float32).astype(np.float64)
+    return 0.5 * (lo + hi), max(0.5 * float(np.linalg.norm(hi - lo)), MIN_ENV_RADIUS)
+
+
 def environment_choice(env_rgb: np.ndarray, bounds: np.ndarray, p_area: float) -> tuple[float, float]:
     """``(env_threshold, env_pmf)``: the environment is chosen when u < threshold, with exact probability env_pmf."""
     env = np.asarray(env_rgb, np.float32)[:3].astype(np.float64)
     p_env = 0.0
     if np.any(env > 0):
-        lo, hi = np.asarray(bounds, np.float32).astype(np.float64)
-        radius = 0.5 * float(np.linalg.norm(hi - lo))
-        p_env = math.pi * float(env @ LUMINANCE) * 4.0 * math.pi * max(radius, MIN_ENV_RADIUS) ** 2
+        radius = bounding_sphere(bounds)[1]
+        p_env = math.pi * float(env @ LUMINANCE) * 4.0 * math.pi * radius ** 2
     if p_env > 0 and p_area > 0:
         threshold = np.float32(p_env / (p_env + p_area))
     elif p_env > 0:
@@ -78,4 +84,4 @@ def environment_choice(env_rgb: np.ndarray, bounds: np.ndarray, p_area: float) -
     return float(threshold), float(cells_below(threshold)) / GRID
 
 
-__all__ = ["GRID", "LUMINANCE", "area_power", "cdf_choice_pmf", "cells_below", "environment_choice"]
+__all__ = ["GRID", "LUMINANCE", "area_power", "bounding_sphere", "cdf_choice_pmf", "cells_below", "environment_choice"]

@@ -12,6 +12,11 @@ not depend on ``spp_per_block`` either, up to the order of float additions.
 Inside a launch, one work-item renders one tile of ``tile_pixels``
 consecutive pixels for one block, LANES paths at a time.
 
+Light tracing (``integrator="lt"``) has the same blocks, of as many light
+paths as the block has camera samples (``spp_per_block * W * H``), on the
+splatting film of :mod:`mcocl.render.splat_film`: ``ntiles`` is then the
+number of path groups per block, and a block's statistics are one batch.
+
 :class:`RenderJob` is plain picklable data (arrays and numbers, no OpenCL
 objects), so it can be shipped to other devices or Dask workers;
 :class:`RenderRunner` is the job built on one device.
@@ -29,6 +34,7 @@ from .. import runtime
 from ..layouts import Integrator
 from .device_scene import light_records, light_tables, prim_records, scene_params, scene_tables, tables_digest
 from .film import STATS
+from .splat_film import SplatRunner, splat_groups
 
 INTEGRATOR_CODES = {kind.name.lower(): int(kind) for kind in Integrator}
 KERNEL_FILE = "render/integrator.cl"
@@ -64,7 +70,9 @@ class RenderJob:
         spp_limit: samples per pixel in all (the last block may be partial);
             :data:`UNBOUNDED_SPP` for time or noise halting.
         lanes: vector width of the build (None: the device's).
-        tile_pixels: pixels of one work-item.
+        tile_pixels: pixels of one work-item (path integrators).
+        bounding_sphere: centre xyz and radius of the scene's bounding sphere
+            (light tracing's environment rays start outside it).
     """
 
     tables: dict[str, np.ndarray]
@@ -78,14 +86,22 @@ class RenderJob:
     spp_limit: int = UNBOUNDED_SPP
     lanes: int | None = None
     tile_pixels: int = TILE_PIXELS
+    bounding_sphere: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
     stat_shape: tuple[int, ...] = field(default=(0, 0, STATS))
 
     def __post_init__(self) -> None:
         self.stat_shape = (self.height, self.width, STATS)
 
     @property
+    def splats(self) -> bool:
+        """Whether the job runs on the splatting film (light tracing)."""
+        return self.integrator == "lt"
+
+    @property
     def ntiles(self) -> int:
-        """Work-items per block."""
+        """Work-items per block: pixel tiles, or path groups on the splatting film."""
+        if self.splats:
+            return splat_groups(self.width, self.height)
         return -(-self.width * self.height // self.tile_pixels)
 
     def options(self, lanes: int) -> list[str]:
@@ -105,9 +121,9 @@ class RenderJob:
         """Samples per pixel contained in the first ``blocks`` blocks."""
         return int(min(blocks * self.spp_per_block, self.spp_limit))
 
-    def runner(self, ctx: runtime.DeviceContext) -> RenderRunner:
-        """Build for ``ctx`` (see :class:`RenderRunner`)."""
-        return RenderRunner(self, ctx)
+    def runner(self, ctx: runtime.DeviceContext) -> RenderRunner | SplatRunner:
+        """Build for ``ctx`` (see :class:`RenderRunner` and :class:`~mcocl.render.splat_film.SplatRunner`)."""
+        return SplatRunner(self, ctx, KERNEL_BUFFERS) if self.splats else RenderRunner(self, ctx)
 
 
 class RenderRunner:

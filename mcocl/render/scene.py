@@ -56,7 +56,11 @@ BYTES_PER_PIXEL = 8 * 8 * 2 + 8 * 4 + 7 * 4
 
 @dataclass
 class Camera:
-    """A perspective pinhole camera; ``fov`` is the full angle in degrees on the image's smaller axis."""
+    """A perspective camera; ``fov`` is the full angle in degrees on the image's smaller axis.
+
+    ``aperture_radius`` 0 is a pinhole; above 0 a thin lens (Mitsuba's ``thinlens``) focused at
+    ``focus_distance`` along the viewing direction (None: the distance to ``target``).
+    """
 
     origin: np.ndarray
     target: np.ndarray
@@ -64,6 +68,8 @@ class Camera:
     fov: float
     width: int
     height: int
+    aperture_radius: float = 0.0
+    focus_distance: float | None = None
 
 
 @dataclass
@@ -302,7 +308,7 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
 
 
 def _camera(c: _Checker, v: Any, key: str) -> Camera:
-    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up",))
+    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance"))
     origin = c.vector(o["origin"], f"{key}.origin", limit=GEOMETRY_LIMIT)
     target = c.vector(o["target"], f"{key}.target", limit=GEOMETRY_LIMIT)
     up = c.vector(o.get("up", [0, 1, 0]), f"{key}.up", limit=GEOMETRY_LIMIT)
@@ -315,7 +321,11 @@ def _camera(c: _Checker, v: Any, key: str) -> Camera:
         c.fail(f"{key}.target", "the target coincides with the origin")
     if np.linalg.norm(np.cross(fwd, up)) <= 1e-9 * np.linalg.norm(fwd) * np.linalg.norm(up):
         c.fail(f"{key}.up", "the up vector is zero or parallel to the viewing direction")
-    return Camera(origin, target, up, fov, width, height)
+    aperture = c.number(o.get("aperture_radius", 0.0), f"{key}.aperture_radius", 0.0, GEOMETRY_LIMIT)
+    focus = None
+    if "focus_distance" in o:
+        focus = c.number(o["focus_distance"], f"{key}.focus_distance", 0.0, GEOMETRY_LIMIT, lo_open=True)
+    return Camera(origin, target, up, fov, width, height, aperture, focus)
 
 
 def _integrator(c: _Checker, v: Any, key: str) -> dict:

@@ -9,6 +9,9 @@
   ``fov = 2 atan(√(36² + 24²) / (2 f))`` on the diagonal.  ``to_world``:
   a lone ``<lookat>`` gives origin/target/up as written; any other rigid
   transform gives origin = M·0, target = origin + M·ẑ, up = M·ŷ.
+- ``thinlens``: the same, plus ``aperture_radius`` (required, as in Mitsuba)
+  and ``focus_distance`` (Mitsuba's default: ``far_clip``, 10^4) → mcocl's
+  thin-lens camera.
 - ``hdrfilm``: ``width``/``height`` (Mitsuba's defaults 768 × 576).
 - samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
   ``ldsampler``: ``sample_count`` (default 4) → ``spp``; mcocl always draws from
@@ -16,7 +19,8 @@
   expectation.
 - integrators ``path`` and ``volpath`` → ``mis`` with the same ``max_depth`` and
   ``rr_depth`` (Mitsuba's conventions, defaults −1 and 5); ``direct`` → ``mis``
-  with max_depth 2.
+  with max_depth 2; ``ptracer`` (Mitsuba's particle tracer) → ``lt``, light
+  tracing with the same ``max_depth`` and ``rr_depth``.
 """
 
 from __future__ import annotations
@@ -31,10 +35,12 @@ from .report import Reporter, nearest
 from .xml_source import Node
 
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
-INTEGRATORS = ("path", "volpath", "direct")
+INTEGRATORS = ("path", "volpath", "direct", "ptracer")
 FILM_SIZE = (768, 576)
 SAMPLE_COUNT = 4
 FOV_AXES = ("x", "y", "diagonal", "smaller", "larger")
+SENSORS = ("perspective", "thinlens")
+FAR_CLIP = 1e4  # Mitsuba's far_clip, the default focus_distance of a thinlens
 
 
 def fov_on_smaller_axis(fov: float, axis: str, width: int, height: int) -> float:
@@ -51,9 +57,8 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     """(the mcocl camera, spp from the sampler) of a ``<sensor>``."""
     kind = node.attrib.get("type", "")
     comments: list[str] = []
-    if kind != "perspective":
-        rep.unsupported(node, f"the sensor {kind!r}", 'perspective', "a pinhole perspective camera with its fov"
-                        if kind == "thinlens" else None, comments)
+    if kind not in SENSORS:
+        rep.unsupported(node, f"the sensor {kind!r}", ", ".join(SENSORS), None, comments)
     props, objects = split_children(node)
     width, height, spp = FILM_SIZE[0], FILM_SIZE[1], SAMPLE_COUNT
     films = [o for o in objects if o.tag == "film"]
@@ -99,12 +104,23 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     cam: dict[str, Any] = {"comment": comments}
     cam.update(_orientation(node, props, rep, comments))
     cam.update({"fov": fov_small, "width": width, "height": height})
+    lens_keys: tuple[str, ...] = ()
+    if kind == "thinlens":
+        lens_keys = ("aperture_radius", "focus_distance")
+        aperture = props.get("aperture_radius", ("float",), None)
+        if aperture is None:
+            node.fail("a thinlens sensor needs an aperture_radius")
+        focus = props.get("focus_distance", ("float",), None)
+        if focus is None:
+            focus = FAR_CLIP
+            comments.append(f"focus_distance: Mitsuba's default, far_clip = {FAR_CLIP:g}")
+        cam.update({"aperture_radius": aperture, "focus_distance": focus})
     for k in ("near_clip", "far_clip"):
         if k in props:
             props.read.add(k)
             rep.unsupported(props.node(k), f"{k} (mcocl does not clip along the view ray)", "leave it out",
                             "no clipping", comments)
-    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world"), comments)
+    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", *lens_keys), comments)
     return cam, spp
 
 
@@ -208,10 +224,15 @@ def translate_integrator(node: Node, rep: Reporter) -> dict:
             props.node("max_depth").fail(f"max_depth must be >= -1, got {md}")
         if rr < 1:
             props.node("rr_depth").fail(f"rr_depth must be >= 1, got {rr}")
-        out = {"type": "mis", "max_depth": md, "rr_depth": rr}
-        comments.append(f"{kind} -> mis (light and BSDF sampling combined by the power heuristic), "
-                        f"max_depth {md}, rr_depth {rr} (Mitsuba's conventions"
+        light = kind == "ptracer"
+        out = {"type": "lt" if light else "mis", "max_depth": md, "rr_depth": rr}
+        how = ("lt (light tracing, every non-delta vertex connected to the camera)" if light else
+               "mis (light and BSDF sampling combined by the power heuristic)")
+        comments.append(f"{kind} -> {how}, max_depth {md}, rr_depth {rr} (Mitsuba's conventions"
                         f"{'; defaults -1 and 5' if 'max_depth' not in props or 'rr_depth' not in props else ''})")
+        if light and "samples_per_pass" in props:
+            props.read.add("samples_per_pass")
+            comments.append("samples_per_pass: ignored (mcocl splits the work into blocks itself)")
     if props.get("hide_emitters", ("boolean",), False):
         rep.unsupported(props.node("hide_emitters"), "hide_emitters=true", "hide_emitters=false",
                         "visible emitters", comments)
