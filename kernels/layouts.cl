@@ -22,6 +22,15 @@
 #define LIGHT_SPHERE 1
 #define LIGHT_SPHERE_INWARD 2
 
+/* LightSampler: The render kernel's ``-DLIGHT_SAMPLER``: how an area light is chosen (kernels/render/lights.cl).
+
+    POWER and UNIFORM share one kernel (a CDF over the lights, built on the
+    host, mcocl/render/emitter_choice.py); BVH traverses the light BVH from
+    the shading point (kernels/render/light_bvh.cl, mcocl/render/light_bvh.py). */
+#define LIGHT_SAMPLER_POWER 0
+#define LIGHT_SAMPLER_UNIFORM 1
+#define LIGHT_SAMPLER_BVH 2
+
 /* FilmStat: Column of the film's per-pixel statistics (mcocl/render/film.py, kernels/render/integrator.cl). */
 #define FILM_SUM_R 0
 #define FILM_SUM_G 1
@@ -108,6 +117,49 @@ typedef struct {
 #define LIGHT_RECORD_RADIANCE_COMP2 z
 #define LIGHT_RECORD_PRIM_QUAD 3
 #define LIGHT_RECORD_PRIM_COMP w
+
+/* light BVH node: box, power, cone (axis, cos theta_o, cos theta_e); leaf: ref is a light */
+typedef struct {
+    float lo[3];
+    float power;
+    float hi[3];
+    uint ref;
+    float axis[3];
+    float cos_o;
+    float cos_e;
+    uint leaf;
+    float pad0;
+    float pad1;
+} light_bvh_node;
+#define LIGHT_BVH_NODE_QUADS 4u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
+#define LIGHT_BVH_NODE_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 4u + 0u), q##1 = gather_rec4((table), (index) * 4u + 1u), q##2 = gather_rec4((table), (index) * 4u + 2u), q##3 = gather_rec4((table), (index) * 4u + 3u)
+#define LIGHT_BVH_NODE_LO_QUAD 0
+#define LIGHT_BVH_NODE_LO_COMP x
+#define LIGHT_BVH_NODE_LO_COMP1 y
+#define LIGHT_BVH_NODE_LO_COMP2 z
+#define LIGHT_BVH_NODE_POWER_QUAD 0
+#define LIGHT_BVH_NODE_POWER_COMP w
+#define LIGHT_BVH_NODE_HI_QUAD 1
+#define LIGHT_BVH_NODE_HI_COMP x
+#define LIGHT_BVH_NODE_HI_COMP1 y
+#define LIGHT_BVH_NODE_HI_COMP2 z
+#define LIGHT_BVH_NODE_REF_QUAD 1
+#define LIGHT_BVH_NODE_REF_COMP w
+#define LIGHT_BVH_NODE_AXIS_QUAD 2
+#define LIGHT_BVH_NODE_AXIS_COMP x
+#define LIGHT_BVH_NODE_AXIS_COMP1 y
+#define LIGHT_BVH_NODE_AXIS_COMP2 z
+#define LIGHT_BVH_NODE_COS_O_QUAD 2
+#define LIGHT_BVH_NODE_COS_O_COMP w
+#define LIGHT_BVH_NODE_COS_E_QUAD 3
+#define LIGHT_BVH_NODE_COS_E_COMP x
+#define LIGHT_BVH_NODE_LEAF_QUAD 3
+#define LIGHT_BVH_NODE_LEAF_COMP y
+#define LIGHT_BVH_NODE_PAD0_QUAD 3
+#define LIGHT_BVH_NODE_PAD0_COMP z
+#define LIGHT_BVH_NODE_PAD1_QUAD 3
+#define LIGHT_BVH_NODE_PAD1_COMP w
 
 /* a material: its MaterialKind code (as a float) and parameters */
 typedef struct {

@@ -68,6 +68,19 @@ class LightShape(enum.IntEnum):
     SPHERE_INWARD = 2  # a sphere whose normals point inwards: area sampling only
 
 
+class LightSampler(enum.IntEnum):
+    """The render kernel's ``-DLIGHT_SAMPLER``: how an area light is chosen (kernels/render/lights.cl).
+
+    POWER and UNIFORM share one kernel (a CDF over the lights, built on the
+    host, mcocl/render/emitter_choice.py); BVH traverses the light BVH from
+    the shading point (kernels/render/light_bvh.cl, mcocl/render/light_bvh.py).
+    """
+
+    POWER = 0
+    UNIFORM = 1
+    BVH = 2
+
+
 class FilmStat(enum.IntEnum):
     """Column of the film's per-pixel statistics (mcocl/render/film.py, kernels/render/integrator.cl)."""
 
@@ -83,7 +96,8 @@ class FilmStat(enum.IntEnum):
 
 # The C name prefix of each enum's codes.
 ENUM_PREFIXES: dict[type[enum.IntEnum], str] = {
-    MaterialKind: "MAT_", Integrator: "INTEGRATOR_", LightShape: "LIGHT_", FilmStat: "FILM_",
+    MaterialKind: "MAT_", Integrator: "INTEGRATOR_", LightShape: "LIGHT_", LightSampler: "LIGHT_SAMPLER_",
+    FilmStat: "FILM_",
 }
 
 
@@ -198,6 +212,16 @@ LIGHT_RECORD = _quad_record(
     ("radiance", "float", 3), ("prim", "uint"),
 )
 
+# Light BVH node (host: mcocl/render/light_bvh.py; kernel: render/light_bvh.cl), node 0 the root.
+# Bounds, power and orientation cone of the lights below it (Conty Estevez & Kulla 2018).
+LIGHT_BVH_NODE = _quad_record(
+    "light_bvh_node", "light BVH node: box, power, cone (axis, cos theta_o, cos theta_e); leaf: ref is a light",
+    ("lo", "float", 3), ("power", "float"),
+    ("hi", "float", 3), ("ref", "uint"),  # leaf: index of the light (light_record); else the first of two children
+    ("axis", "float", 3), ("cos_o", "float"),  # the emitters' normals lie within theta_o of axis
+    ("cos_e", "float"), ("leaf", "uint"), ("pad0", "float"), ("pad1", "float"),  # emission within theta_e of them
+)
+
 # Material record (host: compiled.compile_scene; kernel: bsdf.cl material_load).
 MATERIAL_RECORD = _quad_record(
     "material_record", "a material: its MaterialKind code (as a float) and parameters",
@@ -236,7 +260,7 @@ RENDER_PARAMS = Record("render_params", (
     ("env_radiance", "float4", 1),
 ), "scalar parameters of render_blocks (kernels/render/integrator.cl)")
 
-RECORDS: tuple[Record, ...] = (PRIM_RECORD, LIGHT_RECORD, MATERIAL_RECORD, CAMERA_RECORD, BVH_HEADER, BVH_NODE,
+RECORDS: tuple[Record, ...] = (PRIM_RECORD, LIGHT_RECORD, LIGHT_BVH_NODE, MATERIAL_RECORD, CAMERA_RECORD, BVH_HEADER, BVH_NODE,
                                RENDER_PARAMS)
 
 
@@ -300,6 +324,7 @@ if __name__ == "__main__":
     raise SystemExit(main())
 
 
-__all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_RECORD", "MATERIAL_RECORD",
-           "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "FilmStat", "Integrator", "LightShape", "MaterialKind",
+__all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_BVH_NODE", "LIGHT_RECORD",
+           "MATERIAL_RECORD", "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "FilmStat", "Integrator", "LightSampler",
+           "LightShape", "MaterialKind",
            "Record", "c_header", "header_file"]

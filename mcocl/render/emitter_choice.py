@@ -12,16 +12,26 @@ The functions here count the cells, and :func:`mcocl.render.compiled.compile_sce
 stores their results, so that every consumer of a compiled scene (the
 render kernel's records, tests, benchmarks) sees one set of probabilities.
 
-Powers (the choice is proportional to them, like pbrt-v4's power light
-sampler): an area emitter sends luminance · area · π; the constant
-environment sends π · luminance · 4π R² into the scene's bounding sphere of
-radius R (half the diagonal of the geometry's box).  Luminance is Rec. 709:
-0.2126 R + 0.7152 G + 0.0722 B.
+Area lights (``integrator.light_sampler``): ``"power"`` chooses an emitting
+primitive in proportion to its power, luminance · area · π (pbrt-v4's power
+light sampler), ``"uniform"`` every emitting primitive with the same
+probability; ``"bvh"`` uses the same power CDF for the tables but the kernel
+chooses through the light BVH (:mod:`mcocl.render.light_bvh`).  Luminance is
+Rec. 709: 0.2126 R + 0.7152 G + 0.0722 B.
+
+The environment's share.  It used to be its power π · luminance · 4π R²
+into the bounding sphere of the scene (radius R), which a large ground plane
+makes huge: on bench/make_big_scene.py's scene the dim sky took 99.5 % of
+the light samples.  The share is now :data:`ENV_SHARE` (1/2) whenever the
+scene has both an environment and area lights, whatever their size or
+power — Mitsuba 3's uniform choice among its emitters gives the same split
+for one area light.  Measured (bench/env_share.py, noise per sample of
+``mis`` against a long reference; figures in scenes/README.md) against the
+old bounding-sphere rule and a share of 1/(number of emissive shapes + 1)
+(Mitsuba's uniform choice per emitter): TODO-MEASURE.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
@@ -29,7 +39,6 @@ from ..rng import GRID_CELLS
 
 GRID = GRID_CELLS  # the uniforms' grid (kernels/rng/uniform.cl): u = (m + 1/2) / 2^23
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
-MIN_ENV_RADIUS = 1e-3  # an environment around a point-sized scene still gets a finite power
 
 
 def cells_below(x: np.ndarray | float) -> np.ndarray:
@@ -53,29 +62,45 @@ def cdf_choice_pmf(cdf: np.ndarray) -> np.ndarray:
     return ((upper - below) / GRID).astype(np.float32)
 
 
-def area_power(radiance_rgb: np.ndarray, area: np.ndarray) -> float:
-    """Total power of area emitters: sum of luminance · area · π (float64 from the float32 tables)."""
-    if len(area) == 0:
-        return 0.0
-    lum = np.asarray(radiance_rgb, np.float32).astype(np.float64) @ LUMINANCE
-    return float(np.sum(lum * np.asarray(area, np.float32).astype(np.float64) * math.pi))
+ENV_SHARE = 0.5  # the environment's share of light samples when there are area lights too
 
 
-def environment_choice(env_rgb: np.ndarray, bounds: np.ndarray, p_area: float) -> tuple[float, float]:
-    """``(env_threshold, env_pmf)``: the environment is chosen when u < threshold, with exact probability env_pmf."""
-    env = np.asarray(env_rgb, np.float32)[:3].astype(np.float64)
-    p_env = 0.0
-    if np.any(env > 0):
-        lo, hi = np.asarray(bounds, np.float32).astype(np.float64)
-        radius = 0.5 * float(np.linalg.norm(hi - lo))
-        p_env = math.pi * float(env @ LUMINANCE) * 4.0 * math.pi * max(radius, MIN_ENV_RADIUS) ** 2
-    if p_env > 0 and p_area > 0:
-        threshold = np.float32(p_env / (p_env + p_area))
-    elif p_env > 0:
+def light_choice(power: np.ndarray, sampler: str = "power") -> tuple[np.ndarray, np.ndarray]:
+    """``(cdf, pmf)`` of the area-light choice over lights of the given powers (float64, >= 0).
+
+    ``sampler`` ``"power"`` and ``"bvh"``: proportional to ``power`` (the BVH
+    sampler chooses in the kernel; its tables keep the power CDF); ``"uniform"``:
+    the same for every light of non-zero power.  ``cdf`` float32 (L + 1,) with
+    ``cdf[0] = 0``, ``cdf[L] = 1``; ``pmf`` the exact grid probabilities
+    (:func:`cdf_choice_pmf`).  All lights black: ``([0], [])``.
+    """
+    power = np.asarray(power, np.float64)
+    weight = (power > 0).astype(np.float64) if sampler == "uniform" else power
+    total = float(weight.sum())
+    if total <= 0.0:
+        return np.zeros(1, np.float32), np.zeros(0, np.float32)
+    cdf = np.concatenate([[0.0], np.cumsum(weight) / total]).astype(np.float32)
+    cdf[-1] = 1.0
+    # A black light keeps its slot with probability 0: CDF inversion never picks it.
+    return cdf, cdf_choice_pmf(cdf)
+
+
+def environment_choice(env_rgb: np.ndarray, has_area_lights: bool) -> tuple[float, float]:
+    """``(env_threshold, env_pmf)``: the environment is chosen when u < threshold, with exact probability env_pmf.
+
+    The share is :data:`ENV_SHARE` when there are area lights too, 1 without
+    them, 0 without an environment: it does not depend on the scene's size
+    (see the module docstring for why and how it was chosen).
+    """
+    has_env = bool(np.any(np.asarray(env_rgb, np.float32)[:3] > 0))
+    if has_env and has_area_lights:
+        threshold = np.float32(ENV_SHARE)
+    elif has_env:
         threshold = np.float32(1.0)
     else:
         threshold = np.float32(0.0)
     return float(threshold), float(cells_below(threshold)) / GRID
 
 
-__all__ = ["GRID", "LUMINANCE", "area_power", "cdf_choice_pmf", "cells_below", "environment_choice"]
+__all__ = ["ENV_SHARE", "GRID", "LUMINANCE", "cdf_choice_pmf", "cells_below", "environment_choice",
+           "light_choice"]
