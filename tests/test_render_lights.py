@@ -80,7 +80,8 @@ class LightKernels:
     """The test kernels of light_sample_test.cl bound to one compiled scene."""
 
     def __init__(self, scene: dict, lanes: int = 8) -> None:
-        self.cs = compile_scene(parse_scene(scene))
+        # nee: the integrator whose light sampling takes a share for the environment (emitter_choice.py)
+        self.cs = compile_scene(parse_scene(scene), integrator="nee")
         self.t = scene_tables(self.cs)
         self.ctx = runtime.device_context()
         self.lanes = lanes

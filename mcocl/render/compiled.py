@@ -47,9 +47,12 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   picks light i when an area light is chosen — the share of the uniforms' 2^23
   grid cells mapped to it (:mod:`mcocl.render.emitter_choice`), which the
   kernel's records carry too (extension of the contract).
-- ``env_threshold``, ``env_pmf``: light sampling picks the constant environment
-  when a uniform is below ``env_threshold``, i.e. with exact probability
-  ``env_pmf``, else an area light (probability ``(1 − env_pmf)·light_pmf[i]``).
+- ``env_threshold``, ``env_pmf`` (properties: they follow ``integrator``,
+  :func:`mcocl.render.emitter_choice.environment_choice`): light sampling
+  picks the constant environment when a uniform is below ``env_threshold``,
+  i.e. with exact probability ``env_pmf``, else an area light (probability
+  ``(1 − env_pmf)·light_pmf[i]``); ``env_share``, when set, overrides the
+  rule (for measurements).
 - ``prim_light``: int32 (T + S,): index of a primitive in ``light_prims``,
   −1 if it is not a light (for the MIS weight of an emitter hit by BSDF
   sampling). (extension of the contract)
@@ -117,8 +120,7 @@ class CompiledScene:
     spp: int
     bounds: np.ndarray
     source: Path | None = None
-    env_threshold: float = 0.0
-    env_pmf: float = 0.0
+    env_share: float | None = None
     light_power: np.ndarray = field(default_factory=lambda: np.zeros(0))
     light_sampler: str = "power"
     shape_names: list[str] = field(default_factory=list)
@@ -141,6 +143,16 @@ class CompiledScene:
     def num_lights(self) -> int:
         """L, the number of emissive primitives."""
         return int(self.light_prims.shape[0])
+
+    @property
+    def env_threshold(self) -> float:
+        """Light sampling chooses the environment when a uniform is below this (see ``env_pmf``)."""
+        return environment_choice(self.env_radiance, self.num_lights > 0, self.integrator, self.env_share)[0]
+
+    @property
+    def env_pmf(self) -> float:
+        """The exact probability that light sampling chooses the environment (:mod:`.emitter_choice`)."""
+        return environment_choice(self.env_radiance, self.num_lights > 0, self.integrator, self.env_share)[1]
 
     def with_settings(self, integrator: str | None = None, max_depth: int | None = None,
                       rr_depth: int | None = None, spp: int | None = None,
@@ -285,7 +297,6 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     env[:3] = scene.env_radiance
     cam = scene.camera
     bounds = np.ascontiguousarray(bvh.bounds if len(ids) else np.zeros((2, 3)), np.float32)
-    env_threshold, env_pmf = environment_choice(env, len(light_prims) > 0)
     cs = CompiledScene(
         width=cam.width, height=cam.height,
         camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height),
@@ -297,7 +308,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         prim_light=prim_light, light_area=light_area, env_radiance=env,
         light_power=power.astype(np.float64), light_sampler=scene.light_sampler,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
-        bounds=bounds, source=scene.path, env_threshold=env_threshold, env_pmf=env_pmf,
+        bounds=bounds, source=scene.path,
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
                    "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},

@@ -21,14 +21,36 @@ Rec. 709: 0.2126 R + 0.7152 G + 0.0722 B.
 
 The environment's share.  It used to be its power π · luminance · 4π R²
 into the bounding sphere of the scene (radius R), which a large ground plane
-makes huge: on bench/make_big_scene.py's scene the dim sky took 99.5 % of
-the light samples.  The share is now :data:`ENV_SHARE` (1/2) whenever the
-scene has both an environment and area lights, whatever their size or
-power — Mitsuba 3's uniform choice among its emitters gives the same split
-for one area light.  Measured (bench/env_share.py, noise per sample of
-``mis`` against a long reference; figures in scenes/README.md) against the
-old bounding-sphere rule and a share of 1/(number of emissive shapes + 1)
-(Mitsuba's uniform choice per emitter): TODO-MEASURE.
+makes huge: on bench/make_big_scene.py's scene the dim sky took 99.1 % of
+the light samples.  The share no longer depends on the scene's size:
+
+- ``mis``: 0.  The environment is constant, so the radiance arriving from
+  it is proportional to what the BSDF's own sampling already follows (the
+  BSDF times the cosine), up to visibility; uniform directions on the sphere
+  can only do worse, and every light sample they take is one the area lights
+  lose.  The environment is then found by BSDF sampling alone, with MIS
+  weight 1 (its light pdf is 0), which is unbiased.  (An environment *map*
+  would need its own importance sampling and a share of its own.)
+- ``nee``: 1/2 when there are area lights too (:data:`ENV_SHARE`), else 1:
+  that integrator sees the environment only through light samples after the
+  first vertex, so it must keep a fixed share; 1/2 is what Mitsuba 3's
+  uniform choice among emitters gives for one area light.
+- ``path`` does not sample lights.
+
+Measured with bench/light_choice.py (variance of the pixel means at equal
+spp, ``mis``, 96 px wide, 64 spp; noise relative to the old rule):
+
+==============================  ==========  =====  =====  =====  =====
+scene                           old rule    1/2    1/8    1/32   0
+==============================  ==========  =====  =====  =====  =====
+big-mesh scene, sky 0.05        1 (0.991)   92.7   411    738    964
+many_lights.json, sky 2         1 (0.973)   1.56   1.69   1.70   1.71
+veach_mis.json, sky 0.5         --          1      1.09   1.11   1.12
+==============================  ==========  =====  =====  =====  =====
+
+(the veach row relative to the share 1/2).  A share of 1/(emissive shapes +
+1), Mitsuba's uniform choice per emitter, was 1/2 on the big scene and 1.69
+on the many-light scene: between the two.
 """
 
 from __future__ import annotations
@@ -62,7 +84,7 @@ def cdf_choice_pmf(cdf: np.ndarray) -> np.ndarray:
     return ((upper - below) / GRID).astype(np.float32)
 
 
-ENV_SHARE = 0.5  # the environment's share of light samples when there are area lights too
+ENV_SHARE = 0.5  # the environment's share of light samples under ``nee`` when there are area lights too
 
 
 def light_choice(power: np.ndarray, sampler: str = "power") -> tuple[np.ndarray, np.ndarray]:
@@ -85,20 +107,24 @@ def light_choice(power: np.ndarray, sampler: str = "power") -> tuple[np.ndarray,
     return cdf, cdf_choice_pmf(cdf)
 
 
-def environment_choice(env_rgb: np.ndarray, has_area_lights: bool) -> tuple[float, float]:
+def environment_choice(env_rgb: np.ndarray, has_area_lights: bool, integrator: str = "mis",
+                       share: float | None = None) -> tuple[float, float]:
     """``(env_threshold, env_pmf)``: the environment is chosen when u < threshold, with exact probability env_pmf.
 
-    The share is :data:`ENV_SHARE` when there are area lights too, 1 without
-    them, 0 without an environment: it does not depend on the scene's size
-    (see the module docstring for why and how it was chosen).
+    The share follows the integrator (see the module docstring for why and
+    the measurements): 0 for ``mis``; for ``nee`` and ``path``
+    :data:`ENV_SHARE` with area lights, 1 without; 0 without an environment.
+    ``share`` overrides the rule (for measurements).
     """
     has_env = bool(np.any(np.asarray(env_rgb, np.float32)[:3] > 0))
-    if has_env and has_area_lights:
-        threshold = np.float32(ENV_SHARE)
-    elif has_env:
-        threshold = np.float32(1.0)
-    else:
+    if not has_env:
         threshold = np.float32(0.0)
+    elif share is not None:
+        threshold = np.float32(share)
+    elif integrator == "mis":
+        threshold = np.float32(0.0)
+    else:
+        threshold = np.float32(ENV_SHARE if has_area_lights else 1.0)
     return float(threshold), float(cells_below(threshold)) / GRID
 
 
