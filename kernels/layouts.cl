@@ -128,8 +128,8 @@ typedef struct {
     float cos_o;
     float cos_e;
     uint leaf;
-    float pad0;
-    float pad1;
+    uint count;
+    float pad;
 } light_bvh_node;
 #define LIGHT_BVH_NODE_QUADS 4u
 /* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
@@ -156,10 +156,10 @@ typedef struct {
 #define LIGHT_BVH_NODE_COS_E_COMP x
 #define LIGHT_BVH_NODE_LEAF_QUAD 3
 #define LIGHT_BVH_NODE_LEAF_COMP y
-#define LIGHT_BVH_NODE_PAD0_QUAD 3
-#define LIGHT_BVH_NODE_PAD0_COMP z
-#define LIGHT_BVH_NODE_PAD1_QUAD 3
-#define LIGHT_BVH_NODE_PAD1_COMP w
+#define LIGHT_BVH_NODE_COUNT_QUAD 3
+#define LIGHT_BVH_NODE_COUNT_COMP z
+#define LIGHT_BVH_NODE_PAD_QUAD 3
+#define LIGHT_BVH_NODE_PAD_COMP w
 
 /* a material: its MaterialKind code (as a float) and parameters */
 typedef struct {

@@ -219,7 +219,8 @@ LIGHT_BVH_NODE = _quad_record(
     ("lo", "float", 3), ("power", "float"),
     ("hi", "float", 3), ("ref", "uint"),  # leaf: index of the light (light_record); else the first of two children
     ("axis", "float", 3), ("cos_o", "float"),  # the emitters' normals lie within theta_o of axis
-    ("cos_e", "float"), ("leaf", "uint"), ("pad0", "float"), ("pad1", "float"),  # emission within theta_e of them
+    ("cos_e", "float"), ("leaf", "uint"),  # emission within theta_e of the normals; 1: a leaf
+    ("count", "uint"), ("pad", "float"),  # count: lights below (each gets at least a grid cell when it can shine)
 )
 
 # Material record (host: compiled.compile_scene; kernel: bsdf.cl material_load).

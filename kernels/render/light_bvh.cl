@@ -21,21 +21,25 @@
  * heuristic: any value is unbiased as long as it is 0 only for lights that
  * cannot reach p.
  *
- * Exact probabilities.  The walk does not rescale the uniform u.  It keeps
- * the interval [a, b) of [0, 1) whose uniforms reach the current node and
- * splits it at mid = a + (b - a) I0 / (I0 + I1) (clamped into [a, b]): u < mid
- * takes the first child.  The uniforms are the 2^23 cell centres of
- * rng/uniform.cl, so the probability of reaching a leaf is exactly the number
- * of cell centres in its interval, (cells(b) - cells(a)) 2^-23 with
- * cells(x) = ceil(x 2^23 - 1/2) — all exact in float (x 2^23 - 1/2 is
- * representable for x in [0, 1]).  light_bvh_pmf walks the same nodes by the
- * light's trail with the same arithmetic (one function, light_bvh_walk), so it
- * reproduces the sampling probability bit for bit.
+ * Exact probabilities.  The walk does not rescale the uniform u.  The
+ * uniforms are the 2^23 cell centres of rng/uniform.cl; the walk keeps the
+ * range [A, B) of cells (integers) that reach the current node and gives the
+ * first child the cells below M = A + round((B - A) I0 / (I0 + I1)): cell
+ * m = floor(u 2^23) takes the first child when m < M.  The probability of a
+ * light is then exactly (B - A) 2^-23 at its leaf.  M is clamped so that a
+ * child with I > 0 keeps at least as many cells as it has lights (count of
+ * the node record; the root has 2^23 >= the number of lights), so every light
+ * the importance does not rule out gets at least one cell: a light that can
+ * reach the point is never given probability 0 by rounding.  light_bvh_pmf
+ * walks the same nodes by the light's trail with the same arithmetic (one
+ * function, light_bvh_walk), so it reproduces the sampling probability bit
+ * for bit.
  */
 #ifndef MCOCL_RENDER_LIGHT_BVH_CL
 #define MCOCL_RENDER_LIGHT_BVH_CL
 
 #include "layouts.cl"
+#include "rng/uniform.cl"
 #include "render/vec3.cl"
 #include "render/lane_io.cl"
 #include "sampling/gather.cl"
@@ -81,9 +85,6 @@ MC_INLINE floatv light_bvh_importance(vec3v lo, vec3v hi, floatv power, vec3v ax
     return lane_select((floatv)(0.0f), imp, (cos_p > cos_e) & (imp > 0.0f));
 }
 
-/* Uniforms (cell centres of rng/uniform.cl) below x, for x in [0, 1]: exact in float. */
-MC_INLINE floatv light_bvh_cells_below(floatv x) { return ceil(x * (float)UNIFORM_CELLS - 0.5f); }
-
 /* Walk from the root to a leaf, choosing the child by u (by_trail 0) or by
  * the bits of trail (by_trail 1, a compile-time constant at each call).
  * Returns the light (0 for lanes that found none) and its exact probability. */
@@ -93,7 +94,8 @@ MC_INLINE uintv light_bvh_walk(global const float4 *nodes, vec3v p, vec3v n, flo
     LIGHT_BVH_NODE_GATHER(r, nodes, (uintv)(0u));
     uintv ref = lane_as_uint(REC_FIELD(r, LIGHT_BVH_NODE_REF));
     intv leaf = lane_as_uint(REC_FIELD(r, LIGHT_BVH_NODE_LEAF)) != 0u;
-    floatv a = (floatv)(0.0f), b = (floatv)(1.0f);
+    uintv lo = (uintv)(0u), hi = (uintv)(UNIFORM_CELLS);
+    uintv cell = by_trail ? (uintv)(0u) : to_uintv(u * (float)UNIFORM_CELLS); /* u = (cell + 1/2) 2^-23 */
     intv live = active;
     for (uint depth = 0u;; ++depth) {
         intv go = live & !leaf;
@@ -105,10 +107,13 @@ MC_INLINE uintv light_bvh_walk(global const float4 *nodes, vec3v p, vec3v n, flo
         floatv i0 = LIGHT_BVH_IMPORTANCE(q, p, n, has_n);
         floatv i1 = LIGHT_BVH_IMPORTANCE(s, p, n, has_n);
         floatv total = i0 + i1;
-        floatv mid = lane_min(lane_max(a + (b - a) * (i0 / total), a), b);
-        intv second = by_trail ? ((trail >> depth) & 1u) != 0u : !(u < mid);
-        a = lane_select(a, mid, go & second);
-        b = lane_select(b, mid, go & !second);
+        uintv share = to_uintv(to_floatv(hi - lo) * (i0 / total) + 0.5f);
+        uintv least = lo + lane_select((uintv)(0u), lane_as_uint(REC_FIELD(q, LIGHT_BVH_NODE_COUNT)), i0 > 0.0f);
+        uintv most = hi - lane_select((uintv)(0u), lane_as_uint(REC_FIELD(s, LIGHT_BVH_NODE_COUNT)), i1 > 0.0f);
+        uintv mid = min(max(lo + share, least), most);
+        intv second = by_trail ? ((trail >> depth) & 1u) != 0u : !(cell < mid);
+        lo = lane_select(lo, mid, go & second);
+        hi = lane_select(hi, mid, go & !second);
         ref = lane_select(ref, lane_select(lane_as_uint(REC_FIELD(q, LIGHT_BVH_NODE_REF)),
                                            lane_as_uint(REC_FIELD(s, LIGHT_BVH_NODE_REF)), second), go);
         intv leaf_next = lane_select(lane_as_uint(REC_FIELD(q, LIGHT_BVH_NODE_LEAF)),
@@ -116,9 +121,8 @@ MC_INLINE uintv light_bvh_walk(global const float4 *nodes, vec3v p, vec3v n, flo
         leaf = lane_select(leaf, leaf_next, go);
         live = live & (!go | (total > 0.0f)); /* no light below can reach p */
     }
-    live = live & leaf;
-    *pmf = lane_select((floatv)(0.0f), (light_bvh_cells_below(b) - light_bvh_cells_below(a)) * UNIFORM_CELL_WIDTH,
-                       live);
+    live = live & leaf & (hi > lo);
+    *pmf = lane_select((floatv)(0.0f), to_floatv(hi - lo) * UNIFORM_CELL_WIDTH, live);
     return lane_select((uintv)(0u), ref, live);
 }
 

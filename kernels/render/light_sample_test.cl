@@ -110,3 +110,18 @@ kernel void light_bvh_pmfs(LIGHT_TEST_PARAMS, float4 p4, float4 n4, uint n, glob
     intv all = (intv)(0) == (intv)(0);
     store_floatv(light_bvh_pmf(lt.light_bvh, p, nn, gather_uint(lt.light_trail, prim), all), out + base);
 }
+
+/* The light the BVH walk chooses from p (normal n4) for given uniforms u (-1: none; 1 component),
+ * so that a test can push every uniform of the grid through it. */
+kernel void light_bvh_choose_u(LIGHT_TEST_PARAMS, float4 p4, float4 n4, global const float *u, uint n,
+                               global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    LIGHT_TEST_SETUP;
+    vec3v p = v3((floatv)(p4.x), (floatv)(p4.y), (floatv)(p4.z));
+    vec3v nn = v3((floatv)(n4.x), (floatv)(n4.y), (floatv)(n4.z));
+    intv all = (intv)(0) == (intv)(0);
+    floatv pmf;
+    uintv k = light_bvh_sample(lt.light_bvh, p, nn, load_floatv(u + base), all, &pmf);
+    store_floatv(lane_select((floatv)(-1.0f), to_floatv(k), pmf > 0.0f), out + base);
+}

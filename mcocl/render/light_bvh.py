@@ -30,6 +30,11 @@ orientation (pbrt-v4 uses a surface-area-orientation heuristic); it is
 simple and its quality was enough on the shipped many-light scene
 (scenes/README.md).
 
+``count`` of a node: the lights below it.  The walk gives every child that
+can light the point at least ``count`` of the 2^23 cells of the uniforms'
+grid, so every light that can reach the point has a non-zero probability
+however small its importance (at most 2^23 lights).
+
 ``light_trail`` (uint32 per primitive id): the path from the root to the
 leaf of the primitive's light, bit d = 1 when the path takes the second
 child at depth d — so that the pmf of a light hit by a BSDF-sampled ray can
@@ -43,7 +48,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
 from ..layouts import LIGHT_BVH_NODE
+from ..rng import GRID_CELLS
 from .compiled import CompiledScene
 
 CONE_MARGIN = 1e-4  # radians added to a merged cone's theta_o (float32 rounding of axis and cosine)
@@ -152,8 +159,8 @@ def build_light_bvh(cs: CompiledScene) -> LightBVH:
     lo, hi, axis, cos_o, cos_e = _light_geometry(cs)
     power = np.asarray(cs.light_power, np.float64)
     perm, starts, ends = _split_levels(0.5 * (lo + hi))
-    if len(starts) - 1 > MAX_DEPTH:
-        raise ValueError(f"light BVH deeper than {MAX_DEPTH} levels ({nl} lights)")
+    if len(starts) - 1 > MAX_DEPTH or nl > GRID_CELLS:
+        raise InputError(f"{cs.source}: {nl} emitting primitives: the light BVH takes at most {GRID_CELLS}")
 
     # Number the nodes level by level; the two children of a node are adjacent.
     level_ids, first = [], 0
@@ -163,7 +170,7 @@ def build_light_bvh(cs: CompiledScene) -> LightBVH:
     total = first
     n_lo, n_hi = np.zeros((total, 3)), np.zeros((total, 3))
     n_axis, n_th = np.zeros((total, 3)), np.zeros(total)
-    n_pow, n_cos_e = np.zeros(total), np.zeros(total)
+    n_pow, n_cos_e, n_count = np.zeros(total), np.zeros(total), np.ones(total, np.int64)
     ref, leaf = np.zeros(total, np.int64), np.zeros(total, bool)
     trail, depth = np.zeros(total, np.int64), np.zeros(total, np.int64)
     for lev in range(len(starts)):
@@ -187,11 +194,12 @@ def build_light_bvh(cs: CompiledScene) -> LightBVH:
         a, b = ref[p], ref[p] + 1
         n_lo[p], n_hi[p] = np.minimum(n_lo[a], n_lo[b]), np.maximum(n_hi[a], n_hi[b])
         n_pow[p] = n_pow[a] + n_pow[b]
+        n_count[p] = n_count[a] + n_count[b]
         n_cos_e[p] = np.minimum(n_cos_e[a], n_cos_e[b])
         n_axis[p], n_th[p] = _cone_union(n_axis[a], n_th[a], n_axis[b], n_th[b])
     rec = np.zeros(total, rec_dtype)
     rec["lo"], rec["hi"], rec["power"] = n_lo, n_hi, n_pow
-    rec["ref"], rec["leaf"] = ref.astype(np.uint32), leaf.astype(np.uint32)
+    rec["ref"], rec["leaf"], rec["count"] = ref.astype(np.uint32), leaf.astype(np.uint32), n_count
     rec["axis"] = n_axis
     # cos theta_o rounded down (a wider cone) where it is not exactly 1 or -1
     cos_stored = np.cos(n_th).astype(np.float32)
