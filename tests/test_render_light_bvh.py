@@ -211,14 +211,16 @@ def test_environment_share_does_not_depend_on_the_scene_size() -> None:
 
 
 def test_environment_renders_agree_across_integrators_and_shares() -> None:
-    """mis with no light samples for the sky, nee with half of them, and path see the same image."""
+    """mis with no light samples for the sky and nee with half of them see the same image, with either sampler."""
     sc = load_scene(SCENES / "many_lights.json")
     sc.camera.width, sc.camera.height = 16, 16
     sc.env_radiance = np.array([0.3, 0.4, 0.5])
-    renders = {i: render(compile_scene(sc, max_depth=2, integrator=i), spp=1024, seed=5) for i in ("mis", "nee")}
-    z = _block_z(renders["mis"], renders["nee"])
-    zcrit = stats.norm.isf((1 - (1 - 1e-3) ** (1 / z.size)) / 2)
-    assert np.max(np.abs(z)) < zcrit
+    runs = [("mis", "power"), ("nee", "power"), ("mis", "bvh"), ("nee", "bvh")]
+    renders = {(i, ls): render(compile_scene(sc, max_depth=2, integrator=i).with_settings(light_sampler=ls),
+                               spp=1024, seed=5 + k) for k, (i, ls) in enumerate(runs)}
+    zs = [_block_z(renders[a], renders[b]) for a, b in itertools.combinations(runs, 2)]
+    zcrit = stats.norm.isf((1 - (1 - 1e-3) ** (1 / sum(z.size for z in zs))) / 2)
+    assert max(float(np.max(np.abs(z))) for z in zs) < zcrit
 
 
 def test_bad_light_sampler_is_refused_with_its_key() -> None:
