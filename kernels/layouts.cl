@@ -118,48 +118,40 @@ typedef struct {
 #define LIGHT_RECORD_PRIM_QUAD 3
 #define LIGHT_RECORD_PRIM_COMP w
 
-/* light BVH node: box, power, cone (axis, cos theta_o, cos theta_e); leaf: ref is a light */
+/* light BVH node: bounding sphere, cone (axis, cos theta_o), power, children or light */
 typedef struct {
-    float lo[3];
-    float power;
-    float hi[3];
-    uint ref;
+    float center[3];
+    float radius2;
     float axis[3];
     float cos_o;
-    float cos_e;
-    uint leaf;
+    float power;
+    uint ref;
     uint count;
-    float pad;
+    float cos_e;
 } light_bvh_node;
-#define LIGHT_BVH_NODE_QUADS 4u
-/* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
-#define LIGHT_BVH_NODE_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 4u + 0u), q##1 = gather_rec4((table), (index) * 4u + 1u), q##2 = gather_rec4((table), (index) * 4u + 2u), q##3 = gather_rec4((table), (index) * 4u + 3u)
-#define LIGHT_BVH_NODE_LO_QUAD 0
-#define LIGHT_BVH_NODE_LO_COMP x
-#define LIGHT_BVH_NODE_LO_COMP1 y
-#define LIGHT_BVH_NODE_LO_COMP2 z
-#define LIGHT_BVH_NODE_POWER_QUAD 0
-#define LIGHT_BVH_NODE_POWER_COMP w
-#define LIGHT_BVH_NODE_HI_QUAD 1
-#define LIGHT_BVH_NODE_HI_COMP x
-#define LIGHT_BVH_NODE_HI_COMP1 y
-#define LIGHT_BVH_NODE_HI_COMP2 z
-#define LIGHT_BVH_NODE_REF_QUAD 1
-#define LIGHT_BVH_NODE_REF_COMP w
-#define LIGHT_BVH_NODE_AXIS_QUAD 2
+#define LIGHT_BVH_NODE_QUADS 3u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q2 (render/lane_io.cl's gather_rec4). */
+#define LIGHT_BVH_NODE_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 3u + 0u), q##1 = gather_rec4((table), (index) * 3u + 1u), q##2 = gather_rec4((table), (index) * 3u + 2u)
+#define LIGHT_BVH_NODE_CENTER_QUAD 0
+#define LIGHT_BVH_NODE_CENTER_COMP x
+#define LIGHT_BVH_NODE_CENTER_COMP1 y
+#define LIGHT_BVH_NODE_CENTER_COMP2 z
+#define LIGHT_BVH_NODE_RADIUS2_QUAD 0
+#define LIGHT_BVH_NODE_RADIUS2_COMP w
+#define LIGHT_BVH_NODE_AXIS_QUAD 1
 #define LIGHT_BVH_NODE_AXIS_COMP x
 #define LIGHT_BVH_NODE_AXIS_COMP1 y
 #define LIGHT_BVH_NODE_AXIS_COMP2 z
-#define LIGHT_BVH_NODE_COS_O_QUAD 2
+#define LIGHT_BVH_NODE_COS_O_QUAD 1
 #define LIGHT_BVH_NODE_COS_O_COMP w
-#define LIGHT_BVH_NODE_COS_E_QUAD 3
-#define LIGHT_BVH_NODE_COS_E_COMP x
-#define LIGHT_BVH_NODE_LEAF_QUAD 3
-#define LIGHT_BVH_NODE_LEAF_COMP y
-#define LIGHT_BVH_NODE_COUNT_QUAD 3
+#define LIGHT_BVH_NODE_POWER_QUAD 2
+#define LIGHT_BVH_NODE_POWER_COMP x
+#define LIGHT_BVH_NODE_REF_QUAD 2
+#define LIGHT_BVH_NODE_REF_COMP y
+#define LIGHT_BVH_NODE_COUNT_QUAD 2
 #define LIGHT_BVH_NODE_COUNT_COMP z
-#define LIGHT_BVH_NODE_PAD_QUAD 3
-#define LIGHT_BVH_NODE_PAD_COMP w
+#define LIGHT_BVH_NODE_COS_E_QUAD 2
+#define LIGHT_BVH_NODE_COS_E_COMP w
 
 /* a material: its MaterialKind code (as a float) and parameters */
 typedef struct {

@@ -213,14 +213,14 @@ LIGHT_RECORD = _quad_record(
 )
 
 # Light BVH node (host: mcocl/render/light_bvh.py; kernel: render/light_bvh.cl), node 0 the root.
-# Bounds, power and orientation cone of the lights below it (Conty Estevez & Kulla 2018).
+# Bounding sphere, power and orientation cone of the lights below it (Conty Estevez & Kulla 2018).
 LIGHT_BVH_NODE = _quad_record(
-    "light_bvh_node", "light BVH node: box, power, cone (axis, cos theta_o, cos theta_e); leaf: ref is a light",
-    ("lo", "float", 3), ("power", "float"),
-    ("hi", "float", 3), ("ref", "uint"),  # leaf: index of the light (light_record); else the first of two children
+    "light_bvh_node", "light BVH node: bounding sphere, cone (axis, cos theta_o), power, children or light",
+    ("center", "float", 3), ("radius2", "float"),  # a sphere holding every light below (radius squared)
     ("axis", "float", 3), ("cos_o", "float"),  # the emitters' normals lie within theta_o of axis
-    ("cos_e", "float"), ("leaf", "uint"),  # emission within theta_e of the normals; 1: a leaf
-    ("count", "uint"), ("pad", "float"),  # count: lights below (each gets at least a grid cell when it can shine)
+    ("power", "float"), ("ref", "uint"),  # count 1 (a leaf): ref is a light (light_record); else the first child
+    ("count", "uint"),  # lights below: each gets at least a grid cell when it can shine
+    ("cos_e", "float"),  # each emits within theta_e of its normal
 )
 
 # Material record (host: compiled.compile_scene; kernel: bsdf.cl material_load).

@@ -4,14 +4,14 @@
  * emitter found by BSDF sampling).
  *
  * The tree is built on the host (mcocl/render/light_bvh.py): node records
- * light_bvh_node (layouts.cl) with box, power, orientation cone
- * (axis, cos theta_o) and cos theta_e; node 0 is the root, the children of
- * an internal node are nodes ref and ref + 1, a leaf's ref is a light
- * (light_record index).  light_trail[prim] is the root-to-leaf path of an
+ * light_bvh_node (layouts.cl) with a bounding sphere, power, orientation
+ * cone (axis, cos theta_o), cos theta_e and the number of lights below;
+ * node 0 is the root, the children of an internal node are nodes ref and
+ * ref + 1, a leaf (count 1) has a light as ref (light_record index).  light_trail[prim] is the root-to-leaf path of an
  * emitting primitive (bit d: second child at depth d).
  *
  * Importance of a node seen from p with normal n (pbrt-v4 §12.6.3,
- * LightBounds::Importance): with the box's bounding sphere (centre c,
+ * LightBounds::Importance): with the node's bounding sphere (centre c,
  * radius r), w the unit direction from c to p, theta_w the angle between the
  * cone axis and w, theta_b the half-angle the sphere subtends from p (pi
  * when p is inside), theta' = max(0, theta_w - theta_o - theta_b):
@@ -56,14 +56,12 @@ MC_INLINE floatv sin_sub_clamped(floatv sin_a, floatv cos_a, floatv sin_b, float
 
 /* The importance of node record q (LIGHT_BVH_NODE_GATHER) for point p with normal n (see the header). */
 #define LIGHT_BVH_IMPORTANCE(q, p, n, has_n) \
-    light_bvh_importance(REC_VEC3(q, LIGHT_BVH_NODE_LO), REC_VEC3(q, LIGHT_BVH_NODE_HI), \
+    light_bvh_importance(REC_VEC3(q, LIGHT_BVH_NODE_CENTER), REC_FIELD(q, LIGHT_BVH_NODE_RADIUS2), \
                          REC_FIELD(q, LIGHT_BVH_NODE_POWER), REC_VEC3(q, LIGHT_BVH_NODE_AXIS), \
                          REC_FIELD(q, LIGHT_BVH_NODE_COS_O), REC_FIELD(q, LIGHT_BVH_NODE_COS_E), p, n, has_n)
 
-MC_INLINE floatv light_bvh_importance(vec3v lo, vec3v hi, floatv power, vec3v axis, floatv cos_o, floatv cos_e,
+MC_INLINE floatv light_bvh_importance(vec3v c, floatv r2, floatv power, vec3v axis, floatv cos_o, floatv cos_e,
                                       vec3v p, vec3v n, intv has_n) {
-    vec3v c = v3_scale(v3_add(lo, hi), 0.5f);
-    floatv r2 = 0.25f * v3_len2(v3_sub(hi, lo));
     vec3v dv = v3_sub(p, c);
     floatv d2 = v3_len2(dv);
     vec3v w = v3_scale(dv, lane_rsqrt(lane_max(d2, (floatv)(1e-30f))));
@@ -93,7 +91,7 @@ MC_INLINE uintv light_bvh_walk(global const float4 *nodes, vec3v p, vec3v n, flo
     intv has_n = v3_len2(n) > 0.0f;
     LIGHT_BVH_NODE_GATHER(r, nodes, (uintv)(0u));
     uintv ref = lane_as_uint(REC_FIELD(r, LIGHT_BVH_NODE_REF));
-    intv leaf = lane_as_uint(REC_FIELD(r, LIGHT_BVH_NODE_LEAF)) != 0u;
+    intv leaf = lane_as_uint(REC_FIELD(r, LIGHT_BVH_NODE_COUNT)) == 1u;
     uintv lo = (uintv)(0u), hi = (uintv)(UNIFORM_CELLS);
     uintv cell = by_trail ? (uintv)(0u) : to_uintv(u * (float)UNIFORM_CELLS); /* u = (cell + 1/2) 2^-23 */
     intv live = active;
@@ -116,8 +114,8 @@ MC_INLINE uintv light_bvh_walk(global const float4 *nodes, vec3v p, vec3v n, flo
         hi = lane_select(hi, mid, go & !second);
         ref = lane_select(ref, lane_select(lane_as_uint(REC_FIELD(q, LIGHT_BVH_NODE_REF)),
                                            lane_as_uint(REC_FIELD(s, LIGHT_BVH_NODE_REF)), second), go);
-        intv leaf_next = lane_select(lane_as_uint(REC_FIELD(q, LIGHT_BVH_NODE_LEAF)),
-                                     lane_as_uint(REC_FIELD(s, LIGHT_BVH_NODE_LEAF)), second) != 0u;
+        intv leaf_next = lane_select(lane_as_uint(REC_FIELD(q, LIGHT_BVH_NODE_COUNT)),
+                                     lane_as_uint(REC_FIELD(s, LIGHT_BVH_NODE_COUNT)), second) == 1u;
         leaf = lane_select(leaf, leaf_next, go);
         live = live & (!go | (total > 0.0f)); /* no light below can reach p */
     }

@@ -10,6 +10,10 @@ a node — power / distance², times a bound of the cosine at the emitter and
 at the receiver — and descends into one of them with probability in
 proportion; a leaf is one light.
 
+A node record (:data:`~mcocl.layouts.LIGHT_BVH_NODE`, three float4) holds
+the bounding sphere of its box rather than the box: the importance needs
+only the sphere, and 12 values fit three float4 where a box needs four.
+
 Per light (one per entry of ``CompiledScene.light_prims``, in that order):
 
 - triangle: its box, the front normal as the axis, theta_o = 0 and
@@ -154,7 +158,7 @@ def build_light_bvh(cs: CompiledScene) -> LightBVH:
     trail_out = np.zeros(max(cs.num_triangles + cs.num_spheres, 1), np.uint32)
     if nl == 0:
         rec = np.zeros(1, rec_dtype)
-        rec["leaf"] = 1
+        rec["count"] = 1
         return LightBVH(rec.view(np.float32).reshape(-1, 4), trail_out, 0)
     lo, hi, axis, cos_o, cos_e = _light_geometry(cs)
     power = np.asarray(cs.light_power, np.float64)
@@ -198,8 +202,12 @@ def build_light_bvh(cs: CompiledScene) -> LightBVH:
         n_cos_e[p] = np.minimum(n_cos_e[a], n_cos_e[b])
         n_axis[p], n_th[p] = _cone_union(n_axis[a], n_th[a], n_axis[b], n_th[b])
     rec = np.zeros(total, rec_dtype)
-    rec["lo"], rec["hi"], rec["power"] = n_lo, n_hi, n_pow
-    rec["ref"], rec["leaf"], rec["count"] = ref.astype(np.uint32), leaf.astype(np.uint32), n_count
+    # The bounding sphere of each box, rounded outwards: the radius covers the float32 centre's error.
+    centre = 0.5 * (n_lo + n_hi)
+    c32 = centre.astype(np.float32)
+    radius = 0.5 * np.linalg.norm(n_hi - n_lo, axis=1) + np.linalg.norm(c32 - centre, axis=1)
+    rec["center"], rec["radius2"] = c32, np.nextafter((radius * radius).astype(np.float32), np.float32(np.inf))
+    rec["power"], rec["ref"], rec["count"] = n_pow, ref.astype(np.uint32), n_count
     rec["axis"] = n_axis
     # cos theta_o rounded down (a wider cone) where it is not exactly 1 or -1
     cos_stored = np.cos(n_th).astype(np.float32)

@@ -40,7 +40,7 @@ DEFAULT_RR_DEPTH = 5
 DEFAULT_SPP = 64
 # How light sampling chooses an area light (mcocl/render/emitter_choice.py, kernels/render/light_bvh.cl).
 LIGHT_SAMPLERS = ("power", "uniform", "bvh")
-# power: bvh costs 15-90 % more time per sample and did not win on MSE per second on the shipped scenes,
+# power: bvh costs about 10-40 % more time per sample and did not win on MSE per second on the shipped scenes,
 # though it cut the median pixel variance 3.5x (many_lights.json) and 12x (veach_mis.json): scenes/README.md.
 DEFAULT_LIGHT_SAMPLER = "power"
 DEFAULT_INT_IOR = 1.5046
