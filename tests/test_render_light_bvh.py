@@ -9,6 +9,8 @@
   uniforms pushed through the walk land on each light in exactly that share)
   and every light whose front faces the point has a positive one (a light
   the tree wrongly thought dark would bias the image).
+- The tree itself: every light in one leaf reached by its trail, every node's
+  bounding sphere, cone, power and light count holding its children's.
 - Renders of a small many-light scene with the power, uniform and BVH
   samplers agree per 8 x 8 block of pixels (z-tests with a Šidák correction).
 - The environment's share of light samples does not depend on the size of
@@ -29,7 +31,7 @@ from scipy import stats
 
 from mcocl import runtime
 from mcocl.errors import InputError
-from mcocl.layouts import LightSampler
+from mcocl.layouts import LIGHT_BVH_NODE, LightSampler
 from mcocl.render.api import render
 from mcocl.render.compiled import compile_scene
 from mcocl.render.device_scene import scene_buffers, scene_params, scene_tables
@@ -116,6 +118,39 @@ def _facing(cs, p: np.ndarray) -> np.ndarray:
     nrm = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
     out[tri] = np.any(np.einsum("ij,ikj->ik", nrm, p - v) > 1e-9, axis=1)
     return out
+
+
+def test_light_bvh_nodes_bound_their_lights(cloud: BVHKernels) -> None:
+    """Every light is one leaf, its trail leads there, and each node's sphere, cone and power hold its children's."""
+    cs = cloud.cs
+    rec = cloud.t["light_bvh"].reshape(-1, 12).view(LIGHT_BVH_NODE.dtype())[:, 0]
+    leaves = np.flatnonzero(rec["count"] == 1)
+    assert sorted(rec["ref"][leaves]) == list(range(cs.num_lights))
+    assert rec["count"][0] == cs.num_lights
+    centre, r2 = rec["center"].astype(np.float64), rec["radius2"].astype(np.float64)
+    for light in range(0, cs.num_triangles, 97):  # follow some trails from the root
+        prim = int(cs.light_prims[light])
+        node, trail, depth = 0, int(cloud.t["light_trail"][prim]), 0
+        corners = cs.tri_vertices[prim, :, :3].astype(np.float64)
+        while True:  # every node on the way holds the light in its sphere
+            assert np.all(np.sum((corners - centre[node]) ** 2, axis=1) <= r2[node])
+            if rec["count"][node] == 1:
+                break
+            node = int(rec["ref"][node]) + ((trail >> depth) & 1)
+            depth += 1
+        assert rec["ref"][node] == light
+    inner = np.flatnonzero(rec["count"] > 1)
+    for side in (0, 1):
+        child = rec["ref"][inner].astype(np.int64) + side
+        ax = rec["axis"].astype(np.float64)
+        ax /= np.linalg.norm(ax, axis=1)[:, None]
+        # the angle between the axes by atan2 (arccos of a float32 dot near 1 is off by 1e-4)
+        angle = np.arctan2(np.linalg.norm(np.cross(ax[child], ax[inner]), axis=1), np.sum(ax[child] * ax[inner], axis=1))
+        theta = np.arccos(np.clip(rec["cos_o"].astype(np.float64), -1, 1))
+        assert np.all(np.minimum(angle + theta[child], np.pi) <= theta[inner] + 1e-6)
+    assert np.allclose(rec["power"][inner], rec["power"][rec["ref"][inner]] + rec["power"][rec["ref"][inner] + 1],
+                       rtol=1e-5)
+    assert np.all(rec["count"][inner] == rec["count"][rec["ref"][inner]] + rec["count"][rec["ref"][inner] + 1])
 
 
 @pytest.mark.parametrize("point", range(len(POINTS)))
