@@ -21,18 +21,19 @@ Per light (one per entry of ``CompiledScene.light_prims``, in that order):
 - sphere (normals out or in): its box (rounded outwards to float32),
   theta_o = π (normals in every direction), theta_e = π/2.
 
-The tree is built top-down by median splits of the lights' centroids along
-the widest axis of each node's centroid box (a balanced tree: depth
-ceil(log2 L), at most 32 levels), one NumPy pass per level; parents merge
+The tree is built top-down, one NumPy pass per level: a node's lights are
+sorted by centroid along the widest axis of their centroids and split where
+the power-weighted surface area of the two sides is least (median splits
+from level 31 - ceil(log2 L) on, so that the depth stays below the 32 bits of
+a trail); parents merge
 their children's boxes, powers and cones (pbrt-v4's ``Union`` of direction
 cones, §3.8.4 of the 4th edition).  Merged cones are widened by
 :data:`CONE_MARGIN` so that float32 rounding of the stored axis and cosine
 cannot make a node look darker than a light below it sees a point: an
 importance of zero means the light cannot reach the point, and a light that
-could but gets zero would bias the image.  A median split ignores
-orientation (pbrt-v4 uses a surface-area-orientation heuristic); it is
-simple and its quality was enough on the shipped many-light scene
-(scenes/README.md).
+could but gets zero would bias the image.  The split cost ignores
+orientation (pbrt-v4's surface-area-orientation heuristic weighs the cones
+too).
 
 ``count`` of a node: the lights below it.  The walk gives every child that
 can light the point at least ``count`` of the 2^23 cells of the uniforms'
@@ -95,9 +96,32 @@ def _light_geometry(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return lo, hi, axis, cos_o, np.zeros(nl)
 
 
-def _split_levels(cent: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
-    """Median splits, level by level: the light order and each level's node ranges (start, end) in it."""
-    nl = len(cent)
+def _segment_scan(x: np.ndarray, seg: np.ndarray, op: np.ufunc) -> np.ndarray:
+    """Running ``op`` (np.minimum or np.maximum) of rows x restarting at every new segment id (ids ascending)."""
+    big = 4.0 * (float(np.max(np.abs(x))) + 1.0)
+    shift = (seg * big)[:, None] * (1.0 if op is np.maximum else -1.0)
+    return op.accumulate(x + shift, axis=0) - shift
+
+
+def _box_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    d = np.maximum(hi - lo, 0.0)
+    return 2.0 * (d[:, 0] * d[:, 1] + d[:, 1] * d[:, 2] + d[:, 2] * d[:, 0])
+
+
+def _split_levels(lo: np.ndarray, hi: np.ndarray, power: np.ndarray,
+                  ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+    """Top-down splits, level by level: the light order and each level's node ranges (start, end) in it.
+
+    Each node sorts its lights by centroid along the widest axis of their
+    centroids and splits where power x box surface area of the two sides is
+    least (a power-weighted SAH; pbrt-v4's SAOH also weighs the cones), every
+    position considered; from level 31 - ceil(log2 L) on it splits at the
+    median, which keeps the depth at most 31 (whatever the cost splits left,
+    at most L lights remain below a node).
+    """
+    nl = len(lo)
+    median_from = MAX_DEPTH - 1 - int(math.ceil(math.log2(max(nl, 2))))
+    cent = 0.5 * (lo + hi)
     perm = np.arange(nl)
     starts, ends = [np.array([0])], [np.array([nl])]
     while True:
@@ -107,16 +131,33 @@ def _split_levels(cent: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], list[
             break
         s, e = s[inner], e[inner]
         count = e - s
+        first = np.cumsum(count) - count
         seg = np.repeat(np.arange(len(s)), count)
-        pos = np.arange(len(seg)) + np.repeat(s - (np.cumsum(count) - count), count)  # positions in perm
+        pos = np.arange(len(seg)) + np.repeat(s - first, count)  # positions in perm
         c = cent[perm[pos]]
-        bounds_lo = np.minimum.reduceat(c, np.cumsum(count) - count, axis=0)
-        bounds_hi = np.maximum.reduceat(c, np.cumsum(count) - count, axis=0)
+        bounds_lo = np.minimum.reduceat(c, first, axis=0)
+        bounds_hi = np.maximum.reduceat(c, first, axis=0)
         ax = np.argmax(bounds_hi - bounds_lo, axis=1)
         key = c[np.arange(len(pos)), ax[seg]]
         order = np.lexsort((perm[pos], key, seg))  # ties broken by light index: deterministic
         perm[pos] = perm[pos[order]]
         mid = s + count // 2
+        if len(starts) - 1 < median_from:
+            lights = perm[pos]
+            w = power[lights]
+            left_lo, left_hi = _segment_scan(lo[lights], seg, np.minimum), _segment_scan(hi[lights], seg, np.maximum)
+            rseg = seg[-1] - seg[::-1]
+            right_lo = _segment_scan(lo[lights][::-1], rseg, np.minimum)[::-1]
+            right_hi = _segment_scan(hi[lights][::-1], rseg, np.maximum)[::-1]
+            left_w = np.cumsum(w) - np.repeat(np.cumsum(w)[first] - w[first], count)
+            seg_w = np.add.reduceat(w, first)
+            # the split after position j: j and those before it left, the rest right
+            cost = np.full(len(pos), np.inf)
+            cost[:-1] = (left_w[:-1] * _box_area(left_lo[:-1], left_hi[:-1])
+                         + (seg_w[seg[:-1]] - left_w[:-1]) * _box_area(right_lo[1:], right_hi[1:]))
+            cost[first + count - 1] = np.inf  # no split after a segment's last light
+            best = np.lexsort((np.arange(len(pos)), cost, seg))[first]  # first least cost of each segment
+            mid = np.where(np.isfinite(cost[best]), s + (best - first) + 1, mid)
         starts.append(np.stack([s, mid], axis=1).ravel())
         ends.append(np.stack([mid, e], axis=1).ravel())
     return perm, starts, ends
@@ -162,7 +203,7 @@ def build_light_bvh(cs: CompiledScene) -> LightBVH:
         return LightBVH(rec.view(np.float32).reshape(-1, 4), trail_out, 0)
     lo, hi, axis, cos_o, cos_e = _light_geometry(cs)
     power = np.asarray(cs.light_power, np.float64)
-    perm, starts, ends = _split_levels(0.5 * (lo + hi))
+    perm, starts, ends = _split_levels(lo, hi, power)
     if len(starts) - 1 > MAX_DEPTH or nl > GRID_CELLS:
         raise InputError(f"{cs.source}: {nl} emitting primitives: the light BVH takes at most {GRID_CELLS}")
 

@@ -40,8 +40,8 @@ DEFAULT_RR_DEPTH = 5
 DEFAULT_SPP = 64
 # How light sampling chooses an area light (mcocl/render/emitter_choice.py, kernels/render/light_bvh.cl).
 LIGHT_SAMPLERS = ("power", "uniform", "bvh")
-# power: bvh costs about 10-40 % more time per sample and did not win on MSE per second on the shipped scenes,
-# though it cut the median pixel variance 3.5x (many_lights.json) and 12x (veach_mis.json): scenes/README.md.
+# power: a bvh sample takes 1.3-2x as long, and bvh did not win on MSE per second on the shipped scenes,
+# though it cut the median pixel variance 3.2x (many_lights.json) and 40x (veach_mis.json): scenes/README.md.
 DEFAULT_LIGHT_SAMPLER = "power"
 DEFAULT_INT_IOR = 1.5046
 DEFAULT_EXT_IOR = 1.0
