@@ -23,6 +23,15 @@
 #define LIGHT_SPHERE 1
 #define LIGHT_SPHERE_INWARD 2
 
+/* LightSampler: The render kernel's ``-DLIGHT_SAMPLER``: how an area light is chosen (kernels/render/lights.cl).
+
+    POWER and UNIFORM share one kernel (a CDF over the lights, built on the
+    host, mcocl/render/emitter_choice.py); BVH traverses the light BVH from
+    the shading point (kernels/render/light_bvh.cl, mcocl/render/light_bvh.py). */
+#define LIGHT_SAMPLER_POWER 0
+#define LIGHT_SAMPLER_UNIFORM 1
+#define LIGHT_SAMPLER_BVH 2
+
 /* FilmStat: Column of the film's per-pixel statistics (mcocl/render/film.py, kernels/render/integrator.cl). */
 #define FILM_SUM_R 0
 #define FILM_SUM_G 1
@@ -109,6 +118,41 @@ typedef struct {
 #define LIGHT_RECORD_RADIANCE_COMP2 z
 #define LIGHT_RECORD_PRIM_QUAD 3
 #define LIGHT_RECORD_PRIM_COMP w
+
+/* light BVH node: bounding sphere, cone (axis, cos theta_o), power, children or light */
+typedef struct {
+    float center[3];
+    float radius2;
+    float axis[3];
+    float cos_o;
+    float power;
+    uint ref;
+    uint count;
+    float cos_e;
+} light_bvh_node;
+#define LIGHT_BVH_NODE_QUADS 3u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q2 (render/lane_io.cl's gather_rec4). */
+#define LIGHT_BVH_NODE_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 3u + 0u), q##1 = gather_rec4((table), (index) * 3u + 1u), q##2 = gather_rec4((table), (index) * 3u + 2u)
+#define LIGHT_BVH_NODE_CENTER_QUAD 0
+#define LIGHT_BVH_NODE_CENTER_COMP x
+#define LIGHT_BVH_NODE_CENTER_COMP1 y
+#define LIGHT_BVH_NODE_CENTER_COMP2 z
+#define LIGHT_BVH_NODE_RADIUS2_QUAD 0
+#define LIGHT_BVH_NODE_RADIUS2_COMP w
+#define LIGHT_BVH_NODE_AXIS_QUAD 1
+#define LIGHT_BVH_NODE_AXIS_COMP x
+#define LIGHT_BVH_NODE_AXIS_COMP1 y
+#define LIGHT_BVH_NODE_AXIS_COMP2 z
+#define LIGHT_BVH_NODE_COS_O_QUAD 1
+#define LIGHT_BVH_NODE_COS_O_COMP w
+#define LIGHT_BVH_NODE_POWER_QUAD 2
+#define LIGHT_BVH_NODE_POWER_COMP x
+#define LIGHT_BVH_NODE_REF_QUAD 2
+#define LIGHT_BVH_NODE_REF_COMP y
+#define LIGHT_BVH_NODE_COUNT_QUAD 2
+#define LIGHT_BVH_NODE_COUNT_COMP z
+#define LIGHT_BVH_NODE_COS_E_QUAD 2
+#define LIGHT_BVH_NODE_COS_E_COMP w
 
 /* a material: its MaterialKind code (as a float) and parameters */
 typedef struct {

@@ -72,6 +72,19 @@ class LightShape(enum.IntEnum):
     SPHERE_INWARD = 2  # a sphere whose normals point inwards: area sampling only
 
 
+class LightSampler(enum.IntEnum):
+    """The render kernel's ``-DLIGHT_SAMPLER``: how an area light is chosen (kernels/render/lights.cl).
+
+    POWER and UNIFORM share one kernel (a CDF over the lights, built on the
+    host, mcocl/render/emitter_choice.py); BVH traverses the light BVH from
+    the shading point (kernels/render/light_bvh.cl, mcocl/render/light_bvh.py).
+    """
+
+    POWER = 0
+    UNIFORM = 1
+    BVH = 2
+
+
 class FilmStat(enum.IntEnum):
     """Column of the film's per-pixel statistics (mcocl/render/film.py, kernels/render/integrator.cl)."""
 
@@ -87,7 +100,8 @@ class FilmStat(enum.IntEnum):
 
 # The C name prefix of each enum's codes.
 ENUM_PREFIXES: dict[type[enum.IntEnum], str] = {
-    MaterialKind: "MAT_", Integrator: "INTEGRATOR_", LightShape: "LIGHT_", FilmStat: "FILM_",
+    MaterialKind: "MAT_", Integrator: "INTEGRATOR_", LightShape: "LIGHT_", LightSampler: "LIGHT_SAMPLER_",
+    FilmStat: "FILM_",
 }
 
 
@@ -202,6 +216,17 @@ LIGHT_RECORD = _quad_record(
     ("radiance", "float", 3), ("prim", "uint"),
 )
 
+# Light BVH node (host: mcocl/render/light_bvh.py; kernel: render/light_bvh.cl), node 0 the root.
+# Bounding sphere, power and orientation cone of the lights below it (Conty Estevez & Kulla 2018).
+LIGHT_BVH_NODE = _quad_record(
+    "light_bvh_node", "light BVH node: bounding sphere, cone (axis, cos theta_o), power, children or light",
+    ("center", "float", 3), ("radius2", "float"),  # a sphere holding every light below (radius squared)
+    ("axis", "float", 3), ("cos_o", "float"),  # the emitters' normals lie within theta_o of axis
+    ("power", "float"), ("ref", "uint"),  # count 1 (a leaf): ref is a light (light_record); else the first child
+    ("count", "uint"),  # lights below: each gets at least a grid cell when it can shine
+    ("cos_e", "float"),  # each emits within theta_e of its normal
+)
+
 # Material record (host: compiled.compile_scene, fields packed as mcocl/bsdf_registry.py declares;
 # kernel: render/material.cl material_load).
 MATERIAL_RECORD = _quad_record(
@@ -257,7 +282,7 @@ WALK_TABLE_GEOMETRY = Record("walk_table_geometry", (
     ("trans_off", "uint", 1), ("q_off", "uint", 1), ("src_off", "uint", 1),  # transition CDFs, survival, source CDF
 ), "the tabulated densities of a walk: grid sizes and where each table starts in the buffer")
 
-RECORDS: tuple[Record, ...] = (PRIM_RECORD, LIGHT_RECORD, MATERIAL_RECORD, CAMERA_RECORD, BVH_HEADER, BVH_NODE,
+RECORDS: tuple[Record, ...] = (PRIM_RECORD, LIGHT_RECORD, LIGHT_BVH_NODE, MATERIAL_RECORD, CAMERA_RECORD, BVH_HEADER, BVH_NODE,
                                RENDER_PARAMS, WALK_PARAMS, WALK_TABLE_GEOMETRY)
 
 
@@ -361,7 +386,7 @@ if __name__ == "__main__":
     raise SystemExit(main())
 
 
-__all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_RECORD", "MATERIAL_RECORD",
-           "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "WALK_PARAMS", "WALK_TABLE_GEOMETRY", "FilmStat", "Integrator", "LightShape", "MaterialKind",
+__all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_BVH_NODE", "LIGHT_RECORD", "MATERIAL_RECORD",
+           "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "WALK_PARAMS", "WALK_TABLE_GEOMETRY", "FilmStat", "Integrator", "LightSampler", "LightShape", "MaterialKind",
            "Record", "c_header", "dispatcher_file", "generated_files", "header_file",
            "scenes_readme", "with_block"]

@@ -107,9 +107,15 @@ def _glass_and_mirror_box() -> dict:
     }
 
 
+# path finds the small lights rarely (see CORNELL_SPP): at 512 spp its per-pixel variance estimates
+# have heavy tails (measured: |z| 4.9 against mis once mis stopped spending light samples on the
+# environment, issue 14; max |z| 3.4 with path at 2048 spp over three mis seeds).
+GLASS_BOX_SPP = {"path": 2048, "nee": 512, "mis": 512}
+
+
 def test_integrators_agree_with_delta_materials_spheres_and_environment() -> None:
     cs = compile_scene(parse_scene(_glass_and_mirror_box()))
-    r = {k: render(cs, spp=512, integrator=k, seed=20 + i) for i, k in enumerate(("path", "nee", "mis"))}
+    r = {k: render(cs, spp=GLASS_BOX_SPP[k], integrator=k, seed=20 + i) for i, k in enumerate(("path", "nee", "mis"))}
     for a, b in itertools.combinations(r, 2):
         assert_same_image(r[a], r[b], f"{a} vs {b}")
 

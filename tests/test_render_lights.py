@@ -26,7 +26,7 @@ from chi2 import Chi2Family
 
 from mcocl import runtime
 from mcocl.render.compiled import LUMINANCE, compile_scene
-from mcocl.render.device_scene import scene_buffers, scene_params, scene_tables
+from mcocl.render.device_scene import LIGHT_BVH_ABSENT, scene_buffers, scene_params, scene_tables
 from mcocl.render.scene import parse_scene
 
 N = 1 << 17
@@ -80,15 +80,18 @@ class LightKernels:
     """The test kernels of light_sample_test.cl bound to one compiled scene."""
 
     def __init__(self, scene: dict, lanes: int = 8) -> None:
-        self.cs = compile_scene(parse_scene(scene))
+        # nee: the integrator whose light sampling takes a share for the environment (emitter_choice.py)
+        self.cs = compile_scene(parse_scene(scene), integrator="nee")
         self.t = scene_tables(self.cs)
         self.ctx = runtime.device_context()
         self.lanes = lanes
         src = runtime.compose(["render/light_sample_test.cl"])
         self.prg = runtime.build(self.ctx, src, [f"-DLANES={lanes}"], what="light test kernels")
         self.names = ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
-                      "emitter_radiance", "light_rec", "light_cdf")
-        self.buf = scene_buffers(self.cs, self.ctx)
+                      "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail")
+        mf = cl.mem_flags
+        self.buf = {**{k: cl.Buffer(self.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+                       for k, a in LIGHT_BVH_ABSENT.items()}, **scene_buffers(self.cs, self.ctx)}
 
     def _args(self) -> list:
         return [scene_params(self.t), *(self.buf[k] for k in self.names)]

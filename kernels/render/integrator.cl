@@ -19,6 +19,13 @@
  * depth >= rr_depth (lecture: "Ruská ruleta pro integrální rovnice").  The
  * depths are kernel arguments, so changing them does not rebuild the kernel.
  *
+ * The area light of a light sample is chosen by -DLIGHT_SAMPLER
+ * (render/lights.cl): from a table (power, uniform) or through the light BVH
+ * from the vertex (render/light_bvh.cl).  The BVH's choice depends on the
+ * vertex, so an emitter hit's MIS weight recomputes it from the previous
+ * vertex's light-sampling point and normal (prev_up, prev_n), kept only in
+ * that build.
+ *
  * Random numbers.  Sample (pixel, s) has the 64-bit index s * W * H + pixel
  * and draws, through the sampler (samplers/sampler.cl) in stream
  * RNG_STREAM_RENDER, dimensions 0-1 (pixel jitter), 2-3 (the point on a
@@ -58,6 +65,12 @@
 #define DEPTH_GUARD 65536
 
 #define STATS FILM_STATS /* the FilmStat columns of layouts.cl */
+
+#if INTEGRATOR == INTEGRATOR_MIS && LIGHT_SAMPLER == LIGHT_SAMPLER_BVH
+#define LIGHT_CHOICE_AT_VERTEX 1 /* the emitter hit's light pdf needs the previous vertex's point and normal */
+#else
+#define LIGHT_CHOICE_AT_VERTEX 0
+#endif
 
 /* Weight of radiance found by hitting an emitter (or escaping to the
  * environment) after a BSDF sample of pdf prev_pdf; light_pdf is the pdf with
@@ -140,6 +153,7 @@ kernel void render_blocks(
     SCENE_GEOM_BUFFERS,
     global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance,
     global const float4 *light_rec, global const float *light_cdf,
+    global const float4 *light_bvh, global const uint *light_trail,
     global film_t *out)
 {
     const ulong first_block = params.first_block, seed = params.seed;
@@ -176,6 +190,8 @@ kernel void render_blocks(
     lt.light_rec = light_rec;
     lt.light_cdf = light_cdf;
     lt.emitter_radiance = emitter_radiance;
+    lt.light_bvh = light_bvh;
+    lt.light_trail = light_trail;
     lt.nlights = nlights;
     lt.light_top = light_top;
     lt.env_threshold = env_threshold;
@@ -195,6 +211,9 @@ kernel void render_blocks(
     vec3v thr = v3s(1.0f), L = v3s(0.0f);
     floatv eta = (floatv)(1.0f), prev_pdf = (floatv)(0.0f);
     intv unsampled = (intv)(0); /* the previous vertex was the camera or a delta lobe */
+#if LIGHT_CHOICE_AT_VERTEX
+    vec3v prev_up = v3s(0.0f), prev_n = v3s(0.0f);
+#endif
     uint next = 0u;
 
     while (true) {
@@ -254,7 +273,11 @@ kernel void render_blocks(
         if (lane_any(emitting)) {
             vec3v le = emitter_radiance_of(&lt, sf.emitter);
 #if INTEGRATOR == INTEGRATOR_MIS
+#if LIGHT_CHOICE_AT_VERTEX
+            floatv lp = light_pdf_hit_at(&lt, &pt, prev_p, prev_up, prev_n, h.prim, &sf, emitting & !unsampled);
+#else
             floatv lp = light_pdf_hit(&lt, &pt, prev_p, h.prim, &sf, emitting & !unsampled);
+#endif
 #else
             floatv lp = (floatv)(0.0f);
 #endif
@@ -289,7 +312,7 @@ kernel void render_blocks(
                 floatv ul[4];
                 sampler_seek(&smp, RENDER_DIM_LIGHT(depth));
                 sampler_next_nd(&smp, 4, ul);
-                light_sample_v ls = sample_light(&lt, &pt, p_up, ul[0], ul[1], ul[2], ul[3], nee);
+                light_sample_v ls = sample_light_at(&lt, &pt, p_up, n, ul[0], ul[1], ul[2], ul[3], nee);
                 floatv bpdf;
                 vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, ls.wo), &bpdf);
 #if INTEGRATOR == INTEGRATOR_MIS
@@ -318,6 +341,10 @@ kernel void render_blocks(
             vec3v o_next = offset_origin(p, n, wo);
             prev_p = v3_select(prev_p, o_next, cont);
             prev_pdf = lane_select(prev_pdf, bs.pdf, cont);
+#if LIGHT_CHOICE_AT_VERTEX
+            prev_up = v3_select(prev_up, p_up, cont);
+            prev_n = v3_select(prev_n, n, cont);
+#endif
             unsampled = lane_select(unsampled, bs.delta, cont);
             o = v3_select(o, o_next, cont);
             d = v3_select(d, wo, cont);

@@ -13,7 +13,8 @@
  * host: mcocl/render/device_scene.py, scene_params), the tables as buffers. */
 #define LIGHT_TEST_PARAMS                                                                                      \
     const render_params scene, SCENE_GEOM_BUFFERS, global const float4 *prim_rec,                              \
-    global const float4 *emitter_radiance, global const float4 *light_rec, global const float *light_cdf
+    global const float4 *emitter_radiance, global const float4 *light_rec, global const float *light_cdf,      \
+    global const float4 *light_bvh, global const uint *light_trail
 
 #define LIGHT_TEST_SETUP                                                                                       \
     const uint scene_ntris = scene.ntris, scene_nspheres = scene.nspheres;                                    \
@@ -22,6 +23,7 @@
     pt.spheres = scene_spheres; pt.prim_rec = prim_rec; pt.ntris = scene_ntris; pt.nspheres = scene_nspheres; \
     light_tables lt;                                                                                           \
     lt.light_rec = light_rec; lt.light_cdf = light_cdf; lt.emitter_radiance = emitter_radiance;               \
+    lt.light_bvh = light_bvh; lt.light_trail = light_trail;                                                   \
     lt.nlights = scene.nlights; lt.light_top = scene.light_top; lt.env_threshold = scene.env_threshold;       \
     lt.env_pmf = scene.env_pmf; lt.env_radiance = scene.env_radiance
 
@@ -68,4 +70,58 @@ kernel void light_pdf_dirs(LIGHT_TEST_PARAMS, float4 p4, uint n, global const fl
     store_floatv(pdf, out + 0 * n + base);
     store_floatv(lane_select((floatv)(-1.0f), to_floatv(h.prim), emitting), out + 1 * n + base);
     store_floatv(to_floatv(mask_bit(!h.hit)), out + 2 * n + base);
+}
+
+/* The light BVH's choice from p with normal n4 (render/light_bvh.cl): the
+ * light chosen with a uniform, the probability the walk reports, and the
+ * probability light_bvh_pmf recomputes for that light's primitive (which must
+ * be the same float); -1 and 0 where no light was chosen (3 components). */
+kernel void light_bvh_choices(LIGHT_TEST_PARAMS, float4 p4, float4 n4, ulong seed, uint n, global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    LIGHT_TEST_SETUP;
+    vec3v p = v3((floatv)(p4.x), (floatv)(p4.y), (floatv)(p4.z));
+    vec3v nn = v3((floatv)(n4.x), (floatv)(n4.y), (floatv)(n4.z));
+    mc_sampler_t smp = sampler_start(seed, to_ulongv((uintv)(base) + LANE_IOTA), RNG_STREAM_LIGHT_TEST);
+    floatv u[1];
+    sampler_next_nd(&smp, 1, u);
+    intv all = (intv)(0) == (intv)(0);
+    floatv pmf;
+    uintv k = light_bvh_sample(lt.light_bvh, p, nn, u[0], all, &pmf);
+    intv ok = pmf > 0.0f;
+    LIGHT_RECORD_GATHER(q, lt.light_rec, k);
+    uintv prim = lane_as_uint(REC_FIELD(q, LIGHT_RECORD_PRIM));
+    floatv again = light_bvh_pmf(lt.light_bvh, p, nn, gather_uint(lt.light_trail, prim), ok);
+    store_floatv(lane_select((floatv)(-1.0f), to_floatv(k), ok), out + 0 * n + base);
+    store_floatv(pmf, out + 1 * n + base);
+    store_floatv(again, out + 2 * n + base);
+}
+
+/* For every light k and a point p with normal n4: light_bvh_pmf of its primitive (1 component). */
+kernel void light_bvh_pmfs(LIGHT_TEST_PARAMS, float4 p4, float4 n4, uint n, global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    LIGHT_TEST_SETUP;
+    vec3v p = v3((floatv)(p4.x), (floatv)(p4.y), (floatv)(p4.z));
+    vec3v nn = v3((floatv)(n4.x), (floatv)(n4.y), (floatv)(n4.z));
+    uintv k = min((uintv)(base) + LANE_IOTA, (uintv)(scene.nlights - 1u));
+    LIGHT_RECORD_GATHER(q, lt.light_rec, k);
+    uintv prim = lane_as_uint(REC_FIELD(q, LIGHT_RECORD_PRIM));
+    intv all = (intv)(0) == (intv)(0);
+    store_floatv(light_bvh_pmf(lt.light_bvh, p, nn, gather_uint(lt.light_trail, prim), all), out + base);
+}
+
+/* The light the BVH walk chooses from p (normal n4) for given uniforms u (-1: none; 1 component),
+ * so that a test can push every uniform of the grid through it. */
+kernel void light_bvh_choose_u(LIGHT_TEST_PARAMS, float4 p4, float4 n4, global const float *u, uint n,
+                               global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    LIGHT_TEST_SETUP;
+    vec3v p = v3((floatv)(p4.x), (floatv)(p4.y), (floatv)(p4.z));
+    vec3v nn = v3((floatv)(n4.x), (floatv)(n4.y), (floatv)(n4.z));
+    intv all = (intv)(0) == (intv)(0);
+    floatv pmf;
+    uintv k = light_bvh_sample(lt.light_bvh, p, nn, load_floatv(u + base), all, &pmf);
+    store_floatv(lane_select((floatv)(-1.0f), to_floatv(k), pmf > 0.0f), out + base);
 }

@@ -3,12 +3,18 @@
  * MIS weight of the same path found by BSDF sampling; Veach & Guibas 1995).
  *
  * Emitter choice.  The constant environment (if any) is chosen with
- * probability env_pmf; otherwise an emitting primitive is chosen from
- * light_cdf, which is proportional to power (luminance * area * pi), by
- * finding the largest k with light_cdf[k] <= u.  The uniforms live on a grid
- * of 2^23 cell centres (rng/uniform.cl), so the host computes the *exact*
- * probability of every choice on that grid (prim_pmf, env_pmf): the pdf the
- * estimator divides by is the probability the sampler really has.
+ * probability env_pmf (1/2 when there are area lights too,
+ * mcocl/render/emitter_choice.py); otherwise an emitting primitive, by
+ * -DLIGHT_SAMPLER (LightSampler codes of layouts.cl):
+ *   POWER, UNIFORM  from light_cdf (proportional to power, luminance * area
+ *                   * pi, or uniform), the largest k with light_cdf[k] <= u;
+ *                   the uniforms live on a grid of 2^23 cell centres
+ *                   (rng/uniform.cl), so the host computes the *exact*
+ *                   probability of every choice on that grid (prim_pmf,
+ *                   env_pmf): the pdf the estimator divides by is the
+ *                   probability the sampler really has;
+ *   BVH             through the light BVH from the shading point and its
+ *                   normal (render/light_bvh.cl), also exact on the grid.
  *
  * Position on the chosen primitive (Veach's thesis §9.2 / pbrt-v4 §6.x):
  *   triangle   uniform area sampling, pdf_omega = d^2 / (A cos theta_l);
@@ -23,7 +29,12 @@
 #define MCOCL_RENDER_LIGHTS_CL
 
 #include "render/prims.cl"
+#include "render/light_bvh.cl"
 #include "sampling/gather.cl"
+
+#ifndef LIGHT_SAMPLER
+#define LIGHT_SAMPLER LIGHT_SAMPLER_POWER
+#endif
 
 /* Lights are flattened by the host (mcocl/render/device_scene.py, light_records)
  * into one light_record (layouts.cl, from mcocl/layouts.py) per light
@@ -35,6 +46,8 @@ typedef struct {
     global const float4 *light_rec;        /* LIGHT_RECORD_QUADS per light primitive */
     global const float *light_cdf;         /* L + 1 */
     global const float4 *emitter_radiance; /* E */
+    global const float4 *light_bvh;        /* LIGHT_BVH_NODE_QUADS per node (LIGHT_SAMPLER_BVH only) */
+    global const uint *light_trail;        /* per primitive: root-to-leaf path of its light (BVH only) */
     uint nlights, light_top;               /* light_top: largest power of two <= nlights (0 if none) */
     float env_threshold;                   /* the environment is chosen when u < env_threshold */
     float env_pmf;                         /* ... which happens with this exact probability */
@@ -94,8 +107,10 @@ MC_INLINE vec3v square_to_uniform_sphere(floatv u1, floatv u2) {
     return v3(r * c, r * s, z);
 }
 
-MC_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables *pt, vec3v p, floatv u_env,
-                                      floatv u_sel, floatv u1, floatv u2, intv active) {
+/* Light sampling at p with normal n (used by the BVH light sampler's
+ * importance; n = 0 ignores the receiver's orientation). */
+MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tables *pt, vec3v p, vec3v n,
+                                         floatv u_env, floatv u_sel, floatv u1, floatv u2, intv active) {
     light_sample_v s;
     s.valid = active & (intv)(0);
     s.env = u_env < lt->env_threshold;
@@ -107,12 +122,20 @@ MC_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
     s.prim = (uintv)(0u);
     intv area = active & !s.env;
     if (lt->nlights > 0u && lane_any(area)) {
+#if LIGHT_SAMPLER == LIGHT_SAMPLER_BVH
+        floatv choice;
+        uintv k = light_bvh_sample(lt->light_bvh, p, n, u_sel, area, &choice);
+#else
         uintv k = light_find(lt, u_sel);
+#endif
         LIGHT_RECORD_GATHER(q, lt->light_rec, k);
         vec3v base = REC_VEC3(q, LIGHT_RECORD_BASE);
         floatv area_l = REC_FIELD(q, LIGHT_RECORD_AREA);
         floatv shape = REC_FIELD(q, LIGHT_RECORD_SHAPE);
-        floatv pmf = REC_FIELD(q, LIGHT_RECORD_PMF) * (1.0f - lt->env_pmf);
+#if LIGHT_SAMPLER != LIGHT_SAMPLER_BVH
+        floatv choice = REC_FIELD(q, LIGHT_RECORD_PMF);
+#endif
+        floatv pmf = choice * (1.0f - lt->env_pmf);
         vec3v y = p, ny = s.wo;
         floatv pdf = (floatv)(0.0f);
         intv tri_l = area & (shape == (float)LIGHT_TRIANGLE);
@@ -187,11 +210,30 @@ MC_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
     return s;
 }
 
-/* The solid-angle pdf with which sample_light, called at p, picks the point
- * y of surface sf (an emitter hit) — the same choices as above. */
-MC_INLINE floatv light_pdf_hit(const light_tables *lt, const prim_tables *pt, vec3v p, uintv prim, const surface_v *sf,
-                               intv active) {
-    floatv pmf = sf->pmf * (1.0f - lt->env_pmf);
+/* Light sampling at p, whatever its orientation (sample_light_at with n = 0). */
+MC_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables *pt, vec3v p, floatv u_env,
+                                      floatv u_sel, floatv u1, floatv u2, intv active) {
+    return sample_light_at(lt, pt, p, v3s(0.0f), u_env, u_sel, u1, u2, active);
+}
+
+/* The probability that the light choice at p (normal n) picks primitive prim
+ * (an emitter hit; prim_pmf is the CDF's exact share, sf->pmf). */
+MC_INLINE floatv light_choice_pmf(const light_tables *lt, vec3v p, vec3v n, uintv prim, const surface_v *sf,
+                                  intv active) {
+#if LIGHT_SAMPLER == LIGHT_SAMPLER_BVH
+    return light_bvh_pmf(lt->light_bvh, p, n, gather_uint(lt->light_trail, lane_select((uintv)(0u), prim, active)),
+                         active);
+#else
+    return sf->pmf;
+#endif
+}
+
+/* The solid-angle pdf with which sample_light_at, called at p_choice with
+ * normal n, picks the point y of surface sf (an emitter hit) — the same
+ * choices as above; the solid angle is measured at p (the ray's origin). */
+MC_INLINE floatv light_pdf_hit_at(const light_tables *lt, const prim_tables *pt, vec3v p, vec3v p_choice, vec3v n,
+                                  uintv prim, const surface_v *sf, intv active) {
+    floatv pmf = light_choice_pmf(lt, p_choice, n, prim, sf, active) * (1.0f - lt->env_pmf);
     vec3v dv = v3_sub(sf->p, p);
     floatv d2 = v3_len2(dv);
     floatv cosl = lane_abs(v3_dot(sf->n, dv)) * lane_rsqrt(d2);
@@ -207,6 +249,12 @@ MC_INLINE floatv light_pdf_hit(const light_tables *lt, const prim_tables *pt, ve
         pdf = lane_select(pdf, pmf * RT_INV_2PI / omc, sph_l & cone);
     }
     return lane_select((floatv)(0.0f), pdf, active);
+}
+
+/* light_pdf_hit_at for sample_light (n = 0). */
+MC_INLINE floatv light_pdf_hit(const light_tables *lt, const prim_tables *pt, vec3v p, uintv prim, const surface_v *sf,
+                               intv active) {
+    return light_pdf_hit_at(lt, pt, p, p, v3s(0.0f), prim, sf, active);
 }
 
 #endif

@@ -38,15 +38,23 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   with non-zero area, in primitive-id order.
 - ``light_cdf``: float32 (L + 1,): CDF over ``light_prims`` proportional to
   power = luminance(radiance)·area·π (luminance = 0.2126 R + 0.7152 G +
-  0.0722 B); ``light_cdf[0] = 0``, ``light_cdf[L] = 1``.  With no light
+  0.0722 B), or uniform when ``light_sampler`` is ``"uniform"``;
+  ``light_cdf[0] = 0``, ``light_cdf[L] = 1``.  With no light
   (or only black ones) L = 0 and ``light_cdf = [0]``.
+- ``light_power``: float64 (L,): the power of each light primitive.
+- ``light_sampler``: ``"power"``, ``"uniform"`` or ``"bvh"``
+  (:mod:`mcocl.render.emitter_choice`; the BVH's tables come from
+  :mod:`mcocl.render.light_bvh`).
 - ``light_pmf``: float32 (L,): the exact probability with which CDF inversion
   picks light i when an area light is chosen — the share of the uniforms' 2^23
   grid cells mapped to it (:mod:`mcocl.render.emitter_choice`), which the
   kernel's records carry too (extension of the contract).
-- ``env_threshold``, ``env_pmf``: light sampling picks the constant environment
-  when a uniform is below ``env_threshold``, i.e. with exact probability
-  ``env_pmf``, else an area light (probability ``(1 − env_pmf)·light_pmf[i]``).
+- ``env_threshold``, ``env_pmf`` (properties: they follow ``integrator``,
+  :func:`mcocl.render.emitter_choice.environment_choice`): light sampling
+  picks the constant environment when a uniform is below ``env_threshold``,
+  i.e. with exact probability ``env_pmf``, else an area light (probability
+  ``(1 − env_pmf)·light_pmf[i]``); ``env_share``, when set, overrides the
+  rule (for measurements).
 - ``prim_light``: int32 (T + S,): index of a primitive in ``light_prims``,
   −1 if it is not a light (for the MIS weight of an emitter hit by BSDF
   sampling). (extension of the contract)
@@ -79,7 +87,7 @@ from ..errors import InputError
 from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
-from .emitter_choice import LUMINANCE, area_power, cdf_choice_pmf, environment_choice
+from .emitter_choice import LUMINANCE, environment_choice, light_choice
 from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
 from .shape_registry import SHAPES
@@ -119,8 +127,9 @@ class CompiledScene:
     spp: int
     bounds: np.ndarray
     source: Path | None = None
-    env_threshold: float = 0.0
-    env_pmf: float = 0.0
+    env_share: float | None = None
+    light_power: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    light_sampler: str = "power"
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
@@ -142,9 +151,23 @@ class CompiledScene:
         """L, the number of emissive primitives."""
         return int(self.light_prims.shape[0])
 
+    @property
+    def env_threshold(self) -> float:
+        """Light sampling chooses the environment when a uniform is below this (see ``env_pmf``)."""
+        return environment_choice(self.env_radiance, self.num_lights > 0, self.integrator, self.env_share)[0]
+
+    @property
+    def env_pmf(self) -> float:
+        """The exact probability that light sampling chooses the environment (:mod:`.emitter_choice`)."""
+        return environment_choice(self.env_radiance, self.num_lights > 0, self.integrator, self.env_share)[1]
+
     def with_settings(self, integrator: str | None = None, max_depth: int | None = None,
-                      rr_depth: int | None = None, spp: int | None = None) -> CompiledScene:
+                      rr_depth: int | None = None, spp: int | None = None,
+                      light_sampler: str | None = None) -> CompiledScene:
         """Override the integrator settings in place (validated); returns ``self``.
+
+        A new ``light_sampler`` recomputes the area-light choice (``light_cdf``,
+        ``light_pmf``) from ``light_power``.
 
         Raises:
             InputError: a setting is invalid (e.g. integrator 'foo', spp 0).
@@ -155,9 +178,16 @@ class CompiledScene:
             self.rr_depth if rr_depth is None else rr_depth,
             self.spp if spp is None else spp,
             key="settings",
+            light_sampler=self.light_sampler if light_sampler is None else light_sampler,
         )
         self.integrator, self.max_depth, self.rr_depth, self.spp = (
             s["integrator"], s["max_depth"], s["rr_depth"], s["spp"])
+        if s["light_sampler"] != self.light_sampler:
+            self.light_sampler = s["light_sampler"]
+            if self.num_lights:
+                self.light_cdf, self.light_pmf = light_choice(self.light_power, self.light_sampler)
+            with self.buffer_lock:
+                self.buffer_cache.clear()
         return self
 
 
@@ -279,26 +309,18 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     light_prims = np.flatnonzero(is_light).astype(np.uint32)
     lum = emitter_radiance[:, :3].astype(np.float64) @ LUMINANCE if len(radiance) else np.zeros(0)
     power = lum[prim_emitter[light_prims]] * prim_area[light_prims] * math.pi if len(light_prims) else np.zeros(0)
-    total = float(power.sum())
-    if total > 0.0:
-        cdf = np.concatenate([[0.0], np.cumsum(power) / total]).astype(np.float32)
-        cdf[-1] = 1.0
-        # A black light keeps its slot with probability 0: CDF inversion never picks it.
-        pmf = cdf_choice_pmf(cdf)
-    else:
+    cdf, pmf = light_choice(power, scene.light_sampler)
+    if len(pmf) == 0:
         light_prims = np.zeros(0, np.uint32)
-        cdf = np.zeros(1, np.float32)
-        pmf = np.zeros(0, np.float32)
+        power = np.zeros(0)
     prim_light = np.full(ntri + nsph, -1, np.int32)
     prim_light[light_prims] = np.arange(len(light_prims), dtype=np.int32)
     light_area = prim_area[light_prims].astype(np.float32)
-    p_area = area_power(emitter_radiance[prim_emitter[light_prims], :3], light_area) if len(light_prims) else 0.0
 
     env = np.zeros(4, np.float32)
     env[:3] = scene.env_radiance
     cam = scene.camera
     bounds = np.ascontiguousarray(bvh.bounds if len(ids) else np.zeros((2, 3)), np.float32)
-    env_threshold, env_pmf = environment_choice(env, bounds, p_area)
     cs = CompiledScene(
         width=cam.width, height=cam.height,
         camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height,
@@ -309,8 +331,9 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         shape_material=shape_material, shape_emitter=shape_emitter, materials=mats,
         emitter_radiance=emitter_radiance, light_prims=light_prims, light_cdf=cdf, light_pmf=pmf,
         prim_light=prim_light, light_area=light_area, env_radiance=env,
+        light_power=power.astype(np.float64), light_sampler=scene.light_sampler,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
-        bounds=bounds, source=scene.path, env_threshold=env_threshold, env_pmf=env_pmf,
+        bounds=bounds, source=scene.path,
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
                    "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},

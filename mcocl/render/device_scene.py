@@ -24,6 +24,10 @@ import numpy as np
 
 from ..layouts import LIGHT_RECORD, PRIM_RECORD, RENDER_PARAMS, LightShape
 from .compiled import CompiledScene
+from .light_bvh import build_light_bvh
+
+# What the render kernel reads for the light BVH in builds that do not use it (OpenCL has no empty buffers).
+LIGHT_BVH_ABSENT = {"light_bvh": np.zeros((1, 4), np.float32), "light_trail": np.zeros(1, np.uint32)}
 
 
 def _as_quads(rec: np.ndarray, width: int) -> np.ndarray:
@@ -109,14 +113,16 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     ``tri_vertices``, ``spheres``, ``sphere_flip``, ``geometry_counts``), the
     shading and light records, the materials, the emitter choice
     (``light_cdf``, ``prim_pmf``, ``light_scalars`` = (L, light_top),
-    ``env_choice`` = (env_threshold, env_pmf)) and the environment ``env``.
+    ``env_choice`` = (env_threshold, env_pmf)) and the environment ``env``;
+    with ``light_sampler`` ``"bvh"`` also the light BVH (``light_bvh``
+    nodes, ``light_trail`` per primitive; :mod:`mcocl.render.light_bvh`).
     """
     def nonempty(a: np.ndarray, dtype: type, width: int = 4) -> np.ndarray:
         a = np.ascontiguousarray(a, dtype=dtype)
         return a if a.size else np.zeros(width, dtype)
 
     lt = light_tables(cs)
-    return {
+    tables = {
         "camera": nonempty(cs.camera, np.float32),
         "bvh_nodes": nonempty(cs.bvh_nodes, np.float32),
         "bvh_prims": nonempty(cs.bvh_prims, np.uint32),
@@ -134,6 +140,10 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         "env_choice": np.array([lt["env_threshold"], lt["env_pmf"]], np.float32),
         "geometry_counts": np.array([cs.num_triangles, cs.num_spheres], np.uint32),
     }
+    if cs.light_sampler == "bvh":
+        tree = build_light_bvh(cs)
+        tables["light_bvh"], tables["light_trail"] = tree.nodes, tree.trail
+    return tables
 
 
 def scene_params(tables: dict[str, np.ndarray]) -> np.ndarray:
@@ -185,5 +195,5 @@ def tables_digest(tables: dict[str, np.ndarray]) -> str:
     return h.hexdigest()[:16]
 
 
-__all__ = ["geom_args", "light_records", "light_tables", "prim_records", "scene_buffers", "scene_params",
+__all__ = ["LIGHT_BVH_ABSENT", "geom_args", "light_records", "light_tables", "prim_records", "scene_buffers", "scene_params",
            "scene_tables", "tables_digest"]

@@ -31,12 +31,21 @@ import numpy as np
 import pyopencl as cl
 
 from .. import runtime
-from ..layouts import Integrator
-from .device_scene import light_records, light_tables, prim_records, scene_params, scene_tables, tables_digest
+from ..layouts import Integrator, LightSampler
+from .device_scene import (
+    LIGHT_BVH_ABSENT,
+    light_records,
+    light_tables,
+    prim_records,
+    scene_params,
+    scene_tables,
+    tables_digest,
+)
 from .film import STATS
 from .splat_film import SplatRunner, splat_groups
 
 INTEGRATOR_CODES = {kind.name.lower(): int(kind) for kind in Integrator}
+LIGHT_SAMPLER_CODES = {kind.name.lower(): int(kind) for kind in LightSampler}
 KERNEL_FILE = "render/integrator.cl"
 UNBOUNDED_SPP = 0xFFFFFFFF
 # Blocks are sized to about this many paths, so that the host's share of the
@@ -47,7 +56,9 @@ PATHS_PER_BLOCK = 1 << 20
 TILE_PIXELS = 64
 # The scene arrays the render kernel takes after its render_params, in its argument order.
 KERNEL_BUFFERS = ("camera", "bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
-                  "materials", "emitter_radiance", "light_rec", "light_cdf")
+                  "materials", "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail")
+# Light tracing starts its paths at emitters chosen by the power CDF: it takes no light BVH.
+LT_BUFFERS = tuple(name for name in KERNEL_BUFFERS if name not in ("light_bvh", "light_trail"))
 
 
 def default_spp_per_block(width: int, height: int) -> int:
@@ -73,6 +84,10 @@ class RenderJob:
         tile_pixels: pixels of one work-item (path integrators).
         bounding_sphere: centre xyz and radius of the scene's bounding sphere
             (light tracing's environment rays start outside it).
+
+    The light sampler follows the tables: those of a scene whose
+    ``light_sampler`` is ``bvh`` hold the light BVH and get the BVH build;
+    power and uniform differ only in ``light_cdf``.
     """
 
     tables: dict[str, np.ndarray]
@@ -106,7 +121,10 @@ class RenderJob:
 
     def options(self, lanes: int) -> list[str]:
         """The build's -D options."""
-        return [f"-DLANES={lanes}", f"-DINTEGRATOR={INTEGRATOR_CODES[self.integrator]}"]
+        opts = [f"-DLANES={lanes}", f"-DINTEGRATOR={INTEGRATOR_CODES[self.integrator]}"]
+        if "light_bvh" in self.tables:
+            opts.append(f"-DLIGHT_SAMPLER={LIGHT_SAMPLER_CODES['bvh']}")
+        return opts
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:
         """The kernel's ``render_params`` (mcocl/layouts.py) for a launch of ``nblocks`` from ``first_block``."""
@@ -123,7 +141,7 @@ class RenderJob:
 
     def runner(self, ctx: runtime.DeviceContext) -> RenderRunner | SplatRunner:
         """Build for ``ctx`` (see :class:`RenderRunner` and :class:`~mcocl.render.splat_film.SplatRunner`)."""
-        return SplatRunner(self, ctx, KERNEL_BUFFERS) if self.splats else RenderRunner(self, ctx)
+        return SplatRunner(self, ctx, LT_BUFFERS) if self.splats else RenderRunner(self, ctx)
 
 
 class RenderRunner:
@@ -141,7 +159,7 @@ class RenderRunner:
         self.build_seconds = time.perf_counter() - t0
         self.kernel = runtime.kernel(self.program, "render_blocks")
         mf = cl.mem_flags
-        t = job.tables
+        t = {**LIGHT_BVH_ABSENT, **job.tables}
         self.buffers = {
             name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(t[name]))
             for name in KERNEL_BUFFERS
@@ -165,5 +183,5 @@ class RenderRunner:
         return out
 
 
-__all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "UNBOUNDED_SPP", "RenderJob", "RenderRunner",
+__all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "UNBOUNDED_SPP", "RenderJob", "RenderRunner",
            "default_spp_per_block", "light_records", "light_tables", "prim_records", "scene_tables", "tables_digest"]

@@ -52,6 +52,11 @@ MAX_IMAGE_SIDE = 2**20
 MAX_SPP = 2**32 - 2  # below render.job.UNBOUNDED_SPP, the 32-bit "no limit" marker
 # float64 totals and a float64 copy (STATS each), float32 block partials, float32 mean/variance/count
 BYTES_PER_PIXEL = 8 * 8 * 2 + 8 * 4 + 7 * 4
+# How light sampling chooses an area light (mcocl/render/emitter_choice.py, kernels/render/light_bvh.cl).
+LIGHT_SAMPLERS = ("power", "uniform", "bvh")
+# power: a bvh sample takes 1.3-2x as long, and bvh did not win on MSE per second on the shipped scenes,
+# though it cut the median pixel variance 3.2x (many_lights.json) and 40x (veach_mis.json): scenes/README.md.
+DEFAULT_LIGHT_SAMPLER = "power"
 
 
 @dataclass
@@ -123,6 +128,7 @@ class Scene:
     max_depth: int = DEFAULT_MAX_DEPTH
     rr_depth: int = DEFAULT_RR_DEPTH
     spp: int = DEFAULT_SPP
+    light_sampler: str = DEFAULT_LIGHT_SAMPLER
 
 
 class _Checker:
@@ -329,20 +335,22 @@ def _camera(c: _Checker, v: Any, key: str) -> Camera:
 
 
 def _integrator(c: _Checker, v: Any, key: str) -> dict:
-    o = c.obj(v, key, (), ("type", "max_depth", "rr_depth", "spp"))
+    o = c.obj(v, key, (), ("type", "max_depth", "rr_depth", "spp", "light_sampler"))
     return check_integrator_settings(
         o.get("type", DEFAULT_INTEGRATOR), o.get("max_depth", DEFAULT_MAX_DEPTH),
         o.get("rr_depth", DEFAULT_RR_DEPTH), o.get("spp", DEFAULT_SPP), c, key,
+        light_sampler=o.get("light_sampler", DEFAULT_LIGHT_SAMPLER),
     )
 
 
 def check_integrator_settings(integrator: Any, max_depth: Any, rr_depth: Any, spp: Any,
-                              checker: _Checker | None = None, key: str = "integrator") -> dict:
+                              checker: _Checker | None = None, key: str = "integrator",
+                              light_sampler: Any = DEFAULT_LIGHT_SAMPLER) -> dict:
     """Validate integrator settings (from a file or from command-line overrides).
 
     ``max_depth`` follows Mitsuba 3: -1 unbounded, 1 emitters seen directly,
     2 direct light only; ``rr_depth`` (>= 1) is the depth from which Russian
-    roulette may stop a path.
+    roulette may stop a path; ``light_sampler`` one of :data:`LIGHT_SAMPLERS`.
     """
     c = checker or _Checker("settings")
     return {
@@ -350,6 +358,7 @@ def check_integrator_settings(integrator: Any, max_depth: Any, rr_depth: Any, sp
         "max_depth": c.integer(max_depth, f"{key}.max_depth", -1, MAX_DEPTH_LIMIT),
         "rr_depth": c.integer(rr_depth, f"{key}.rr_depth", 1, MAX_DEPTH_LIMIT),
         "spp": c.integer(spp, f"{key}.spp", 1, MAX_SPP),
+        "light_sampler": c.string(light_sampler, f"{key}.light_sampler", LIGHT_SAMPLERS),
     }
 
 
@@ -462,6 +471,7 @@ def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], roots: list
 
 __all__ = [
     "INTEGRATORS",
+    "LIGHT_SAMPLERS",
     "MATERIAL_KINDS",
     "SHAPE_KINDS",
     "Camera",

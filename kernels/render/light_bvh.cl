@@ -1,0 +1,140 @@
+/* light_bvh.cl — choosing an area light from the shading point through the
+ * light BVH (Conty Estevez & Kulla 2018; pbrt-v4's BVHLightSampler), and
+ * the probability of that choice for a given light (the MIS weight of an
+ * emitter found by BSDF sampling).
+ *
+ * The tree is built on the host (mcocl/render/light_bvh.py): node records
+ * light_bvh_node (layouts.cl) with a bounding sphere, power, orientation
+ * cone (axis, cos theta_o), cos theta_e and the number of lights below;
+ * node 0 is the root, the children of an internal node are nodes ref and
+ * ref + 1, a leaf (count 1) has a light as ref (light_record index).  light_trail[prim] is the root-to-leaf path of an
+ * emitting primitive (bit d: second child at depth d).
+ *
+ * Importance of a node seen from p with normal n (pbrt-v4 §12.6.3,
+ * LightBounds::Importance): with the node's bounding sphere (centre c,
+ * radius r), w the unit direction from c to p, theta_w the angle between the
+ * cone axis and w, theta_b the half-angle the sphere subtends from p (pi
+ * when p is inside), theta' = max(0, theta_w - theta_o - theta_b):
+ *     I = power * cos(theta') / max(|p - c|^2, r^2) * cos(max(0, theta_i - theta_b))
+ * and 0 when theta' >= theta_e (no emitter below faces p); theta_i is the
+ * angle between n and w (taken two-sided; n = 0 drops the factor).  I is a
+ * heuristic: any value is unbiased as long as it is 0 only for lights that
+ * cannot reach p.
+ *
+ * Exact probabilities.  The walk does not rescale the uniform u.  The
+ * uniforms are the 2^23 cell centres of rng/uniform.cl; the walk keeps the
+ * range [A, B) of cells (integers) that reach the current node and gives the
+ * first child the cells below M = A + round((B - A) I0 / (I0 + I1)): cell
+ * m = floor(u 2^23) takes the first child when m < M.  The probability of a
+ * light is then exactly (B - A) 2^-23 at its leaf.  M is clamped so that a
+ * child with I > 0 keeps at least as many cells as it has lights (count of
+ * the node record; the root has 2^23 >= the number of lights), so every light
+ * the importance does not rule out gets at least one cell: a light that can
+ * reach the point is never given probability 0 by rounding.  light_bvh_pmf
+ * walks the same nodes by the light's trail with the same arithmetic (one
+ * function, light_bvh_walk), so it reproduces the sampling probability bit
+ * for bit.
+ */
+#ifndef MCOCL_RENDER_LIGHT_BVH_CL
+#define MCOCL_RENDER_LIGHT_BVH_CL
+
+#include "layouts.cl"
+#include "rng/uniform.cl"
+#include "render/vec3.cl"
+#include "render/lane_io.cl"
+#include "sampling/gather.cl"
+
+/* cos(max(0, alpha - beta)) from the sines and cosines of alpha and beta in [0, pi]. */
+MC_INLINE floatv cos_sub_clamped(floatv sin_a, floatv cos_a, floatv sin_b, floatv cos_b) {
+    return lane_select(cos_a * cos_b + sin_a * sin_b, (floatv)(1.0f), cos_a > cos_b);
+}
+
+/* sin(max(0, alpha - beta)), as above. */
+MC_INLINE floatv sin_sub_clamped(floatv sin_a, floatv cos_a, floatv sin_b, floatv cos_b) {
+    return lane_select(sin_a * cos_b - cos_a * sin_b, (floatv)(0.0f), cos_a > cos_b);
+}
+
+/* The importance of node record q (LIGHT_BVH_NODE_GATHER) for point p with normal n (see the header). */
+#define LIGHT_BVH_IMPORTANCE(q, p, n, has_n) \
+    light_bvh_importance(REC_VEC3(q, LIGHT_BVH_NODE_CENTER), REC_FIELD(q, LIGHT_BVH_NODE_RADIUS2), \
+                         REC_FIELD(q, LIGHT_BVH_NODE_POWER), REC_VEC3(q, LIGHT_BVH_NODE_AXIS), \
+                         REC_FIELD(q, LIGHT_BVH_NODE_COS_O), REC_FIELD(q, LIGHT_BVH_NODE_COS_E), p, n, has_n)
+
+MC_INLINE floatv light_bvh_importance(vec3v c, floatv r2, floatv power, vec3v axis, floatv cos_o, floatv cos_e,
+                                      vec3v p, vec3v n, intv has_n) {
+    vec3v dv = v3_sub(p, c);
+    floatv d2 = v3_len2(dv);
+    vec3v w = v3_scale(dv, lane_rsqrt(lane_max(d2, (floatv)(1e-30f))));
+    floatv cos_w = v3_dot(axis, w);
+    floatv sin_w = safe_sqrt(1.0f - cos_w * cos_w);
+    intv inside = d2 < r2;
+    floatv sin2_b = lane_min(r2 / d2, (floatv)(1.0f));
+    floatv cos_b = lane_select(safe_sqrt(1.0f - sin2_b), (floatv)(-1.0f), inside);
+    floatv sin_b = lane_select(lane_sqrt(sin2_b), (floatv)(0.0f), inside);
+    floatv sin_o = safe_sqrt(1.0f - cos_o * cos_o);
+    floatv cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+    floatv sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+    floatv cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+    floatv imp = power * cos_p / lane_max(d2, r2);
+    floatv cos_i = lane_abs(v3_dot(w, n));
+    floatv sin_i = safe_sqrt(1.0f - cos_i * cos_i);
+    floatv recv = lane_max(cos_sub_clamped(sin_i, cos_i, sin_b, cos_b), (floatv)(0.0f));
+    imp = lane_select(imp, imp * recv, has_n);
+    return lane_select((floatv)(0.0f), imp, (cos_p > cos_e) & (imp > 0.0f));
+}
+
+/* Walk from the root to a leaf, choosing the child by u (by_trail 0) or by
+ * the bits of trail (by_trail 1, a compile-time constant at each call).
+ * Returns the light (0 for lanes that found none) and its exact probability. */
+MC_INLINE uintv light_bvh_walk(global const float4 *nodes, vec3v p, vec3v n, floatv u, uintv trail,
+                               const int by_trail, intv active, floatv *pmf) {
+    intv has_n = v3_len2(n) > 0.0f;
+    LIGHT_BVH_NODE_GATHER(r, nodes, (uintv)(0u));
+    uintv ref = lane_as_uint(REC_FIELD(r, LIGHT_BVH_NODE_REF));
+    intv leaf = lane_as_uint(REC_FIELD(r, LIGHT_BVH_NODE_COUNT)) == 1u;
+    uintv lo = (uintv)(0u), hi = (uintv)(UNIFORM_CELLS);
+    uintv cell = by_trail ? (uintv)(0u) : to_uintv(u * (float)UNIFORM_CELLS); /* u = (cell + 1/2) 2^-23 */
+    intv live = active;
+    for (uint depth = 0u;; ++depth) {
+        intv go = live & !leaf;
+        if (!lane_any(go)) break;
+        uintv c0 = lane_select((uintv)(0u), ref, go);
+        uintv c1 = c0 + 1u;
+        LIGHT_BVH_NODE_GATHER(q, nodes, c0);
+        LIGHT_BVH_NODE_GATHER(s, nodes, c1);
+        floatv i0 = LIGHT_BVH_IMPORTANCE(q, p, n, has_n);
+        floatv i1 = LIGHT_BVH_IMPORTANCE(s, p, n, has_n);
+        floatv total = i0 + i1;
+        uintv share = to_uintv(to_floatv(hi - lo) * (i0 / total) + 0.5f);
+        uintv least = lo + lane_select((uintv)(0u), lane_as_uint(REC_FIELD(q, LIGHT_BVH_NODE_COUNT)), i0 > 0.0f);
+        uintv most = hi - lane_select((uintv)(0u), lane_as_uint(REC_FIELD(s, LIGHT_BVH_NODE_COUNT)), i1 > 0.0f);
+        uintv mid = min(max(lo + share, least), most);
+        intv second = by_trail ? ((trail >> depth) & 1u) != 0u : !(cell < mid);
+        lo = lane_select(lo, mid, go & second);
+        hi = lane_select(hi, mid, go & !second);
+        ref = lane_select(ref, lane_select(lane_as_uint(REC_FIELD(q, LIGHT_BVH_NODE_REF)),
+                                           lane_as_uint(REC_FIELD(s, LIGHT_BVH_NODE_REF)), second), go);
+        intv leaf_next = lane_select(lane_as_uint(REC_FIELD(q, LIGHT_BVH_NODE_COUNT)),
+                                     lane_as_uint(REC_FIELD(s, LIGHT_BVH_NODE_COUNT)), second) == 1u;
+        leaf = lane_select(leaf, leaf_next, go);
+        live = live & (!go | (total > 0.0f)); /* no light below can reach p */
+    }
+    live = live & leaf & (hi > lo);
+    *pmf = lane_select((floatv)(0.0f), to_floatv(hi - lo) * UNIFORM_CELL_WIDTH, live);
+    return lane_select((uintv)(0u), ref, live);
+}
+
+/* The light chosen from p (normal n; 0: no receiver factor) with uniform u, and its probability. */
+MC_INLINE uintv light_bvh_sample(global const float4 *nodes, vec3v p, vec3v n, floatv u, intv active,
+                                 floatv *pmf) {
+    return light_bvh_walk(nodes, p, n, u, (uintv)(0u), 0, active, pmf);
+}
+
+/* The probability that light_bvh_sample from p (normal n) chooses the light with root-to-leaf path trail. */
+MC_INLINE floatv light_bvh_pmf(global const float4 *nodes, vec3v p, vec3v n, uintv trail, intv active) {
+    floatv pmf;
+    light_bvh_walk(nodes, p, n, (floatv)(0.0f), trail, 1, active, &pmf);
+    return pmf;
+}
+
+#endif
