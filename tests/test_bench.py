@@ -390,6 +390,8 @@ def test_peers_run_beside_ours_in_the_same_table(tmp_path, capsys):
         assert 0.02 <= e["seconds"] <= 1.0, (name, e["seconds"])
         assert abs(e["error"]) <= 5 * e["stderr"], (name, e["error"], e["stderr"])
         assert name in table
+    if peers:
+        assert "best of ours vs best peer at equal time" in table
     if HAS_SCIPY:
         # 16 scramblings of 2^k points each
         n = by_name["scipy-sobol"]["samples"] // 16
