@@ -27,7 +27,7 @@ from typing import Any
 from ..errors import InputError, KernelBuildError
 from ..integration import integrate
 from .integrate_peers import ScipySobolRun, VegasPackageRun, missing_peers
-from .integrate_run import IntegrationRun, RestartedRun
+from .integrate_run import DoublingRun, IntegrationRun, RestartedRun
 from .numpy_baseline import DEFAULT_CHUNK, NumpyPlainRun, TranslationError, compile_numpy, translate_opencl
 from .suite import BaselineSpec, EstimatorSpec
 
@@ -36,9 +36,11 @@ SAMPLER_ESTIMATORS = ("independent", "stratified", "nrooks")
 # N-rooks 2^16-point Latin hypercubes.  The same as mcocl.integrate's defaults for runs without a
 # sample count; fixed here because the bench's steps give sample counts (which would size the design).
 DESIGN_SAMPLES = {"stratified": 1 << 20, "nrooks": 1 << 16}
-# mcocl's estimators beside the peers: Sobol' replicates of 2^16 points (the bench's
-# steps add replicates); VEGAS given each checkpoint's time afresh (RestartedRun).
-PEER_SAMPLERS = {"sobol": {"sampler": "sobol", "design_samples": 1 << 16}, "vegas": {"sampler": "vegas"}}
+# mcocl's estimators beside the peers, each rerun afresh per checkpoint: Sobol' with its
+# default 16 replicates and doubled samples (DoublingRun), VEGAS given the checkpoint's time
+# (RestartedRun); resuming would add replicates or iterations of a fixed size instead.
+PEER_SAMPLERS = {"sobol": {"sampler": "sobol"}, "vegas": {"sampler": "vegas"}}
+PEER_RUNS = {"sobol": DoublingRun, "vegas": RestartedRun}
 COMBINED_ESTIMATORS = ("average", "max", "balance", "power")
 
 
@@ -117,7 +119,7 @@ class IntegrationProblem:
         if "roulette" in kw:
             return f"Russian roulette, survival P = {kw['roulette']}"
         if kw.get("sampler") == "sobol":
-            return f"Owen-scrambled Sobol' replicates of {kw['design_samples']} points"
+            return "Owen-scrambled Sobol', 16 replicates, samples doubled per checkpoint (rerun afresh)"
         if kw.get("sampler") == "vegas":
             return "VEGAS adaptive importance sampling, run afresh for each checkpoint's time"
         return {"independent": "plain secondary estimator",
@@ -131,7 +133,7 @@ class IntegrationProblem:
             if self.only_estimators is not None and name not in self.only_estimators:
                 continue
 
-            run = RestartedRun if kw.get("sampler") == "vegas" else IntegrationRun
+            run = PEER_RUNS.get(kw.get("sampler", ""), IntegrationRun) if name in PEER_SAMPLERS else IntegrationRun
 
             def start(kw: dict[str, Any] = kw, run: type = run) -> IntegrationRun | RestartedRun:
                 return run(self.expression, self.dim, self.exact, kw, self.seed, self.device, self.lanes)
