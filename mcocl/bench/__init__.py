@@ -58,6 +58,8 @@ def run_bench(suite: str, budget: float, options: BenchOptions | None = None,
     problems = s.problems(options)
     if estimators is not None:
         offered = {e.name for prob in problems for e in prob.estimators()}
+        # a peer whose package is missing is skipped with the reason, not an unknown name
+        offered |= {n for prob in problems for n, _ in getattr(prob, "unavailable", list)()}
         unknown = [e for e in estimators if e not in offered]
         if unknown:
             raise InputError(f"--estimators: no problem offers {unknown}; offered: {', '.join(sorted(offered))}")

@@ -12,6 +12,9 @@ two or more proposals         one single-proposal estimator per proposal (named
 a control variate             ``control`` (``control=``, ``control_integral=``)
 ``extra``                     named keyword sets of ``mcocl.integrate``
                               (e.g. ``roulette``)
+``peers`` (``--peers``)       mcocl's ``sobol`` and ``vegas`` samplers, and the
+                              peers ``scipy-sobol`` and ``vegas-package``
+                              (:mod:`.integrate_peers`) on the NumPy twin
 ============================  =================================================
 """
 
@@ -23,7 +26,8 @@ from typing import Any
 
 from ..errors import InputError, KernelBuildError
 from ..integration import integrate
-from .integrate_run import IntegrationRun
+from .integrate_peers import ScipySobolRun, VegasPackageRun, missing_peers
+from .integrate_run import DoublingRun, IntegrationRun, RestartedRun
 from .numpy_baseline import DEFAULT_CHUNK, NumpyPlainRun, TranslationError, compile_numpy, translate_opencl
 from .suite import BaselineSpec, EstimatorSpec
 
@@ -32,6 +36,11 @@ SAMPLER_ESTIMATORS = ("independent", "stratified", "nrooks")
 # N-rooks 2^16-point Latin hypercubes.  The same as mcocl.integrate's defaults for runs without a
 # sample count; fixed here because the bench's steps give sample counts (which would size the design).
 DESIGN_SAMPLES = {"stratified": 1 << 20, "nrooks": 1 << 16}
+# mcocl's estimators beside the peers, each rerun afresh per checkpoint: Sobol' with its
+# default 16 replicates and doubled samples (DoublingRun), VEGAS given the checkpoint's time
+# (RestartedRun); resuming would add replicates or iterations of a fixed size instead.
+PEER_SAMPLERS = {"sobol": {"sampler": "sobol"}, "vegas": {"sampler": "vegas"}}
+PEER_RUNS = {"sobol": DoublingRun, "vegas": RestartedRun}
 COMBINED_ESTIMATORS = ("average", "max", "balance", "power")
 
 
@@ -55,6 +64,8 @@ class IntegrationProblem:
         source: where the problem was defined (``built-in`` or a file).
         only_estimators: run only these (the quick subset), None: all.
         seed, device, lanes, chunk: run settings filled in by the suite.
+        peers: add mcocl's sobol and vegas and the peers (``--peers``).
+        budget: seconds per estimator (sizes the vegas package's iterations).
     """
 
     name: str
@@ -75,6 +86,8 @@ class IntegrationProblem:
     device: Any = None
     lanes: int | None = None
     chunk: int = DEFAULT_CHUNK
+    peers: bool = False
+    budget: float = 1.0
 
     def estimator_options(self) -> dict[str, dict[str, Any]]:
         """Estimator name -> keyword arguments of :func:`mcocl.integrate`, in table order."""
@@ -92,6 +105,8 @@ class IntegrationProblem:
             out["control"] = {"control": self.control, "control_integral": self.control_integral}
         for n, kw in self.extra.items():
             out[n] = dict(kw)
+        if self.peers:
+            out.update({n: dict(kw) for n, kw in PEER_SAMPLERS.items()})
         return out
 
     def _describe(self, name: str, kw: dict[str, Any]) -> str:
@@ -103,6 +118,10 @@ class IntegrationProblem:
             return f"control variate g = {kw['control']}"
         if "roulette" in kw:
             return f"Russian roulette, survival P = {kw['roulette']}"
+        if kw.get("sampler") == "sobol":
+            return "Owen-scrambled Sobol', 16 replicates, samples doubled per checkpoint (rerun afresh)"
+        if kw.get("sampler") == "vegas":
+            return "VEGAS adaptive importance sampling, run afresh for each checkpoint's time"
         return {"independent": "plain secondary estimator",
                 "stratified": f"jittered strata, 2 samples each, designs of <= {DESIGN_SAMPLES['stratified']} samples",
                 "nrooks": f"Latin hypercube designs of {DESIGN_SAMPLES['nrooks']} points"}.get(kw.get("sampler", ""), name)
@@ -114,11 +133,49 @@ class IntegrationProblem:
             if self.only_estimators is not None and name not in self.only_estimators:
                 continue
 
-            def start(kw: dict[str, Any] = kw) -> IntegrationRun:
-                return IntegrationRun(self.expression, self.dim, self.exact, kw, self.seed, self.device, self.lanes)
+            run = PEER_RUNS.get(kw.get("sampler", ""), IntegrationRun) if name in PEER_SAMPLERS else IntegrationRun
+
+            def start(kw: dict[str, Any] = kw, run: type = run) -> IntegrationRun | RestartedRun:
+                return run(self.expression, self.dim, self.exact, kw, self.seed, self.device, self.lanes)
 
             specs.append(EstimatorSpec(name, start, self._describe(name, kw)))
+        if self.peers:
+            specs += [s for s in self._peer_specs()
+                      if self.only_estimators is None or s.name in self.only_estimators]
         return specs
+
+    def _peer_specs(self) -> list[EstimatorSpec]:
+        """The peers that can run here (their package installed, a NumPy twin)."""
+        missing = dict(self.unavailable())
+        expr = self.numpy_expression()[0]
+        specs = []
+        if "scipy-sobol" not in missing:
+            def sobol() -> ScipySobolRun:
+                return ScipySobolRun(compile_numpy(expr, self.dim), self.dim, self.exact, self.seed)
+
+            specs.append(EstimatorSpec("scipy-sobol", sobol, "scipy.stats.qmc.Sobol(scramble=True), 16 replicates, "
+                                       "NumPy twin", kind="peer"))
+        if "vegas-package" not in missing:
+            def vegas() -> VegasPackageRun:
+                return VegasPackageRun(compile_numpy(expr, self.dim), self.dim, self.exact, self.seed, self.budget)
+
+            specs.append(EstimatorSpec("vegas-package", vegas, "vegas.Integrator, NumPy twin, first quarter of the "
+                                       "time adapts only", kind="peer"))
+        return specs
+
+    def unavailable(self) -> list[tuple[str, str]]:
+        """(peer, why it cannot run) for the peers left out (only with ``peers``)."""
+        if not self.peers:
+            return []
+        expr, how = self.numpy_expression()
+        if expr is not None:
+            try:
+                compile_numpy(expr, self.dim)
+            except ValueError as e:
+                expr, how = None, f"NumPy twin {expr!r}: {e}"
+        if expr is None:
+            return [(name, f"peers evaluate the NumPy twin; {how}") for name in ("scipy-sobol", "vegas-package")]
+        return list(missing_peers().items())
 
     def numpy_expression(self) -> tuple[str | None, str]:
         """(NumPy twin, how it was obtained) or (None, why there is none)."""

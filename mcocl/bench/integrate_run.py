@@ -120,3 +120,100 @@ class IntegrationRun:
     def close(self) -> None:
         """Remove the checkpoint file."""
         shutil.rmtree(self._dir, ignore_errors=True)
+
+
+class RestartedRun:
+    """An estimator of ``mcocl.integrate`` that cannot be resumed in steps, rerun for each checkpoint.
+
+    Each step runs afresh with ``time_budget`` = the checkpoint's cumulative
+    seconds (``sampler="vegas"``: its iterations are sized from the time it
+    is given, so a run of T seconds is not the first part of one of 2T), so
+    every checkpoint is what a run of that many seconds gives.  The bench
+    spends about twice the budget on it; the table's seconds are the last run's.
+
+    Args: as :class:`IntegrationRun`.
+    """
+
+    def __init__(self, expression: str, dim: int, exact: float, options: dict[str, Any], seed: int = 1,
+                 device: Any = None, lanes: int | None = None) -> None:
+        self.expression = expression
+        self.dim = dim
+        self.exact = exact
+        self.options = dict(options)
+        self.seed = seed
+        self.device = device
+        self.lanes = lanes
+        self.seconds = 0.0
+        self.last: IntegrationResult | None = None
+        self.build_seconds = 0.0
+
+    def advance(self, seconds: float, tick: Tick | None = None) -> Observation:
+        """A fresh run of (the seconds so far + ``seconds``)."""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NonFiniteWarning)
+            r = integrate(self.expression, self.dim, None, seed=self.seed, time_budget=self.seconds + seconds,
+                          device=self.device, lanes=self.lanes, **self.options)
+        if tick is not None:
+            tick(r.seconds)
+        self.last = r
+        self.seconds = r.seconds
+        self.build_seconds += r.build_seconds
+        return self._observe(r)
+
+    def _observe(self, r: IntegrationResult) -> Observation:
+        """The checkpoint a finished run gives."""
+        est, se = float(r.estimate), float(r.stderr)
+        err = est - self.exact if math.isfinite(est) else math.nan
+        return Observation(float(r.seconds), int(r.samples), est, se, err, int(r.nonfinite), r.stopped_by)
+
+    def info(self) -> dict[str, Any]:
+        """Facts about the estimator from its last result (for the JSON summary)."""
+        r = self.last
+        if r is None:
+            return {}
+        return {"estimator": r.estimator, "variance_method": r.variance_method, "lanes": r.lanes,
+                "device": r.device, "build_seconds": self.build_seconds, "notes": list(r.notes)}
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+
+class DoublingRun(RestartedRun):
+    """A randomised QMC estimator of ``mcocl.integrate`` (``sampler="sobol"``), rerun with doubled samples.
+
+    Each replicate's error falls faster than 1/sqrt(points) only when its
+    points grow, but resuming adds replicates of a fixed size; so each step
+    runs afresh with the sample count doubled while the run is expected to
+    end within 1.5x the checkpoint's cumulative seconds (the rate measured
+    on the last run), as scipy-sobol's replicates double
+    (:class:`mcocl.bench.integrate_peers.ScipySobolRun`).  Each checkpoint is
+    then a whole run of R x 2^m samples; the bench spends about twice the
+    budget on it.
+    """
+
+    FIRST_SAMPLES = 16 << 10
+    SLACK = 1.5
+
+    def advance(self, seconds: float, tick: Tick | None = None) -> Observation:
+        """The largest doubling of the last run's samples that fits, run afresh (the last state if none fits)."""
+        target = self.seconds + seconds
+        r = self.last
+        n = self.FIRST_SAMPLES if r is None else int(r.samples)
+        if r is not None:
+            rate = r.samples / r.seconds if r.seconds > 0 else math.inf
+            grown = n
+            while 2 * grown / rate <= self.SLACK * target:
+                grown *= 2
+            if grown == n:
+                return self._observe(r)
+            n = grown
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NonFiniteWarning)
+            r = integrate(self.expression, self.dim, n, seed=self.seed, device=self.device, lanes=self.lanes,
+                          **self.options)
+        if tick is not None:
+            tick(r.seconds)
+        self.last = r
+        self.seconds = r.seconds
+        self.build_seconds += r.build_seconds
+        return self._observe(r)

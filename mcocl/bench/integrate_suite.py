@@ -195,6 +195,7 @@ class IntegrateSuite:
             probs = chosen
         for p in probs:
             p.seed, p.device, p.lanes = options.seed, options.device, options.lanes
+            p.peers, p.budget = options.peers, options.budget or p.budget
         if options.problem_files:
             for p in probs:  # compile everything before anything runs
                 p.check()

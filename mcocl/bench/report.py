@@ -76,6 +76,25 @@ def problem_rows(p: ProblemRecord, error_kind: str = "signed") -> list[tuple[str
     return rows
 
 
+def peer_comparison(p: ProblemRecord) -> str:
+    """One line: the most efficient of ours against the most efficient peer ('' without peers).
+
+    Efficiency (from the reported stderr) picks each side's best; the
+    actual errors at the end are printed beside it as the cross-check.
+    """
+    def best(kind: str) -> EstimatorRecord | None:
+        runs = [e for e in p.estimators if e.kind == kind and e.final is not None and not e.failed
+                and math.isfinite(e.efficiency)]
+        return max(runs, key=lambda e: e.efficiency) if runs else None
+
+    ours, peer = best("engine"), best("peer")
+    if ours is None or peer is None:
+        return ""
+    return (f"  best of ours vs best peer at equal time: {ours.name} (efficiency {_g(ours.efficiency, '.3e')}, "
+            f"|error| {_g(abs(ours.error), '.2e')}) vs {peer.name} (efficiency {_g(peer.efficiency, '.3e')}, "
+            f"|error| {_g(abs(peer.error), '.2e')}): {_g(ours.efficiency / peer.efficiency, '.3g')}x")
+
+
 def _heading(p: ProblemRecord) -> str:
     s = p.summary
     dim = f"{s['dim']}-D, " if "dim" in s else ""
@@ -114,6 +133,9 @@ def format_table(result: BenchResult) -> str:
             out.append(f"  engine vs NumPy ({p.reference}, samples/s, same process): {sp:.1f}x")
         elif p.baseline_unavailable:
             out.append(f"  NumPy baseline: {p.baseline_unavailable}")
+        line = peer_comparison(p)
+        if line:
+            out.append(line)
         for name, why in p.skipped:
             out.append(f"  skipped {name}: {why}")
         for e in p.estimators:

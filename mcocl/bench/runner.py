@@ -52,7 +52,7 @@ class EstimatorRecord:
 
     name: str
     description: str = ""
-    kind: str = "engine"  # "engine" or "numpy"
+    kind: str = "engine"  # "engine", "numpy" or "peer"
     checkpoints: list[Observation] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
     failed: str = ""
@@ -293,7 +293,10 @@ def run_suite(suite: Suite, problems: Sequence[BenchProblem], budget: float, opt
         rec = ProblemRecord(prob.name, prob.description, prob.summary(), reference=suite.reference_estimator)
         rec.skipped = [(m, f"not an estimator of {prob.name} (it offers {', '.join(s.name for s in prob.estimators())})")
                        for m in missing]
-        runs: list[Any] = [(s.name, s.description, "engine", s.start) for s in chosen]
+        # optional: only problems with peers (integrate) have estimators that can be unavailable
+        unavailable = getattr(prob, "unavailable", list)()
+        rec.skipped += [(n, why) for n, why in unavailable if estimators is None or n in estimators]
+        runs: list[Any] = [(s.name, s.description, s.kind, s.start) for s in chosen]
         if baseline:
             b = prob.baseline()
             if b.start is None:

@@ -84,12 +84,14 @@ class EstimatorSpec:
         start: builds the run (compiles kernels); may raise ``MCOCLError``.
         description: one line for the report.
         info: extra facts for the JSON summary (design sizes, proposals).
+        kind: ``engine`` (mcocl's) or ``peer`` (another package's, timed alike).
     """
 
     name: str
     start: Callable[[], ProgressiveRun]
     description: str = ""
     info: dict[str, Any] = field(default_factory=dict)
+    kind: str = "engine"
 
 
 @dataclass
@@ -113,6 +115,9 @@ class BenchProblem(Protocol):
     def baseline(self) -> BaselineSpec:
         """The NumPy version of the plain estimator (or the reason there is none)."""
 
+    def unavailable(self) -> list[tuple[str, str]]:
+        """Optional: (estimator, why it cannot run here) for estimators left out (a peer's missing package)."""
+
     def summary(self) -> dict[str, Any]:
         """JSON facts about the problem (dimension, reference value, ...)."""
 
@@ -134,6 +139,9 @@ class BenchOptions:
             (``render``; default 8x the budget).
         cache_dir: where references computed by the bench are cached.
         budget: seconds per estimator (set by :func:`mcocl.bench.run_bench`).
+        peers: also run other packages' integrators (``integrate``: scipy's
+            scrambled Sobol' and the ``vegas`` package, with mcocl's ``sobol``
+            and ``vegas`` samplers beside them).
     """
 
     quick: bool = False
@@ -147,6 +155,7 @@ class BenchOptions:
     reference_seconds: float | None = None
     cache_dir: str | None = None
     budget: float | None = None
+    peers: bool = False
 
 
 class Suite(Protocol):

@@ -50,6 +50,11 @@ Modes:
   solve       random-walk estimators on integral equations with known solutions
   render      path, nee and mis on a scene against a reference image (given
               with --reference, or rendered by mis for 8x the budget and cached)
+  integrate --peers
+              adds mcocl's sobol and vegas samplers and, timed alike in the
+              same process on the NumPy twin, scipy's scrambled Sobol'
+              (scipy-sobol) and the vegas package (vegas-package); a peer
+              whose package is not installed is skipped with the reason
   --quick     the problems behind the lecture's orderings, a few seconds each
               suite (integrate and solve; with a mode, that mode's subset)
 """
@@ -63,6 +68,7 @@ examples:
   mcocl bench integrate --problem my_problems.json --estimators independent stratified nrooks
   mcocl bench integrate --only 'genz-*' two-peak-2d --budget 2
   mcocl bench integrate --list
+  mcocl bench integrate --peers --only 'genz-*' --budget 2
 """
 
 PROBLEM_FILE_HELP = """\
@@ -102,6 +108,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     pi.add_argument("--only", nargs="+", default=None, metavar="NAME",
                     help="built-in problems to run (names or shell patterns such as 'genz-*')")
     pi.add_argument("--list", action="store_true", help="list the problems and their estimators, run nothing")
+    pi.add_argument("--peers", action="store_true",
+                    help="also time scipy's scrambled Sobol' and the vegas package (on the NumPy twin, same process, "
+                         "same time) beside mcocl's sobol and vegas; a peer whose package is missing is skipped")
     ps = modes.add_parser("solve", help="random-walk estimators on integral equations with known solutions")
     _common(ps, top=False)
     ps.add_argument("--only", nargs="+", default=None, metavar="NAME", help="built-in problems to run")
@@ -126,6 +135,7 @@ def _options(args: argparse.Namespace) -> BenchOptions:
         inputs=[args.scene] if getattr(args, "scene", None) else [], reference=getattr(args, "reference", None),
         reference_seconds=getattr(args, "reference_time", None),
         cache_dir=getattr(args, "cache", None) or str(Path(out) / "cache"),
+        peers=getattr(args, "peers", False),
     )
 
 

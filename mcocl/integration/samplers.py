@@ -228,24 +228,44 @@ class Stratified(SamplerSpec):
 
     A design is H = m^dim strata with 2 samples (units) in each:
     m = floor((S / (2 points))^(1/dim)), S = ``design_samples`` (default
-    min(N, 2^24); 2^20 when unbounded); m is capped at 2^22 per axis (float
-    coordinates), H at 2^31.  N is rounded down to whole designs, at least one.
-    Standard error: sum over strata of (v1 - v2)^2 / (4 H^2) (sampling/stratified.cl).
+    min(N, 2^24), in one dimension min(N // 16, 2^24) so a budget is at least
+    16 designs; 2^20 when unbounded, 2^16 in one dimension); m is capped at
+    2^22 per axis (float coordinates), H at 2^31.  N is rounded down to whole
+    designs, at least one.
+
+    Standard error: the stratum pairs' variance, sum over strata of
+    (v1 - v2)^2 / (4 H^2) per design (sampling/stratified.cl), and from 8
+    designs on the larger of it and the spread of the design means (their
+    sample variance / designs).  Both are unbiased, but the pairs' one can
+    be far too small: when a discontinuity cuts few strata (one in one
+    dimension), it is seen only when a stratum's two samples straddle it, so
+    it is usually zero.  The spread of whole designs sees the jump whatever
+    the pairs do; with fewer than 8 designs it is too noisy to be trusted.
     """
 
     name = "stratified"
     kernel_code = 1
     units_per_block = 2048
-    variance_method = "sum over strata of (f1 - f2)^2 / (4 H^2), two samples per stratum"
+    variance_method = ("sum over strata of (f1 - f2)^2 / (4 H^2), two samples per stratum; from 8 designs "
+                       "on the larger of it and the spread of the design means")
     MAX_STRATA = 1 << 31
     DEFAULT_DESIGN = 1 << 24
     UNBOUNDED_DESIGN = 1 << 20
+    # In one dimension a jump sits in one stratum, so the pairs' variance is
+    # unreliable and the run needs enough designs for their spread.
+    ONE_DIM_DESIGNS = 16
+    ONE_DIM_UNBOUNDED_DESIGN = 1 << 16
+    SPREAD_MIN_DESIGNS = 8
 
     def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
         """m^dim strata of ``2 * points`` samples, m as in the class docstring."""
         per_unit = 2 * points
         if design_samples is None:
-            design_samples = min(samples, self.DEFAULT_DESIGN) if samples else self.UNBOUNDED_DESIGN
+            if dim == 1:
+                design_samples = (min(samples // self.ONE_DIM_DESIGNS, self.DEFAULT_DESIGN) if samples
+                                  else self.ONE_DIM_UNBOUNDED_DESIGN)
+            else:
+                design_samples = min(samples, self.DEFAULT_DESIGN) if samples else self.UNBOUNDED_DESIGN
         m = _int_root(design_samples / per_unit, dim)
         m = min(m, MAX_AXIS_CELLS)
         while m > 1 and m**dim > self.MAX_STRATA:
@@ -253,16 +273,26 @@ class Stratified(SamplerSpec):
         units = m**dim
         return Design(self.name, units, per_unit, m, -(-units // self.units_per_block))
 
+    def fill_rows(self, per_block: np.ndarray, rows: np.ndarray) -> None:
+        """Columns 5-7 as ``nrooks`` (one design per row): the design means, for their spread."""
+        SAMPLER_SPECS["nrooks"].fill_rows(per_block, rows)
+
     def statistics(self, t: np.ndarray, shift: float) -> tuple[float, float, float]:
-        """Mean of all samples; variance from the stratum pairs."""
+        """Mean of all samples; the variance as in the class docstring."""
         n, pairs = t[0], t[4]
         if pairs <= 0:
             return math.nan, math.nan, n
-        return shift + t[2] / n, t[3] / (4.0 * pairs * pairs), n
+        pairs_var = t[3] / (4.0 * pairs * pairs)
+        if t[5] < self.SPREAD_MIN_DESIGNS:
+            return shift + t[2] / n, pairs_var, n
+        spread_var = SAMPLER_SPECS["nrooks"].statistics(t, shift)[1]
+        return shift + t[2] / n, max(pairs_var, spread_var), n
 
     def notes(self, design: Design, dim: int) -> list[str]:
-        """The strata of a design."""
-        return [f"{design.strata_m}^{dim} strata per design, 2 samples each"]
+        """The strata of a design and where the standard error comes from."""
+        return [f"{design.strata_m}^{dim} strata per design, 2 samples each; the standard error is the "
+                f"stratum pairs' variance, or from {self.SPREAD_MIN_DESIGNS} designs on the larger of it "
+                "and the spread of the design means"]
 
     def design_point_launch(self, size: int, dim: int) -> tuple[str, int, int, tuple[int, ...]]:
         """``size`` = strata per axis m: 2 m^dim points, one work-item per stratum."""
