@@ -178,7 +178,7 @@ def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]
     return out
 
 
-TWOSIDED = Param("twosided", "flag", "flags", "the same BSDF on the back side (Mitsuba's `twosided`)", default=False)
+TWOSIDED = Param("twosided", "flag", "flags", "the same BSDF mirrored onto the back side, as Mitsuba's `twosided`", default=False)
 
 
 @register_bsdf
