@@ -43,9 +43,11 @@ IOR_LIMIT = 1e6
 RECORD_FIELDS: dict[str, object] = {"rgb": (1.0, 1.0, 1.0), "alpha": 0.0, "int_ior": 1.0, "ext_ior": 1.0,
                                     "flags": 0}
 
-# Bits of material_record.flags (``MAT_FLAG_<NAME>`` in kernels/render/bsdf.cl), set by the ``"flag"`` keys.
-# TWOSIDED: the BSDF is mirrored onto the back side (Mitsuba's `twosided` wrapper), see dispatcher_source.
-FLAG_BITS: dict[str, int] = {"twosided": 1}
+# Bits of material_record.flags (``MAT_FLAG_<NAME>`` in kernels/render/bsdf.cl), set by the ``"flag"`` keys
+# (bit named as the key) and the ``"choice"`` keys (bit named as the choice; the first choice sets none).
+# twosided: the BSDF is mirrored onto the back side (Mitsuba's `twosided` wrapper), see dispatcher_source;
+# beckmann: roughconductor's microfacet distribution (kernels/render/bsdf_roughconductor.cl).
+FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2}
 
 DISPATCHER_PATH = "render/bsdf.cl"  # relative to the kernels folder
 
@@ -56,8 +58,9 @@ class Param:
 
     Attributes:
         key: the JSON key.
-        kind: ``"rgb"`` (three numbers >= 0, or one for grey), ``"number"`` or ``"flag"``
-            (a boolean: true sets the bit :data:`FLAG_BITS` ``[key]`` of the ``flags`` field).
+        kind: ``"rgb"`` (three numbers >= 0, or one for grey), ``"number"``, ``"flag"``
+            (a boolean: true sets the bit :data:`FLAG_BITS` ``[key]`` of the ``flags`` field) or
+            ``"choice"`` (a string of ``choices``: the bit :data:`FLAG_BITS` ``[choice]``, none for the first).
         field: the ``material_record`` field it fills (a key of :data:`RECORD_FIELDS`).
         doc: the meaning, for scenes/README.md.
         default: the value when the key is absent; ``None`` makes the key required.
@@ -68,7 +71,8 @@ class Param:
     kind: str
     field: str
     doc: str
-    default: float | None = None
+    default: float | str | None = None
+    choices: tuple[str, ...] = ()
     lo: float | None = None
     hi: float | None = None
     lo_open: bool = False
@@ -80,6 +84,8 @@ class Param:
             what = "RGB"
         elif self.kind == "flag":
             return f"`{self.key}` (boolean, default {'true' if self.default else 'false'}; {self.doc})"
+        elif self.kind == "choice":
+            return f"`{self.key}` ({' or '.join(map(repr, self.choices))}, default {self.default!r}; {self.doc})"
         elif self.lo is not None and self.hi is not None:
             what = f"number in {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}{')' if self.hi_open else ']'}"
         elif self.lo is not None:
@@ -152,8 +158,9 @@ def register_bsdf(cls: type[BsdfSpec]) -> type[BsdfSpec]:
               [f for f in spec.fixed if f not in RECORD_FIELDS]
     if unknown:
         raise ValueError(f"BSDF {spec.name!r}: no material_record field {unknown[0]!r}")
-    bad_flags = [p.key for p in spec.params if (p.kind == "flag") != (p.field == "flags") or
-                 (p.kind == "flag" and p.key not in FLAG_BITS)]
+    bad_flags = [p.key for p in spec.params if (p.kind in ("flag", "choice")) != (p.field == "flags") or
+                 (p.kind == "flag" and p.key not in FLAG_BITS) or
+                 (p.kind == "choice" and any(c not in FLAG_BITS for c in p.choices[1:]))]
     if bad_flags:
         raise ValueError(f"BSDF {spec.name!r}: {bad_flags[0]!r} must be a flag of FLAG_BITS packed into 'flags'")
     BSDFS[spec.name] = spec
@@ -163,17 +170,22 @@ def register_bsdf(cls: type[BsdfSpec]) -> type[BsdfSpec]:
 def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]:
     """Every record field of a material: the validated keys, the spec's fixed values, else the defaults.
 
-    ``given`` maps record fields to values, except that a ``"flag"`` key is given
-    under its own key name (a boolean); the flags are OR-ed into ``flags``.
+    ``given`` maps record fields to values, except that ``"flag"`` and
+    ``"choice"`` keys are given under their key names (a boolean, a choice);
+    their bits are OR-ed into ``flags``.
     """
     out = dict(RECORD_FIELDS)
     out.update(spec.fixed)
     flags = int(out["flags"])  # type: ignore[call-overload]
+    packed = {p.key: p for p in spec.params if p.field == "flags"}
     for k, v in given.items():
-        if k in FLAG_BITS:
+        p = packed.get(k)
+        if p is None:
+            out[k] = v
+        elif p.kind == "flag":
             flags |= FLAG_BITS[k] if v else 0
         else:
-            out[k] = v
+            flags |= FLAG_BITS.get(str(v), 0)
     out["flags"] = flags
     return out
 
@@ -204,13 +216,21 @@ class Conductor(BsdfSpec):
 
 @register_bsdf
 class RoughConductor(BsdfSpec):
-    """GGX microfacet reflection (kernels/render/bsdf_roughconductor.cl); alpha's default is Mitsuba 3's."""
+    """GGX or Beckmann microfacet reflection (kernels/render/bsdf_roughconductor.cl); alpha's default is Mitsuba 3's.
+
+    The distribution's default stays GGX in mcocl's JSON (its meaning before the
+    key existed); the Mitsuba importer writes Mitsuba's default, Beckmann.
+    """
 
     name = "roughconductor"
     code = 2
     params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0),
-              Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0), TWOSIDED)
-    summary = "GGX microfacet reflection with roughness α, sampled by visible normals; one-sided unless `twosided`"
+              Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0),
+              Param("distribution", "choice", "flags", "the microfacet distribution", default="ggx",
+                    choices=("ggx", "beckmann")),
+              TWOSIDED)
+    summary = ("microfacet reflection with roughness α: GGX sampled by visible normals, or Beckmann sampled by "
+               "D(m) cos θ_m; one-sided unless `twosided`")
 
 
 @register_bsdf

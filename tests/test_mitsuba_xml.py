@@ -400,7 +400,11 @@ def test_conductors(tmp_path):
                                          r"nearest supported: conductor with material=\"none\""):
         read_mitsuba(p)
     p = write(tmp_path, '<bsdf type="roughconductor" id="c"><string name="material" value="none"/></bsdf>')
-    with pytest.raises(InputError, match=r"default microfacet distribution 'beckmann'.*distribution=\"ggx\""):
+    c = read_mitsuba(p)["materials"]["c"]  # Mitsuba's default distribution
+    assert c["distribution"] == "beckmann" and c["alpha"] == 0.1
+    p = write(tmp_path, '<bsdf type="roughconductor" id="c"><string name="material" value="none"/>'
+                        '<string name="distribution" value="phong"/></bsdf>')
+    with pytest.raises(InputError, match=r"microfacet distribution 'phong'.*distribution=\"ggx\" or \"beckmann\""):
         read_mitsuba(p)
 
 

@@ -27,6 +27,7 @@
 
 /* Bits of material_record.flags (mcocl/bsdf_registry.py, FLAG_BITS). */
 #define MAT_FLAG_TWOSIDED 1
+#define MAT_FLAG_BECKMANN 2
 #include "render/bsdf_diffuse.cl"
 #include "render/bsdf_conductor.cl"
 #include "render/bsdf_roughconductor.cl"

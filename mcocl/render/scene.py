@@ -387,8 +387,8 @@ def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec) -> Mate
     given: dict[str, object] = {}
     for p in spec.params:
         raw, pk = o.get(p.key, p.default), f"{key}.{p.key}"
-        if p.kind == "flag":
-            given[p.key] = c.boolean(raw, pk)
+        if p.kind in ("flag", "choice"):
+            given[p.key] = c.boolean(raw, pk) if p.kind == "flag" else c.string(raw, pk, p.choices)
             continue
         given[p.field] = c.rgb(raw, pk) if p.kind == "rgb" else \
             c.number(raw, pk, p.lo, p.hi, lo_open=p.lo_open, hi_open=p.hi_open)

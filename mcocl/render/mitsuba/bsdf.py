@@ -2,7 +2,7 @@
 
 Supported exactly: ``diffuse``; ``conductor`` with ``material="none"`` (a
 perfect mirror times ``specular_reflectance``); ``roughconductor`` with
-``material="none"``, ``distribution="ggx"`` and an isotropic ``alpha``;
+``material="none"``, ``distribution`` ``"ggx"`` or ``"beckmann"`` (the default) and an isotropic ``alpha``;
 ``dielectric`` with numeric or named ``int_ior``/``ext_ior`` (Mitsuba's
 defaults: BK7 1.5046 inside, air 1.000277 outside); ``plastic`` (linear, a
 specular reflectance of 1; polypropylene 1.49 inside, air outside);
@@ -213,11 +213,14 @@ def _conductor(node: Node, kind: str, props, rep: Reporter, comments: list[str])
     if kind == "roughconductor":
         dist = props.get("distribution", ("string",), None)
         if dist is None:
-            rep.unsupported(node, "Mitsuba's default microfacet distribution 'beckmann'",
-                            'distribution="ggx"', "GGX with the same alpha", comments)
-        elif dist != "ggx":
-            rep.unsupported(props.node("distribution"), f"the microfacet distribution {dist!r}", 'distribution="ggx"',
-                            "GGX with the same alpha", comments)
+            comments.append("distribution: Mitsuba's default 'beckmann'")
+            dist = "beckmann"
+        elif dist not in ("ggx", "beckmann"):
+            rep.unsupported(props.node("distribution"), f"the microfacet distribution {dist!r}",
+                            'distribution="ggx" or "beckmann"', "GGX with the same alpha", comments)
+            dist = "ggx"
+        if dist == "beckmann":  # mcocl's JSON default is GGX
+            mat["distribution"] = "beckmann"
         alpha = props.get("alpha", ("float",), None)
         au, av = props.get("alpha_u", ("float",), None), props.get("alpha_v", ("float",), None)
         if au is not None or av is not None:
@@ -235,7 +238,7 @@ def _conductor(node: Node, kind: str, props, rep: Reporter, comments: list[str])
             alpha = 0.1
         mat["alpha"] = alpha
         if props.get("sample_visible", ("boolean",), True) is False:
-            comments.append("sample_visible=false: mcocl always samples visible normals (same expectation)")
+            comments.append("sample_visible=false ignored: mcocl samples GGX by visible normals, Beckmann by D(m) cos (same expectation)")
         supported += ("distribution", "alpha", "alpha_u", "alpha_v", "sample_visible")
     rep.leftover(node, props.unread(), supported, comments)
     return mat
