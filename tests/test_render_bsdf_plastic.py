@@ -50,9 +50,10 @@ def _fresnel(c: np.ndarray, eta: float) -> np.ndarray:
     c = np.asarray(c, np.float64)
     s2t = (1 - c * c) / eta**2
     ct = np.sqrt(np.maximum(1 - s2t, 0.0))
-    rs = (c - eta * ct) / (c + eta * ct)
-    rp = (eta * c - ct) / (eta * c + ct)
-    return np.where(s2t >= 1, 1.0, 0.5 * (rs * rs + rp * rp))
+    with np.errstate(divide="ignore", invalid="ignore"):  # grazing (c = 0) is total reflection: R = 1
+        rs = (c - eta * ct) / (c + eta * ct)
+        rp = (eta * c - ct) / (eta * c + ct)
+    return np.where((s2t >= 1) | (c <= 0), 1.0, 0.5 * (rs * rs + rp * rp))
 
 
 def _fdr_internal(eta: float) -> float:
@@ -74,7 +75,7 @@ def _plastic_twin(color, eta, wi, wo):
     return k[:, None] * np.asarray(color), float(p_spec)
 
 
-CASES = [(0.0, 1.49), (45.0, 1.49), (80.0, 1.49), (60.0, 1.8), (30.0, 1.2)]
+CASES = [(0.0, 1.49), (45.0, 1.49), (80.0, 1.49), (60.0, 1.8), (30.0, 1.2), (40.0, 0.8)]  # eta < 1: a thin coat
 FAMILY = Chi2Family("plastic sampling", len(CASES))
 
 
