@@ -11,6 +11,7 @@
 #define MAT_CONDUCTOR 1
 #define MAT_ROUGHCONDUCTOR 2
 #define MAT_DIELECTRIC 3
+#define MAT_PLASTIC 4
 
 /* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl). */
 #define INTEGRATOR_PATH 0
@@ -161,7 +162,7 @@ typedef struct {
     float alpha;
     float int_ior;
     float ext_ior;
-    float pad;
+    float flags;
 } material_record;
 #define MATERIAL_RECORD_QUADS 2u
 /* Every lane's record `index` of a float4 table into rec4v q0 .. q1 (render/lane_io.cl's gather_rec4). */
@@ -178,8 +179,8 @@ typedef struct {
 #define MATERIAL_RECORD_INT_IOR_COMP y
 #define MATERIAL_RECORD_EXT_IOR_QUAD 1
 #define MATERIAL_RECORD_EXT_IOR_COMP z
-#define MATERIAL_RECORD_PAD_QUAD 1
-#define MATERIAL_RECORD_PAD_COMP w
+#define MATERIAL_RECORD_FLAGS_QUAD 1
+#define MATERIAL_RECORD_FLAGS_COMP w
 
 /* perspective camera: origin and the right/up/forward axes (right, up scaled by the fov); thin lens: aperture radius (0: a pinhole) and focus distance */
 typedef struct {

@@ -40,7 +40,14 @@ from typing import ClassVar
 # Indices of refraction beyond this are refused (no material has one; float32 Fresnel terms degrade).
 IOR_LIMIT = 1e6
 
-RECORD_FIELDS: dict[str, object] = {"rgb": (1.0, 1.0, 1.0), "alpha": 0.0, "int_ior": 1.0, "ext_ior": 1.0}
+RECORD_FIELDS: dict[str, object] = {"rgb": (1.0, 1.0, 1.0), "alpha": 0.0, "int_ior": 1.0, "ext_ior": 1.0,
+                                    "flags": 0}
+
+# Bits of material_record.flags (``MAT_FLAG_<NAME>`` in kernels/render/bsdf.cl), set by the ``"flag"`` keys
+# (bit named as the key) and the ``"choice"`` keys (bit named as the choice; the first choice sets none).
+# twosided: the BSDF is mirrored onto the back side (Mitsuba's `twosided` wrapper), see dispatcher_source;
+# beckmann: roughconductor's microfacet distribution (kernels/render/bsdf_roughconductor.cl).
+FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2}
 
 DISPATCHER_PATH = "render/bsdf.cl"  # relative to the kernels folder
 
@@ -51,7 +58,9 @@ class Param:
 
     Attributes:
         key: the JSON key.
-        kind: ``"rgb"`` (three numbers >= 0, or one for grey) or ``"number"``.
+        kind: ``"rgb"`` (three numbers >= 0, or one for grey), ``"number"``, ``"flag"``
+            (a boolean: true sets the bit :data:`FLAG_BITS` ``[key]`` of the ``flags`` field) or
+            ``"choice"`` (a string of ``choices``: the bit :data:`FLAG_BITS` ``[choice]``, none for the first).
         field: the ``material_record`` field it fills (a key of :data:`RECORD_FIELDS`).
         doc: the meaning, for scenes/README.md.
         default: the value when the key is absent; ``None`` makes the key required.
@@ -62,7 +71,8 @@ class Param:
     kind: str
     field: str
     doc: str
-    default: float | None = None
+    default: float | str | None = None
+    choices: tuple[str, ...] = ()
     lo: float | None = None
     hi: float | None = None
     lo_open: bool = False
@@ -72,6 +82,10 @@ class Param:
         """The key's type, range and default as scenes/README.md writes them."""
         if self.kind == "rgb":
             what = "RGB"
+        elif self.kind == "flag":
+            return f"`{self.key}` (boolean, default {'true' if self.default else 'false'}; {self.doc})"
+        elif self.kind == "choice":
+            return f"`{self.key}` ({' or '.join(map(repr, self.choices))}, default {self.default!r}; {self.doc})"
         elif self.lo is not None and self.hi is not None:
             what = f"number in {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}{')' if self.hi_open else ']'}"
         elif self.lo is not None:
@@ -93,6 +107,8 @@ class BsdfSpec:
         fixed: values of record fields that no key sets (e.g. a dielectric's tint 1).
         delta: every lobe is a Dirac delta.
         transmissive: sampling may refract (writes the path's ``eta``).
+        mixed: a delta lobe beside smooth ones: the sample function takes a last
+            argument ``intv *delta`` (the lanes that sampled the delta lobe).
         summary: one line for scenes/README.md.
     """
 
@@ -102,6 +118,7 @@ class BsdfSpec:
     fixed: ClassVar[dict[str, object]] = {}
     delta: ClassVar[bool] = False
     transmissive: ClassVar[bool] = False
+    mixed: ClassVar[bool] = False
     summary: ClassVar[str]
 
     @property
@@ -141,16 +158,39 @@ def register_bsdf(cls: type[BsdfSpec]) -> type[BsdfSpec]:
               [f for f in spec.fixed if f not in RECORD_FIELDS]
     if unknown:
         raise ValueError(f"BSDF {spec.name!r}: no material_record field {unknown[0]!r}")
+    bad_flags = [p.key for p in spec.params if (p.kind in ("flag", "choice")) != (p.field == "flags") or
+                 (p.kind == "flag" and p.key not in FLAG_BITS) or
+                 (p.kind == "choice" and any(c not in FLAG_BITS for c in p.choices[1:]))]
+    if bad_flags:
+        raise ValueError(f"BSDF {spec.name!r}: {bad_flags[0]!r} must be a flag of FLAG_BITS packed into 'flags'")
     BSDFS[spec.name] = spec
     return cls
 
 
 def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]:
-    """Every record field of a material: the validated keys, the spec's fixed values, else the defaults."""
+    """Every record field of a material: the validated keys, the spec's fixed values, else the defaults.
+
+    ``given`` maps record fields to values, except that ``"flag"`` and
+    ``"choice"`` keys are given under their key names (a boolean, a choice);
+    their bits are OR-ed into ``flags``.
+    """
     out = dict(RECORD_FIELDS)
     out.update(spec.fixed)
-    out.update(given)
+    flags = int(out["flags"])  # type: ignore[call-overload]
+    packed = {p.key: p for p in spec.params if p.field == "flags"}
+    for k, v in given.items():
+        p = packed.get(k)
+        if p is None:
+            out[k] = v
+        elif p.kind == "flag":
+            flags |= FLAG_BITS[k] if v else 0
+        else:
+            flags |= FLAG_BITS.get(str(v), 0)
+    out["flags"] = flags
     return out
+
+
+TWOSIDED = Param("twosided", "flag", "flags", "the same BSDF mirrored onto the back side, as Mitsuba's `twosided`", default=False)
 
 
 @register_bsdf
@@ -159,8 +199,8 @@ class Diffuse(BsdfSpec):
 
     name = "diffuse"
     code = 0
-    params = (Param("reflectance", "rgb", "rgb", ""),)
-    summary = "Lambertian with that albedo, one-sided (black from behind)"
+    params = (Param("reflectance", "rgb", "rgb", ""), TWOSIDED)
+    summary = "Lambertian with that albedo, one-sided (black from behind) unless `twosided`"
 
 
 @register_bsdf
@@ -169,20 +209,28 @@ class Conductor(BsdfSpec):
 
     name = "conductor"
     code = 1
-    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0),)
+    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0), TWOSIDED)
     delta = True
-    summary = "a perfect mirror"
+    summary = "a perfect mirror, one-sided unless `twosided`"
 
 
 @register_bsdf
 class RoughConductor(BsdfSpec):
-    """GGX microfacet reflection (kernels/render/bsdf_roughconductor.cl); alpha's default is Mitsuba 3's."""
+    """GGX or Beckmann microfacet reflection (kernels/render/bsdf_roughconductor.cl); alpha's default is Mitsuba 3's.
+
+    The distribution's default stays GGX in mcocl's JSON (its meaning before the
+    key existed); the Mitsuba importer writes Mitsuba's default, Beckmann.
+    """
 
     name = "roughconductor"
     code = 2
     params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0),
-              Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0))
-    summary = "GGX microfacet reflection with roughness α, sampled by visible normals"
+              Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0),
+              Param("distribution", "choice", "flags", "the microfacet distribution", default="ggx",
+                    choices=("ggx", "beckmann")),
+              TWOSIDED)
+    summary = ("microfacet reflection with roughness α: GGX sampled by visible normals, or Beckmann sampled by "
+               "D(m) cos θ_m; one-sided unless `twosided`")
 
 
 @register_bsdf
@@ -203,6 +251,25 @@ class Dielectric(BsdfSpec):
         if values["int_ior"] == values["ext_ior"]:
             return "int_ior", "int_ior equals ext_ior: the interface would be invisible"
         return None
+
+
+@register_bsdf
+class Plastic(BsdfSpec):
+    """A smooth dielectric coat over a Lambertian base (kernels/render/bsdf_plastic.cl), Mitsuba 3's `plastic`.
+
+    Defaults are Mitsuba 3's: polypropylene inside (1.49), air outside, a
+    base albedo of 0.5; its specular reflectance is 1 and its model the linear one.
+    """
+
+    name = "plastic"
+    code = 4
+    params = (Param("diffuse_reflectance", "rgb", "rgb", "base albedo", default=0.5),
+              Param("int_ior", "number", "int_ior", "polypropylene", default=1.49, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              Param("ext_ior", "number", "ext_ior", "air", default=1.000277, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              TWOSIDED)
+    mixed = True
+    summary = ("smooth plastic: Fresnel mirror coat over a Lambertian base (Mitsuba's `plastic`, linear); "
+               "one-sided unless `twosided`")
 
 
 def _any_kind(specs: list[BsdfSpec]) -> str:
@@ -248,7 +315,18 @@ def dispatcher_source() -> str:
         "",
         "#define TRANSPORT_RADIANCE 0",
         "#define TRANSPORT_IMPORTANCE 1",
+        "",
+        "/* Bits of material_record.flags (mcocl/bsdf_registry.py, FLAG_BITS). */",
+        *[f"#define MAT_FLAG_{k.upper()} {v}" for k, v in FLAG_BITS.items()],
         *[f'#include "{s.kernel_file}"' for s in specs],
+        "",
+        "/* Lanes that see a twosided material from behind.  There the BSDF is the",
+        " * front one mirrored through the surface (Mitsuba 3's `twosided`): eval and",
+        " * sample flip the z of wi (and of wo) so that every BSDF sees a front-side",
+        " * query, and sample flips the z of the sampled wo back. */",
+        "MC_INLINE intv bsdf_mirrored(const material_v *m, vec3v wi) {",
+        "    return ((m->flags & MAT_FLAG_TWOSIDED) != 0) & (wi.z < 0.0f);",
+        "}",
         "",
         "/* Lanes whose material has a non-delta lobe: light sampling applies there. */",
         "MC_INLINE intv bsdf_is_smooth(const material_v *m) {",
@@ -260,6 +338,9 @@ def dispatcher_source() -> str:
         "MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {",
         "    vec3v f = v3s(0.0f);",
         "    floatv p = (floatv)(0.0f);",
+        "    intv back = bsdf_mirrored(m, wi);",
+        "    wi.z = lane_select(wi.z, -wi.z, back);",
+        "    wo.z = lane_select(wo.z, -wo.z, back);",
     ]
     for s in smooth:
         out += [
@@ -294,6 +375,8 @@ def dispatcher_source() -> str:
         "    s.pdf = (floatv)(0.0f);",
         "    s.eta = (floatv)(1.0f);",
         f"    s.delta = {_any_kind([s for s in specs if s.delta])};",
+        "    intv back = bsdf_mirrored(m, wi);",
+        "    wi.z = lane_select(wi.z, -wi.z, back);",
     ]
     for s in specs:
         out += [
@@ -301,15 +384,18 @@ def dispatcher_source() -> str:
             f"    if (lane_any(is_{s.name})) {{",
             "        vec3v wo;",
             "        floatv p, e;",
-            f"        vec3v w = {s.sample_function}(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);",
+            *(["        intv dl;"] if s.mixed else []),
+            f"        vec3v w = {s.sample_function}(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode{', &dl' if s.mixed else ''});",
             f"        s.wo = v3_select(s.wo, wo, is_{s.name});",
             f"        s.weight = v3_select(s.weight, w, is_{s.name});",
             f"        s.pdf = lane_select(s.pdf, p, is_{s.name});",
         ]
         if s.transmissive:
             out.append(f"        s.eta = lane_select(s.eta, e, is_{s.name});")
+        if s.mixed:
+            out.append(f"        s.delta = lane_select(s.delta, dl, is_{s.name});")
         out.append("    }")
-    out += ["    return s;", "}", "", "#endif"]
+    out += ["    s.wo.z = lane_select(s.wo.z, -s.wo.z, back);", "    return s;", "}", "", "#endif"]
     return "\n".join(out) + "\n"
 
 
@@ -327,5 +413,5 @@ def markdown_table() -> str:
     return "\n".join(rows)
 
 
-__all__ = ["BSDFS", "DISPATCHER_PATH", "RECORD_FIELDS", "TABLE_BEGIN", "TABLE_END", "BsdfSpec", "Param",
+__all__ = ["BSDFS", "DISPATCHER_PATH", "FLAG_BITS", "RECORD_FIELDS", "TWOSIDED", "TABLE_BEGIN", "TABLE_END", "BsdfSpec", "Param",
            "dispatcher_source", "markdown_table", "record_values", "register_bsdf"]

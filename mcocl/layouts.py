@@ -232,7 +232,8 @@ LIGHT_BVH_NODE = _quad_record(
 MATERIAL_RECORD = _quad_record(
     "material_record", "a material: its MaterialKind code (as a float) and parameters",
     ("kind", "float"), ("rgb", "float", 3),  # albedo (diffuse) or specular reflectance (conductors)
-    ("alpha", "float"), ("int_ior", "float"), ("ext_ior", "float"), ("pad", "float"),
+    ("alpha", "float"), ("int_ior", "float"), ("ext_ior", "float"),
+    ("flags", "float"),  # FLAG_BITS of mcocl/bsdf_registry.py (an integer stored as a float): twosided, beckmann
 )
 
 # Camera (host: compiled.camera_matrix; kernel: camera.cl), one per scene.

@@ -362,12 +362,13 @@ def test_unknown_plugin_names_line_element_and_nearest(tmp_path):
 
 
 def test_lenient_substitutes_with_a_warning(tmp_path):
-    body = ('<bsdf type="plastic" id="p"><rgb name="diffuse_reflectance" value="0.2, 0.3, 0.4"/></bsdf>'
+    body = ('<bsdf type="roughplastic" id="p"><rgb name="diffuse_reflectance" value="0.2, 0.3, 0.4"/>'
+            '<float name="alpha" value="0.2"/></bsdf>'
             '<bsdf type="conductor" id="gold"><string name="material" value="Au"/></bsdf>'
-            '<bsdf type="twosided" id="t"><bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>'
+            '<bsdf type="mask" id="t"><bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>'
             '<shape type="ply"/><emitter type="envmap"/>')
     p = write(tmp_path, body)
-    with pytest.raises(InputError, match=r"'plastic' BSDF is not supported \(nearest supported: diffuse\)"):
+    with pytest.raises(InputError, match=r"'roughplastic' BSDF is not supported \(nearest supported: plastic\)"):
         read_mitsuba(p)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -375,7 +376,8 @@ def test_lenient_substitutes_with_a_warning(tmp_path):
     msgs = [str(w.message) for w in caught if w.category is SceneSubstitutionWarning]
     assert len(msgs) == 5 and all(re.match(r".*s\.xml:\d+: <", m) for m in msgs)
     m = d["materials"]
-    assert m["p"] == {"type": "diffuse", "reflectance": [0.2, 0.3, 0.4], "comment": m["p"]["comment"]}
+    assert m["p"] == {"type": "plastic", "diffuse_reflectance": [0.2, 0.3, 0.4], "int_ior": 1.49, "ext_ior": 1.000277,
+                      "comment": m["p"]["comment"]}
     assert m["gold"]["type"] == "conductor" and m["t"]["reflectance"] == 0.7
     assert d["shapes"] == [] and "environment" not in d
     parse_scene(d, p)  # the substituted scene is valid
@@ -398,7 +400,11 @@ def test_conductors(tmp_path):
                                          r"nearest supported: conductor with material=\"none\""):
         read_mitsuba(p)
     p = write(tmp_path, '<bsdf type="roughconductor" id="c"><string name="material" value="none"/></bsdf>')
-    with pytest.raises(InputError, match=r"default microfacet distribution 'beckmann'.*distribution=\"ggx\""):
+    c = read_mitsuba(p)["materials"]["c"]  # Mitsuba's default distribution
+    assert c["distribution"] == "beckmann" and c["alpha"] == 0.1
+    p = write(tmp_path, '<bsdf type="roughconductor" id="c"><string name="material" value="none"/>'
+                        '<string name="distribution" value="phong"/></bsdf>')
+    with pytest.raises(InputError, match=r"microfacet distribution 'phong'.*distribution=\"ggx\" or \"beckmann\""):
         read_mitsuba(p)
 
 
@@ -412,3 +418,27 @@ def test_validation_errors_point_at_the_xml_element(tmp_path):
     line = line_of(p, 'y="2"')
     with pytest.raises(InputError, match=rf"s\.xml:{line}: .*a sphere's to_world may only"):
         load_scene(p)
+
+
+def test_twosided_and_plastic(tmp_path):
+    body = ('<bsdf type="twosided" id="t"><bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>'
+            '<bsdf type="roughconductor" id="r"><string name="material" value="none"/>'
+            '<string name="distribution" value="ggx"/></bsdf>'
+            '<bsdf type="twosided" id="tr"><ref id="r"/></bsdf>'
+            '<bsdf type="twosided" id="tp"><bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/>'
+            '<string name="int_ior" value="water"/></bsdf></bsdf>'
+            '<bsdf type="twosided" id="tg"><bsdf type="dielectric"/></bsdf>'
+            '<bsdf type="plastic" id="p"/>')
+    m = read_mitsuba(write(tmp_path, body))["materials"]
+    assert m["t"] == {"type": "diffuse", "reflectance": 0.7, "twosided": True}
+    assert m["tr"]["type"] == "roughconductor" and m["tr"]["twosided"] is True and "twosided" not in m["r"]
+    assert m["tp"]["twosided"] is True and m["tp"]["int_ior"] == 1.333 and m["tp"]["diffuse_reflectance"] == [0.1, 0.2, 0.3]
+    assert m["tg"]["type"] == "dielectric" and "twosided" not in m["tg"]
+    assert {k: m["p"][k] for k in ("type", "diffuse_reflectance", "int_ior", "ext_ior")} == \
+        {"type": "plastic", "diffuse_reflectance": 0.5, "int_ior": 1.49, "ext_ior": 1.000277}
+    for bad, msg in (('<bsdf type="plastic"><boolean name="nonlinear" value="true"/></bsdf>', "nonlinear plastic"),
+                     ('<bsdf type="plastic"><rgb name="specular_reflectance" value="0.5"/></bsdf>', "specular_reflectance"),
+                     ('<bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>', "different front and back"),
+                     ('<bsdf type="twosided"/>', "needs a nested")):
+        with pytest.raises(InputError, match=msg):
+            read_mitsuba(write(tmp_path, bad.replace('<bsdf type', '<bsdf id="x" type', 1)))

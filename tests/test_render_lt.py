@@ -242,7 +242,7 @@ def test_camera_importance_and_raster_positions(emit) -> None:
     assert abs(x.mean() - 1) <= 5 * x.std() / math.sqrt(len(x)), (x.mean(), x.std() / math.sqrt(len(x)))
 
 
-@pytest.mark.parametrize("kind", [0, 1, 2, 3])
+@pytest.mark.parametrize("kind", [0, 1, 2, 3, 4])
 def test_transport_modes_differ_only_by_the_dielectrics_refraction_scale(emit, kind: int) -> None:
     """Same uniforms, both modes: the same directions; the same weights except refraction, where radiance
     carries (eta_i / eta_t)^2 and importance does not (Veach's thesis §5.2)."""

@@ -24,14 +24,27 @@
 
 #define TRANSPORT_RADIANCE 0
 #define TRANSPORT_IMPORTANCE 1
+
+/* Bits of material_record.flags (mcocl/bsdf_registry.py, FLAG_BITS). */
+#define MAT_FLAG_TWOSIDED 1
+#define MAT_FLAG_BECKMANN 2
 #include "render/bsdf_diffuse.cl"
 #include "render/bsdf_conductor.cl"
 #include "render/bsdf_roughconductor.cl"
 #include "render/bsdf_dielectric.cl"
+#include "render/bsdf_plastic.cl"
+
+/* Lanes that see a twosided material from behind.  There the BSDF is the
+ * front one mirrored through the surface (Mitsuba 3's `twosided`): eval and
+ * sample flip the z of wi (and of wo) so that every BSDF sees a front-side
+ * query, and sample flips the z of the sampled wo back. */
+MC_INLINE intv bsdf_mirrored(const material_v *m, vec3v wi) {
+    return ((m->flags & MAT_FLAG_TWOSIDED) != 0) & (wi.z < 0.0f);
+}
 
 /* Lanes whose material has a non-delta lobe: light sampling applies there. */
 MC_INLINE intv bsdf_is_smooth(const material_v *m) {
-    return (m->kind == MAT_DIFFUSE) | (m->kind == MAT_ROUGHCONDUCTOR);
+    return (m->kind == MAT_DIFFUSE) | (m->kind == MAT_ROUGHCONDUCTOR) | (m->kind == MAT_PLASTIC);
 }
 
 /* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi.
@@ -39,6 +52,9 @@ MC_INLINE intv bsdf_is_smooth(const material_v *m) {
 MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {
     vec3v f = v3s(0.0f);
     floatv p = (floatv)(0.0f);
+    intv back = bsdf_mirrored(m, wi);
+    wi.z = lane_select(wi.z, -wi.z, back);
+    wo.z = lane_select(wo.z, -wo.z, back);
     intv is_diffuse = m->kind == MAT_DIFFUSE;
     if (lane_any(is_diffuse)) {
         floatv pk;
@@ -52,6 +68,13 @@ MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) 
         vec3v fk = roughconductor_bsdf_eval(m, wi, wo, &pk);
         f = v3_select(f, fk, is_roughconductor);
         p = lane_select(p, pk, is_roughconductor);
+    }
+    intv is_plastic = m->kind == MAT_PLASTIC;
+    if (lane_any(is_plastic)) {
+        floatv pk;
+        vec3v fk = plastic_bsdf_eval(m, wi, wo, &pk);
+        f = v3_select(f, fk, is_plastic);
+        p = lane_select(p, pk, is_plastic);
     }
     *pdf = p;
     return f;
@@ -75,6 +98,8 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
     s.pdf = (floatv)(0.0f);
     s.eta = (floatv)(1.0f);
     s.delta = (m->kind == MAT_CONDUCTOR) | (m->kind == MAT_DIELECTRIC);
+    intv back = bsdf_mirrored(m, wi);
+    wi.z = lane_select(wi.z, -wi.z, back);
     intv is_diffuse = m->kind == MAT_DIFFUSE;
     if (lane_any(is_diffuse)) {
         vec3v wo;
@@ -112,6 +137,18 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
         s.pdf = lane_select(s.pdf, p, is_dielectric);
         s.eta = lane_select(s.eta, e, is_dielectric);
     }
+    intv is_plastic = m->kind == MAT_PLASTIC;
+    if (lane_any(is_plastic)) {
+        vec3v wo;
+        floatv p, e;
+        intv dl;
+        vec3v w = plastic_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode, &dl);
+        s.wo = v3_select(s.wo, wo, is_plastic);
+        s.weight = v3_select(s.weight, w, is_plastic);
+        s.pdf = lane_select(s.pdf, p, is_plastic);
+        s.delta = lane_select(s.delta, dl, is_plastic);
+    }
+    s.wo.z = lane_select(s.wo.z, -s.wo.z, back);
     return s;
 }
 

@@ -299,12 +299,13 @@ kernel void render_blocks(
 
 #if INTEGRATOR != INTEGRATOR_PATH
             /* The vertex as both strategies see it: the point lifted off the
-             * surface on its front side.  Light samples, shadow rays, reflected
+             * surface on its front side (the back side where a twosided material is
+             * seen from behind).  Light samples, shadow rays, reflected
              * rays and the light pdf of a reflected ray's emitter hit all start
              * here, so that the two MIS weights of one path are computed from
              * the same point and sum to one (computing them from p and from the
              * offset origin biased the white furnace by ~1e-4). */
-            vec3v p_up = offset_origin(p, n, n);
+            vec3v p_up = offset_origin(p, n, v3_select(n, v3_neg(n), bsdf_mirrored(&m, wi)));
 
             /* -- next-event estimation -- */
             intv nee = cont & bsdf_is_smooth(&m);

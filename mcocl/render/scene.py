@@ -91,6 +91,7 @@ class Material:
     alpha: float = 0.0
     int_ior: float = 1.0
     ext_ior: float = 1.0
+    flags: int = 0  # bits of mcocl.bsdf_registry.FLAG_BITS (twosided)
 
 
 @dataclass
@@ -386,6 +387,9 @@ def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec) -> Mate
     given: dict[str, object] = {}
     for p in spec.params:
         raw, pk = o.get(p.key, p.default), f"{key}.{p.key}"
+        if p.kind in ("flag", "choice"):
+            given[p.key] = c.boolean(raw, pk) if p.kind == "flag" else c.string(raw, pk, p.choices)
+            continue
         given[p.field] = c.rgb(raw, pk) if p.kind == "rgb" else \
             c.number(raw, pk, p.lo, p.hi, lo_open=p.lo_open, hi_open=p.hi_open)
     values = record_values(spec, given)
@@ -393,7 +397,7 @@ def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec) -> Mate
     if bad is not None:
         c.fail(f"{key}.{bad[0]}", bad[1])
     return Material(name, spec.name, np.array(values["rgb"], np.float64).reshape(3), alpha=float(values["alpha"]),
-                    int_ior=float(values["int_ior"]), ext_ior=float(values["ext_ior"]))
+                    int_ior=float(values["int_ior"]), ext_ior=float(values["ext_ior"]), flags=int(values["flags"]))
 
 
 def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:

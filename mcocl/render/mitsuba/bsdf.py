@@ -2,9 +2,13 @@
 
 Supported exactly: ``diffuse``; ``conductor`` with ``material="none"`` (a
 perfect mirror times ``specular_reflectance``); ``roughconductor`` with
-``material="none"``, ``distribution="ggx"`` and an isotropic ``alpha``;
+``material="none"``, ``distribution`` ``"ggx"`` or ``"beckmann"`` (the default) and an isotropic ``alpha``;
 ``dielectric`` with numeric or named ``int_ior``/``ext_ior`` (Mitsuba's
-defaults: BK7 1.5046 inside, air 1.000277 outside).  Any other BSDF registered
+defaults: BK7 1.5046 inside, air 1.000277 outside); ``plastic`` (linear, a
+specular reflectance of 1; polypropylene 1.49 inside, air outside);
+``twosided`` around one BSDF that has mcocl's ``twosided`` key (diffuse,
+conductors, plastic) sets that key; around a dielectric it changes nothing
+(glass is two-sided already).  Any other BSDF registered
 in mcocl/bsdf_registry.py is read property by property, each property named
 like its scene-file key.  Everything else is an error naming the nearest
 alternative, or with ``lenient`` the substitute listed in :data:`SUBSTITUTES`.
@@ -22,25 +26,24 @@ from .report import Reporter, nearest
 from .spectra import named_ior, nearest_ior_names
 from .xml_source import Node
 
-# Every registered BSDF (mcocl/bsdf_registry.py).  The four below have their own
+# Every registered BSDF (mcocl/bsdf_registry.py).  The five below have their own
 # translators (Mitsuba's properties differ from mcocl's keys); any other is read
 # by :func:`_registered`, property name = scene-file key.
 SUPPORTED = tuple(BSDFS)
 
 # Unsupported BSDF plugin → (nearest supported alternative, lenient substitute).
 SUBSTITUTES = {
-    "plastic": ("diffuse", "a diffuse BSDF with its diffuse_reflectance (default 0.5), no specular coat"),
-    "roughplastic": ("diffuse", "a diffuse BSDF with its diffuse_reflectance (default 0.5), no specular coat"),
+    "roughplastic": ("plastic", "a smooth plastic with the same diffuse_reflectance and iors"),
     "principled": ("diffuse", "a diffuse BSDF with its base_color (default 0.5)"),
     "roughdielectric": ("dielectric", "a smooth dielectric with the same int_ior/ext_ior"),
     "thindielectric": ("dielectric", "a smooth (thick) dielectric with the same int_ior/ext_ior"),
-    "twosided": ("its nested BSDF, one-sided", "its nested BSDF (one-sided: black from behind)"),
+    "twosided": ("one nested BSDF, the same on both sides", "its first nested BSDF on both sides"),
     "mask": ("its nested BSDF", "its nested BSDF (opacity ignored)"),
     "bumpmap": ("its nested BSDF", "its nested BSDF (bumps ignored)"),
     "normalmap": ("its nested BSDF", "its nested BSDF (normal map ignored)"),
     "blendbsdf": ("one of its two BSDFs", "its first nested BSDF"),
 }
-NESTED = ("twosided", "mask", "bumpmap", "normalmap", "blendbsdf")
+NESTED = ("mask", "bumpmap", "normalmap", "blendbsdf")
 
 _COLOUR_TAGS = ("rgb", "spectrum", "float")
 
@@ -78,6 +81,8 @@ def translate_bsdf(node: Node, rep: Reporter, resolve) -> dict:
         node.fail('a <bsdf> needs a type="..." attribute')
     props, objects = split_children(node)
     comments: list[str] = []
+    if kind == "twosided":
+        return _twosided(node, objects, rep, resolve, comments)
     if kind in NESTED:
         alt, sub = SUBSTITUTES[kind]
         inner = [resolve(o) if o.tag == "ref" else o for o in objects if o.tag in ("bsdf", "ref")]
@@ -107,12 +112,16 @@ def translate_bsdf(node: Node, rep: Reporter, resolve) -> dict:
         mat = {"type": "dielectric", "int_ior": ni, "ext_ior": ne}
         rep.leftover(node, props.unread(), ("int_ior", "ext_ior", "specular_reflectance",
                                             "specular_transmittance"), comments)
+    elif kind == "plastic":
+        mat = _plastic(node, props, rep, comments)
     elif kind in BSDFS:
         mat = _registered(node, kind, props, rep, comments)
     elif kind in SUBSTITUTES:
         alt, sub = SUBSTITUTES[kind]
         rep.unsupported(node, f"the {kind!r} BSDF", alt, sub, comments)
-        if alt == "diffuse":
+        if alt == "plastic":
+            mat = _plastic(node, props, rep, comments, check_leftovers=False)
+        elif alt == "diffuse":
             key = "base_color" if kind == "principled" else "diffuse_reflectance"
             mat = {"type": "diffuse", "reflectance": rgb_json(props.colour(key, 0.5))}
         else:
@@ -124,6 +133,47 @@ def translate_bsdf(node: Node, rep: Reporter, resolve) -> dict:
         mat = {"type": "diffuse", "reflectance": 0.5}
     if comments:
         mat["comment"] = comments
+    return mat
+
+
+def _twosided(node: Node, objects: list[Node], rep: Reporter, resolve, comments: list[str]) -> dict:
+    """Mitsuba's ``twosided``: the nested BSDF with mcocl's ``twosided`` key (the front BSDF mirrored behind)."""
+    inner = [resolve(o) if o.tag == "ref" else o for o in objects if o.tag in ("bsdf", "ref")]
+    if not inner:
+        node.fail("a twosided BSDF needs a nested <bsdf> (or a <ref> to one)")
+    if len(inner) > 1:
+        rep.unsupported(node, "a twosided BSDF with different front and back BSDFs",
+                        "one nested BSDF, the same on both sides", "its first nested BSDF on both sides", comments)
+    mat = translate_bsdf(inner[0], rep, resolve)
+    if mat["type"] == "dielectric":
+        comments.append("twosided: a dielectric is two-sided already")
+    elif any(p.key == "twosided" for p in BSDFS[mat["type"]].params):
+        mat["twosided"] = True
+    else:
+        rep.unsupported(node, f"a twosided {mat['type']!r}", "twosided around diffuse, conductor, roughconductor "
+                        "or plastic", f"a one-sided {mat['type']!r}", comments)
+    if comments:
+        mat["comment"] = comments + mat.get("comment", [])
+    return mat
+
+
+def _plastic(node: Node, props, rep: Reporter, comments: list[str], check_leftovers: bool = True) -> dict:
+    """Mitsuba's ``plastic`` (kernels/render/bsdf_plastic.cl): linear, with a specular reflectance of 1."""
+    if "diffuse_reflectance" not in props:
+        comments.append("diffuse_reflectance: Mitsuba's default 0.5")
+    mat = {"type": "plastic", "diffuse_reflectance": rgb_json(props.colour("diffuse_reflectance", 0.5)),
+           "int_ior": _ior(props, "int_ior", "polypropylene", comments),
+           "ext_ior": _ior(props, "ext_ior", "air", comments)}
+    v = props.colour("specular_reflectance", 1.0)
+    if np.any(v != 1.0):
+        rep.unsupported(props.node("specular_reflectance"), "specular_reflectance other than 1", "1 (leave it out)",
+                        "1", comments)
+    if props.get("nonlinear", ("boolean",), False):
+        rep.unsupported(props.node("nonlinear"), "the nonlinear plastic model", "nonlinear=false",
+                        "the linear model", comments)
+    if check_leftovers:
+        rep.leftover(node, props.unread(), ("diffuse_reflectance", "int_ior", "ext_ior", "specular_reflectance",
+                                            "nonlinear"), comments)
     return mat
 
 
@@ -163,11 +213,14 @@ def _conductor(node: Node, kind: str, props, rep: Reporter, comments: list[str])
     if kind == "roughconductor":
         dist = props.get("distribution", ("string",), None)
         if dist is None:
-            rep.unsupported(node, "Mitsuba's default microfacet distribution 'beckmann'",
-                            'distribution="ggx"', "GGX with the same alpha", comments)
-        elif dist != "ggx":
-            rep.unsupported(props.node("distribution"), f"the microfacet distribution {dist!r}", 'distribution="ggx"',
-                            "GGX with the same alpha", comments)
+            comments.append("distribution: Mitsuba's default 'beckmann'")
+            dist = "beckmann"
+        elif dist not in ("ggx", "beckmann"):
+            rep.unsupported(props.node("distribution"), f"the microfacet distribution {dist!r}",
+                            'distribution="ggx" or "beckmann"', "GGX with the same alpha", comments)
+            dist = "ggx"
+        if dist == "beckmann":  # mcocl's JSON default is GGX
+            mat["distribution"] = "beckmann"
         alpha = props.get("alpha", ("float",), None)
         au, av = props.get("alpha_u", ("float",), None), props.get("alpha_v", ("float",), None)
         if au is not None or av is not None:
@@ -185,7 +238,7 @@ def _conductor(node: Node, kind: str, props, rep: Reporter, comments: list[str])
             alpha = 0.1
         mat["alpha"] = alpha
         if props.get("sample_visible", ("boolean",), True) is False:
-            comments.append("sample_visible=false: mcocl always samples visible normals (same expectation)")
+            comments.append("sample_visible=false ignored: mcocl samples GGX by visible normals, Beckmann by D(m) cos (same expectation)")
         supported += ("distribution", "alpha", "alpha_u", "alpha_v", "sample_visible")
     rep.leftover(node, props.unread(), supported, comments)
     return mat
