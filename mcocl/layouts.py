@@ -213,15 +213,22 @@ CAMERA_RECORD = _quad_record(
 )
 
 # BVH (host: mcocl/render/bvh.py; kernels: bvh.cl, trace_packet.cl): nodes[0] is the header,
-# internal node k the 4 float4 at 1 + 4k.
+# internal node k the 4 float4 at 1 + 4k; the device table appends one LEAF_PRIM per slot of
+# prims (mcocl/render/bvh_leaves.py) and the header's leaf_row says where they start.
 BVH_HEADER = _quad_record(
-    "bvh_header", "nodes[0] of a BVH: primitive count, internal nodes, depth",
-    ("nprims", "uint"), ("num_nodes", "uint"), ("depth", "uint"), ("pad", "uint"),
+    "bvh_header", "nodes[0] of a BVH: primitive count, internal nodes, depth, row of the leaf primitives",
+    ("nprims", "uint"), ("num_nodes", "uint"), ("depth", "uint"), ("leaf_row", "uint"),
 )
 BVH_NODE = _quad_record(
     "bvh_node", "internal BVH node: both children's boxes; cnt 0: child is node ref, else leaf prims[ref..ref+cnt)",
     ("lo0", "float", 3), ("ref0", "uint"), ("hi0", "float", 3), ("cnt0", "uint"),
     ("lo1", "float", 3), ("ref1", "uint"), ("hi1", "float", 3), ("cnt1", "uint"),
+)
+
+LEAF_PRIM = _quad_record(
+    "leaf_prim", "a BVH leaf slot's primitive in leaf order: triangle v0, e1 = v1-v0, e2 = v2-v0; sphere (e1, pad1) = centre, radius",
+    ("v0", "float", 3), ("prim", "uint"), ("e1", "float", 3), ("pad1", "float"),
+    ("e2", "float", 3), ("pad2", "float"),
 )
 
 # The render kernel's scalar parameters, passed by value (host: mcocl/render/job.py).
@@ -237,7 +244,7 @@ RENDER_PARAMS = Record("render_params", (
 ), "scalar parameters of render_blocks (kernels/render/integrator.cl)")
 
 RECORDS: tuple[Record, ...] = (PRIM_RECORD, LIGHT_RECORD, MATERIAL_RECORD, CAMERA_RECORD, BVH_HEADER, BVH_NODE,
-                               RENDER_PARAMS)
+                               LEAF_PRIM, RENDER_PARAMS)
 
 
 def c_header() -> str:
@@ -300,6 +307,6 @@ if __name__ == "__main__":
     raise SystemExit(main())
 
 
-__all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_RECORD", "MATERIAL_RECORD",
+__all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LEAF_PRIM", "LIGHT_RECORD", "MATERIAL_RECORD",
            "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "FilmStat", "Integrator", "LightShape", "MaterialKind",
            "Record", "c_header", "header_file"]

@@ -4,7 +4,8 @@
  * uint bits; internal node k at nodes[1 + 4k ..]: (lo0, ref0) (hi0, cnt0)
  * (lo1, ref1) (hi1, cnt1) — the two children's boxes live in the parent, so
  * one visit tests both.  cnt == 0: child is internal node ref; cnt > 0: a
- * leaf with prims[ref .. ref + cnt).
+ * leaf with prims[ref .. ref + cnt), whose primitives the kernels read from the
+ * leaf records at rows leaf_row + 3 ref .. of the same table (mcocl/render/bvh_leaves.py).
  *
  * Traversal: both child boxes are tested, leaf children are intersected on
  * the spot (the nearer first), and of two internal children the nearer is
@@ -19,6 +20,7 @@
 #ifndef MCOCL_RENDER_BVH_CL
 #define MCOCL_RENDER_BVH_CL
 
+#include "layouts.cl"
 #include "render/intersect.cl"
 
 #define BVH_STACK 64 /* > bvh.py MAX_DEPTH */
@@ -41,20 +43,22 @@ MC_INLINE float3 bvh_inv_dir(float3 d)
     return 1.0f / dd;
 }
 
-/* Intersect the primitives of a leaf; the closest hit so far is (*tbest, h). */
+/* Intersect the primitives of a leaf (leaf records first .. first + count, in
+ * leaf order: no gather through prims); the closest hit so far is (*tbest, h). */
 MC_INLINE bool bvh_leaf_closest(const scene_geom *g, uint first, uint count, float3 o,
                                                              float3 d, float *tbest, hit_info *h)
 {
     bool hit = false;
-    for (uint k = first; k < first + count; ++k) {
-        uint p = g->prims[k];
+    global const float4 *r = g->leaves + LEAF_PRIM_QUADS * first;
+    for (uint k = 0; k < count; ++k, r += LEAF_PRIM_QUADS) {
+        float4 r0 = r[0], r1 = r[1];
+        uint p = as_uint(r0.w);
         float t, b1 = 0.0f, b2 = 0.0f;
         bool ok;
         if (p < g->ntris) {
-            ok = intersect_triangle(g->tris[3 * p].xyz, g->tris[3 * p + 1].xyz, g->tris[3 * p + 2].xyz, o, d, *tbest,
-                                    &t, &b1, &b2);
+            ok = intersect_triangle_edges(r0.xyz, r1.xyz, r[2].xyz, o, d, *tbest, &t, &b1, &b2);
         } else {
-            ok = intersect_sphere(g->spheres[p - g->ntris], o, d, *tbest, &t);
+            ok = intersect_sphere(r1, o, d, *tbest, &t);
         }
         if (ok) {
             *tbest = t;
@@ -71,13 +75,13 @@ MC_INLINE bool bvh_leaf_closest(const scene_geom *g, uint first, uint count, flo
 MC_INLINE bool bvh_leaf_any(const scene_geom *g, uint first, uint count, float3 o,
                                                          float3 d, float tmax)
 {
-    for (uint k = first; k < first + count; ++k) {
-        uint p = g->prims[k];
+    global const float4 *r = g->leaves + LEAF_PRIM_QUADS * first;
+    for (uint k = 0; k < count; ++k, r += LEAF_PRIM_QUADS) {
+        float4 r0 = r[0], r1 = r[1];
+        uint p = as_uint(r0.w);
         float t, b1, b2;
-        bool ok = (p < g->ntris)
-                      ? intersect_triangle(g->tris[3 * p].xyz, g->tris[3 * p + 1].xyz, g->tris[3 * p + 2].xyz, o, d,
-                                           tmax, &t, &b1, &b2)
-                      : intersect_sphere(g->spheres[p - g->ntris], o, d, tmax, &t);
+        bool ok = (p < g->ntris) ? intersect_triangle_edges(r0.xyz, r1.xyz, r[2].xyz, o, d, tmax, &t, &b1, &b2)
+                                 : intersect_sphere(r1, o, d, tmax, &t);
         if (ok) return true;
     }
     return false;
