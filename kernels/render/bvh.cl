@@ -161,6 +161,10 @@ bool trace_any(const scene_geom *g, float3 o, float3 d, float tmax)
         bool h0 = bvh_box(a0.xyz, a1.xyz, o, inv, tmax, &tn0);
         bool h1 = bvh_box(c0.xyz, c1.xyz, o, inv, tmax, &tn1);
         uint r0 = as_uint(a0.w), n0 = as_uint(a1.w), r1 = as_uint(c0.w), n1 = as_uint(c1.w);
+        if (h0 && h1 && tn1 < tn0) { /* nearer child first: occluders near the origin end the search early */
+            uint tr = r0; r0 = r1; r1 = tr;
+            uint tc = n0; n0 = n1; n1 = tc;
+        }
         if (h0 && n0) {
             if (bvh_leaf_any(g, r0, n0, o, d, tmax)) return true;
             h0 = false;
