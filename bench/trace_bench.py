@@ -171,10 +171,9 @@ def main() -> None:
         cs = compiled_mesh(tris)
         print(f"{mesh}: {len(tris)} triangles, BVH {time.perf_counter() - t0:.2f} s")
         emb = None if args.no_embree else embree_scene(tris)
-        sets = {"primary": lambda: primary_rays(args.rays), "diffuse": lambda: diffuse_rays(tris, args.rays),
-                "shadow": lambda: shadow_rays(tris, args.rays)}
+        makers_of_rays = {"primary": primary_rays, "diffuse": diffuse_rays, "shadow": shadow_rays}
         for name in args.sets.split(","):
-            o, d, tmax = sets[name]()
+            o, d, tmax = primary_rays(args.rays) if name == "primary" else makers_of_rays[name](tris, args.rays)
             closest = name != "shadow"
             cast_rays(cs, o[:256], d[:256], tmax[:256])  # kernel build and scene upload, untimed
             h, wall, cpu = time_mcocl(cs, o, d, tmax, closest, args.repeats)

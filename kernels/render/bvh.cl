@@ -1,21 +1,24 @@
-/* bvh.cl — BVH traversal: closest hit and any hit (shadow rays).
+/* bvh.cl — BVH traversal of one ray: closest hit and any hit (shadow rays).
  *
- * Layout (mcocl/render/bvh.py): nodes[0] = header (nprims, K, depth, 0) as
- * uint bits; internal node k at nodes[1 + 4k ..]: (lo0, ref0) (hi0, cnt0)
- * (lo1, ref1) (hi1, cnt1) — the two children's boxes live in the parent, so
- * one visit tests both.  cnt == 0: child is internal node ref; cnt > 0: a
- * leaf with prims[ref .. ref + cnt), whose primitives the kernels read from the
- * leaf records at rows leaf_row + 3 ref .. of the same table (mcocl/render/bvh_leaves.py).
+ * Layout of the bvh_nodes table (mcocl/render/bvh.py, bvh_leaves.py,
+ * bvh_wide.py; records in layouts.cl): nodes[0] = header (nprims, K, depth,
+ * leaf_row) as uint bits; the binary tree's internal node k at nodes[1 + 4k ..]
+ * (the packet traversal's, trace_packet.cl); from leaf_row one leaf_prim per
+ * slot of bvh_prims, in leaf order (a leaf is a run of them: no gather
+ * through bvh_prims and the triangle table); after those the 4-wide nodes
+ * (bvh_wide_node) this single-ray traversal walks.
  *
- * Traversal: both child boxes are tested, leaf children are intersected on
- * the spot (the nearer first), and of two internal children the nearer is
- * visited first while the farther goes on a small stack with its entry
- * distance, so that it is skipped when popped if a closer hit was found
- * meanwhile (pbrt-v4 §7.3.5, Aila & Laine 2009).  Any-hit returns at the
- * first hit.  The slab test's far distance is scaled by 1 + 2γ₃ (pbrt-v4
- * §6.1.2) so that rounding never misses a box a ray grazes, e.g. the flat
- * box of an axis-aligned wall; a zero direction component is replaced by a
- * tiny one so that 0·∞ cannot produce a NaN slab.
+ * Traversal: a node's four child boxes are slab-tested in float4 lanes and
+ * the children hit are taken nearest first; leaf children are intersected on
+ * the spot, internal children beyond the closest hit so far are dropped, the
+ * nearest internal child is visited next and the others go on a stack with
+ * their entry distances, so that they are skipped when popped if a closer hit
+ * was found meanwhile (pbrt-v4 §7.3.5, Aila & Laine 2009; wide nodes: Wald
+ * et al. 2008, Dammertz et al. 2008).  Any-hit returns at the first hit.  The
+ * slab test's far distance is scaled by 1 + 2γ₃ (pbrt-v4 §6.1.2) so that
+ * rounding never misses a box a ray grazes, e.g. the flat box of an
+ * axis-aligned wall; a zero direction component is replaced by a tiny one so
+ * that 0·∞ cannot produce a NaN slab.
  */
 #ifndef MCOCL_RENDER_BVH_CL
 #define MCOCL_RENDER_BVH_CL
@@ -23,18 +26,9 @@
 #include "layouts.cl"
 #include "render/intersect.cl"
 
-#define BVH_STACK 64 /* > bvh.py MAX_DEPTH */
+#define BVH_WIDE_STACK 80 /* > 3 pushes per wide level × MAX_DEPTH / 2 (bvh.py MAX_DEPTH = 48) */
+#define BVH_EMPTY_SLOT 0xffffffffu /* bvh_wide.py EMPTY_SLOT */
 #define BVH_TFAR_SCALE 1.0000004f /* 1 + 2 γ3, γn = n ε / (1 − n ε), ε = 2^-24 */
-
-/* Slab test of box [lo, hi]: entry distance in *tnear when the ray enters it before tmax. */
-MC_INLINE bool bvh_box(float3 lo, float3 hi, float3 o, float3 inv, float tmax, float *tnear)
-{
-    float3 t0 = (lo - o) * inv, t1 = (hi - o) * inv;
-    float tn = g_max(g_max(g_min(t0.x, t1.x), g_min(t0.y, t1.y)), g_max(g_min(t0.z, t1.z), 0.0f));
-    float tf = g_min(g_min(g_max(t0.x, t1.x), g_max(t0.y, t1.y)), g_min(g_max(t0.z, t1.z), tmax)) * BVH_TFAR_SCALE;
-    *tnear = tn;
-    return tn <= tf;
-}
 
 MC_INLINE float3 bvh_inv_dir(float3 d)
 {
@@ -87,53 +81,85 @@ MC_INLINE bool bvh_leaf_any(const scene_geom *g, uint first, uint count, float3 
     return false;
 }
 
-/* The closest hit with 0 < t < tmax; fills *h and returns true, or returns false (h untouched). */
+/* Lane-wise a < b ? a : b and a > b ? a : b (g_min, g_max): the wide node test
+ * gives the distances of the binary slab test (trace_packet.cl's packet_box) bit for bit. */
+MC_INLINE float4 bvh_min4(float4 a, float4 b) { return select(b, a, a < b); }
+MC_INLINE float4 bvh_max4(float4 a, float4 b) { return select(b, a, a > b); }
+
+/* The children of wide node n (mcocl/render/bvh_wide.py) whose boxes the ray
+ * enters before tmax, nearest first: *count of them, entry distances ct,
+ * refs cr and counts cc (the slab test on four boxes in float4 lanes). */
+MC_INLINE uint bvh_wide_children(global const float4 *n, float4 ox, float4 oy, float4 oz, float4 ix, float4 iy,
+                                 float4 iz, float tmax, float *ct, uint *cr, uint *cc)
+{
+    float4 x0 = (n[0] - ox) * ix, x1 = (n[3] - ox) * ix;
+    float4 y0 = (n[1] - oy) * iy, y1 = (n[4] - oy) * iy;
+    float4 z0 = (n[2] - oz) * iz, z1 = (n[5] - oz) * iz;
+    float4 tn = bvh_max4(bvh_max4(bvh_min4(x0, x1), bvh_min4(y0, y1)), bvh_max4(bvh_min4(z0, z1), (float4)(0.0f)));
+    float4 tf = bvh_min4(bvh_min4(bvh_max4(x0, x1), bvh_max4(y0, y1)), bvh_min4(bvh_max4(z0, z1), (float4)(tmax)))
+                * BVH_TFAR_SCALE;
+    uint4 ref = as_uint4(n[6]), cnt = as_uint4(n[7]);
+    int4 hit = (tn <= tf) & (cnt != (uint4)(BVH_EMPTY_SLOT));
+    uint nh = 0;
+    /* insertion sort by entry distance (at most four) */
+#define BVH_WIDE_TAKE(c)                                                                                  \
+    if (hit.c) {                                                                                          \
+        uint j = nh++;                                                                                    \
+        while (j > 0 && ct[j - 1] > tn.c) {                                                               \
+            ct[j] = ct[j - 1]; cr[j] = cr[j - 1]; cc[j] = cc[j - 1];                                      \
+            --j;                                                                                          \
+        }                                                                                                 \
+        ct[j] = tn.c; cr[j] = ref.c; cc[j] = cnt.c;                                                       \
+    }
+    BVH_WIDE_TAKE(s0) BVH_WIDE_TAKE(s1) BVH_WIDE_TAKE(s2) BVH_WIDE_TAKE(s3)
+#undef BVH_WIDE_TAKE
+    return nh;
+}
+
+/* The closest hit with 0 < t < tmax; fills *h and returns true, or returns false (h untouched).
+ * Walks the 4-wide tree: of a node's children, nearest first, leaves are
+ * intersected on the spot and internal ones beyond the closest hit so far
+ * are dropped; the nearest internal child is visited next and the others go
+ * on the stack with their entry distances, skipped when popped if a closer
+ * hit was found meanwhile. */
 bool trace_closest(const scene_geom *g, float3 o, float3 d, float tmax, hit_info *h)
 {
     if (as_uint(g->nodes[0].x) == 0u) return false; /* empty scene */
     float3 inv = bvh_inv_dir(d);
+    float4 ox = (float4)(o.x), oy = (float4)(o.y), oz = (float4)(o.z);
+    float4 ix = (float4)(inv.x), iy = (float4)(inv.y), iz = (float4)(inv.z);
     float tbest = tmax;
     bool hit = false;
-    uint stack[BVH_STACK];
-    float stack_t[BVH_STACK];
+    uint stack[BVH_WIDE_STACK];
+    float stack_t[BVH_WIDE_STACK];
     uint sp = 0;
     uint node = 0;
     for (;;) {
-        global const float4 *nd = g->nodes + 1 + 4 * node;
-        float4 a0 = nd[0], a1 = nd[1], c0 = nd[2], c1 = nd[3];
-        float tn0, tn1;
-        bool h0 = bvh_box(a0.xyz, a1.xyz, o, inv, tbest, &tn0);
-        bool h1 = bvh_box(c0.xyz, c1.xyz, o, inv, tbest, &tn1);
-        uint r0 = as_uint(a0.w), n0 = as_uint(a1.w), r1 = as_uint(c0.w), n1 = as_uint(c1.w);
-        if (h0 && h1 && tn1 < tn0) { /* nearer child first */
-            uint tr = r0; r0 = r1; r1 = tr;
-            uint tc = n0; n0 = n1; n1 = tc;
-            float tt = tn0; tn0 = tn1; tn1 = tt;
-        } else if (!h0 && h1) {
-            r0 = r1; n0 = n1; tn0 = tn1; h0 = true; h1 = false;
+        float ct[4];
+        uint cr[4], cc[4];
+        uint nh = bvh_wide_children(g->wide + BVH_WIDE_NODE_QUADS * node, ox, oy, oz, ix, iy, iz, tbest, ct, cr, cc);
+        uint ni = 0;
+        for (uint j = 0; j < nh; ++j) {
+            if (ct[j] > tbest * BVH_TFAR_SCALE) break; /* this child and the farther ones lie beyond the hit */
+            if (cc[j]) {
+                hit |= bvh_leaf_closest(g, cr[j], cc[j], o, d, &tbest, h);
+            } else {
+                cr[ni] = cr[j]; /* ni <= j: compacts the internal children in place */
+                ct[ni] = ct[j];
+                ++ni;
+            }
         }
-        /* Now child 0 is hit whenever any is, and is the nearer. */
-        if (h0 && n0) {
-            hit |= bvh_leaf_closest(g, r0, n0, o, d, &tbest, h);
-            h0 = false;
-        }
-        /* A hit in the nearer leaf may put the farther child beyond it. */
-        h1 = h1 && tn1 <= tbest * BVH_TFAR_SCALE;
-        if (h1 && n1) {
-            hit |= bvh_leaf_closest(g, r1, n1, o, d, &tbest, h);
-            h1 = false;
-        }
-        if (h0) {
-            if (h1 && sp < BVH_STACK) {
-                stack[sp] = r1;
-                stack_t[sp] = tn1;
+        /* push the farther internal children, farthest first, and descend into the nearest */
+        while (ni > 1) {
+            --ni;
+            if (ct[ni] <= tbest * BVH_TFAR_SCALE && sp < BVH_WIDE_STACK) {
+                stack[sp] = cr[ni];
+                stack_t[sp] = ct[ni];
                 ++sp;
             }
-            node = r0;
-            continue;
         }
-        if (h1) {
-            node = r1;
+        if (ni == 1 && ct[0] <= tbest * BVH_TFAR_SCALE) {
+            node = cr[0];
             continue;
         }
         /* Pop the next subtree that may still hold a closer hit. */
@@ -146,40 +172,35 @@ bool trace_closest(const scene_geom *g, float3 o, float3 d, float tmax, hit_info
     }
 }
 
-/* True when anything is hit with 0 < t < tmax (shadow rays; d need not be normalised). */
+/* True when anything is hit with 0 < t < tmax (shadow rays; d need not be normalised).
+ * The same walk, returning at the first hit. */
 bool trace_any(const scene_geom *g, float3 o, float3 d, float tmax)
 {
     if (as_uint(g->nodes[0].x) == 0u) return false;
     float3 inv = bvh_inv_dir(d);
-    uint stack[BVH_STACK];
+    float4 ox = (float4)(o.x), oy = (float4)(o.y), oz = (float4)(o.z);
+    float4 ix = (float4)(inv.x), iy = (float4)(inv.y), iz = (float4)(inv.z);
+    uint stack[BVH_WIDE_STACK];
     uint sp = 0;
     uint node = 0;
     for (;;) {
-        global const float4 *nd = g->nodes + 1 + 4 * node;
-        float4 a0 = nd[0], a1 = nd[1], c0 = nd[2], c1 = nd[3];
-        float tn0, tn1;
-        bool h0 = bvh_box(a0.xyz, a1.xyz, o, inv, tmax, &tn0);
-        bool h1 = bvh_box(c0.xyz, c1.xyz, o, inv, tmax, &tn1);
-        uint r0 = as_uint(a0.w), n0 = as_uint(a1.w), r1 = as_uint(c0.w), n1 = as_uint(c1.w);
-        if (h0 && h1 && tn1 < tn0) { /* nearer child first: occluders near the origin end the search early */
-            uint tr = r0; r0 = r1; r1 = tr;
-            uint tc = n0; n0 = n1; n1 = tc;
+        float ct[4];
+        uint cr[4], cc[4];
+        uint nh = bvh_wide_children(g->wide + BVH_WIDE_NODE_QUADS * node, ox, oy, oz, ix, iy, iz, tmax, ct, cr, cc);
+        uint ni = 0;
+        for (uint j = 0; j < nh; ++j) {
+            if (cc[j]) {
+                if (bvh_leaf_any(g, cr[j], cc[j], o, d, tmax)) return true;
+            } else {
+                cr[ni++] = cr[j];
+            }
         }
-        if (h0 && n0) {
-            if (bvh_leaf_any(g, r0, n0, o, d, tmax)) return true;
-            h0 = false;
+        while (ni > 1) {
+            --ni;
+            if (sp < BVH_WIDE_STACK) stack[sp++] = cr[ni];
         }
-        if (h1 && n1) {
-            if (bvh_leaf_any(g, r1, n1, o, d, tmax)) return true;
-            h1 = false;
-        }
-        if (h0) {
-            if (h1 && sp < BVH_STACK) stack[sp++] = r1;
-            node = r0;
-            continue;
-        }
-        if (h1) {
-            node = r1;
+        if (ni == 1) {
+            node = cr[0];
             continue;
         }
         if (sp == 0) return false;

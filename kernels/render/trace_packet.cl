@@ -25,7 +25,7 @@
 #include "render/vec3.cl"
 #include "render/bvh.cl"
 
-#define PACKET_STACK 64
+#define PACKET_STACK 64 /* > bvh.py MAX_DEPTH */
 
 /* Möller–Trumbore for every lane against one triangle: v0 = a, edges e1, e2 (intersect_triangle_edges). */
 MC_INLINE intv packet_triangle(float4 a, float4 e1, float4 e2, vec3v o, vec3v d, floatv tmax, floatv *t_out,
@@ -62,7 +62,7 @@ MC_INLINE intv packet_sphere(float4 s, vec3v o, vec3v d, floatv tmax, floatv *t_
     return (disc >= 0.0f) & (t > 0.0f) & (t < tmax);
 }
 
-/* Slab test of one box for every lane (bvh_box); lanes with tmax < 0 never hit. */
+/* Slab test of one box for every lane (bvh.cl's, bvh_wide_children); lanes with tmax < 0 never hit. */
 MC_INLINE intv packet_box(float4 lo, float4 hi, vec3v o, vec3v inv, floatv tmax, floatv *tnear) {
     floatv tx0 = (lo.x - o.x) * inv.x, tx1 = (hi.x - o.x) * inv.x;
     floatv ty0 = (lo.y - o.y) * inv.y, ty1 = (hi.y - o.y) * inv.y;

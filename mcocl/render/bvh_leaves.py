@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..layouts import BVH_HEADER, LEAF_PRIM
+from .bvh_wide import wide_nodes
 
 LEAF_ROWS = LEAF_PRIM.itemsize // 16  # float4 rows per record
 
@@ -47,11 +48,16 @@ def leaf_records(prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarra
 
 
 def device_nodes(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray) -> np.ndarray:
-    """The float32 (1 + 4K + 3P, 4) table the kernels read as ``bvh_nodes``: nodes, then the leaf records."""
+    """The float32 (1 + 4K + 3P + 8W, 4) table the kernels read as ``bvh_nodes``.
+
+    The binary nodes (the packet traversal's), the leaf records, then the
+    4-wide nodes of the single-ray traversal (:mod:`mcocl.render.bvh_wide`),
+    which start at row ``leaf_row + 3P``.
+    """
     nodes = np.asarray(nodes, np.float32)
     if len(prims) == 0 or len(nodes) == 0:
         return nodes
-    out = np.concatenate([nodes, leaf_records(prims, tri_vertices, spheres)])
+    out = np.concatenate([nodes, leaf_records(prims, tri_vertices, spheres), wide_nodes(nodes)])
     header = out[:1].view(BVH_HEADER.dtype())[0, 0]
     header["leaf_row"] = len(nodes)
     return out
