@@ -8,7 +8,7 @@ import pytest
 from mcocl.layouts import BVH_HEADER, BVH_WIDE_NODE, LEAF_PRIM
 from mcocl.render.bvh import build_bvh
 from mcocl.render.bvh_leaves import device_nodes, leaf_records
-from mcocl.render.bvh_wide import EMPTY_SLOT, WIDE_ROWS, wide_nodes
+from mcocl.render.bvh_wide import EMPTY_SLOT, MERGED_LEAF, WIDE_ROWS, wide_nodes
 
 
 def binary_children(nodes: np.ndarray):
@@ -33,7 +33,7 @@ def test_wide_tree_holds_every_leaf_once_with_the_binary_boxes(n, max_leaf):
     hi = lo + rng.uniform(0, 0.05, (n, 3)).astype(np.float32)
     b = build_bvh(lo, hi, max_leaf=max_leaf)
     blo, bhi, bref, bcnt = binary_children(b.nodes)
-    w = wide_nodes(b.nodes)
+    w = wide_nodes(b.nodes, max_leaf=1)  # no merging: the binary tree's own leaves
     wlo, whi, wref, wcnt = wide_children(w)
     nw = len(wref)
     leaf, inner = (wcnt != 0) & (wcnt != EMPTY_SLOT), wcnt == 0
@@ -47,14 +47,31 @@ def test_wide_tree_holds_every_leaf_once_with_the_binary_boxes(n, max_leaf):
     key = {(r, c): (lo_, hi_) for r, c, lo_, hi_ in zip(bref[bcnt > 0], bcnt[bcnt > 0], blo[bcnt > 0], bhi[bcnt > 0])}
     for r, c, lo_, hi_ in zip(wref[leaf], wcnt[leaf], wlo[leaf], whi[leaf]):
         assert np.array_equal(key[(r, c)][0], lo_) and np.array_equal(key[(r, c)][1], hi_)
-    # every wide node has 2 to 4 children, and the leaves cover every primitive slot once
+    # every wide node has 2 to 4 children
     per_node = ((wcnt != EMPTY_SLOT).reshape(nw, 4)).sum(1)
     assert per_node.min() >= 2 and per_node.max() <= 4
-    if n > 1:
-        cover = np.zeros(n, int)
-        for r, c in got:
-            cover[r:r + c] += 1
-        assert (cover == 1).all()
+
+
+@pytest.mark.parametrize("n,max_leaf", [(2, 4), (9, 1), (3000, 1), (3000, 4)])
+def test_merged_leaves_cover_every_primitive_once_inside_their_boxes(n, max_leaf):
+    rng = np.random.default_rng(7 * n + max_leaf)
+    lo = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
+    hi = lo + rng.uniform(0, 0.05, (n, 3)).astype(np.float32)
+    b = build_bvh(lo, hi, max_leaf=max_leaf)
+    wlo, whi, wref, wcnt = wide_children(wide_nodes(b.nodes))
+    nw = len(wref)
+    leaf, inner = (wcnt != 0) & (wcnt != EMPTY_SLOT), wcnt == 0
+    assert sorted(wref[inner].tolist()) == list(range(1, nw))
+    _, _, bref, bcnt = binary_children(b.nodes)
+    assert nw <= max(1, (bcnt == 0).sum())  # never more nodes than the collapse without merging
+    cover = np.zeros(n, int)
+    for r, c, lo_, hi_ in zip(wref[leaf], wcnt[leaf], wlo[leaf], whi[leaf]):
+        cover[r:r + c] += 1
+        # a leaf bigger than the builder's leaves is a merged subtree of at most MERGED_LEAF primitives
+        assert c <= max(MERGED_LEAF, bcnt.max())
+        p = b.prims[r:r + c]
+        assert (lo_ <= lo[p]).all() and (hi[p] <= hi_).all()
+    assert (cover == 1).all()
 
 
 def test_leaf_records_hold_each_slots_vertices_and_edges_bit_for_bit():

@@ -9,13 +9,15 @@ the tree is about half as deep: one visit tests four boxes in float4 lanes
 (``render/bvh.cl``, ``trace_closest``/``trace_any``) where the binary tree
 needed two visits of two scalar tests.  The boxes are the builder's own
 (no new rounding), so the box tests give the binary tree's distances.
+Subtrees of at most :data:`MERGED_LEAF` primitives become one leaf: on a big
+mesh a node visit is a cache miss while a leaf's records are one run.
 
 Record :data:`~mcocl.layouts.BVH_WIDE_NODE` (8 float4, structure of arrays:
 ``lo_x`` .. ``hi_z`` of the four children, then their ``ref`` and ``cnt``):
 ``cnt == 0``: wide node ``ref``; :data:`EMPTY_SLOT`: no child; otherwise a leaf
 of ``cnt`` primitives whose leaf records start at slot ``ref``
 (:mod:`mcocl.render.bvh_leaves`).  Wide node 0 is the root; nodes are listed
-level by level.
+in the binary tree's depth-first order.
 """
 
 from __future__ import annotations
@@ -26,17 +28,49 @@ from ..layouts import BVH_WIDE_NODE
 
 EMPTY_SLOT = np.uint32(0xFFFFFFFF)
 WIDE_ROWS = BVH_WIDE_NODE.itemsize // 16  # float4 rows per wide node
+MERGED_LEAF = 4  # subtrees of at most this many primitives become one leaf (bench/trace_bench.py: 4 beat 1 and 8)
 
 
-def wide_nodes(nodes: np.ndarray) -> np.ndarray:
-    """The 4-wide nodes of a flattened binary BVH (``nodes`` of :class:`mcocl.render.bvh.BVH`), float32 (8W, 4)."""
+def merge_small_subtrees(ref: np.ndarray, cnt: np.ndarray, max_prims: int) -> tuple[np.ndarray, np.ndarray]:
+    """Child slots (K, 2) of a binary tree with every subtree of at most ``max_prims`` primitives made one leaf.
+
+    A subtree qualifies when its leaves' ranges are contiguous in ``prims``
+    (the builder's depth-first leaves are); its leaf records are then one run,
+    so the traversal tests them one after another from one place in memory
+    instead of visiting nodes that each cost a cache miss on a big scene.
+    """
+    k = len(ref)
+    levels, frontier = [], np.zeros(1, np.int64)
+    while len(frontier):
+        levels.append(frontier)
+        frontier = ref[frontier][cnt[frontier] == 0]
+    first, end, count = np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros(k, np.int64)
+    for nodes in reversed(levels):  # children before parents
+        r, c = ref[nodes], cnt[nodes].astype(np.int64)
+        inner = c == 0
+        m = np.where(inner, r, 0)
+        f = np.where(inner, first[m], r)
+        e = np.where(inner, end[m], r + c)
+        n = np.where(inner, count[m], c)
+        first[nodes], end[nodes], count[nodes] = f.min(1), e.max(1), n.sum(1)
+    inner = cnt == 0
+    m = np.where(inner, ref, 0)
+    small = inner & (count[m] <= max_prims) & (end[m] - first[m] == count[m])
+    return np.where(small, first[m], ref), np.where(small, count[m], cnt).astype(np.uint32)
+
+
+def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
+    """The 4-wide nodes of a flattened binary BVH (``nodes`` of :class:`mcocl.render.bvh.BVH`), float32 (8W, 4).
+
+    Subtrees of at most ``max_leaf`` primitives become leaves (:func:`merge_small_subtrees`).
+    """
     k = (len(nodes) - 1) // 4
     if k == 0:
         return np.zeros((0, 4), np.float32)
     f = np.asarray(nodes, np.float32)[1:1 + 4 * k].reshape(k, 2, 2, 4)
     u = f.view(np.uint32)
     lo, hi = f[:, :, 0, :3], f[:, :, 1, :3]  # (K, 2, 3)
-    ref, cnt = u[:, :, 0, 3].astype(np.int64), u[:, :, 1, 3]  # (K, 2)
+    ref, cnt = merge_small_subtrees(u[:, :, 0, 3].astype(np.int64), u[:, :, 1, 3], max_leaf)  # (K, 2)
     # Slots 2c, 2c+1 of binary node j: the children of its child c when c is internal, else c and nothing.
     inner = cnt == 0
     m = np.where(inner, ref, 0)
@@ -51,7 +85,9 @@ def wide_nodes(nodes: np.ndarray) -> np.ndarray:
     while len(frontier):
         order.append(frontier)
         frontier = s_ref[frontier][s_cnt[frontier] == 0]
-    order = np.concatenate(order)
+    # Listed in the binary tree's depth-first order: a wide node's first internal child follows it and
+    # every subtree is one run of memory.
+    order = np.sort(np.concatenate(order))
     index = np.full(k, -1, np.int64)
     index[order] = np.arange(len(order))
     w_inner = s_cnt[order] == 0
@@ -65,4 +101,4 @@ def wide_nodes(nodes: np.ndarray) -> np.ndarray:
     return rec.view(np.float32).reshape(-1, 4)
 
 
-__all__ = ["EMPTY_SLOT", "WIDE_ROWS", "wide_nodes"]
+__all__ = ["EMPTY_SLOT", "MERGED_LEAF", "WIDE_ROWS", "merge_small_subtrees", "wide_nodes"]
