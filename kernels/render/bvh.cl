@@ -86,42 +86,54 @@ MC_INLINE bool bvh_leaf_any(const scene_geom *g, uint first, uint count, float3 
 MC_INLINE float4 bvh_min4(float4 a, float4 b) { return select(b, a, a < b); }
 MC_INLINE float4 bvh_max4(float4 a, float4 b) { return select(b, a, a > b); }
 
-/* The children of wide node n (mcocl/render/bvh_wide.py) whose boxes the ray
- * enters before tmax, nearest first: *count of them, entry distances ct,
- * refs cr and counts cc (the slab test on four boxes in float4 lanes). */
-MC_INLINE uint bvh_wide_children(global const float4 *n, float4 ox, float4 oy, float4 oz, float4 ix, float4 iy,
-                                 float4 iz, float tmax, float *ct, uint *cr, uint *cc)
-{
-    float4 x0 = (n[0] - ox) * ix, x1 = (n[3] - ox) * ix;
-    float4 y0 = (n[1] - oy) * iy, y1 = (n[4] - oy) * iy;
-    float4 z0 = (n[2] - oz) * iz, z1 = (n[5] - oz) * iz;
-    float4 tn = bvh_max4(bvh_max4(bvh_min4(x0, x1), bvh_min4(y0, y1)), bvh_max4(bvh_min4(z0, z1), (float4)(0.0f)));
-    float4 tf = bvh_min4(bvh_min4(bvh_max4(x0, x1), bvh_max4(y0, y1)), bvh_min4(bvh_max4(z0, z1), (float4)(tmax)))
-                * BVH_TFAR_SCALE;
-    uint4 ref = as_uint4(n[6]), cnt = as_uint4(n[7]);
-    int4 hit = (tn <= tf) & (cnt != (uint4)(BVH_EMPTY_SLOT));
-    uint nh = 0;
-    /* insertion sort by entry distance (at most four) */
-#define BVH_WIDE_TAKE(c)                                                                                  \
-    if (hit.c) {                                                                                          \
-        uint j = nh++;                                                                                    \
-        while (j > 0 && ct[j - 1] > tn.c) {                                                               \
-            ct[j] = ct[j - 1]; cr[j] = cr[j - 1]; cc[j] = cc[j - 1];                                      \
-            --j;                                                                                          \
-        }                                                                                                 \
-        ct[j] = tn.c; cr[j] = ref.c; cc[j] = cnt.c;                                                       \
+/* Compare-exchange of two children (entry distance t, ref r, count c) so that
+ * the nearer comes first: one step of the sorting network below. */
+#define BVH_CX(a, b)                                                                      \
+    {                                                                                     \
+        bool sw = t##b < t##a;                                                            \
+        float tt = sw ? t##b : t##a;                                                      \
+        t##b = sw ? t##a : t##b;                                                          \
+        t##a = tt;                                                                        \
+        uint ur = sw ? r##b : r##a;                                                       \
+        r##b = sw ? r##a : r##b;                                                          \
+        r##a = ur;                                                                        \
+        uint uc = sw ? c##b : c##a;                                                       \
+        c##b = sw ? c##a : c##b;                                                          \
+        c##a = uc;                                                                        \
     }
-    BVH_WIDE_TAKE(s0) BVH_WIDE_TAKE(s1) BVH_WIDE_TAKE(s2) BVH_WIDE_TAKE(s3)
-#undef BVH_WIDE_TAKE
-    return nh;
-}
+
+/* The four children of wide node n (mcocl/render/bvh_wide.py), nearest first,
+ * by the slab test on four boxes in float4 lanes: entry distances t0..t3,
+ * refs r0..r3 and counts c0..c3, where a child the ray misses before tmax (or
+ * an empty slot) has t = INFINITY and c = BVH_EMPTY_SLOT.  Sorted by a
+ * five-step sorting network of selects (Knuth, TAOCP vol. 3 §5.3.4): no
+ * branches and no indexed private arrays. */
+#define BVH_WIDE_CHILDREN(n, tmax)                                                                              \
+    float t0, t1, t2, t3;                                                                                       \
+    uint r0, r1, r2, r3, c0, c1, c2, c3;                                                                        \
+    {                                                                                                           \
+        float4 x0 = (n[0] - ox) * ix, x1 = (n[3] - ox) * ix;                                                    \
+        float4 y0 = (n[1] - oy) * iy, y1 = (n[4] - oy) * iy;                                                    \
+        float4 z0 = (n[2] - oz) * iz, z1 = (n[5] - oz) * iz;                                                    \
+        float4 tn = bvh_max4(bvh_max4(bvh_min4(x0, x1), bvh_min4(y0, y1)), bvh_max4(bvh_min4(z0, z1), (float4)(0.0f))); \
+        float4 tf = bvh_min4(bvh_min4(bvh_max4(x0, x1), bvh_max4(y0, y1)), bvh_min4(bvh_max4(z0, z1), (float4)(tmax))) \
+                    * BVH_TFAR_SCALE;                                                                           \
+        uint4 ref = as_uint4(n[6]), cnt = as_uint4(n[7]);                                                       \
+        int4 hit = (tn <= tf) & (cnt != (uint4)(BVH_EMPTY_SLOT));                                               \
+        float4 tk = select((float4)(INFINITY), tn, hit);                                                        \
+        uint4 ck = select((uint4)(BVH_EMPTY_SLOT), cnt, as_uint4(hit));                                         \
+        t0 = tk.s0; t1 = tk.s1; t2 = tk.s2; t3 = tk.s3;                                                         \
+        r0 = ref.s0; r1 = ref.s1; r2 = ref.s2; r3 = ref.s3;                                                     \
+        c0 = ck.s0; c1 = ck.s1; c2 = ck.s2; c3 = ck.s3;                                                         \
+        BVH_CX(0, 1) BVH_CX(2, 3) BVH_CX(0, 2) BVH_CX(1, 3) BVH_CX(1, 2)                                        \
+    }
 
 /* The closest hit with 0 < t < tmax; fills *h and returns true, or returns false (h untouched).
  * Walks the 4-wide tree: of a node's children, nearest first, leaves are
  * intersected on the spot and internal ones beyond the closest hit so far
  * are dropped; the nearest internal child is visited next and the others go
- * on the stack with their entry distances, skipped when popped if a closer
- * hit was found meanwhile. */
+ * on the stack (nearer on top) with their entry distances, skipped when
+ * popped if a closer hit was found meanwhile. */
 bool trace_closest(const scene_geom *g, float3 o, float3 d, float tmax, hit_info *h)
 {
     if (as_uint(g->nodes[0].x) == 0u) return false; /* empty scene */
@@ -135,31 +147,33 @@ bool trace_closest(const scene_geom *g, float3 o, float3 d, float tmax, hit_info
     uint sp = 0;
     uint node = 0;
     for (;;) {
-        float ct[4];
-        uint cr[4], cc[4];
-        uint nh = bvh_wide_children(g->wide + BVH_WIDE_NODE_QUADS * node, ox, oy, oz, ix, iy, iz, tbest, ct, cr, cc);
-        uint ni = 0;
-        for (uint j = 0; j < nh; ++j) {
-            if (ct[j] > tbest * BVH_TFAR_SCALE) break; /* this child and the farther ones lie beyond the hit */
-            if (cc[j]) {
-                hit |= bvh_leaf_closest(g, cr[j], cc[j], o, d, &tbest, h);
-            } else {
-                cr[ni] = cr[j]; /* ni <= j: compacts the internal children in place */
-                ct[ni] = ct[j];
-                ++ni;
-            }
+        global const float4 *n = g->wide + BVH_WIDE_NODE_QUADS * node;
+        BVH_WIDE_CHILDREN(n, tbest)
+        uint next = BVH_EMPTY_SLOT, sp0 = sp;
+        /* children in order; a child at or beyond the closest hit (and all after it) is dropped */
+#define BVH_VISIT_CLOSEST(j)                                                                   \
+        if (c##j != BVH_EMPTY_SLOT && t##j <= tbest * BVH_TFAR_SCALE) {                        \
+            if (c##j) {                                                                        \
+                hit |= bvh_leaf_closest(g, r##j, c##j, o, d, &tbest, h);                       \
+            } else if (next == BVH_EMPTY_SLOT) {                                               \
+                next = r##j;                                                                   \
+            } else if (sp < BVH_WIDE_STACK) {                                                  \
+                stack[sp] = r##j;                                                              \
+                stack_t[sp] = t##j;                                                            \
+                ++sp;                                                                          \
+            }                                                                                  \
         }
-        /* push the farther internal children, farthest first, and descend into the nearest */
-        while (ni > 1) {
-            --ni;
-            if (ct[ni] <= tbest * BVH_TFAR_SCALE && sp < BVH_WIDE_STACK) {
-                stack[sp] = cr[ni];
-                stack_t[sp] = ct[ni];
-                ++sp;
-            }
+        BVH_VISIT_CLOSEST(0) BVH_VISIT_CLOSEST(1) BVH_VISIT_CLOSEST(2) BVH_VISIT_CLOSEST(3)
+#undef BVH_VISIT_CLOSEST
+        /* at most three were pushed, nearest first: swap the ends so that the nearer pops first */
+        if (sp - sp0 > 1u) {
+            uint a = sp0, b = sp - 1u, tr = stack[a];
+            float tt = stack_t[a];
+            stack[a] = stack[b]; stack_t[a] = stack_t[b];
+            stack[b] = tr; stack_t[b] = tt;
         }
-        if (ni == 1 && ct[0] <= tbest * BVH_TFAR_SCALE) {
-            node = cr[0];
+        if (next != BVH_EMPTY_SLOT) {
+            node = next;
             continue;
         }
         /* Pop the next subtree that may still hold a closer hit. */
@@ -184,23 +198,28 @@ bool trace_any(const scene_geom *g, float3 o, float3 d, float tmax)
     uint sp = 0;
     uint node = 0;
     for (;;) {
-        float ct[4];
-        uint cr[4], cc[4];
-        uint nh = bvh_wide_children(g->wide + BVH_WIDE_NODE_QUADS * node, ox, oy, oz, ix, iy, iz, tmax, ct, cr, cc);
-        uint ni = 0;
-        for (uint j = 0; j < nh; ++j) {
-            if (cc[j]) {
-                if (bvh_leaf_any(g, cr[j], cc[j], o, d, tmax)) return true;
-            } else {
-                cr[ni++] = cr[j];
-            }
+        global const float4 *n = g->wide + BVH_WIDE_NODE_QUADS * node;
+        BVH_WIDE_CHILDREN(n, tmax)
+        uint next = BVH_EMPTY_SLOT, sp0 = sp;
+#define BVH_VISIT_ANY(j)                                                                       \
+        if (c##j != BVH_EMPTY_SLOT) {                                                          \
+            if (c##j) {                                                                        \
+                if (bvh_leaf_any(g, r##j, c##j, o, d, tmax)) return true;                      \
+            } else if (next == BVH_EMPTY_SLOT) {                                               \
+                next = r##j;                                                                   \
+            } else if (sp < BVH_WIDE_STACK) {                                                  \
+                stack[sp++] = r##j;                                                            \
+            }                                                                                  \
         }
-        while (ni > 1) {
-            --ni;
-            if (sp < BVH_WIDE_STACK) stack[sp++] = cr[ni];
+        BVH_VISIT_ANY(0) BVH_VISIT_ANY(1) BVH_VISIT_ANY(2) BVH_VISIT_ANY(3)
+#undef BVH_VISIT_ANY
+        if (sp - sp0 > 1u) {
+            uint tr = stack[sp0];
+            stack[sp0] = stack[sp - 1u];
+            stack[sp - 1u] = tr;
         }
-        if (ni == 1) {
-            node = cr[0];
+        if (next != BVH_EMPTY_SLOT) {
+            node = next;
             continue;
         }
         if (sp == 0) return false;
