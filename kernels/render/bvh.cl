@@ -102,6 +102,28 @@ MC_INLINE float4 bvh_max4(float4 a, float4 b) { return select(b, a, a > b); }
         c##a = uc;                                                                        \
     }
 
+/* Start loading what a child hit will read — the leaf's records, or the wide
+ * node (its two cache lines) — so that the loads of all children hit overlap
+ * instead of each stalling when it is reached (on a big mesh these loads are
+ * cache misses and dominated traversal time, bench/trace_bench.py). */
+#if defined(__clang__) && defined(__x86_64__)
+/* A CPU device (PoCL): global memory is the process's, so the address can go through an
+ * integer to clang's prefetch builtin; OpenCL's own prefetch() is a no-op there. */
+#define BVH_PREFETCH(p) __builtin_prefetch((const void *)(ulong)(p))
+#else
+#define BVH_PREFETCH(p) prefetch((p), 1)
+#endif
+#define BVH_PREFETCH_CHILD(j)                                                                     \
+    if (c##j != BVH_EMPTY_SLOT) {                                                                 \
+        if (c##j) {                                                                               \
+            BVH_PREFETCH(g->leaves + LEAF_PRIM_QUADS * r##j);                                     \
+        } else {                                                                                  \
+            global const float4 *pn = g->wide + BVH_WIDE_NODE_QUADS * r##j;                       \
+            BVH_PREFETCH(pn);                                                                     \
+            BVH_PREFETCH(pn + 4);                                                                 \
+        }                                                                                         \
+    }
+
 /* The four children of wide node n (mcocl/render/bvh_wide.py), nearest first,
  * by the slab test on four boxes in float4 lanes: entry distances t0..t3,
  * refs r0..r3 and counts c0..c3, where a child the ray misses before tmax (or
@@ -126,6 +148,7 @@ MC_INLINE float4 bvh_max4(float4 a, float4 b) { return select(b, a, a > b); }
         r0 = ref.s0; r1 = ref.s1; r2 = ref.s2; r3 = ref.s3;                                                     \
         c0 = ck.s0; c1 = ck.s1; c2 = ck.s2; c3 = ck.s3;                                                         \
         BVH_CX(0, 1) BVH_CX(2, 3) BVH_CX(0, 2) BVH_CX(1, 3) BVH_CX(1, 2)                                        \
+        BVH_PREFETCH_CHILD(0) BVH_PREFETCH_CHILD(1) BVH_PREFETCH_CHILD(2) BVH_PREFETCH_CHILD(3)                 \
     }
 
 /* The closest hit with 0 < t < tmax; fills *h and returns true, or returns false (h untouched).
