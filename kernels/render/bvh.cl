@@ -82,9 +82,10 @@ MC_INLINE bool bvh_leaf_any(const scene_geom *g, uint first, uint count, float3 
 }
 
 /* Lane-wise a < b ? a : b and a > b ? a : b (g_min, g_max): the wide node test
- * gives the distances of the binary slab test (trace_packet.cl's packet_box) bit for bit. */
-MC_INLINE float4 bvh_min4(float4 a, float4 b) { return select(b, a, a < b); }
-MC_INLINE float4 bvh_max4(float4 a, float4 b) { return select(b, a, a > b); }
+ * gives the distances of the binary slab test (trace_packet.cl's packet_box) bit
+ * for bit.  Vector ?: rather than select(), which the PoCL wheel calls out of line. */
+MC_INLINE float4 bvh_min4(float4 a, float4 b) { return a < b ? a : b; }
+MC_INLINE float4 bvh_max4(float4 a, float4 b) { return a > b ? a : b; }
 
 /* Compare-exchange of two children (entry distance t, ref r, count c) so that
  * the nearer comes first: one step of the sorting network below. */
@@ -142,8 +143,8 @@ MC_INLINE float4 bvh_max4(float4 a, float4 b) { return select(b, a, a > b); }
                     * BVH_TFAR_SCALE;                                                                           \
         uint4 ref = as_uint4(n[6]), cnt = as_uint4(n[7]);                                                       \
         int4 hit = (tn <= tf) & (cnt != (uint4)(BVH_EMPTY_SLOT));                                               \
-        float4 tk = select((float4)(INFINITY), tn, hit);                                                        \
-        uint4 ck = select((uint4)(BVH_EMPTY_SLOT), cnt, as_uint4(hit));                                         \
+        float4 tk = hit ? tn : (float4)(INFINITY);                                                              \
+        uint4 ck = hit ? cnt : (uint4)(BVH_EMPTY_SLOT);                                                         \
         t0 = tk.s0; t1 = tk.s1; t2 = tk.s2; t3 = tk.s3;                                                         \
         r0 = ref.s0; r1 = ref.s1; r2 = ref.s2; r3 = ref.s3;                                                     \
         c0 = ck.s0; c1 = ck.s1; c2 = ck.s2; c3 = ck.s3;                                                         \
