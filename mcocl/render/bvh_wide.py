@@ -74,12 +74,8 @@ def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
     # Slots 2c, 2c+1 of binary node j: the children of its child c when c is internal, else c and nothing.
     inner = cnt == 0
     m = np.where(inner, ref, 0)
-    s_lo = np.where(inner[:, :, None, None], lo[m], np.stack([lo, np.zeros_like(lo)], 2))  # (K, 2, 2, 3)
-    s_hi = np.where(inner[:, :, None, None], hi[m], np.stack([hi, np.zeros_like(hi)], 2))
-    s_ref = np.where(inner[:, :, None], ref[m], np.stack([ref, np.zeros_like(ref)], 2))
-    s_cnt = np.where(inner[:, :, None], cnt[m], np.stack([cnt, np.full_like(cnt, EMPTY_SLOT)], 2))
-    s_lo, s_hi = s_lo.reshape(k, 4, 3), s_hi.reshape(k, 4, 3)
-    s_ref, s_cnt = s_ref.reshape(k, 4), s_cnt.reshape(k, 4)
+    s_ref = np.where(inner[:, :, None], ref[m], np.stack([ref, np.zeros_like(ref)], 2)).reshape(k, 4)
+    s_cnt = np.where(inner[:, :, None], cnt[m], np.stack([cnt, np.full_like(cnt, EMPTY_SLOT)], 2)).reshape(k, 4)
     # The binary nodes that become wide nodes: the root, then every internal slot of a wide node.
     order, frontier = [], np.zeros(1, np.int64)
     while len(frontier):
@@ -92,10 +88,15 @@ def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
     index[order] = np.arange(len(order))
     w_inner = s_cnt[order] == 0
     w_ref = np.where(w_inner, index[np.where(w_inner, s_ref[order], 0)], s_ref[order])
+    # The boxes of the wide nodes' slots only (the other binary nodes are not wide nodes).
+    o_in, o_m = inner[order], m[order]
     rec = np.zeros(len(order), BVH_WIDE_NODE.dtype())
-    for axis, name in enumerate("xyz"):
-        rec[f"lo_{name}"] = s_lo[order, :, axis]
-        rec[f"hi_{name}"] = s_hi[order, :, axis]
+    for corner, name in ((lo, "lo"), (hi, "hi")):
+        own = corner[order]
+        box = np.where(o_in[:, :, None, None], corner[o_m], np.stack([own, np.zeros_like(own)], 2))
+        box = box.reshape(len(order), 4, 3)
+        for axis, comp in enumerate("xyz"):
+            rec[f"{name}_{comp}"] = box[:, :, axis]
     rec["ref"] = w_ref.astype(np.uint32)
     rec["cnt"] = s_cnt[order]
     return rec.view(np.float32).reshape(-1, 4)
