@@ -25,7 +25,25 @@ extra ``peers``), Embree traces the same rays through ``rtcIntersect1`` /
 
 and the bench checks that both agree: the same rays hit, and closest-hit
 distances agree to 1e-4 relative (ties between coincident triangles may pick
-different primitives but not different distances).
+different primitives but not different distances).  About 1 in 10^4 diffuse
+rays, which leave the surface 1e-4 from a neighbouring triangle, disagree on
+t by more than that (Embree's watertight test against our widened
+Möller–Trumbore at grazing distances); hit/miss agree.
+
+Measured (2 shared cores, load 2.4-3.9; 2^18 rays per set; M rays per CPU-second,
+Embree 4.4 through embreex, one thread), terrain / soup:
+
+| set | mcocl before | mcocl now | Embree | Embree / now |
+|---|---|---|---|---|
+| primary, closest | 1.61 / 0.75 | 4.0-4.3 / 1.8 | 9.4 / 3.6 | 2.2 / 2.0 |
+| diffuse, closest | 0.26 / 0.15 | 0.57-0.60 / 0.26-0.32 | 1.4-1.5 / 0.71 | 2.5 / 2.2-2.7 |
+| shadow, any hit | 0.32 / 0.17 | 0.84-0.96 / 0.40-0.44 | 1.7 / 1.3 | 1.8-2.1 / 3.0 |
+
+"Before" is the binary-tree traversal with leaves gathered through
+``bvh_prims`` (the same script with ``PYTHONPATH`` at that code).  Wall rays/s
+depend on the load: PoCL's two threads got 1-2 CPU-seconds per second.  A
+node visit on a 10^6-triangle mesh is mostly a cache miss (perf: ~55 % of
+traversal time on the loads of nodes and leaf records).
 """
 
 from __future__ import annotations
