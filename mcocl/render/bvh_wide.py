@@ -1,11 +1,12 @@
 """A 4-wide BVH for single-ray traversal, collapsed from the binary tree of :mod:`mcocl.render.bvh`.
 
 Each wide node is a binary internal node with its children replaced by
-their own children where they are internal (Wald et al. 2008, "Getting rid
+their own children where they are internal, and any slot left empty filled
+by splitting the internal child of largest surface area (Wald et al. 2008, "Getting rid
 of packets", and Dammertz et al. 2008, "Shallow bounding volume
 hierarchies": a multi-branching BVH whose node test uses the CPU's vector
 width); a leaf child stays a leaf.  So a wide node has 2 to 4 children and
-the tree is about half as deep: one visit tests four boxes in float4 lanes
+the tree is less than half as deep: one visit tests four boxes in float4 lanes
 (``render/bvh.cl``, ``trace_closest``/``trace_any``) where the binary tree
 needed two visits of two scalar tests.  The boxes are the builder's own
 (no new rounding), so the box tests give the binary tree's distances.
@@ -69,36 +70,50 @@ def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
         return np.zeros((0, 4), np.float32)
     f = np.asarray(nodes, np.float32)[1:1 + 4 * k].reshape(k, 2, 2, 4)
     u = f.view(np.uint32)
-    lo, hi = f[:, :, 0, :3], f[:, :, 1, :3]  # (K, 2, 3)
-    ref, cnt = merge_small_subtrees(u[:, :, 0, 3].astype(np.int64), u[:, :, 1, 3], max_leaf)  # (K, 2)
-    # Slots 2c, 2c+1 of binary node j: the children of its child c when c is internal, else c and nothing.
+    ref, cnt = merge_small_subtrees(u[:, :, 0, 3].astype(np.int64), u[:, :, 1, 3], max_leaf)
+    # Binary child slot q = 2j + c (child c of binary node j): its box, ref and count.
+    lo, hi = f[:, :, 0, :3].reshape(-1, 3), f[:, :, 1, :3].reshape(-1, 3)
+    ref, cnt = ref.reshape(-1), cnt.reshape(-1)
+    ext = (hi - lo).astype(np.float64)
+    area = ext[:, 0] * ext[:, 1] + ext[:, 1] * ext[:, 2] + ext[:, 2] * ext[:, 0]
     inner = cnt == 0
-    m = np.where(inner, ref, 0)
-    s_ref = np.where(inner[:, :, None], ref[m], np.stack([ref, np.zeros_like(ref)], 2)).reshape(k, 4)
-    s_cnt = np.where(inner[:, :, None], cnt[m], np.stack([cnt, np.full_like(cnt, EMPTY_SLOT)], 2)).reshape(k, 4)
+    # Wide slots of binary node j (-1: empty): the children of its child c when c is internal, else c itself.
+    q = np.arange(2 * k).reshape(k, 2)
+    kids = 2 * ref[q, None] + np.arange(2)  # (K, 2, 2)
+    slots = np.where(inner[q][..., None], kids, np.stack([q, np.full_like(q, -1)], 2)).reshape(k, 4)
+    # Fill empty slots: the internal child of largest surface area gives way to its two children
+    # (Wald et al. 2008's greedy collapse; fewer, fuller wide nodes).
+    for _ in range(2):
+        is_inner = (slots >= 0) & inner[np.maximum(slots, 0)]
+        empty = slots < 0
+        rows = np.flatnonzero(empty.any(1) & is_inner.any(1))
+        if not len(rows):
+            break
+        a = np.where(is_inner[rows], area[np.maximum(slots[rows], 0)], -1.0)
+        pick, hole = a.argmax(1), empty[rows].argmax(1)
+        child = ref[slots[rows, pick]]
+        slots[rows, pick], slots[rows, hole] = 2 * child, 2 * child + 1
+    valid = slots >= 0
+    sq = np.maximum(slots, 0)
+    s_inner = valid & inner[sq]
     # The binary nodes that become wide nodes: the root, then every internal slot of a wide node.
     order, frontier = [], np.zeros(1, np.int64)
     while len(frontier):
         order.append(frontier)
-        frontier = s_ref[frontier][s_cnt[frontier] == 0]
+        frontier = ref[sq[frontier]][s_inner[frontier]]
     # Listed in the binary tree's depth-first order: a wide node's first internal child follows it and
     # every subtree is one run of memory.
     order = np.sort(np.concatenate(order))
     index = np.full(k, -1, np.int64)
     index[order] = np.arange(len(order))
-    w_inner = s_cnt[order] == 0
-    w_ref = np.where(w_inner, index[np.where(w_inner, s_ref[order], 0)], s_ref[order])
-    # The boxes of the wide nodes' slots only (the other binary nodes are not wide nodes).
-    o_in, o_m = inner[order], m[order]
+    oq, ov, oi = sq[order], valid[order], s_inner[order]
     rec = np.zeros(len(order), BVH_WIDE_NODE.dtype())
     for corner, name in ((lo, "lo"), (hi, "hi")):
-        own = corner[order]
-        box = np.where(o_in[:, :, None, None], corner[o_m], np.stack([own, np.zeros_like(own)], 2))
-        box = box.reshape(len(order), 4, 3)
+        box = np.where(ov[..., None], corner[oq], 0.0)
         for axis, comp in enumerate("xyz"):
             rec[f"{name}_{comp}"] = box[:, :, axis]
-    rec["ref"] = w_ref.astype(np.uint32)
-    rec["cnt"] = s_cnt[order]
+    rec["ref"] = np.where(oi, index[np.where(oi, ref[oq], 0)], ref[oq]).astype(np.uint32)
+    rec["cnt"] = np.where(ov, cnt[oq], EMPTY_SLOT)
     return rec.view(np.float32).reshape(-1, 4)
 
 
