@@ -30,14 +30,14 @@ rays, which leave the surface 1e-4 from a neighbouring triangle, disagree on
 t by more than that (Embree's watertight test against our widened
 Möller–Trumbore at grazing distances); hit/miss agree.
 
-Measured (2 shared cores, load 2.4-3.9; 2^18 rays per set; M rays per CPU-second,
-Embree 4.4 through embreex, one thread), terrain / soup:
+Measured (2 shared cores, load 2.4-4.8; 2^18 rays per set; M rays per CPU-second,
+Embree 4.4 through embreex, one thread; ranges over three runs), terrain / soup:
 
 | set | mcocl before | mcocl now | Embree | Embree / now |
 |---|---|---|---|---|
-| primary, closest | 1.61 / 0.75 | 4.0-4.3 / 1.8 | 9.4 / 3.6 | 2.2 / 2.0 |
-| diffuse, closest | 0.26 / 0.15 | 0.57-0.60 / 0.26-0.32 | 1.4-1.5 / 0.71 | 2.5 / 2.2-2.7 |
-| shadow, any hit | 0.32 / 0.17 | 0.84-0.96 / 0.40-0.44 | 1.7 / 1.3 | 1.8-2.1 / 3.0 |
+| primary, closest | 1.61 / 0.75 | 4.2-4.5 / 1.7-1.8 | 9.3-9.5 / 3.6-3.7 | 2.1-2.2 / 2.0-2.2 |
+| diffuse, closest | 0.26 / 0.15 | 0.53-0.61 / 0.27-0.32 | 1.3-1.5 / 0.64-0.72 | 2.3-2.6 / 2.2-2.4 |
+| shadow, any hit | 0.32 / 0.17 | 0.76-0.96 / 0.43-0.54 | 1.4-1.7 / 1.3-2.1 | 1.8-2.0 / 3.0-4.0 |
 
 "Before" is the binary-tree traversal with leaves gathered through
 ``bvh_prims`` (the same script with ``PYTHONPATH`` at that code).  Wall rays/s
