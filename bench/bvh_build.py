@@ -27,7 +27,8 @@ and 1.091 / 1.056); 123 bytes per triangle in the kernel's buffers.
 
 With ``--trace`` it also times closest-hit traversal of random rays
 through the built tree on the default OpenCL device (rays/s, single run,
-after the kernel build).  Timings are wall seconds of one process on a
+after the kernel build); ``bench/trace_bench.py`` is the traversal benchmark
+(more ray sets, any-hit, Embree on the same rays).  Timings are wall seconds of one process on a
 machine that may be shared: compare CPU seconds when the load is high.
 """
 
@@ -180,6 +181,9 @@ def trace(tris: np.ndarray, bvh, nrays: int = 1_000_000) -> None:
     tv = np.zeros((len(tris), 3, 4), np.float32)
     tv[:, :, :3] = tris
     cs.tri_vertices, cs.bvh_nodes, cs.bvh_prims = tv, bvh.nodes, bvh.prims
+    # every triangle belongs to one non-emitting shape of material 0 (the scene tables need one)
+    cs.prim_shape = np.zeros(len(tris), np.int32)
+    cs.shape_material, cs.shape_emitter = np.zeros(1, np.int32), np.full(1, -1, np.int32)
     rng = np.random.default_rng(1)
     o = rng.normal(size=(nrays, 3))
     o = (3 * o / np.linalg.norm(o, axis=1, keepdims=True)).astype(np.float32)

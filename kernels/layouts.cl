@@ -221,12 +221,12 @@ typedef struct {
 #define CAMERA_RECORD_PAD3_QUAD 3
 #define CAMERA_RECORD_PAD3_COMP w
 
-/* nodes[0] of a BVH: primitive count, internal nodes, depth */
+/* nodes[0] of a BVH: primitive count, internal nodes, depth, row of the leaf primitives */
 typedef struct {
     uint nprims;
     uint num_nodes;
     uint depth;
-    uint pad;
+    uint leaf_row;
 } bvh_header;
 #define BVH_HEADER_QUADS 1u
 /* Every lane's record `index` of a float4 table into rec4v q0 .. q0 (render/lane_io.cl's gather_rec4). */
@@ -237,8 +237,8 @@ typedef struct {
 #define BVH_HEADER_NUM_NODES_COMP y
 #define BVH_HEADER_DEPTH_QUAD 0
 #define BVH_HEADER_DEPTH_COMP z
-#define BVH_HEADER_PAD_QUAD 0
-#define BVH_HEADER_PAD_COMP w
+#define BVH_HEADER_LEAF_ROW_QUAD 0
+#define BVH_HEADER_LEAF_ROW_COMP w
 
 /* internal BVH node: both children's boxes; cnt 0: child is node ref, else leaf prims[ref..ref+cnt) */
 typedef struct {
@@ -278,6 +278,92 @@ typedef struct {
 #define BVH_NODE_HI1_COMP2 z
 #define BVH_NODE_CNT1_QUAD 3
 #define BVH_NODE_CNT1_COMP w
+
+/* 4-wide BVH node (mcocl/render/bvh_wide.py): its children's boxes as structure of arrays; cnt 0: child is wide node ref, 0xffffffff: no child, else a leaf of cnt leaf records from ref */
+typedef struct {
+    float lo_x[4];
+    float lo_y[4];
+    float lo_z[4];
+    float hi_x[4];
+    float hi_y[4];
+    float hi_z[4];
+    uint ref[4];
+    uint cnt[4];
+} bvh_wide_node;
+#define BVH_WIDE_NODE_QUADS 8u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q7 (render/lane_io.cl's gather_rec4). */
+#define BVH_WIDE_NODE_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 8u + 0u), q##1 = gather_rec4((table), (index) * 8u + 1u), q##2 = gather_rec4((table), (index) * 8u + 2u), q##3 = gather_rec4((table), (index) * 8u + 3u), q##4 = gather_rec4((table), (index) * 8u + 4u), q##5 = gather_rec4((table), (index) * 8u + 5u), q##6 = gather_rec4((table), (index) * 8u + 6u), q##7 = gather_rec4((table), (index) * 8u + 7u)
+#define BVH_WIDE_NODE_LO_X_QUAD 0
+#define BVH_WIDE_NODE_LO_X_COMP x
+#define BVH_WIDE_NODE_LO_X_COMP1 y
+#define BVH_WIDE_NODE_LO_X_COMP2 z
+#define BVH_WIDE_NODE_LO_X_COMP3 w
+#define BVH_WIDE_NODE_LO_Y_QUAD 1
+#define BVH_WIDE_NODE_LO_Y_COMP x
+#define BVH_WIDE_NODE_LO_Y_COMP1 y
+#define BVH_WIDE_NODE_LO_Y_COMP2 z
+#define BVH_WIDE_NODE_LO_Y_COMP3 w
+#define BVH_WIDE_NODE_LO_Z_QUAD 2
+#define BVH_WIDE_NODE_LO_Z_COMP x
+#define BVH_WIDE_NODE_LO_Z_COMP1 y
+#define BVH_WIDE_NODE_LO_Z_COMP2 z
+#define BVH_WIDE_NODE_LO_Z_COMP3 w
+#define BVH_WIDE_NODE_HI_X_QUAD 3
+#define BVH_WIDE_NODE_HI_X_COMP x
+#define BVH_WIDE_NODE_HI_X_COMP1 y
+#define BVH_WIDE_NODE_HI_X_COMP2 z
+#define BVH_WIDE_NODE_HI_X_COMP3 w
+#define BVH_WIDE_NODE_HI_Y_QUAD 4
+#define BVH_WIDE_NODE_HI_Y_COMP x
+#define BVH_WIDE_NODE_HI_Y_COMP1 y
+#define BVH_WIDE_NODE_HI_Y_COMP2 z
+#define BVH_WIDE_NODE_HI_Y_COMP3 w
+#define BVH_WIDE_NODE_HI_Z_QUAD 5
+#define BVH_WIDE_NODE_HI_Z_COMP x
+#define BVH_WIDE_NODE_HI_Z_COMP1 y
+#define BVH_WIDE_NODE_HI_Z_COMP2 z
+#define BVH_WIDE_NODE_HI_Z_COMP3 w
+#define BVH_WIDE_NODE_REF_QUAD 6
+#define BVH_WIDE_NODE_REF_COMP x
+#define BVH_WIDE_NODE_REF_COMP1 y
+#define BVH_WIDE_NODE_REF_COMP2 z
+#define BVH_WIDE_NODE_REF_COMP3 w
+#define BVH_WIDE_NODE_CNT_QUAD 7
+#define BVH_WIDE_NODE_CNT_COMP x
+#define BVH_WIDE_NODE_CNT_COMP1 y
+#define BVH_WIDE_NODE_CNT_COMP2 z
+#define BVH_WIDE_NODE_CNT_COMP3 w
+
+/* a BVH leaf slot's primitive in leaf order: triangle v0, e1 = v1-v0, e2 = v2-v0; sphere (e1, pad1) = centre, radius */
+typedef struct {
+    float v0[3];
+    uint prim;
+    float e1[3];
+    float pad1;
+    float e2[3];
+    float pad2;
+} leaf_prim;
+#define LEAF_PRIM_QUADS 3u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q2 (render/lane_io.cl's gather_rec4). */
+#define LEAF_PRIM_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 3u + 0u), q##1 = gather_rec4((table), (index) * 3u + 1u), q##2 = gather_rec4((table), (index) * 3u + 2u)
+#define LEAF_PRIM_V0_QUAD 0
+#define LEAF_PRIM_V0_COMP x
+#define LEAF_PRIM_V0_COMP1 y
+#define LEAF_PRIM_V0_COMP2 z
+#define LEAF_PRIM_PRIM_QUAD 0
+#define LEAF_PRIM_PRIM_COMP w
+#define LEAF_PRIM_E1_QUAD 1
+#define LEAF_PRIM_E1_COMP x
+#define LEAF_PRIM_E1_COMP1 y
+#define LEAF_PRIM_E1_COMP2 z
+#define LEAF_PRIM_PAD1_QUAD 1
+#define LEAF_PRIM_PAD1_COMP w
+#define LEAF_PRIM_E2_QUAD 2
+#define LEAF_PRIM_E2_COMP x
+#define LEAF_PRIM_E2_COMP1 y
+#define LEAF_PRIM_E2_COMP2 z
+#define LEAF_PRIM_PAD2_QUAD 2
+#define LEAF_PRIM_PAD2_COMP w
 
 /* scalar parameters of render_blocks (kernels/render/integrator.cl) */
 typedef struct {

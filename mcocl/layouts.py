@@ -245,15 +245,30 @@ CAMERA_RECORD = _quad_record(
 )
 
 # BVH (host: mcocl/render/bvh.py; kernels: bvh.cl, trace_packet.cl): nodes[0] is the header,
-# internal node k the 4 float4 at 1 + 4k.
+# internal node k the 4 float4 at 1 + 4k; the device table appends one LEAF_PRIM per slot of
+# prims (mcocl/render/bvh_leaves.py; the header's leaf_row says where they start) and after
+# them the 4-wide nodes of the single-ray traversal (mcocl/render/bvh_wide.py).
 BVH_HEADER = _quad_record(
-    "bvh_header", "nodes[0] of a BVH: primitive count, internal nodes, depth",
-    ("nprims", "uint"), ("num_nodes", "uint"), ("depth", "uint"), ("pad", "uint"),
+    "bvh_header", "nodes[0] of a BVH: primitive count, internal nodes, depth, row of the leaf primitives",
+    ("nprims", "uint"), ("num_nodes", "uint"), ("depth", "uint"), ("leaf_row", "uint"),
 )
 BVH_NODE = _quad_record(
     "bvh_node", "internal BVH node: both children's boxes; cnt 0: child is node ref, else leaf prims[ref..ref+cnt)",
     ("lo0", "float", 3), ("ref0", "uint"), ("hi0", "float", 3), ("cnt0", "uint"),
     ("lo1", "float", 3), ("ref1", "uint"), ("hi1", "float", 3), ("cnt1", "uint"),
+)
+
+BVH_WIDE_NODE = _quad_record(
+    "bvh_wide_node", "4-wide BVH node (mcocl/render/bvh_wide.py): its children's boxes as structure of arrays; "
+    "cnt 0: child is wide node ref, 0xffffffff: no child, else a leaf of cnt leaf records from ref",
+    ("lo_x", "float", 4), ("lo_y", "float", 4), ("lo_z", "float", 4),
+    ("hi_x", "float", 4), ("hi_y", "float", 4), ("hi_z", "float", 4),
+    ("ref", "uint", 4), ("cnt", "uint", 4),
+)
+LEAF_PRIM = _quad_record(
+    "leaf_prim", "a BVH leaf slot's primitive in leaf order: triangle v0, e1 = v1-v0, e2 = v2-v0; sphere (e1, pad1) = centre, radius",
+    ("v0", "float", 3), ("prim", "uint"), ("e1", "float", 3), ("pad1", "float"),
+    ("e2", "float", 3), ("pad2", "float"),
 )
 
 # The render kernel's scalar parameters, passed by value (host: mcocl/render/job.py).
@@ -284,7 +299,7 @@ WALK_TABLE_GEOMETRY = Record("walk_table_geometry", (
 ), "the tabulated densities of a walk: grid sizes and where each table starts in the buffer")
 
 RECORDS: tuple[Record, ...] = (PRIM_RECORD, LIGHT_RECORD, LIGHT_BVH_NODE, MATERIAL_RECORD, CAMERA_RECORD, BVH_HEADER, BVH_NODE,
-                               RENDER_PARAMS, WALK_PARAMS, WALK_TABLE_GEOMETRY)
+                               BVH_WIDE_NODE, LEAF_PRIM, RENDER_PARAMS, WALK_PARAMS, WALK_TABLE_GEOMETRY)
 
 
 def c_header() -> str:
@@ -387,7 +402,7 @@ if __name__ == "__main__":
     raise SystemExit(main())
 
 
-__all__ = ["BVH_HEADER", "BVH_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LIGHT_BVH_NODE", "LIGHT_RECORD", "MATERIAL_RECORD",
+__all__ = ["BVH_HEADER", "BVH_NODE", "BVH_WIDE_NODE", "CAMERA_RECORD", "ENUM_PREFIXES", "LEAF_PRIM", "LIGHT_BVH_NODE", "LIGHT_RECORD", "MATERIAL_RECORD",
            "PRIM_RECORD", "RECORDS", "RENDER_PARAMS", "WALK_PARAMS", "WALK_TABLE_GEOMETRY", "FilmStat", "Integrator", "LightSampler", "LightShape", "MaterialKind",
            "Record", "c_header", "dispatcher_file", "generated_files", "header_file",
            "scenes_readme", "with_block"]

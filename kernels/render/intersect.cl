@@ -51,6 +51,8 @@ MC_INLINE float g_max(float a, float b) { return a > b ? a : b; }
 
 typedef struct {
     global const float4 *nodes;   /* BVH, layout of mcocl/render/bvh.py */
+    global const float4 *leaves;  /* leaf_prim records in leaf order (mcocl/render/bvh_leaves.py) */
+    global const float4 *wide;    /* 4-wide nodes of the single-ray traversal (mcocl/render/bvh_wide.py) */
     global const uint *prims;     /* BVH leaf primitive ids */
     global const float4 *tris;    /* 3 float4 per triangle */
     global const float4 *spheres; /* centre, radius */
@@ -76,15 +78,17 @@ typedef struct {
 #define SCENE_GEOM_MAKE(name)                                                                \
     scene_geom name;                                                                         \
     name.nodes = bvh_nodes; name.prims = bvh_prims; name.tris = tri_vertices;                \
+    name.leaves = bvh_nodes + as_uint(bvh_nodes[0].w);                                       \
+    name.wide = name.leaves + 3u * as_uint(bvh_nodes[0].x);                                  \
     name.spheres = scene_spheres; name.sphere_flip = scene_sphere_flip;                      \
     name.ntris = scene_ntris; name.nspheres = scene_nspheres
 
-/* Ray–triangle (Möller–Trumbore).  On a hit with t in (0, tmax) writes t and
- * the barycentrics of v1 and v2 and returns true. */
-MC_INLINE bool intersect_triangle(float3 v0, float3 v1, float3 v2, float3 o, float3 d, float tmax, float *t_out,
-                                    float *b1_out, float *b2_out)
+/* Ray–triangle (Möller–Trumbore) given v0 and the edges e1 = v1 − v0, e2 = v2 − v0
+ * (the BVH's leaf records hold them precomputed).  On a hit with t in (0, tmax)
+ * writes t and the barycentrics of v1 and v2 and returns true. */
+MC_INLINE bool intersect_triangle_edges(float3 v0, float3 e1, float3 e2, float3 o, float3 d, float tmax,
+                                        float *t_out, float *b1_out, float *b2_out)
 {
-    float3 e1 = v1 - v0, e2 = v2 - v0;
     float3 pv = g3_cross(d, e2);
     float det = g3_dot(e1, pv);
     float inv = 1.0f / det;                  /* det == 0: inv = inf, every test below fails */
@@ -101,6 +105,13 @@ MC_INLINE bool intersect_triangle(float3 v0, float3 v1, float3 v2, float3 o, flo
         *b2_out = v;
     }
     return ok;
+}
+
+/* Ray–triangle of the vertices themselves. */
+MC_INLINE bool intersect_triangle(float3 v0, float3 v1, float3 v2, float3 o, float3 d, float tmax, float *t_out,
+                                  float *b1_out, float *b2_out)
+{
+    return intersect_triangle_edges(v0, v1 - v0, v2 - v0, o, d, tmax, t_out, b1_out, b2_out);
 }
 
 /* Ray–sphere: the nearest root in (0, tmax).  Works for any (non-zero) d. */

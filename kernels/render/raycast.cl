@@ -3,8 +3,9 @@
 #include "render/bvh.cl"
 
 /* hits[i] = (t, prim bits, b1, b2) of the closest hit, (INFINITY, 0xffffffff, 0, 0) on a miss;
- * any[i] = trace_any(...).  Each work-item handles rays i = id, id + nitems, ... (a
- * work-item per ray would make PoCL pay its per-work-group overhead per ray). */
+ * any[i] = trace_any(...).  Each work-item handles a contiguous run of about n / nitems rays
+ * (a work-item per ray would make PoCL pay its per-work-group overhead per ray; neighbouring
+ * rays, e.g. a camera's, in one run reuse the nodes they share while they are in cache). */
 kernel void raycast(SCENE_GEOM_PARAMS, global const float4 *orig, global const float4 *dir,
                     global const float *tmax, global float4 *hits, global uint *any, const uint n, const uint mode,
                     const uint nitems)
@@ -12,7 +13,8 @@ kernel void raycast(SCENE_GEOM_PARAMS, global const float4 *orig, global const f
     uint id = get_global_id(0);
     if (id >= nitems) return;
     SCENE_GEOM_MAKE(g);
-    for (uint i = id; i < n; i += nitems) {
+    uint first = (uint)(((ulong)n * id) / nitems), last = (uint)(((ulong)n * (id + 1u)) / nitems);
+    for (uint i = first; i < last; ++i) {
         float3 o = orig[i].xyz, d = dir[i].xyz;
         if (mode & 1u) {
             hit_info h;

@@ -23,14 +23,13 @@
 #define MCOCL_RENDER_TRACE_PACKET_CL
 
 #include "render/vec3.cl"
-#include "render/intersect.cl"
+#include "render/bvh.cl"
 
-#define PACKET_STACK 64
+#define PACKET_STACK 64 /* > bvh.py MAX_DEPTH */
 
-/* Möller–Trumbore for every lane against one triangle (intersect_triangle). */
-MC_INLINE intv packet_triangle(float4 a, float4 b, float4 c, vec3v o, vec3v d, floatv tmax, floatv *t_out,
+/* Möller–Trumbore for every lane against one triangle: v0 = a, edges e1, e2 (intersect_triangle_edges). */
+MC_INLINE intv packet_triangle(float4 a, float4 e1, float4 e2, vec3v o, vec3v d, floatv tmax, floatv *t_out,
                                floatv *u_out, floatv *v_out) {
-    float3 e1 = b.xyz - a.xyz, e2 = c.xyz - a.xyz;
     vec3v pv = v3(d.y * e2.z - d.z * e2.y, d.z * e2.x - d.x * e2.z, d.x * e2.y - d.y * e2.x);
     floatv det = e1.x * pv.x + e1.y * pv.y + e1.z * pv.z;
     floatv inv = 1.0f / det;
@@ -63,7 +62,7 @@ MC_INLINE intv packet_sphere(float4 s, vec3v o, vec3v d, floatv tmax, floatv *t_
     return (disc >= 0.0f) & (t > 0.0f) & (t < tmax);
 }
 
-/* Slab test of one box for every lane (bvh_box); lanes with tmax < 0 never hit. */
+/* Slab test of one box for every lane (bvh.cl's, bvh_wide_children); lanes with tmax < 0 never hit. */
 MC_INLINE intv packet_box(float4 lo, float4 hi, vec3v o, vec3v inv, floatv tmax, floatv *tnear) {
     floatv tx0 = (lo.x - o.x) * inv.x, tx1 = (hi.x - o.x) * inv.x;
     floatv ty0 = (lo.y - o.y) * inv.y, ty1 = (hi.y - o.y) * inv.y;
@@ -79,17 +78,19 @@ MC_INLINE vec3v packet_inv_dir(vec3v d) {
               1.0f / lane_select(d.z, (floatv)(1e-30f), d.z == 0.0f));
 }
 
-/* Intersect the leaf prims[first .. first + count) with the lanes in `m`. */
+/* Intersect the leaf prims[first .. first + count) (its leaf records, bvh.cl) with the lanes in `m`. */
 MC_INLINE void packet_leaf_closest(const scene_geom *g, uint first, uint count, vec3v o, vec3v d, intv m,
                                    floatv *tbest, uintv *prim, floatv *b1, floatv *b2) {
     for (uint k = first; k < first + count; ++k) {
-        uint p = g->prims[k];
+        global const float4 *r = g->leaves + LEAF_PRIM_QUADS * k;
+        float4 r0 = r[0], r1 = r[1];
+        uint p = as_uint(r0.w);
         floatv t, u = (floatv)(0.0f), v = (floatv)(0.0f);
         intv ok;
         if (p < g->ntris) {
-            ok = packet_triangle(g->tris[3 * p], g->tris[3 * p + 1], g->tris[3 * p + 2], o, d, *tbest, &t, &u, &v);
+            ok = packet_triangle(r0, r1, r[2], o, d, *tbest, &t, &u, &v);
         } else {
-            ok = packet_sphere(g->spheres[p - g->ntris], o, d, *tbest, &t);
+            ok = packet_sphere(r1, o, d, *tbest, &t);
         }
         ok &= m;
         *tbest = lane_select(*tbest, t, ok);
@@ -102,13 +103,15 @@ MC_INLINE void packet_leaf_closest(const scene_geom *g, uint first, uint count, 
 MC_INLINE intv packet_leaf_any(const scene_geom *g, uint first, uint count, vec3v o, vec3v d, intv m, floatv tmax) {
     intv occ = m & (intv)(0);
     for (uint k = first; k < first + count; ++k) {
-        uint p = g->prims[k];
+        global const float4 *r = g->leaves + LEAF_PRIM_QUADS * k;
+        float4 r0 = r[0], r1 = r[1];
+        uint p = as_uint(r0.w);
         floatv t, u, v;
         intv ok;
         if (p < g->ntris) {
-            ok = packet_triangle(g->tris[3 * p], g->tris[3 * p + 1], g->tris[3 * p + 2], o, d, tmax, &t, &u, &v);
+            ok = packet_triangle(r0, r1, r[2], o, d, tmax, &t, &u, &v);
         } else {
-            ok = packet_sphere(g->spheres[p - g->ntris], o, d, tmax, &t);
+            ok = packet_sphere(r1, o, d, tmax, &t);
         }
         occ |= ok & m;
         if (lane_all(occ | !m)) break;

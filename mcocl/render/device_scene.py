@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from ..layouts import LIGHT_RECORD, PRIM_RECORD, RENDER_PARAMS, LightShape
+from .bvh_leaves import device_nodes
 from .compiled import CompiledScene
 from .light_bvh import build_light_bvh
 
@@ -109,7 +110,8 @@ def light_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
 def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     """Every array a kernel reads, as plain NumPy arrays (never empty: OpenCL has no empty buffers).
 
-    The tables of ``SCENE_GEOM_PARAMS`` (``bvh_nodes``, ``bvh_prims``,
+    The tables of ``SCENE_GEOM_PARAMS`` (``bvh_nodes``: the tree followed by
+    its leaves' primitives in leaf order, :mod:`mcocl.render.bvh_leaves`; ``bvh_prims``,
     ``tri_vertices``, ``spheres``, ``sphere_flip``, ``geometry_counts``), the
     shading and light records, the materials, the emitter choice
     (``light_cdf``, ``prim_pmf``, ``light_scalars`` = (L, light_top),
@@ -124,7 +126,7 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     lt = light_tables(cs)
     tables = {
         "camera": nonempty(cs.camera, np.float32),
-        "bvh_nodes": nonempty(cs.bvh_nodes, np.float32),
+        "bvh_nodes": nonempty(device_nodes(cs.bvh_nodes, cs.bvh_prims, cs.tri_vertices, cs.spheres), np.float32),
         "bvh_prims": nonempty(cs.bvh_prims, np.uint32),
         "tri_vertices": nonempty(cs.tri_vertices, np.float32),
         "spheres": nonempty(cs.spheres, np.float32),

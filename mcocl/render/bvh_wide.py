@@ -1,0 +1,120 @@
+"""A 4-wide BVH for single-ray traversal, collapsed from the binary tree of :mod:`mcocl.render.bvh`.
+
+Each wide node is a binary internal node with its children replaced by
+their own children where they are internal, and any slot left empty filled
+by splitting the internal child of largest surface area (Wald et al. 2008, "Getting rid
+of packets", and Dammertz et al. 2008, "Shallow bounding volume
+hierarchies": a multi-branching BVH whose node test uses the CPU's vector
+width); a leaf child stays a leaf.  So a wide node has 2 to 4 children and
+the tree is less than half as deep: one visit tests four boxes in float4 lanes
+(``render/bvh.cl``, ``trace_closest``/``trace_any``) where the binary tree
+needed two visits of two scalar tests.  The boxes are the builder's own
+(no new rounding), so the box tests give the binary tree's distances.
+Subtrees of at most :data:`MERGED_LEAF` primitives become one leaf: on a big
+mesh a node visit is a cache miss while a leaf's records are one run.
+
+Record :data:`~mcocl.layouts.BVH_WIDE_NODE` (8 float4, structure of arrays:
+``lo_x`` .. ``hi_z`` of the four children, then their ``ref`` and ``cnt``):
+``cnt == 0``: wide node ``ref``; :data:`EMPTY_SLOT`: no child; otherwise a leaf
+of ``cnt`` primitives whose leaf records start at slot ``ref``
+(:mod:`mcocl.render.bvh_leaves`).  Wide node 0 is the root; nodes are listed
+in the binary tree's depth-first order.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..layouts import BVH_WIDE_NODE
+
+EMPTY_SLOT = np.uint32(0xFFFFFFFF)
+WIDE_ROWS = BVH_WIDE_NODE.itemsize // 16  # float4 rows per wide node
+MERGED_LEAF = 4  # subtrees of at most this many primitives become one leaf (bench/trace_bench.py: 4 beat 1 and 8)
+
+
+def merge_small_subtrees(ref: np.ndarray, cnt: np.ndarray, max_prims: int) -> tuple[np.ndarray, np.ndarray]:
+    """Child slots (K, 2) of a binary tree with every subtree of at most ``max_prims`` primitives made one leaf.
+
+    A subtree qualifies when its leaves' ranges are contiguous in ``prims``
+    (the builder's depth-first leaves are); its leaf records are then one run,
+    so the traversal tests them one after another from one place in memory
+    instead of visiting nodes that each cost a cache miss on a big scene.
+    """
+    k = len(ref)
+    levels, frontier = [], np.zeros(1, np.int64)
+    while len(frontier):
+        levels.append(frontier)
+        frontier = ref[frontier][cnt[frontier] == 0]
+    first, end, count = np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros(k, np.int64)
+    for nodes in reversed(levels):  # children before parents
+        r, c = ref[nodes], cnt[nodes].astype(np.int64)
+        inner = c == 0
+        m = np.where(inner, r, 0)
+        f = np.where(inner, first[m], r)
+        e = np.where(inner, end[m], r + c)
+        n = np.where(inner, count[m], c)
+        first[nodes], end[nodes], count[nodes] = f.min(1), e.max(1), n.sum(1)
+    inner = cnt == 0
+    m = np.where(inner, ref, 0)
+    small = inner & (count[m] <= max_prims) & (end[m] - first[m] == count[m])
+    return np.where(small, first[m], ref), np.where(small, count[m], cnt).astype(np.uint32)
+
+
+def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
+    """The 4-wide nodes of a flattened binary BVH (``nodes`` of :class:`mcocl.render.bvh.BVH`), float32 (8W, 4).
+
+    Subtrees of at most ``max_leaf`` primitives become leaves (:func:`merge_small_subtrees`).
+    """
+    k = (len(nodes) - 1) // 4
+    if k == 0:
+        return np.zeros((0, 4), np.float32)
+    f = np.asarray(nodes, np.float32)[1:1 + 4 * k].reshape(k, 2, 2, 4)
+    u = f.view(np.uint32)
+    ref, cnt = merge_small_subtrees(u[:, :, 0, 3].astype(np.int64), u[:, :, 1, 3], max_leaf)
+    # Binary child slot q = 2j + c (child c of binary node j): its box, ref and count.
+    lo, hi = f[:, :, 0, :3].reshape(-1, 3), f[:, :, 1, :3].reshape(-1, 3)
+    ref, cnt = ref.reshape(-1), cnt.reshape(-1)
+    ext = (hi - lo).astype(np.float64)
+    area = ext[:, 0] * ext[:, 1] + ext[:, 1] * ext[:, 2] + ext[:, 2] * ext[:, 0]
+    inner = cnt == 0
+    # Wide slots of binary node j (-1: empty): the children of its child c when c is internal, else c itself.
+    q = np.arange(2 * k).reshape(k, 2)
+    kids = 2 * ref[q, None] + np.arange(2)  # (K, 2, 2)
+    slots = np.where(inner[q][..., None], kids, np.stack([q, np.full_like(q, -1)], 2)).reshape(k, 4)
+    # Fill empty slots: the internal child of largest surface area gives way to its two children
+    # (Wald et al. 2008's greedy collapse; fewer, fuller wide nodes).
+    for _ in range(2):
+        is_inner = (slots >= 0) & inner[np.maximum(slots, 0)]
+        empty = slots < 0
+        rows = np.flatnonzero(empty.any(1) & is_inner.any(1))
+        if not len(rows):
+            break
+        a = np.where(is_inner[rows], area[np.maximum(slots[rows], 0)], -1.0)
+        pick, hole = a.argmax(1), empty[rows].argmax(1)
+        child = ref[slots[rows, pick]]
+        slots[rows, pick], slots[rows, hole] = 2 * child, 2 * child + 1
+    valid = slots >= 0
+    sq = np.maximum(slots, 0)
+    s_inner = valid & inner[sq]
+    # The binary nodes that become wide nodes: the root, then every internal slot of a wide node.
+    order, frontier = [], np.zeros(1, np.int64)
+    while len(frontier):
+        order.append(frontier)
+        frontier = ref[sq[frontier]][s_inner[frontier]]
+    # Listed in the binary tree's depth-first order: a wide node's first internal child follows it and
+    # every subtree is one run of memory.
+    order = np.sort(np.concatenate(order))
+    index = np.full(k, -1, np.int64)
+    index[order] = np.arange(len(order))
+    oq, ov, oi = sq[order], valid[order], s_inner[order]
+    rec = np.zeros(len(order), BVH_WIDE_NODE.dtype())
+    for corner, name in ((lo, "lo"), (hi, "hi")):
+        box = np.where(ov[..., None], corner[oq], 0.0)
+        for axis, comp in enumerate("xyz"):
+            rec[f"{name}_{comp}"] = box[:, :, axis]
+    rec["ref"] = np.where(oi, index[np.where(oi, ref[oq], 0)], ref[oq]).astype(np.uint32)
+    rec["cnt"] = np.where(ov, cnt[oq], EMPTY_SLOT)
+    return rec.view(np.float32).reshape(-1, 4)
+
+
+__all__ = ["EMPTY_SLOT", "MERGED_LEAF", "WIDE_ROWS", "merge_small_subtrees", "wide_nodes"]

@@ -1,0 +1,107 @@
+"""The BVH's device table: leaf records in leaf order and the 4-wide nodes collapsed from the binary tree."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mcocl.layouts import BVH_HEADER, BVH_WIDE_NODE, LEAF_PRIM
+from mcocl.render.bvh import build_bvh
+from mcocl.render.bvh_leaves import device_nodes, leaf_records
+from mcocl.render.bvh_wide import EMPTY_SLOT, MERGED_LEAF, WIDE_ROWS, wide_nodes
+
+
+def binary_children(nodes: np.ndarray):
+    """(lo, hi, ref, cnt) of every child slot of the binary tree, (K, 2, ...)."""
+    f = nodes[1:].reshape(-1, 2, 2, 4)
+    u = f.view(np.uint32)
+    return f[:, :, 0, :3], f[:, :, 1, :3], u[:, :, 0, 3], u[:, :, 1, 3]
+
+
+def wide_children(w: np.ndarray):
+    """(lo, hi, ref, cnt) of every slot of the wide nodes, (W, 4, ...)."""
+    rec = w.reshape(-1, WIDE_ROWS * 4).view(BVH_WIDE_NODE.dtype())[:, 0]
+    lo = np.stack([rec["lo_x"], rec["lo_y"], rec["lo_z"]], -1)
+    hi = np.stack([rec["hi_x"], rec["hi_y"], rec["hi_z"]], -1)
+    return lo, hi, rec["ref"], rec["cnt"]
+
+
+@pytest.mark.parametrize("n,max_leaf", [(1, 4), (2, 4), (7, 1), (3000, 4), (3000, 1)])
+def test_wide_tree_holds_every_leaf_once_with_the_binary_boxes(n, max_leaf):
+    rng = np.random.default_rng(n + max_leaf)
+    lo = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
+    hi = lo + rng.uniform(0, 0.05, (n, 3)).astype(np.float32)
+    b = build_bvh(lo, hi, max_leaf=max_leaf)
+    blo, bhi, bref, bcnt = binary_children(b.nodes)
+    w = wide_nodes(b.nodes, max_leaf=1)  # no merging: the binary tree's own leaves
+    wlo, whi, wref, wcnt = wide_children(w)
+    nw = len(wref)
+    leaf, inner = (wcnt != 0) & (wcnt != EMPTY_SLOT), wcnt == 0
+    # every wide node but the root is the child of exactly one slot; refs stay in range
+    assert sorted(wref[inner].tolist()) == list(range(1, nw))
+    # the leaves are the binary tree's, each once (a one-primitive tree lists its leaf twice in both)
+    want = sorted(zip(bref[bcnt > 0].tolist(), bcnt[bcnt > 0].tolist()))
+    got = sorted(zip(wref[leaf].tolist(), wcnt[leaf].tolist()))
+    assert got == want
+    # a leaf slot's box is that leaf's box in the binary tree
+    key = {(r, c): (lo_, hi_) for r, c, lo_, hi_ in zip(bref[bcnt > 0], bcnt[bcnt > 0], blo[bcnt > 0], bhi[bcnt > 0])}
+    for r, c, lo_, hi_ in zip(wref[leaf], wcnt[leaf], wlo[leaf], whi[leaf]):
+        assert np.array_equal(key[(r, c)][0], lo_) and np.array_equal(key[(r, c)][1], hi_)
+    # every wide node has 2 to 4 children
+    per_node = ((wcnt != EMPTY_SLOT).reshape(nw, 4)).sum(1)
+    assert per_node.min() >= 2 and per_node.max() <= 4
+
+
+@pytest.mark.parametrize("n,max_leaf", [(2, 4), (9, 1), (3000, 1), (3000, 4)])
+def test_merged_leaves_cover_every_primitive_once_inside_their_boxes(n, max_leaf):
+    rng = np.random.default_rng(7 * n + max_leaf)
+    lo = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
+    hi = lo + rng.uniform(0, 0.05, (n, 3)).astype(np.float32)
+    b = build_bvh(lo, hi, max_leaf=max_leaf)
+    wlo, whi, wref, wcnt = wide_children(wide_nodes(b.nodes))
+    nw = len(wref)
+    leaf, inner = (wcnt != 0) & (wcnt != EMPTY_SLOT), wcnt == 0
+    assert sorted(wref[inner].tolist()) == list(range(1, nw))
+    _, _, bref, bcnt = binary_children(b.nodes)
+    assert nw <= max(1, (bcnt == 0).sum())  # never more nodes than the collapse without merging
+    cover = np.zeros(n, int)
+    for r, c, lo_, hi_ in zip(wref[leaf], wcnt[leaf], wlo[leaf], whi[leaf]):
+        cover[r:r + c] += 1
+        # a leaf bigger than the builder's leaves is a merged subtree of at most MERGED_LEAF primitives
+        assert c <= max(MERGED_LEAF, bcnt.max())
+        p = b.prims[r:r + c]
+        assert (lo_ <= lo[p]).all() and (hi[p] <= hi_).all()
+    assert (cover == 1).all()
+
+
+def test_leaf_records_hold_each_slots_vertices_and_edges_bit_for_bit():
+    rng = np.random.default_rng(5)
+    tv = np.zeros((50, 3, 4), np.float32)
+    tv[:, :, :3] = rng.normal(size=(50, 3, 3))
+    spheres = np.array([[0.5, -1.0, 2.0, 0.25], [1.0, 2.0, 3.0, 4.0]], np.float32)
+    prims = rng.permutation(52).astype(np.uint32)
+    rec = leaf_records(prims, tv, spheres).reshape(-1, 12).view(LEAF_PRIM.dtype())[:, 0]
+    assert np.array_equal(rec["prim"], prims)
+    tri = prims < 50
+    v = tv[prims[tri], :, :3]
+    assert np.array_equal(rec["v0"][tri], v[:, 0])
+    assert np.array_equal(rec["e1"][tri], v[:, 1] - v[:, 0]) and np.array_equal(rec["e2"][tri], v[:, 2] - v[:, 0])
+    s = spheres[prims[~tri] - 50]
+    assert np.array_equal(rec["e1"][~tri], s[:, :3]) and np.array_equal(rec["pad1"][~tri], s[:, 3])
+
+
+def test_device_table_layout():
+    rng = np.random.default_rng(2)
+    tris = rng.normal(size=(200, 3, 3)).astype(np.float32)
+    tv = np.zeros((200, 3, 4), np.float32)
+    tv[:, :, :3] = tris
+    b = build_bvh(tris.min(1), tris.max(1))
+    table = device_nodes(b.nodes, b.prims, tv, np.zeros((0, 4), np.float32))
+    header = table[:1].view(BVH_HEADER.dtype())[0, 0]
+    assert header["leaf_row"] == len(b.nodes) and header["nprims"] == len(b.prims)
+    assert np.array_equal(table[:len(b.nodes), :].view(np.uint32)[1:], b.nodes.view(np.uint32)[1:])
+    wide_row = len(b.nodes) + 3 * len(b.prims)
+    assert np.array_equal(table[wide_row:].view(np.uint32), wide_nodes(b.nodes).view(np.uint32))
+    # an empty hierarchy stays the header alone: every ray misses before anything else is read
+    empty = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
+    assert np.array_equal(device_nodes(empty.nodes, empty.prims, tv[:0], np.zeros((0, 4), np.float32)), empty.nodes)
