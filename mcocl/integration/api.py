@@ -56,6 +56,8 @@ class IntegrationResult:
             rounding of the integrand (2^-24 times the mean |value|), added in
             quadrature; when it dominates, more samples no longer help.
         notes: anything the user should know (scalar fallback, rounding).
+        samples_this_run: samples computed by this call (fewer than ``samples``
+            when it resumed a checkpoint); ``samples_per_second`` counts these.
         vegas: for ``sampler="vegas"``: the iterations (estimate, variance,
             samples, warm-up or not), ``chi2_dof`` and its tail probability
             ``q``, ``bins``, ``alpha``, ``warmup``; else None.
@@ -80,11 +82,13 @@ class IntegrationResult:
     rounding_floor: float = 0.0
     notes: list[str] = field(default_factory=list)
     vegas: dict[str, Any] | None = None
+    samples_this_run: int = -1
 
     @property
     def samples_per_second(self) -> float:
-        """Throughput of the sampling."""
-        return self.samples / self.seconds if self.seconds > 0 else math.nan
+        """Throughput of the sampling done by this call (a resumed checkpoint's samples are not counted)."""
+        n = self.samples if self.samples_this_run < 0 else self.samples_this_run
+        return n / self.seconds if self.seconds > 0 else math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict of every field plus ``samples_per_second``."""
@@ -348,6 +352,7 @@ def integrate(
                                            spec.samples_per_block(design))
     acc.meta["unit_limit"] = unit_limit
     halting = opts.halting(max_blocks, target if opts.target_error else None)
+    blocks_before = acc.blocks_done  # a resumed checkpoint's blocks: not this run's throughput
     report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
     if bar is not None:
         bar.close()
@@ -363,6 +368,7 @@ def integrate(
     if req.control:
         est += req.control_integral
     samples_used = spec.samples_used(design, acc.blocks_done, unit_limit)
+    samples_before = spec.samples_used(design, blocks_before, unit_limit) if blocks_before else 0
     nonfinite = int(acc.totals[1])
     stderr = math.sqrt(var) if var >= 0 else math.nan
     notes += spec.notes(design, req.dim)
@@ -385,6 +391,7 @@ def integrate(
         stopped_by={"blocks": "samples", "target": "stderr"}.get(report.stopped_by, report.stopped_by),
         build_seconds=runner.build_seconds,
         notes=notes,
+        samples_this_run=samples_used - samples_before,
     )
     if nonfinite:
         warnings.warn(
@@ -408,6 +415,7 @@ def _vegas_result(out: VegasOutcome, req: _Request) -> IntegrationResult:
         stopped_by={"blocks": "samples", "target": "stderr"}.get(out.stopped_by, out.stopped_by),
         build_seconds=out.build_seconds, rounding_floor=out.floor,
         notes=([out.program_note] if out.program_note else []) + out.notes, vegas=out.summary,
+        samples_this_run=out.samples_this_run,
     )
     if out.nonfinite:
         warnings.warn(f"{out.nonfinite} of {out.samples} samples were NaN or infinite and were left out of the estimate",
