@@ -19,6 +19,7 @@ from ..run_options import RunOptions, renamed_keyword
 from ..usercode import UserFunction
 from ..validate import whole_number
 from .codegen import HEURISTICS, generate
+from .density_check import check_user_densities
 from .design import UNBOUNDED_UNITS, design_from_checkpoint
 from .job import ROW, IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
@@ -305,6 +306,7 @@ def integrate(
     users = UserFunction("integrand", req.integrand, "integrand", (("x", req.dim),))
     control_fn = UserFunction("control", req.control, "control", (("x", req.dim),)) if req.control else None
     code = generate(users, req.dim, req.proposals, req.shares, req.heuristic, req.beta, control_fn, req.roulette)
+    check_user_densities(req.proposals, code.includes, opts.device)  # a wrong analytic pdf is refused, not used
 
     meta = req.meta()
     vegas_options = (vegas_iterations, vegas_bins, alpha)

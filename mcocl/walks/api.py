@@ -37,6 +37,7 @@ from .codegen import generate
 from .job import STATS, WalkJob, WalkRunner, estimates
 from .nystrom import spectral_radius
 from .request import WalkRequest, validate
+from .row_integral_check import check_row_integral
 
 
 @dataclass
@@ -247,6 +248,8 @@ def solve_fredholm(
 
     code = generate(req.kernel, req.source, req.dim, req.estimator, req.row_integral, req.transition_sampler,
                     req.source_integral, req.source_sampler)
+    if req.row_integral is not None:  # a wrong A(x) is refused, not used (issue 10)
+        check_row_integral(req.kernel, req.row_integral, req.dim, opts.device)
     meta = req.meta()
     acc: Accumulator | None = None
     resume = opts.resume
