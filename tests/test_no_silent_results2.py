@@ -4,6 +4,8 @@ throughput of a resumed run."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -109,3 +111,36 @@ def test_the_cli_refuses_a_wrong_row_integral_with_one_line(capsys) -> None:
                  "--row-integral", "2.5f", "--transition-sampler", "sqrt(u[0])", "--walks", "4096"])
     err = capsys.readouterr().err
     assert code == 2 and "row_integral" in err and "Traceback" not in err
+
+
+HUGE = "x[0] < 0.5f ? 3e38f : -3e38f"  # finite samples whose squares, and sums of a few, overflow float
+
+
+@pytest.mark.parametrize("sampler", ["independent", "stratified", "nrooks", "sobol"])
+def test_huge_finite_samples_give_a_finite_estimate(sampler: str) -> None:
+    r = mcocl.integrate(HUGE, dim=1, samples=1 << 20, sampler=sampler, seed=3)
+    assert r.nonfinite == 0
+    assert np.isfinite(r.estimate) and np.isfinite(r.stderr) and r.stderr > 0
+    assert abs(r.estimate) <= 6 * r.stderr  # the exact integral is 0
+    r = mcocl.integrate("3e38f*x[0]", dim=1, samples=1 << 20, sampler=sampler, seed=3)
+    assert abs(r.estimate - 1.5e38) <= 6 * r.stderr
+
+
+def test_the_recomputed_sums_agree_across_vector_widths() -> None:
+    # the per-virtual-lane double sums are the same; vlane_sum adds the lanes of
+    # one vector before the running total, so the total may differ in its last bit
+    a = mcocl.integrate(HUGE, dim=1, samples=1 << 18, seed=5, lanes=1)
+    b = mcocl.integrate(HUGE, dim=1, samples=1 << 18, seed=5, lanes=8)
+    assert a.estimate == b.estimate and a.stderr == pytest.approx(b.stderr, rel=1e-12)
+
+
+def test_non_finite_sums_are_reported_loudly() -> None:
+    from mcocl.integration.api import IntegrationResult, _report_overflowed_sums
+
+    r = IntegrationResult(estimate=math.nan, stderr=math.nan, variance=math.nan, samples=10, seconds=1.0,
+                          device="d", sampler="independent", seed=0, nonfinite=0)
+    totals = np.zeros(9)
+    totals[3] = math.inf
+    with pytest.warns(mcocl.NonFiniteWarning, match="finite samples are not finite"):
+        _report_overflowed_sums(totals, r)
+    assert r.notes and r.notes[0].startswith("WARNING")

@@ -401,7 +401,23 @@ def integrate(
             NonFiniteWarning,
             stacklevel=2,
         )
+    _report_overflowed_sums(acc.totals, result)
     return result
+
+
+def _report_overflowed_sums(totals: np.ndarray, result: IntegrationResult) -> None:
+    """Say loudly when the sums of the finite samples are not finite.
+
+    The kernel sums finite samples in double (kernels/integrate/integrate.cl,
+    FLUSH), so this should not happen; if it does, a NaN must not pass for a
+    result (issue 10).
+    """
+    sums = np.asarray(totals, dtype=np.float64)[[2, 3, 8]]  # sum (v - shift), its square (pairs), sum |v| (job.py)
+    if not np.all(np.isfinite(sums)):
+        msg = (f"the sums of the {result.samples - result.nonfinite} finite samples are not finite ({sums.tolist()}): "
+               f"the estimate ({result.estimate}) is meaningless; scale the integrand down")
+        result.notes.append("WARNING: " + msg)
+        warnings.warn(msg, NonFiniteWarning, stacklevel=3)
 
 
 def _vegas_result(out: VegasOutcome, req: _Request) -> IntegrationResult:
