@@ -106,6 +106,15 @@ def test_a_correct_row_integral_is_accepted(kernel: str, row_integral: str) -> N
     assert np.all(np.isfinite(r.values))
 
 
+def test_a_wrong_source_integral_is_refused() -> None:
+    # g = 2x: the integral of |g| is 1
+    kw = dict(at=[0.5], walks=4096, estimator="nee", source_sampler="sqrt(u[0])")
+    with pytest.raises(InputError, match=r"source_integral: G = 3, but the integral of \|g\| is 1"):
+        mcocl.solve_fredholm("0.5f", "2.0f*x[0]", source_integral=3.0, **kw)
+    r = mcocl.solve_fredholm("0.5f", "2.0f*x[0]", source_integral=1.0, seed=2, **kw)
+    assert np.all(np.isfinite(r.values))
+
+
 def test_the_cli_refuses_a_wrong_row_integral_with_one_line(capsys) -> None:
     code = main(["solve", "--kernel", "y[0]", "--source", "1.0f", "--at", "0.5", "--estimator", "subcritical",
                  "--row-integral", "2.5f", "--transition-sampler", "sqrt(u[0])", "--walks", "4096"])

@@ -34,10 +34,10 @@ from ..errors import ConvergenceError, InputError, NonFiniteWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
 from .codegen import generate
+from .integral_check import check_given_integrals
 from .job import STATS, WalkJob, WalkRunner, estimates
 from .nystrom import spectral_radius
 from .request import WalkRequest, validate
-from .row_integral_check import check_row_integral
 
 
 @dataclass
@@ -248,8 +248,8 @@ def solve_fredholm(
 
     code = generate(req.kernel, req.source, req.dim, req.estimator, req.row_integral, req.transition_sampler,
                     req.source_integral, req.source_sampler)
-    if req.row_integral is not None:  # a wrong A(x) is refused, not used (issue 10)
-        check_row_integral(req.kernel, req.row_integral, req.dim, opts.device)
+    # a wrong A(x) or G is refused, not used (issue 10)
+    check_given_integrals(req.kernel, req.source, req.dim, req.row_integral, req.source_integral, opts.device)
     meta = req.meta()
     acc: Accumulator | None = None
     resume = opts.resume
