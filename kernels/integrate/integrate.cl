@@ -66,8 +66,97 @@ MC_INLINE void sample_uniforms(ulong base, uint stride, ulong seed, floatv *u) {
 /* Float partial sums are flushed into the double accumulators every FLUSH
  * groups of 16 units: a float sum of at most 64 terms per lane loses nothing
  * that matters, and float lanes are twice as wide as double ones
- * (docs/pocl-notes.md: "accumulating in float was fine up to 4096"). */
+ * (docs/pocl-notes.md: "accumulating in float was fine up to 4096").
+ *
+ * Finite samples can still overflow a float partial (a square above 3.4e38,
+ * a sum of samples near FLT_MAX; issue 10: `x[0] < 0.5f ? 3e38f : -3e38f`
+ * gave NaN).  Non-finite samples never enter the sums, and a double sum of
+ * float terms cannot overflow, so a block whose double sums end non-finite
+ * had a float partial overflow: its units are then evaluated again (the same
+ * uniforms, so the same samples) with every term added in double.  The check
+ * costs nothing per sample (a test inside the loop cost 6% of the
+ * throughput); ordinary integrands never take that path, and their sums stay
+ * bit-identical to the float-only ones. */
 #define FLUSH 4
+
+/* The values of the LANES units k .. k+LANES-1 of the block (unit k of the
+ * block is unit unit0 + k of its design): v[0] (and v[1], the second sample
+ * of a stratum, for stratified designs), zero where a lane is past nunits or
+ * not finite, and the lanes that are valid and finite (*ok) and those that
+ * are valid but not finite (*bad, one count per non-finite sample).  The
+ * VEGAS bins of the samples go to vbin for training. */
+#if SAMPLER == SAMPLER_STRATIFIED || VEGAS_STRATIFIED
+#define UNIT_SAMPLES 2
+#else
+#define UNIT_SAMPLES 1
+#endif
+MC_INLINE void unit_values(uint k, uint nunits, ulong unit0, ulong design_base, ulong seed,
+                           global const uint *tables,
+#if SAMPLER == SAMPLER_NROOKS
+                           const perm_key *keys,
+#endif
+#if SAMPLER == SAMPLER_VEGAS
+                           global const float *vegas_grid, uintv vbin[UNIT_SAMPLES][DIM],
+#endif
+                           floatv *v, intv *ok, uintv *bad) {
+#if SAMPLER != SAMPLER_INDEPENDENT
+    const uintv in_design = (uintv)((uint)(unit0 + k)) + LANE_IOTA;
+#endif
+    const intv valid = (uintv)(k) + LANE_IOTA < (uintv)(nunits);
+    const ulong ubase = design_base + unit0 + k;
+    floatv tau[NCOORD];
+#if SAMPLER == SAMPLER_STRATIFIED || VEGAS_STRATIFIED
+    /* two samples (indices 2 unit, 2 unit + 1) in stratum `in_design` */
+    doublev cell[DIM];
+    stratum_cells(in_design, DIM, (double)STRATA_M, 1.0 / (double)STRATA_M, cell);
+    floatv v2[2];
+    for (int t = 0; t < 2; ++t) {
+        sample_uniforms(2ul * ubase + (ulong)t, 2u, seed, tau);
+        for (uint a = 0; a < NCOORD; ++a)
+            tau[a] = cell_to_unit(cell[a % DIM], tau[a], (double)STRATA_M, 1.0 / (double)STRATA_M);
+#if VEGAS_STRATIFIED
+        const floatv vjac = vegas_warp(tau, vegas_grid, vbin[t]);
+        v2[t] = unit_value(tau, tables) * vjac;
+#else
+        v2[t] = unit_value(tau, tables);
+#endif
+    }
+    const intv fin0 = lane_finite(v2[0]), fin1 = lane_finite(v2[1]);
+    *ok = valid & fin0 & fin1;
+    *bad = to_uintv(mask_bit(valid & !fin0)) + to_uintv(mask_bit(valid & !fin1));
+    v[0] = lane_select((floatv)(0.0f), v2[0], *ok);
+    v[1] = lane_select((floatv)(0.0f), v2[1], *ok);
+#else
+    sample_uniforms(ubase, 1u, seed, tau);
+#if SAMPLER == SAMPLER_NROOKS
+    for (uint a = 0; a < NCOORD; ++a) {
+        uintv cell = nrooks_permute(in_design, DESIGN_UNITS, NROOKS_MASK, NROOKS_S1, NROOKS_S2, keys[a]);
+        tau[a] = cell_to_unit(to_doublev(cell), tau[a], (double)DESIGN_UNITS, 1.0 / (double)DESIGN_UNITS);
+    }
+#endif
+#if SAMPLER == SAMPLER_VEGAS
+    const floatv vjac = vegas_warp(tau, vegas_grid, vbin[0]);
+    const floatv u = unit_value(tau, tables) * vjac;
+#else
+    const floatv u = unit_value(tau, tables);
+#endif
+    const intv fin = lane_finite(u);
+    *ok = valid & fin;
+    *bad = to_uintv(mask_bit(valid & !fin));
+    v[0] = lane_select((floatv)(0.0f), u, *ok);
+#endif
+}
+
+#if SAMPLER == SAMPLER_NROOKS
+#define UNIT_KEYS keys,
+#else
+#define UNIT_KEYS
+#endif
+#if SAMPLER == SAMPLER_VEGAS
+#define UNIT_VEGAS vegas_grid, vbin,
+#else
+#define UNIT_VEGAS
+#endif
 
 kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit, ulong seed, double shift,
                              global const uint *tables, global double *out
@@ -92,6 +181,7 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
     }
     uintv nvalid = (uintv)(0u), nbad = (uintv)(0u);
     const float fshift = (float)shift; /* the host rounds the shift to float */
+    const double dshift = (double)fshift;
 
 #if SAMPLER == SAMPLER_VEGAS
     global double *train_row = vegas_train + get_global_id(0) * (ulong)VEGAS_ROW;
@@ -111,69 +201,32 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
         for (int acc = 0; acc < NACC; ++acc) {
             const uint k = k0 + (uint)acc * LANES;
             if (k >= nunits) break;
-#if SAMPLER != SAMPLER_INDEPENDENT
-            const uintv in_design = (uintv)((uint)(unit0 + k)) + LANE_IOTA;
+            floatv v[UNIT_SAMPLES];
+            intv ok;
+            uintv bad;
+#if SAMPLER == SAMPLER_VEGAS
+            uintv vbin[UNIT_SAMPLES][DIM];
 #endif
-            const intv valid = (uintv)(k) + LANE_IOTA < (uintv)(nunits);
-            const ulong ubase = design_base + unit0 + k;
-            floatv tau[NCOORD];
-#if SAMPLER == SAMPLER_STRATIFIED || VEGAS_STRATIFIED
-            /* two samples (indices 2 unit, 2 unit + 1) in stratum `in_design` */
-            doublev cell[DIM];
-            stratum_cells(in_design, DIM, (double)STRATA_M, 1.0 / (double)STRATA_M, cell);
-            floatv v2[2];
-#if VEGAS_STRATIFIED
-            uintv vbin[2][DIM];
-#endif
-            for (int t = 0; t < 2; ++t) {
-                sample_uniforms(2ul * ubase + (ulong)t, 2u, seed, tau);
-                for (uint a = 0; a < NCOORD; ++a)
-                    tau[a] = cell_to_unit(cell[a % DIM], tau[a], (double)STRATA_M, 1.0 / (double)STRATA_M);
-#if VEGAS_STRATIFIED
-                const floatv vjac = vegas_warp(tau, vegas_grid, vbin[t]);
-                v2[t] = unit_value(tau, tables) * vjac;
-#else
-                v2[t] = unit_value(tau, tables);
-#endif
-            }
-            const intv fin0 = lane_finite(v2[0]), fin1 = lane_finite(v2[1]);
-            const intv ok = valid & fin0 & fin1;
-            nbad += to_uintv(mask_bit(valid & !fin0)) + to_uintv(mask_bit(valid & !fin1));
-            const floatv a0 = lane_select((floatv)(0.0f), v2[0], ok), a1 = lane_select((floatv)(0.0f), v2[1], ok);
+            unit_values(k, nunits, unit0, design_base, seed, tables, UNIT_KEYS UNIT_VEGAS v, &ok, &bad);
+            nbad += bad;
+#if UNIT_SAMPLES == 2
             const floatv okf = lane_select((floatv)(0.0f), (floatv)(1.0f), ok);
-            f1[acc] += (a0 - fshift + a1 - fshift) * okf;
-            f2[acc] += (a0 - a1) * (a0 - a1);
-            fabsv[acc] += lane_abs(a0) + lane_abs(a1);
+            f1[acc] += (v[0] - fshift + v[1] - fshift) * okf;
+            f2[acc] += (v[0] - v[1]) * (v[0] - v[1]);
+            fabsv[acc] += lane_abs(v[0]) + lane_abs(v[1]);
             fpairs[acc] += okf;
             nvalid += 2u * to_uintv(mask_bit(ok));
 #if VEGAS_STRATIFIED
-            vegas_train_add_pair(train_row, vbin[0], a0, vbin[1], a1);
+            vegas_train_add_pair(train_row, vbin[0], v[0], vbin[1], v[1]);
 #endif
 #else
-            sample_uniforms(ubase, 1u, seed, tau);
-#if SAMPLER == SAMPLER_NROOKS
-            for (uint a = 0; a < NCOORD; ++a) {
-                uintv cell = nrooks_permute(in_design, DESIGN_UNITS, NROOKS_MASK, NROOKS_S1, NROOKS_S2, keys[a]);
-                tau[a] = cell_to_unit(to_doublev(cell), tau[a], (double)DESIGN_UNITS, 1.0 / (double)DESIGN_UNITS);
-            }
-#endif
-#if SAMPLER == SAMPLER_VEGAS
-            uintv vbin[DIM];
-            const floatv vjac = vegas_warp(tau, vegas_grid, vbin);
-            const floatv v = unit_value(tau, tables) * vjac;
-#else
-            const floatv v = unit_value(tau, tables);
-#endif
-            const intv fin = lane_finite(v);
-            const intv ok = valid & fin;
-            nbad += to_uintv(mask_bit(valid & !fin));
-            const floatv d = lane_select((floatv)(0.0f), v - fshift, ok);
+            const floatv d = lane_select((floatv)(0.0f), v[0] - fshift, ok);
             f1[acc] += d;
             f2[acc] += d * d;
-            fabsv[acc] += lane_abs(lane_select((floatv)(0.0f), v, ok));
+            fabsv[acc] += lane_abs(v[0]);
             nvalid += to_uintv(mask_bit(ok));
 #if SAMPLER == SAMPLER_VEGAS
-            vegas_train_add(train_row, vbin, lane_select((floatv)(0.0f), v, ok));
+            vegas_train_add(train_row, vbin[0], v[0]);
 #endif
 #endif
         }
@@ -185,11 +238,54 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             }
         }
     }
+    double t1 = vlane_sum(s1), t2 = vlane_sum(s2), tabs = vlane_sum(sabs);
+    if (!isfinite(t1) || !isfinite(t2) || !isfinite(tabs)) {
+        /* a float partial overflowed (an overflow stays non-finite in the double
+         * sums): the block again, every term added in double (see FLUSH) */
+        for (int a = 0; a < NACC; ++a) {
+            s1[a] = (doublev)(0.0); s2[a] = (doublev)(0.0); npairs[a] = (doublev)(0.0); sabs[a] = (doublev)(0.0);
+        }
+        for (uint k0 = 0; k0 < nunits; k0 += VLANES) {
+#pragma unroll
+            for (int acc = 0; acc < NACC; ++acc) {
+                const uint k = k0 + (uint)acc * LANES;
+                if (k >= nunits) break;
+                floatv v[UNIT_SAMPLES];
+                intv ok;
+                uintv bad;
+#if SAMPLER == SAMPLER_VEGAS
+                uintv vbin[UNIT_SAMPLES][DIM];
+#endif
+                unit_values(k, nunits, unit0, design_base, seed, tables, UNIT_KEYS UNIT_VEGAS v, &ok, &bad);
+                const doublev okd = to_doublev(lane_select((floatv)(0.0f), (floatv)(1.0f), ok));
+                const doublev d0 = to_doublev(v[0]);
+                /* products in statements of their own: a product and a sum in one
+                 * statement may be fused (FP_CONTRACT) for some vector widths
+                 * and not others, and the sums must not depend on the width */
+#if UNIT_SAMPLES == 2
+                const doublev d1 = to_doublev(v[1]);
+                const doublev d = (d0 - dshift + d1 - dshift) * okd, e = d0 - d1;
+                const doublev ee = e * e;
+                s1[acc] += d;
+                s2[acc] += ee;
+                sabs[acc] += fabs(d0) + fabs(d1);
+                npairs[acc] += okd;
+#else
+                const doublev d = (d0 - dshift) * okd;
+                const doublev dd = d * d;
+                s1[acc] += d;
+                s2[acc] += dd;
+                sabs[acc] += fabs(d0);
+#endif
+            }
+        }
+        t1 = vlane_sum(s1); t2 = vlane_sum(s2); tabs = vlane_sum(sabs);
+    }
     global double *o = out + get_global_id(0) * STATS;
     o[0] = (double)lane_sum_u(nvalid);
     o[1] = (double)lane_sum_u(nbad);
-    o[2] = vlane_sum(s1);
-    o[3] = vlane_sum(s2);
+    o[2] = t1;
+    o[3] = t2;
     o[4] = vlane_sum(npairs);
-    o[5] = vlane_sum(sabs);
+    o[5] = tabs;
 }

@@ -19,6 +19,7 @@ from ..run_options import RunOptions, renamed_keyword
 from ..usercode import UserFunction
 from ..validate import whole_number
 from .codegen import HEURISTICS, generate
+from .density_check import check_user_densities
 from .design import UNBOUNDED_UNITS, design_from_checkpoint
 from .job import ROW, IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
@@ -56,6 +57,8 @@ class IntegrationResult:
             rounding of the integrand (2^-24 times the mean |value|), added in
             quadrature; when it dominates, more samples no longer help.
         notes: anything the user should know (scalar fallback, rounding).
+        samples_this_run: samples computed by this call (fewer than ``samples``
+            when it resumed a checkpoint); ``samples_per_second`` counts these.
         vegas: for ``sampler="vegas"``: the iterations (estimate, variance,
             samples, warm-up or not), ``chi2_dof`` and its tail probability
             ``q``, ``bins``, ``alpha``, ``warmup``; else None.
@@ -80,11 +83,13 @@ class IntegrationResult:
     rounding_floor: float = 0.0
     notes: list[str] = field(default_factory=list)
     vegas: dict[str, Any] | None = None
+    samples_this_run: int = -1
 
     @property
     def samples_per_second(self) -> float:
-        """Throughput of the sampling."""
-        return self.samples / self.seconds if self.seconds > 0 else math.nan
+        """Throughput of the sampling done by this call (a resumed checkpoint's samples are not counted)."""
+        n = self.samples if self.samples_this_run < 0 else self.samples_this_run
+        return n / self.seconds if self.seconds > 0 else math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict of every field plus ``samples_per_second``."""
@@ -301,6 +306,7 @@ def integrate(
     users = UserFunction("integrand", req.integrand, "integrand", (("x", req.dim),))
     control_fn = UserFunction("control", req.control, "control", (("x", req.dim),)) if req.control else None
     code = generate(users, req.dim, req.proposals, req.shares, req.heuristic, req.beta, control_fn, req.roulette)
+    check_user_densities(req.proposals, code.includes, opts.device)  # a wrong analytic pdf is refused, not used
 
     meta = req.meta()
     vegas_options = (vegas_iterations, vegas_bins, alpha)
@@ -348,6 +354,7 @@ def integrate(
                                            spec.samples_per_block(design))
     acc.meta["unit_limit"] = unit_limit
     halting = opts.halting(max_blocks, target if opts.target_error else None)
+    blocks_before = acc.blocks_done  # a resumed checkpoint's blocks: not this run's throughput
     report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
     if bar is not None:
         bar.close()
@@ -363,6 +370,7 @@ def integrate(
     if req.control:
         est += req.control_integral
     samples_used = spec.samples_used(design, acc.blocks_done, unit_limit)
+    samples_before = spec.samples_used(design, blocks_before, unit_limit) if blocks_before else 0
     nonfinite = int(acc.totals[1])
     stderr = math.sqrt(var) if var >= 0 else math.nan
     notes += spec.notes(design, req.dim)
@@ -385,6 +393,7 @@ def integrate(
         stopped_by={"blocks": "samples", "target": "stderr"}.get(report.stopped_by, report.stopped_by),
         build_seconds=runner.build_seconds,
         notes=notes,
+        samples_this_run=samples_used - samples_before,
     )
     if nonfinite:
         warnings.warn(
@@ -392,7 +401,23 @@ def integrate(
             NonFiniteWarning,
             stacklevel=2,
         )
+    _report_overflowed_sums(acc.totals, result)
     return result
+
+
+def _report_overflowed_sums(totals: np.ndarray, result: IntegrationResult) -> None:
+    """Say loudly when the sums of the finite samples are not finite.
+
+    The kernel sums finite samples in double (kernels/integrate/integrate.cl,
+    FLUSH), so this should not happen; if it does, a NaN must not pass for a
+    result (issue 10).
+    """
+    sums = np.asarray(totals, dtype=np.float64)[[2, 3, 8]]  # sum (v - shift), its square (pairs), sum |v| (job.py)
+    if not np.all(np.isfinite(sums)):
+        msg = (f"the sums of the {result.samples - result.nonfinite} finite samples are not finite ({sums.tolist()}): "
+               f"the estimate ({result.estimate}) is meaningless; scale the integrand down")
+        result.notes.append("WARNING: " + msg)
+        warnings.warn(msg, NonFiniteWarning, stacklevel=3)
 
 
 def _vegas_result(out: VegasOutcome, req: _Request) -> IntegrationResult:
@@ -408,6 +433,7 @@ def _vegas_result(out: VegasOutcome, req: _Request) -> IntegrationResult:
         stopped_by={"blocks": "samples", "target": "stderr"}.get(out.stopped_by, out.stopped_by),
         build_seconds=out.build_seconds, rounding_floor=out.floor,
         notes=([out.program_note] if out.program_note else []) + out.notes, vegas=out.summary,
+        samples_this_run=out.samples_this_run,
     )
     if out.nonfinite:
         warnings.warn(f"{out.nonfinite} of {out.samples} samples were NaN or infinite and were left out of the estimate",

@@ -231,6 +231,7 @@ class VegasOutcome:
     program_note: str
     notes: list[str] = field(default_factory=list)
     summary: dict[str, Any] = field(default_factory=dict)
+    samples_this_run: int = -1  # samples computed by this call (a resumed checkpoint's are not)
 
 
 def _strata_per_axis(strata: int, dim: int) -> int:
@@ -286,6 +287,7 @@ def run_vegas(
     report_notes: list[str] = []
     partial: Iteration | None = None
     sampled, sampled_seconds = 0, 0.0  # samples and seconds of this run's iterations: the rate
+    this_run = 0  # samples evaluated by this call (the reported throughput; a resumed checkpoint's are not)
     while state["iteration"] < settings.iterations:
         k = state["iteration"]
         job = replace(job, grid_table=grid.device_table(), block_offset=state["offset"])
@@ -310,6 +312,7 @@ def run_vegas(
             blocks = max(int(rate * budget * share / BLOCK_UNITS), 1)
         halting = replace(opts.halting(blocks, None), time_budget=budget)
         blocks_before = acc.blocks_done
+        samples_before = int(acc.totals[0] + acc.totals[1])
         report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
         devices = report.devices or devices
         sampled_seconds += report.seconds
@@ -318,6 +321,7 @@ def run_vegas(
         t = acc.totals
         est, var, _ = estimate_from_totals(t[:ROW], design, job.shift)
         now = Iteration(est, var, int(t[0] + t[1]), int(t[1]), rounding_floor(t), k < settings.warmup)
+        this_run += now.samples - samples_before
         if acc.blocks_done == 0:
             stopped_by = report.stopped_by
             break
@@ -342,7 +346,10 @@ def run_vegas(
     if opts.checkpoint and acc is not None:
         acc.save(opts.checkpoint)
     seconds = time.perf_counter() - t0 if t0 is not None else 0.0
-    return _outcome(done + ([partial] if partial else []), settings, grid, seconds, stopped_by, devices, runner, report_notes)
+    out = _outcome(done + ([partial] if partial else []), settings, grid, seconds, stopped_by, devices, runner,
+                   report_notes)
+    out.samples_this_run = this_run
+    return out
 
 
 def _outcome(its: list[Iteration], settings: VegasSettings, grid: VegasGrid, seconds: float, stopped_by: str,

@@ -34,6 +34,7 @@ from ..errors import ConvergenceError, InputError, NonFiniteWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
 from .codegen import generate
+from .integral_check import check_given_integrals
 from .job import STATS, WalkJob, WalkRunner, estimates
 from .nystrom import spectral_radius
 from .request import WalkRequest, validate
@@ -58,6 +59,8 @@ class FredholmResult:
         stopped_by: ``walks``, ``time``, ``stderr`` or ``interrupt``.
         build_seconds, setup_seconds: kernel build; tabulation and pilot.
         notes: anything the user should know.
+        walks_this_run: walks per point run by this call (fewer than ``walks``
+            when it resumed a checkpoint); ``walks_per_second`` counts these.
     """
 
     values: np.ndarray
@@ -78,11 +81,13 @@ class FredholmResult:
     build_seconds: float = 0.0
     setup_seconds: float = 0.0
     notes: list[str] = field(default_factory=list)
+    walks_this_run: int = -1
 
     @property
     def walks_per_second(self) -> float:
-        """Walks (all query points together) per second of walking."""
-        return self.walks * len(self.values) / self.seconds if self.seconds > 0 else math.nan
+        """Walks (all query points together) per second of the walking done by this call."""
+        n = self.walks if self.walks_this_run < 0 else self.walks_this_run
+        return n * len(self.values) / self.seconds if self.seconds > 0 else math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict of every field plus ``walks_per_second``."""
@@ -105,6 +110,7 @@ class FredholmResult:
             "build_seconds": float(self.build_seconds),
             "setup_seconds": float(self.setup_seconds),
             "walks_per_second": float(self.walks_per_second),
+            "walks_this_run": int(self.walks_this_run),
             "notes": list(self.notes),
         }
 
@@ -242,6 +248,8 @@ def solve_fredholm(
 
     code = generate(req.kernel, req.source, req.dim, req.estimator, req.row_integral, req.transition_sampler,
                     req.source_integral, req.source_sampler)
+    # a wrong A(x) or G is refused, not used (issue 10)
+    check_given_integrals(req.kernel, req.source, req.dim, req.row_integral, req.source_integral, opts.device)
     meta = req.meta()
     acc: Accumulator | None = None
     resume = opts.resume
@@ -310,6 +318,7 @@ def solve_fredholm(
     callback, bar = opts.progress_reporter(f"solve [{req.estimator}]", "walks", job.walks_per_block * job.nq)
     acc.meta["walk_limit"] = limit
     max_blocks = job.max_blocks if walks is not None else None
+    blocks_before = acc.blocks_done  # a resumed checkpoint's blocks: not this run's throughput
     report = execute(job, acc, opts.halting(max_blocks, target), opts.placement, progress=callback, runner=runner,
                      ctx=ctx)
     if bar is not None:
@@ -347,6 +356,7 @@ def solve_fredholm(
         build_seconds=runner.build_seconds,
         setup_seconds=setup_seconds,
         notes=notes,
+        walks_this_run=int(walks_run - min(blocks_before * job.walks_per_block, limit)),
     )
     if sum(nonfinite):
         warnings.warn(
