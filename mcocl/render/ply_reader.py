@@ -97,7 +97,7 @@ def parse_header(data: bytes, label: str) -> tuple[str | None, list[Element], in
                                  "binary_big_endian 1.0')")
             order, seen_format = FORMATS[words[1]], True
         elif words[0] == "element":
-            if len(words) != 3 or not words[2].isdigit():
+            if len(words) != 3 or not (words[2].isascii() and words[2].isdigit()):
                 raise InputError(f"{at}: bad element line {raw.strip()!r} (expected 'element NAME COUNT')")
             elements.append(Element(words[1], int(words[2]), []))
         elif words[0] == "property":
@@ -226,9 +226,15 @@ class _Body:
 
 def _element(body: _Body, el: Element, start: int, want: set[str]) -> tuple[dict, int]:
     """The wanted properties of ``el`` (scalars (N,), lists (lengths, flat values)) and the position after it."""
-    if el.count == 0:
+    if el.count == 0 or not el.props:
         return {}, start
-    lists = [p for p in el.props if p.count_type is not None]
+    overrun = (f"{body.label}: the '{el.name}' element's {el.count} records overrun the file "
+               "(truncated, or a count in the header or a list length is wrong)")
+    # Every record takes at least its scalars and list counts: a count beyond that is refused before any
+    # allocation of its size.
+    least = sum(body.size(p.count_type or p.type) for p in el.props)
+    if el.count > (body.length - start) // least:
+        raise InputError(overrun)
     first_end = body.record_ends(el, np.array([start]))[0]
     if first_end > body.length:
         raise InputError(f"{body.label}: the '{el.name}' element's first record overruns the file "
@@ -248,7 +254,8 @@ def _element(body: _Body, el: Element, start: int, want: set[str]) -> tuple[dict
                 v = cols[p.name]
                 out[p.name] = (np.full(el.count, v.shape[1], np.int64), v.reshape(-1)) if p.count_type else v
         return out, start + el.count * (first_end - start)
-    assert lists  # a fixed layout always reads as a block or overruns
+    if not any(p.count_type is not None for p in el.props):
+        raise InputError(overrun)  # a fixed layout reads as a block unless it overruns
     rec = body.starts(el, start)
     out, q = {}, rec.copy()
     for p in el.props:
@@ -302,7 +309,8 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
     v = got["vertex"]
     if vert.count == 0:
         return PlyMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64))
-    vertices = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(np.float64)
+    with np.errstate(invalid="ignore", over="ignore"):  # non-finite coordinates are refused by check_mesh
+        vertices = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(np.float64)
     normals = (np.stack([v["nx"], v["ny"], v["nz"]], axis=1).astype(np.float64)
                if {"nx", "ny", "nz"} <= v.keys() else None)
     uv = next((pair for pair in UV_NAMES if set(pair) <= v.keys()), None)
@@ -315,7 +323,8 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
         few = np.flatnonzero(per_face < 3)
         if len(few):
             raise InputError(f"{label}: face {int(few[0])} has {int(per_face[few[0]])} corners (at least 3 needed)")
-        faces = fan_triangles(idx.astype(np.int64), per_face)
+        with np.errstate(invalid="ignore"):  # an ASCII index beyond int64 becomes negative: refused by check_mesh
+            faces = fan_triangles(idx.astype(np.int64), per_face)
     return PlyMesh(vertices, faces, normals, uvs)
 
 
