@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import mcocl
+from mcocl.cli import main
 from mcocl.errors import InputError
 from mcocl.render import shapes as shape_lib
 from mcocl.render.compiled import compile_scene
@@ -225,6 +226,9 @@ def test_importer_maps_ply_disk_and_cylinder(tmp_path):
     world = (moved.matrix @ np.c_[moved.vertices, np.ones(len(moved.vertices))].T).T[:, :3]
     np.testing.assert_allclose(np.linalg.norm(world[:, :2] - [1, 2], axis=1), 0.5, atol=1e-12)
     np.testing.assert_allclose(np.sort(np.unique(world[:, 2].round(12))), [1, 3])
+    (tmp_path / "out").mkdir()
+    assert main(["convert", str(p), "-o", str(tmp_path / "out" / "s.json")]) == 0  # the PLY path rewritten for out/
+    assert json.loads((tmp_path / "out" / "s.json").read_text())["shapes"][0]["ply"] == "../m/a.ply"
     p.write_text(f'<scene version="3.0.0">{SENSOR}\n<shape type="ply"/></scene>')
     with pytest.raises(InputError, match=r"s\.xml:\d+: <shape type=\"ply\">: a ply shape needs <string"):
         read_mitsuba(p)

@@ -13,7 +13,8 @@ block: a NumPy structured dtype over the bytes (``np.frombuffer``), or a
 reshape of the numbers.  Otherwise the record starts are found by a
 vectorised scan: the end of a record that would start at *every* position is
 computed at once, and the chain of records from the element's start is
-followed by pointer doubling (``log2(count)`` gathers over the positions).
+followed by pointer doubling (about ``log2(count / 4096)`` gathers over the
+positions, then at most 4096 gathers of the starts found so far).
 
 Read: the ``vertex`` element's ``x``, ``y``, ``z`` (required), ``nx``, ``ny``,
 ``nz`` (kept when all three are present) and texture coordinates (``u``/``v``,
@@ -43,6 +44,7 @@ FORMATS = {"ascii": None, "binary_little_endian": "<", "binary_big_endian": ">"}
 UV_NAMES = (("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t"))
 INDEX_NAMES = ("vertex_indices", "vertex_index")
 _MAX_CORNERS = 1 << 16  # a polygon of more corners is a corrupt count, not a face
+_SCAN_STEPS = 4096  # at most this many gathers finish a scan after its doubling levels
 
 
 @dataclass
@@ -212,12 +214,18 @@ class _Body:
         nxt = np.empty(self.length - start + 2, np.int32 if self.length < 2**31 - 2 else np.int64)
         nxt[:-2] = self.record_ends(el, np.arange(start, self.length)) - start
         nxt[-2:] = self.length - start + 1  # no record starts at the body's end or beyond
-        found, jump = np.zeros(1, np.int64), nxt
-        while len(found) < el.count:
+        # Doubling: with `found` the first 2^k record starts and `jump` = next^(2^k), one gather extends
+        # both.  Each level costs a pass over all positions, so it stops once the remaining
+        # count / 2^k steps (a gather of 2^k starts each) are few; those steps finish the chain.
+        found, jump = np.zeros(1, nxt.dtype), nxt
+        while len(found) < el.count and len(found) * _SCAN_STEPS < el.count:
             found = np.concatenate([found, jump[found]])
-            if len(found) < el.count:
-                jump = jump[jump]
-        found = found[:el.count]
+            jump = jump[jump]
+        blocks, have = [found], len(found)
+        while have < el.count:
+            blocks.append(jump[blocks[-1]])
+            have += len(found)
+        found = np.concatenate(blocks)[:el.count]
         if found[-1] >= self.length - start or nxt[found[-1]] > self.length - start:
             raise InputError(f"{self.label}: the '{el.name}' element's {el.count} records overrun the file "
                              "(truncated, or a count in the header or a list length is wrong)")
