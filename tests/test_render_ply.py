@@ -135,6 +135,7 @@ GOOD = binary_ply("<")
     (GOOD.replace(b"property float x", b"property real x"), r":5: bad property line 'property real x'"),
     (GOOD.replace(b"property float x", b"property float q"), r"needs scalar properties x, y and z \(missing 'x'\)"),
     (GOOD.replace(b"list uchar int", b"list float int"), r"count type must be an integer"),
+    (GOOD.replace(b"element edge", b"element face"), r":15: a second element 'face'"),
     (GOOD.replace(b"vertex_indices", b"corners"), r"needs a list property vertex_indices"),
     (GOOD.replace(b"element vertex 6", b"element vertex 7"), r"overrun|after the last element"),
     (GOOD.replace(b"element vertex 6", b"element vertex 5"), r"face index 5 is outside 0\.\.4|overrun"),
@@ -193,6 +194,12 @@ def test_disk_and_cylinder_areas_are_the_inscribed_polygons():
                 assert np.all(np.einsum("ij,ij->i", cross[:, :2], centre[:, :2]) > 0)  # outwards
                 assert np.all(cross[:, 2] == 0) and v[:, 2].min() == 0 and v[:, 2].max() == 1
     assert len(shape_lib.disk()[1]) == shape_lib.SEGMENTS == 128
+    scene = _scene({"type": "disk", "material": "m", "emitter": {"type": "area", "radiance": 1}})
+    scene["shapes"].append({"type": "cylinder", "material": "m", "transform": [{"translate": [0, 0, -2]}]})
+    cs = compile_scene(parse_scene(scene, "t.json"))
+    assert cs.num_triangles == 128 + 256
+    r = mcocl.render(cs, spp=2, seed=1)
+    assert r.mean[1:3, 1:3].min() > 0  # the camera on +z sees the disk's emitting front side
 
 
 SENSOR = """<sensor type="perspective"><float name="fov" value="45"/>

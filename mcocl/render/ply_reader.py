@@ -101,6 +101,8 @@ def parse_header(data: bytes, label: str) -> tuple[str | None, list[Element], in
         elif words[0] == "element":
             if len(words) != 3 or not (words[2].isascii() and words[2].isdigit()):
                 raise InputError(f"{at}: bad element line {raw.strip()!r} (expected 'element NAME COUNT')")
+            if any(e.name == words[1] for e in elements):
+                raise InputError(f"{at}: a second element {words[1]!r}")
             elements.append(Element(words[1], int(words[2]), []))
         elif words[0] == "property":
             if not elements:
@@ -296,7 +298,9 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
     for k in ("x", "y", "z"):
         if k not in vprops or vprops[k].count_type is not None:
             raise InputError(f"{label}: the 'vertex' element needs scalar properties x, y and z (missing {k!r})")
-    want_v = {"x", "y", "z", "nx", "ny", "nz"} | {n for pair in UV_NAMES for n in pair}
+    # a list property named like a coordinate is skipped (x, y, z were checked to be scalars)
+    want_v = ({"x", "y", "z", "nx", "ny", "nz"} | {n for pair in UV_NAMES for n in pair}) & {
+        p.name for p in vert.props if p.count_type is None}
     index_name = None
     if "face" in names:
         fprops = {p.name: p for p in elements[names.index("face")].props}
