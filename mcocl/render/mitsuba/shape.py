@@ -13,6 +13,7 @@ gets Mitsuba's default, diffuse 0.5, or black when it emits.  Emitters:
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -57,7 +58,7 @@ def axis_frame(n: np.ndarray) -> np.ndarray:
     Basis, Revisited" (JCGT 2017), which Mitsuba 3 uses to orient its cylinder;
     the same basis keeps the tessellation's seam where Mitsuba's parametrisation has it.
     """
-    sign = 1.0 if n[2] >= 0.0 else -1.0
+    sign = math.copysign(1.0, n[2])  # as Mitsuba's: -0.0 counts as negative
     a = -1.0 / (sign + n[2])
     b = n[0] * n[1] * a
     s = [1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]]
