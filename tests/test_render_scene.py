@@ -89,7 +89,7 @@ def test_base_scene_is_valid(tmp_path):
         ({"materials__w__twosided": 1}, "materials.w.twosided", "expected true or false"),
         ({"materials__m__alpha": 0}, "materials.m.alpha", "must be >="),
         ({"materials__w__ior": 1.5}, "materials.w.ior", "unknown key"),
-        ({"shapes__0__type": "disk"}, "shapes[0].type", "unknown value 'disk'"),
+        ({"shapes__0__type": "torus"}, "shapes[0].type", "unknown value 'torus'"),
         ({"shapes__0__material": ...}, "shapes[0].material", "missing required key"),
         ({"shapes__1__transform": [{"scale": [1, 0, 1]}]}, "shapes[1].transform[0].scale", "zero"),
         ({"shapes__1__transform": [{"rotate": {"axis": [0, 1, 0]}}]}, "shapes[1].transform[0].rotate.angle",

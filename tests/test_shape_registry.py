@@ -27,7 +27,7 @@ def test_scenes_readme_shapes_table_is_the_generated_one():
 
 
 def test_scene_file_types_are_the_registry():
-    assert scene_mod.SHAPE_KINDS == ("rectangle", "cube", "sphere", "mesh") == tuple(reg.SHAPES)
+    assert scene_mod.SHAPE_KINDS == ("rectangle", "cube", "disk", "cylinder", "sphere", "mesh") == tuple(reg.SHAPES)
     with pytest.raises(ValueError, match="already registered"):
         reg.register_shape(type("Again", (reg.ShapeSpec,), {"name": "cube"}))
 

@@ -101,11 +101,12 @@ def run(args: argparse.Namespace) -> int:
         out_dir = Path(args.out).resolve().parent
         outside = set()
         for shape in data.get("shapes", []):
-            if "obj" in shape:
-                mesh = src.resolve().parent / shape["obj"]
-                shape["obj"] = Path(os.path.relpath(mesh, out_dir)).as_posix()
-                if shape["obj"].startswith("../"):
-                    outside.add(str(mesh.parent))
+            for kind in ("obj", "ply"):
+                if kind in shape:
+                    mesh = src.resolve().parent / shape[kind]
+                    shape[kind] = Path(os.path.relpath(mesh, out_dir)).as_posix()
+                    if shape[kind].startswith("../"):
+                        outside.add(str(mesh.parent))
         Path(args.out).write_text(format_json(data) + "\n")
         for folder in sorted(outside):
             # a scene file reads meshes only from its own folder unless told otherwise (scene_file.load_scene)

@@ -167,7 +167,7 @@ def _parse_vertices(b, start, tag, end, lines, label) -> np.ndarray:
     short = np.flatnonzero(per_line < 3)
     if len(short):
         raise InputError(f"{label}:{lines[short[0]]}: a vertex needs three numbers")
-    nums = _parse_floats(blob)
+    nums = parse_numbers(blob)
     if nums is None or len(nums) != len(ts):
         bad = _first_bad_line(blob, blob_nl)
         raise InputError(f"{label}:{lines[bad]}: a vertex needs three numbers")
@@ -177,8 +177,8 @@ def _parse_vertices(b, start, tag, end, lines, label) -> np.ndarray:
     return nums[first_num[:, None] + np.arange(3)]
 
 
-def _parse_floats(blob: np.ndarray) -> np.ndarray | None:
-    """All whitespace-separated numbers of ``blob`` as float64, or None if some token is not a number."""
+def parse_numbers(blob: np.ndarray) -> np.ndarray | None:
+    """All whitespace-separated numbers of the bytes ``blob`` as float64, or None if some token is not a number."""
     with warnings.catch_warnings():
         warnings.simplefilter("error", DeprecationWarning)
         try:
@@ -192,7 +192,7 @@ def _first_bad_line(blob: np.ndarray, blob_nl: np.ndarray) -> int:
     lo, hi = 0, len(blob_nl) - 1  # bisection: the lines before `lo` parse, some line up to `hi` does not
     while lo < hi:
         mid = (lo + hi) // 2
-        if _parse_floats(blob[:blob_nl[mid] + 1]) is None:
+        if parse_numbers(blob[:blob_nl[mid] + 1]) is None:
             hi = mid
         else:
             lo = mid + 1
@@ -219,9 +219,16 @@ def _parse_faces(b, start, tag, end, lines, verts_before, label) -> np.ndarray:
     if len(zero):
         raise InputError(f"{label}:{lines[np.searchsorted(blob_nl, corner[zero[0]])]}: OBJ indices start at 1, got 0")
     idx = np.where(idx > 0, idx - 1, np.repeat(verts_before, per_face) + idx)
+    return fan_triangles(idx, per_face)
+
+
+def fan_triangles(idx: np.ndarray, per_face: np.ndarray) -> np.ndarray:
+    """Triangles (T, 3) of polygons given as their corners ``idx`` back to back, ``per_face[i]`` (>= 3) each.
+
+    Face i becomes the fan (c0, ck, ck+1), k = 1 .. m-2, of its m corners.
+    """
     if np.all(per_face == 3):
         return idx.reshape(-1, 3)
-    # Fans: triangle (c0, ck, ck+1) for k = 1 .. m-2 of a face with m corners.
     first_corner = np.cumsum(per_face) - per_face
     ntri = per_face - 2
     face = np.repeat(np.arange(len(per_face)), ntri)
@@ -288,4 +295,4 @@ def _parse_indices(blob: np.ndarray, corner: np.ndarray) -> tuple[np.ndarray, np
     return np.where(neg, -val, val), ok
 
 
-__all__ = ["CHUNK_BYTES", "parse_obj"]
+__all__ = ["CHUNK_BYTES", "fan_triangles", "parse_numbers", "parse_obj"]

@@ -98,8 +98,8 @@ class Material:
 class Shape:
     """One shape in local coordinates with its world transform.
 
-    ``vertices``/``faces`` hold the local triangle mesh of a rectangle, cube
-    or mesh; a sphere has ``center``/``radius`` instead.  ``radiance`` is the
+    ``vertices``/``faces`` hold the local triangle mesh of a rectangle, cube,
+    disk, cylinder or mesh; a sphere has ``center``/``radius`` instead.  ``radiance`` is the
     RGB radiance of its area emitter, ``None`` when it does not emit.
     """
 
@@ -114,6 +114,9 @@ class Shape:
     center: np.ndarray | None = None
     radius: float = 0.0
     name: str = ""
+    # Per-vertex data of a PLY mesh, kept for later shading normals and textures; nothing reads them yet.
+    normals: np.ndarray | None = None
+    uvs: np.ndarray | None = None
 
 
 @dataclass
@@ -229,12 +232,12 @@ class _Checker:
         a = np.array(value, dtype=np.int64 if integer else np.float64).reshape(-1, width)
         return a
 
-    def mesh_file(self, rel: str, key: str, roots: list[Path]) -> Path:
-        """The OBJ file ``rel`` names, resolved in the scene's folder; it must lie inside one of ``roots``.
+    def mesh_file(self, rel: str, key: str, roots: list[Path], text: bool = True) -> Path:
+        """The mesh file ``rel`` names, resolved in the scene's folder; it must lie inside one of ``roots``.
 
         A scene file is data: it must not read ``/etc/passwd`` or climb out with
-        ``..`` (links are resolved first, so a link cannot leave either).  The
-        file must be UTF-8 text (the parser reads it next).
+        ``..`` (links are resolved first, so a link cannot leave either).  A
+        ``text`` file (OBJ) must be UTF-8 (the parser reads it next); a PLY file may be binary.
         """
         if "\0" in rel or not rel.strip():
             self.fail(key, f"not a file name: {rel!r}")
@@ -243,7 +246,7 @@ class _Checker:
         if not any(path.is_relative_to(r) for r in allowed):
             self.fail(key, f"{rel!r} lies outside the scene's folder {allowed[0]}; mesh files must be inside it"
                    + (f" or inside {allowed[1]}" if len(allowed) > 1 else " (the mesh_folder option allows another)"))
-        if path.is_file():
+        if text and path.is_file():
             try:
                 decode_utf8(path.read_bytes(), f"{self.file}: {key}: {path}")
             except OSError:

@@ -92,6 +92,32 @@ class Cube(ShapeSpec):
 
 
 @register_shape
+class Disk(ShapeSpec):
+    """Mitsuba 3's disk, tessellated."""
+
+    name = "disk"
+    geometry = (f"the unit disk in the plane z = 0, front side +z, as a fan of {shape_lib.SEGMENTS} triangles "
+                "(area π·(1 − 4.0e-4))")
+
+    def build(self, c: Any, o: dict, key: str, shape: Any, roots: list[Path]) -> None:
+        """A triangle fan (mcocl/render/shapes.py)."""
+        shape.vertices, shape.faces = shape_lib.disk()
+
+
+@register_shape
+class Cylinder(ShapeSpec):
+    """Mitsuba 3's cylinder, tessellated."""
+
+    name = "cylinder"
+    geometry = (f"radius 1 about the z axis from z = 0 to z = 1, open ends, front side outwards, as {shape_lib.SEGMENTS} "
+                "quads of two triangles (area 2π·(1 − 1.0e-4))")
+
+    def build(self, c: Any, o: dict, key: str, shape: Any, roots: list[Path]) -> None:
+        """A ring of quads (mcocl/render/shapes.py)."""
+        shape.vertices, shape.faces = shape_lib.cylinder()
+
+
+@register_shape
 class Sphere(ShapeSpec):
     """An analytic sphere; only similarity transforms keep it one."""
 
@@ -111,42 +137,55 @@ class Sphere(ShapeSpec):
 
 @register_shape
 class Mesh(ShapeSpec):
-    """Triangles given inline or by a Wavefront OBJ file."""
+    """Triangles given inline, by a Wavefront OBJ file or by a PLY file."""
 
     name = "mesh"
-    keys = ("vertices", "faces", "obj")
+    keys = ("vertices", "faces", "obj", "ply")
     geometry = "triangles"
-    keys_doc = ("either `vertices` ([[x, y, z], ...]) and `faces` ([[i, j, k], ...], 0-based) or `obj` "
-                "(path of a Wavefront OBJ file, relative to the scene file; it must lie in the scene file's folder or below it "
-                "— `mcocl render --mesh-folder DIR` / `render(mesh_folder=DIR)` allows one more folder — "
-                "and hold at least one face)")
+    keys_doc = ("either `vertices` ([[x, y, z], ...]) and `faces` ([[i, j, k], ...], 0-based), or `obj` "
+                "(path of a Wavefront OBJ file), or `ply` (path of a PLY file, ASCII or binary; polygons become "
+                "triangle fans); a file's path is relative to the scene file, it must lie in the scene file's folder "
+                "or below it — `mcocl render --mesh-folder DIR` / `render(mesh_folder=DIR)` allows one more folder — "
+                "and the file must hold at least one face")
 
     def build(self, c: Any, o: dict, key: str, shape: Any, roots: list[Path]) -> None:
-        """Inline vertices and faces (indices checked), or an OBJ file inside ``roots``."""
-        has_inline = "vertices" in o or "faces" in o
-        if has_inline and "obj" in o:
-            c.fail(f"{key}.obj", "give either vertices/faces or obj, not both")
-        if "obj" in o:
-            rel = c.string(o["obj"], f"{key}.obj")
-            path = c.mesh_file(rel, f"{key}.obj", roots)
-            try:
-                shape.vertices, shape.faces = shape_lib.read_obj(path, f"{c.file}: {key}.obj")
-            except (OverflowError, MemoryError, RecursionError) as e:  # numbers no mesh can hold
-                c.fail(f"{key}.obj", f"{path}: a number out of range ({type(e).__name__}: {e})")
-            if not len(shape.faces):
-                c.fail(f"{key}.obj", f"{path} holds no faces (no 'f' lines): is it an OBJ mesh?")
-            if not np.all(np.abs(shape.vertices) <= GEOMETRY_LIMIT):
-                c.fail(f"{key}.obj", f"{path}: a vertex coordinate beyond {GEOMETRY_LIMIT:g}")
-            return
+        """Inline vertices and faces (indices checked), or an OBJ or PLY file inside ``roots``."""
+        given = [k for k in ("vertices", "obj", "ply") if k in o or (k == "vertices" and "faces" in o)]
+        if len(given) > 1:
+            c.fail(f"{key}.{given[1]}", "give one of vertices/faces, obj or ply")
+        for kind in ("obj", "ply"):
+            if kind in o:
+                self._file(c, o, key, shape, roots, kind)
+                return
         for k in ("vertices", "faces"):
             if k not in o:
-                c.fail(f"{key}.{k}", "missing required key (or give obj)")
+                c.fail(f"{key}.{k}", "missing required key (or give obj or ply)")
         shape.vertices = c.array(o["vertices"], f"{key}.vertices", 3, integer=False)
         shape.faces = c.array(o["faces"], f"{key}.faces", 3, integer=True)
         faces, nv = shape.faces, len(shape.vertices)
         if faces.size and (faces.min() < 0 or faces.max() >= nv):
             bad = int(np.flatnonzero((faces < 0).any(1) | (faces >= nv).any(1))[0])
             c.fail(f"{key}.faces[{bad}]", f"vertex index outside 0..{nv - 1}")
+
+    @staticmethod
+    def _file(c: Any, o: dict, key: str, shape: Any, roots: list[Path], kind: str) -> None:
+        """The mesh of the OBJ or PLY file ``o[kind]`` (its per-vertex normals and UVs too, for PLY)."""
+        rel = c.string(o[kind], f"{key}.{kind}")
+        path = c.mesh_file(rel, f"{key}.{kind}", roots, text=kind == "obj")
+        where = f"{c.file}: {key}.{kind}"
+        try:
+            if kind == "obj":
+                shape.vertices, shape.faces = shape_lib.read_obj(path, where)
+            else:
+                mesh = shape_lib.read_ply(path, where)
+                shape.vertices, shape.faces, shape.normals, shape.uvs = mesh.vertices, mesh.faces, mesh.normals, mesh.uvs
+        except (OverflowError, MemoryError, RecursionError) as e:  # numbers no mesh can hold
+            c.fail(f"{key}.{kind}", f"{path}: a number out of range ({type(e).__name__}: {e})")
+        if not len(shape.faces):
+            hint = "no 'f' lines): is it an OBJ mesh?" if kind == "obj" else "no 'face' element or none in it)"
+            c.fail(f"{key}.{kind}", f"{path} holds no faces ({hint}")
+        if not np.all(np.abs(shape.vertices) <= GEOMETRY_LIMIT):
+            c.fail(f"{key}.{kind}", f"{path}: a vertex coordinate beyond {GEOMETRY_LIMIT:g}")
 
 
 SHAPES_TABLE_BEGIN = ("<!-- BEGIN shapes table: generated from mcocl/render/shape_registry.py by "

@@ -1,12 +1,14 @@
 """Mitsuba ``<shape>`` and ``<emitter>`` plugins → mcocl shapes, area emitters and the environment.
 
-Shapes: ``rectangle``, ``cube``, ``sphere`` (``center``, ``radius``, a
-similarity ``to_world``), ``obj`` (``filename`` relative to the file it is
-written in, confined to the scene's folder); ``to_world`` and
-``flip_normals`` on all of them, ``face_normals`` on ``obj`` (mcocl shades
-every triangle with its face normal).  A shape without a BSDF gets Mitsuba's
-default, diffuse 0.5, or black when it emits.  Emitters: ``area`` inside a
-shape and a top-level ``constant``, each with ``radiance`` (default 1).
+Shapes: ``rectangle``, ``cube``, ``disk``, ``cylinder`` (the last two
+tessellated: mcocl/render/shapes.py), ``sphere`` (``center``, ``radius``, a
+similarity ``to_world``), ``obj`` and ``ply`` (``filename`` relative to the
+file it is written in, confined to the scene's folder); ``to_world`` and
+``flip_normals`` on all of them, ``face_normals`` on ``obj`` and ``ply``
+(mcocl shades every triangle with its face normal).  A shape without a BSDF
+gets Mitsuba's default, diffuse 0.5, or black when it emits.  Emitters:
+``area`` inside a shape and a top-level ``constant``, each with ``radiance``
+(default 1).
 """
 
 from __future__ import annotations
@@ -17,31 +19,21 @@ from typing import Any
 
 import numpy as np
 
+from .. import shapes as shape_lib
 from .. import transform as tf
 from .bsdf import rgb_json
 from .properties import split_children
 from .report import Reporter, nearest
 from .xml_source import Node
 
-SUPPORTED = ("rectangle", "cube", "sphere", "obj")
+SUPPORTED = ("rectangle", "cube", "disk", "cylinder", "sphere", "obj", "ply")
+MESH_FILES = ("obj", "ply")  # plugins that become a "mesh" shape reading the file of the same kind
 # Unsupported shape plugin → the nearest supported alternative.
 ALTERNATIVES = {
-    "ply": "obj (convert the mesh to Wavefront OBJ)",
-    "serialized": "obj (convert the mesh to Wavefront OBJ)",
-    "disk": "rectangle, or an obj of the disk",
-    "cylinder": "obj (a tessellated cylinder)",
+    "serialized": "ply or obj (convert the mesh)",
     "shapegroup": "the shapes themselves, repeated",
     "instance": "the shapes themselves, repeated",
 }
-DISK_SEGMENTS = 128
-
-
-def disk_mesh() -> dict:
-    """The unit disk in z = 0, front side +z, as a triangle fan of :data:`DISK_SEGMENTS` segments (lenient substitute)."""
-    ang = 2.0 * math.pi * np.arange(DISK_SEGMENTS) / DISK_SEGMENTS
-    verts = [[0.0, 0.0, 0.0]] + [[math.cos(a), math.sin(a), 0.0] for a in ang]
-    faces = [[0, 1 + i, 1 + (i + 1) % DISK_SEGMENTS] for i in range(DISK_SEGMENTS)]
-    return {"vertices": verts, "faces": faces}
 
 
 def translate_radiance(node: Node, rep: Reporter, comments: list[str]) -> list[float] | float:
@@ -57,6 +49,42 @@ def translate_radiance(node: Node, rep: Reporter, comments: list[str]) -> list[f
         props.node("radiance").fail("radiance must be >= 0")
     rep.leftover(node, props.unread(), ("radiance",), comments)
     return rgb_json(rgb)
+
+
+def axis_frame(n: np.ndarray) -> np.ndarray:
+    """A rotation (3, 3) taking +z to the unit vector ``n``: columns (s, t, n) of Mitsuba's ``coordinate_system``.
+
+    The branchless orthonormal basis of Duff et al., "Building an Orthonormal
+    Basis, Revisited" (JCGT 2017), which Mitsuba 3 uses to orient its cylinder;
+    the same basis keeps the tessellation's seam where Mitsuba's parametrisation has it.
+    """
+    sign = math.copysign(1.0, n[2])  # as Mitsuba's: -0.0 counts as negative
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    s = [1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]]
+    t = [b, sign + n[1] * n[1] * a, -n[1]]
+    return np.array([s, t, list(n)]).T
+
+
+def cylinder_ops(props) -> list[dict]:
+    """Transform operations for a cylinder's ``p0``, ``p1`` and ``radius`` (before its ``to_world``).
+
+    Mitsuba 3 places the unit cylinder by scale(radius, radius, |p1 − p0|),
+    then the frame of the axis, then translate(p0); none given: no operations.
+    """
+    if not any(k in props for k in ("p0", "p1", "radius")):
+        return []
+    p0 = np.asarray(props.get("p0", ("point",), [0.0, 0.0, 0.0]), float)
+    p1 = np.asarray(props.get("p1", ("point",), [0.0, 0.0, 1.0]), float)
+    r = props.get("radius", ("float",), 1.0)
+    if r <= 0:
+        props.node("radius").fail(f"radius must be > 0, got {r:g}")
+    length = float(np.linalg.norm(p1 - p0))
+    if length == 0.0:
+        props.node("p1" if "p1" in props else "p0").fail("p0 and p1 coincide: the cylinder has no axis")
+    m = np.eye(4)
+    m[:3, :3] = axis_frame((p1 - p0) / length)
+    return [{"scale": [r, r, length]}, {"matrix": m.tolist()}, {"translate": p0.tolist()}]
 
 
 class ShapeTranslator:
@@ -78,15 +106,11 @@ class ShapeTranslator:
         props, objects = split_children(node)
         if kind not in SUPPORTED:
             alt = ALTERNATIVES.get(kind, nearest(kind, SUPPORTED))
-            if kind == "disk":
-                self.rep.unsupported(node, "the shape 'disk'", alt,
-                                     f"a {DISK_SEGMENTS}-segment triangle fan (a mesh)", comments)
-                out.update({"type": "mesh", **disk_mesh()})
-            else:
-                self.rep.unsupported(node, f"the shape {kind!r}", alt, "nothing (the shape is left out)")
-                return None
-        else:
-            out["type"] = "mesh" if kind == "obj" else kind
+            self.rep.unsupported(node, f"the shape {kind!r}", alt, "nothing (the shape is left out)")
+            return None
+        out["type"] = "mesh" if kind in MESH_FILES else kind
+        if kind in ("disk", "cylinder"):
+            comments.append(f"{kind}: tessellated with {shape_lib.SEGMENTS} segments (scenes/README.md)")
         bsdf, emitter = None, None
         for o in objects:
             target = self.resolve(o) if o.tag == "ref" else o
@@ -108,9 +132,13 @@ class ShapeTranslator:
         t = props.get("to_world", ("transform",), None)
         if t is not None:
             out["transform"] = t.ops
+        if kind == "cylinder":
+            ops = cylinder_ops(props)
+            if ops:
+                out["transform"] = ops + out.get("transform", [])
         if props.get("flip_normals", ("boolean",), False):
             out["flip_normals"] = True
-        supported = ["to_world", "flip_normals"]
+        supported = ["to_world", "flip_normals"] + (["p0", "p1", "radius"] if kind == "cylinder" else [])
         if kind == "sphere":
             supported += ["center", "radius"]
             c = props.get("center", ("point",), None)
@@ -123,9 +151,9 @@ class ShapeTranslator:
                 out["radius"] = r
             if t is not None and tf.uniform_scale_of(t.matrix) is None:
                 props.node("to_world").fail("a sphere's to_world may only translate, rotate and scale uniformly")
-        elif kind == "obj":
+        elif kind in MESH_FILES:
             supported += ["filename", "face_normals", "flip_tex_coords"]
-            out["obj"] = self._mesh_file(node, props)
+            out[kind] = self._mesh_file(node, props, kind)
             if props.get("face_normals", ("boolean",), False):
                 comments.append("face_normals: mcocl shades every triangle with its face normal")
             else:
@@ -137,9 +165,9 @@ class ShapeTranslator:
         self.rep.leftover(node, props.unread(), tuple(supported), comments)
         return out
 
-    def _mesh_file(self, node: Node, props) -> str:
+    def _mesh_file(self, node: Node, props, kind: str) -> str:
         if "filename" not in props:
-            node.fail('an obj shape needs <string name="filename" value="..."/>')
+            node.fail(f'a{"n" if kind == "obj" else ""} {kind} shape needs <string name="filename" value="..."/>')
         rel = props.get("filename", ("string",))
         at = props.node("filename")
         path = (node.file.parent / rel).resolve()
@@ -150,4 +178,4 @@ class ShapeTranslator:
         return path.relative_to(self.folder).as_posix()
 
 
-__all__ = ["ShapeTranslator", "disk_mesh", "translate_radiance"]
+__all__ = ["ShapeTranslator", "translate_radiance"]

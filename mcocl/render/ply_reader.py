@@ -1,0 +1,343 @@
+"""Stanford PLY parsing with whole-buffer NumPy operations (no Python loop over vertices or faces).
+
+The header (``ply``, ``format ascii|binary_little_endian|binary_big_endian
+1.0``, ``element NAME COUNT``, ``property TYPE NAME``, ``property list
+COUNT_TYPE ITEM_TYPE NAME``, ``comment``/``obj_info``, ``end_header``) is read
+line by line; the body is addressed by *positions*: bytes in a binary file,
+numbers in an ASCII one (whose body is parsed once, by ``np.fromstring``, into
+float64 — exact for every integer a PLY index type holds).
+
+An element whose records all have the same layout (every vertex element, and a
+face element whose lists all have the length of the first) is read as one
+block: a NumPy structured dtype over the bytes (``np.frombuffer``), or a
+reshape of the numbers.  Otherwise the record starts are found by a
+vectorised scan: the end of a record that would start at *every* position is
+computed at once, and the chain of records from the element's start is
+followed by pointer doubling (about ``log2(count / 4096)`` gathers over the
+positions, then at most 4096 gathers of the starts found so far).
+
+Read: the ``vertex`` element's ``x``, ``y``, ``z`` (required), ``nx``, ``ny``,
+``nz`` (kept when all three are present) and texture coordinates (``u``/``v``,
+``s``/``t``, ``texture_u``/``texture_v`` or ``texture_s``/``texture_t``), the
+``face`` element's ``vertex_indices`` (or ``vertex_index``) lists; polygons
+become fans ``(0, k, k + 1)``.  Every other element and property is skipped.
+Malformed files raise :class:`~mcocl.errors.InputError` naming the file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from .obj_reader import fan_triangles, parse_numbers
+
+# PLY's scalar types (both spellings of the 1.0 format) → NumPy type codes without byte order.
+TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+FORMATS = {"ascii": None, "binary_little_endian": "<", "binary_big_endian": ">"}
+UV_NAMES = (("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t"))
+INDEX_NAMES = ("vertex_indices", "vertex_index")
+_MAX_CORNERS = 1 << 16  # a polygon of more corners is a corrupt count, not a face
+_SCAN_STEPS = 4096  # at most this many gathers finish a scan after its doubling levels
+
+
+@dataclass
+class Prop:
+    """One property of an element: a scalar (``count_type`` None) or a list."""
+
+    name: str
+    type: str  # NumPy code without byte order
+    count_type: str | None = None
+
+
+@dataclass
+class Element:
+    """One ``element`` of the header with its properties."""
+
+    name: str
+    count: int
+    props: list[Prop]
+
+
+@dataclass
+class PlyMesh:
+    """What a PLY file gives a shape: vertices (V, 3), triangles (T, 3) and optional per-vertex data."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray | None = None
+    uvs: np.ndarray | None = None
+
+
+def parse_header(data: bytes, label: str) -> tuple[str | None, list[Element], int]:
+    """Byte order (None for ASCII), elements and the body's first byte of a PLY file."""
+    if not (data.startswith(b"ply\n") or data.startswith(b"ply\r\n")):
+        raise InputError(f"{label}: not a PLY file (it must begin with the line 'ply')")
+    end = data.find(b"end_header")
+    while end >= 0 and data[end - 1:end] != b"\n":
+        end = data.find(b"end_header", end + 1)
+    if end < 0:
+        raise InputError(f"{label}: the PLY header has no 'end_header' line")
+    body = data.find(b"\n", end)
+    if body < 0 or data[end + 10:body].strip(b"\r \t"):
+        raise InputError(f"{label}: the PLY header's 'end_header' line does not end")
+    order, elements, seen_format = None, [], False
+    for n, raw in enumerate(data[:end].decode("latin-1").splitlines()[1:], 2):
+        words = raw.split()
+        if not words or words[0] in ("comment", "obj_info"):
+            continue
+        at = f"{label}:{n}"
+        if words[0] == "format":
+            if len(words) != 3 or words[1] not in FORMATS or words[2] != "1.0":
+                raise InputError(f"{at}: bad format line {raw.strip()!r} (expected 'format ascii|binary_little_endian|"
+                                 "binary_big_endian 1.0')")
+            order, seen_format = FORMATS[words[1]], True
+        elif words[0] == "element":
+            if len(words) != 3 or not (words[2].isascii() and words[2].isdigit()):
+                raise InputError(f"{at}: bad element line {raw.strip()!r} (expected 'element NAME COUNT')")
+            if any(e.name == words[1] for e in elements):
+                raise InputError(f"{at}: a second element {words[1]!r}")
+            elements.append(Element(words[1], int(words[2]), []))
+        elif words[0] == "property":
+            if not elements:
+                raise InputError(f"{at}: a property before any element")
+            elements[-1].props.append(_prop(words, raw, at))
+        else:
+            raise InputError(f"{at}: unknown header line {raw.strip()!r}")
+    if not seen_format:
+        raise InputError(f"{label}: the PLY header has no 'format' line")
+    return order, elements, body + 1
+
+
+def _prop(words: list[str], raw: str, at: str) -> Prop:
+    if len(words) == 3 and words[1] in TYPES:
+        return Prop(words[2], TYPES[words[1]])
+    if len(words) == 5 and words[1] == "list" and words[2] in TYPES and words[3] in TYPES:
+        if TYPES[words[2]][0] == "f":
+            raise InputError(f"{at}: a list's count type must be an integer type, got {words[2]!r}")
+        return Prop(words[4], TYPES[words[3]], TYPES[words[2]])
+    raise InputError(f"{at}: bad property line {raw.strip()!r} (expected 'property TYPE NAME' or "
+                     "'property list COUNT_TYPE ITEM_TYPE NAME' with TYPE one of " + ", ".join(TYPES) + ")")
+
+
+class _Body:
+    """The body as positions: bytes of a binary file (``order`` '<' or '>') or numbers of an ASCII one."""
+
+    def __init__(self, data: bytes, start: int, order: str | None, label: str) -> None:
+        self.order, self.label = order, label
+        if order is None:
+            nums = parse_numbers(np.frombuffer(data, np.uint8, offset=start))
+            if nums is None:
+                raise InputError(f"{label}: the ASCII PLY body holds something that is not a number")
+            self.values = nums
+        else:
+            self.values = np.frombuffer(data, np.uint8, offset=start)
+        self.length = len(self.values)
+
+    def size(self, code: str) -> int:
+        """Positions one value of type ``code`` takes."""
+        return 1 if self.order is None else int(code[1])
+
+    def read(self, pos: np.ndarray, code: str) -> np.ndarray:
+        """Values of type ``code`` at positions ``pos`` (clipped into the body; callers check the range)."""
+        if self.order is None:
+            return self.values[np.clip(pos, 0, self.length - 1)]
+        s = int(code[1])
+        if s == 1:  # (u)char: the bytes themselves
+            return self.values[np.clip(pos, 0, self.length - 1)].view(code)
+        idx = np.clip(pos, 0, self.length - s)[:, None] + np.arange(s)
+        return np.ascontiguousarray(self.values[idx]).view(self.order + code).ravel()
+
+    def counts(self, pos: np.ndarray, code: str) -> np.ndarray:
+        """List lengths at ``pos`` as int64; -1 where the value is no valid length."""
+        c = self.read(pos, code)
+        if self.order is None:
+            ok = (c == np.floor(c)) & (c >= 0) & (c <= _MAX_CORNERS)
+            return np.where(ok, c, -1).astype(np.int64)
+        c = c.astype(np.int64)
+        return np.where((c >= 0) & (c <= _MAX_CORNERS), c, -1)
+
+    def record_ends(self, el: Element, pos: np.ndarray) -> np.ndarray:
+        """End positions of records of ``el`` starting at ``pos``; ``length + 1`` where none fits."""
+        q = pos.astype(np.int64)
+        bad = np.zeros(len(q), bool)
+        for p in el.props:
+            if p.count_type is None:
+                q = q + self.size(p.type)
+            else:
+                n = self.counts(q, p.count_type)
+                bad |= (n < 0) | (q + self.size(p.count_type) > self.length)
+                q = q + self.size(p.count_type) + np.maximum(n, 0) * self.size(p.type)
+        bad |= q > self.length
+        q[bad] = self.length + 1
+        return q
+
+    def block(self, el: Element, start: int, lengths: list[int]) -> dict[str, np.ndarray] | None:
+        """Every record of ``el`` with list lengths ``lengths`` read as one block; None if they differ or it overruns."""
+        fields, k = [], 0
+        for i, p in enumerate(el.props):
+            if p.count_type is not None:
+                fields.append((f"c{i}", p.count_type, 1))
+                fields.append((f"p{i}", p.type, lengths[k]))
+                k += 1
+            else:
+                fields.append((f"p{i}", p.type, 1))
+        width = sum(self.size(t) * m for _, t, m in fields)
+        if start + el.count * width > self.length:
+            return None
+        if self.order is None:
+            table = self.values[start:start + el.count * width].reshape(el.count, width)
+            cols, at = {}, 0
+            for name, _, m in fields:
+                cols[name] = table[:, at:at + m]
+                at += m
+        else:
+            dt = np.dtype([(name, self.order + t, (m,)) for name, t, m in fields])
+            rec = np.frombuffer(self.values, dt, count=el.count, offset=start)
+            cols = {name: rec[name] for name, _, _ in fields}
+        k = 0
+        for i, p in enumerate(el.props):
+            if p.count_type is not None:
+                if not np.all(cols[f"c{i}"].reshape(-1) == lengths[k]):
+                    return None
+                k += 1
+        return {p.name: cols[f"p{i}"].reshape(el.count, -1) if p.count_type is not None else cols[f"p{i}"].reshape(-1)
+                for i, p in enumerate(el.props)}
+
+    def starts(self, el: Element, start: int) -> np.ndarray:
+        """Start positions of the ``el.count`` records from ``start``: the vectorised scan (pointer doubling)."""
+        # int32 where it fits: the doubling's gathers are bound by memory traffic
+        nxt = np.empty(self.length - start + 2, np.int32 if self.length < 2**31 - 2 else np.int64)
+        nxt[:-2] = self.record_ends(el, np.arange(start, self.length)) - start
+        nxt[-2:] = self.length - start + 1  # no record starts at the body's end or beyond
+        # Doubling: with `found` the first 2^k record starts and `jump` = next^(2^k), one gather extends
+        # both.  Each level costs a pass over all positions, so it stops once the remaining
+        # count / 2^k steps (a gather of 2^k starts each) are few; those steps finish the chain.
+        found, jump = np.zeros(1, nxt.dtype), nxt
+        while len(found) < el.count and len(found) * _SCAN_STEPS < el.count:
+            found = np.concatenate([found, jump[found]])
+            jump = jump[jump]
+        blocks, have = [found], len(found)
+        while have < el.count:
+            blocks.append(jump[blocks[-1]])
+            have += len(found)
+        found = np.concatenate(blocks)[:el.count]
+        if found[-1] >= self.length - start or nxt[found[-1]] > self.length - start:
+            raise InputError(f"{self.label}: the '{el.name}' element's {el.count} records overrun the file "
+                             "(truncated, or a count in the header or a list length is wrong)")
+        return found.astype(np.int64) + start
+
+
+def _element(body: _Body, el: Element, start: int, want: set[str]) -> tuple[dict, int]:
+    """The wanted properties of ``el`` (scalars (N,), lists (lengths, flat values)) and the position after it."""
+    if el.count == 0 or not el.props:
+        return {}, start
+    overrun = (f"{body.label}: the '{el.name}' element's {el.count} records overrun the file "
+               "(truncated, or a count in the header or a list length is wrong)")
+    # Every record takes at least its scalars and list counts: a count beyond that is refused before any
+    # allocation of its size.
+    least = sum(body.size(p.count_type or p.type) for p in el.props)
+    if el.count > (body.length - start) // least:
+        raise InputError(overrun)
+    first_end = body.record_ends(el, np.array([start]))[0]
+    if first_end > body.length:
+        raise InputError(f"{body.label}: the '{el.name}' element's first record overruns the file "
+                         "(truncated, or a count in the header is wrong)")
+    lengths, q = [], start
+    for p in el.props:  # list lengths of the first record
+        if p.count_type is not None:
+            lengths.append(int(body.counts(np.array([q]), p.count_type)[0]))
+            q += body.size(p.count_type) + lengths[-1] * body.size(p.type)
+        else:
+            q += body.size(p.type)
+    cols = body.block(el, start, lengths)
+    if cols is not None:
+        out = {}
+        for p in el.props:
+            if p.name in want:
+                v = cols[p.name]
+                out[p.name] = (np.full(el.count, v.shape[1], np.int64), v.reshape(-1)) if p.count_type else v
+        return out, start + el.count * (first_end - start)
+    if not any(p.count_type is not None for p in el.props):
+        raise InputError(overrun)  # a fixed layout reads as a block unless it overruns
+    rec = body.starts(el, start)
+    out, q = {}, rec.copy()
+    for p in el.props:
+        if p.count_type is None:
+            if p.name in want:
+                out[p.name] = body.read(q, p.type)
+            q = q + body.size(p.type)
+            continue
+        n = body.counts(q, p.count_type)
+        first = q + body.size(p.count_type)
+        if p.name in want:
+            item = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+            out[p.name] = (n, body.read(np.repeat(first, n) + item * body.size(p.type), p.type))
+        q = first + n * body.size(p.type)
+    return out, int(q[-1])
+
+
+def parse_ply(data: bytes, label: str) -> PlyMesh:
+    """The mesh of a PLY file's bytes: vertices float64, fan triangles int64 (0-based, not range-checked).
+
+    Raises:
+        InputError: a malformed header or body; the message starts with ``label``.
+    """
+    order, elements, body_start = parse_header(data, label)
+    names = [e.name for e in elements]
+    if "vertex" not in names:
+        raise InputError(f"{label}: the PLY header declares no 'vertex' element")
+    vert = elements[names.index("vertex")]
+    vprops = {p.name: p for p in vert.props}
+    for k in ("x", "y", "z"):
+        if k not in vprops or vprops[k].count_type is not None:
+            raise InputError(f"{label}: the 'vertex' element needs scalar properties x, y and z (missing {k!r})")
+    # a list property named like a coordinate is skipped (x, y, z were checked to be scalars)
+    want_v = ({"x", "y", "z", "nx", "ny", "nz"} | {n for pair in UV_NAMES for n in pair}) & {
+        p.name for p in vert.props if p.count_type is None}
+    index_name = None
+    if "face" in names:
+        fprops = {p.name: p for p in elements[names.index("face")].props}
+        index_name = next((n for n in INDEX_NAMES if n in fprops), None)
+        if index_name is None or fprops[index_name].count_type is None:
+            raise InputError(f"{label}: the 'face' element needs a list property vertex_indices (or vertex_index)")
+        if fprops[index_name].type[0] == "f":
+            raise InputError(f"{label}: the face's {index_name} must be an integer type")
+    body = _Body(data, body_start, order, label)
+    pos, got = 0, {}
+    for el in elements:
+        want = want_v if el.name == "vertex" else {index_name} if el.name == "face" else set()
+        got[el.name], pos = _element(body, el, pos, want)
+    if pos != body.length:
+        what = "numbers" if order is None else "bytes"
+        raise InputError(f"{label}: {body.length - pos} {what} after the last element the header declares "
+                         "(a count in the header is wrong)")
+    v = got["vertex"]
+    if vert.count == 0:
+        return PlyMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64))
+    with np.errstate(invalid="ignore", over="ignore"):  # non-finite coordinates are refused by check_mesh
+        vertices = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(np.float64)
+    normals = (np.stack([v["nx"], v["ny"], v["nz"]], axis=1).astype(np.float64)
+               if {"nx", "ny", "nz"} <= v.keys() else None)
+    uv = next((pair for pair in UV_NAMES if set(pair) <= v.keys()), None)
+    uvs = np.stack([v[uv[0]], v[uv[1]]], axis=1).astype(np.float64) if uv else None
+    faces = np.zeros((0, 3), np.int64)
+    if got.get("face"):
+        per_face, idx = got["face"][index_name]
+        if order is None and not np.all(idx == np.floor(idx)):
+            raise InputError(f"{label}: a face's vertex index is not an integer")
+        few = np.flatnonzero(per_face < 3)
+        if len(few):
+            raise InputError(f"{label}: face {int(few[0])} has {int(per_face[few[0]])} corners (at least 3 needed)")
+        with np.errstate(invalid="ignore"):  # an ASCII index beyond int64 becomes negative: refused by check_mesh
+            faces = fan_triangles(idx.astype(np.int64), per_face)
+    return PlyMesh(vertices, faces, normals, uvs)
+
+
+__all__ = ["PlyMesh", "parse_header", "parse_ply"]
