@@ -28,7 +28,8 @@
  *
  * The numbers of (seed, i, j, stream) depend on nothing else: not the lane,
  * the device, nor the launch split.  Dimensions j < SOBOL_TABLE_DIMS (the
- * host sizes the table to the coordinates a program draws, at most 1024).
+ * host sizes the table to the coordinates a program draws, at most 1024)
+ * are Sobol' coordinates; later ones are padded (sobol_padded_reversed).
  */
 #ifndef MCOCL_SOBOL_SAMPLER_CL
 #define MCOCL_SOBOL_SAMPLER_CL
@@ -151,13 +152,32 @@ MC_INLINE uintv reverse_bits(uintv x) {
  * (Burley 2020, sec. 3: each step changes a bit only by bits below it, so
  * bit k of the coordinate is flipped by a hash of bits 0..k-1, the bits above
  * it once reversed back), reverse back, map to the uniform grid. */
-MC_INLINE floatv owen_uniform(uintv x, uintv s) {
+MC_INLINE uintv laine_karras(uintv x, uintv s) {
     x += s;
     x ^= x * 0x6c50b47cu;
     x ^= x * 0xb82f1e52u;
     x ^= x * 0xc7afe638u;
     x ^= x * 0x8d22f6e6u;
-    return u01(reverse_bits(x));
+    return x;
+}
+
+MC_INLINE floatv owen_uniform(uintv x, uintv s) { return u01(reverse_bits(laine_karras(x, s))); }
+
+/* Dimensions j >= SOBOL_TABLE_DIMS, drawn only by consumers of unbounded
+ * depth (render paths deeper than the table; the integration host never
+ * asks for them): Burley 2020, sec. 4, padding by shuffling.  The point
+ * index is shuffled by a nested uniform scrambling of its own (seed: a hash
+ * of the dimension's seed), and the coordinate is dimension 0 of Sobol' (van
+ * der Corput, whose reversed bits are the index itself) at the shuffled
+ * index.  Each such dimension is a stratified 1-D set, randomly permuted
+ * against every other dimension: unbiased, without the table. */
+MC_INLINE uintv sobol_padded_reversed(uintv p, uintv s) {
+    uintv h = s ^ (s >> 16);  /* a 32-bit integer hash (lowbias32's constants) */
+    h *= 0x7feb352du;
+    h ^= h >> 15;
+    h *= 0x846ca68bu;
+    h ^= h >> 16;
+    return reverse_bits(laine_karras(reverse_bits(p), h));
 }
 
 MC_INLINE uintv philox_word(philox_ctr c, uintv w) {
@@ -166,7 +186,14 @@ MC_INLINE uintv philox_word(philox_ctr c, uintv w) {
 
 MC_INLINE floatv sampler_next_1d(mc_sampler_t *s) {
     const uintv seed = philox_word(rng_block(s->replicate, s->dim >> 2), s->dim & 3u);
-    const uintv x = sobol_reversed_lanes(s->point, s->dim);
+    const intv past = s->dim >= (uintv)(SOBOL_TABLE_DIMS);
+    uintv x;
+    if (lane_any(past)) {
+        x = lane_select(sobol_reversed_lanes(s->point, lane_select(s->dim, (uintv)(0u), past)),
+                        sobol_padded_reversed(s->point, seed), past);
+    } else {
+        x = sobol_reversed_lanes(s->point, s->dim);
+    }
     s->dim += 1u;
     return owen_uniform(x, seed);
 }
@@ -176,7 +203,7 @@ MC_INLINE floatv sampler_next_1d(mc_sampler_t *s) {
  * (as in every present consumer); else one dimension at a time. */
 MC_INLINE void sampler_next_nd(mc_sampler_t *s, int n, floatv *u) {
     const uint d0 = SOBOL_LANE0(s->dim);
-    if ((d0 & 3u) != 0u || lane_any(s->dim != (uintv)(d0))) {
+    if ((d0 & 3u) != 0u || lane_any(s->dim != (uintv)(d0)) || d0 + (uint)n > (uint)SOBOL_TABLE_DIMS) {
         for (int j = 0; j < n; ++j) u[j] = sampler_next_1d(s);
         return;
     }
