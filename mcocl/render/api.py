@@ -259,7 +259,8 @@ def render(
         "max_depth": cs.max_depth,
         "rr_depth": cs.rr_depth,
         "seed": seed,
-        **({"sampler": sampler} if sampler != "independent" else {}),
+        # None for independent: the checkpoints written before the option had no key, and read as None
+        "sampler": sampler if sampler != "independent" else None,
     }
     spp_limit = spp if spp is not None else UNBOUNDED_SPP
     acc: Accumulator | None = None
