@@ -8,6 +8,9 @@ the image is bit-identical however the scheduler groups blocks into launches,
 devices or resumed runs.  Sample (pixel, s) always uses the random numbers of
 index ``s * W * H + pixel`` (kernels/render/integrator.cl), so the image does
 not depend on ``spp_per_block`` either, up to the order of float additions.
+With ``sampler="sobol"`` a block is instead one Owen scrambling per pixel and
+one batch of the film (:mod:`mcocl.render.sobol_film`): the image then depends
+on ``spp_per_block``.
 
 Inside a launch, one work-item renders one tile of ``tile_pixels``
 consecutive pixels for one block, LANES paths at a time.
