@@ -156,3 +156,10 @@ def test_bad_sampler_is_refused() -> None:
         render(cs, spp=4, sampler="halton")
     with pytest.raises(InputError, match="lt"):
         render(cs, spp=4, sampler="sobol", integrator="lt")
+
+
+def test_noise_halting_waits_for_enough_batches() -> None:
+    """target_error stops a sobol render only once MIN_BATCHES replicates estimate the variance."""
+    r = render(SCENES / "furnace.json", target_error=0.5, seed=4, sampler="sobol")
+    assert r.stopped_by == "noise" and r.count.min() >= sobol_film.MIN_BATCHES
+    assert r.spp_per_block == 16  # a quarter of the default block for an unbounded run

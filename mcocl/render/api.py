@@ -34,7 +34,7 @@ from .film import STATS, film_image, relative_error
 from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
 from .scene import INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
 from .scene_file import load_scene
-from .sobol_film import sobol_spp_per_block
+from .sobol_film import MIN_BATCHES, sobol_spp_per_block
 from .splat_film import splat_spp_per_block
 
 
@@ -302,6 +302,8 @@ def render(
 
     def target(a: Accumulator) -> bool:
         if opts.target_error is None or job.spp_done(a.blocks_done) < 2:
+            return False
+        if sampler == "sobol" and a.blocks_done < MIN_BATCHES:  # a variance from a few replicates is too noisy
             return False
         img = film_image(a.totals)
         err = relative_error(img.mean, img.variance)

@@ -19,7 +19,8 @@ one "sample" of the film's columns (sum Y_b, sum Y_b^2, count 1).  With B
 blocks, :func:`mcocl.render.film.film_image` then gives the mean of the Y_b
 and var(Y_b) / B, the variance of that mean; ``count`` is the number of
 batches.  A render therefore needs at least two blocks for a variance:
-:func:`sobol_spp_per_block` picks blocks small enough for MIN_BATCHES of them.
+:func:`sobol_spp_per_block` picks blocks small enough for MIN_BATCHES of them,
+and ``target_error`` halting waits for MIN_BATCHES (mcocl/render/api.py).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..layouts import FilmStat
-from .splat_film import splat_spp_per_block
+from .splat_film import MIN_BATCHES, splat_spp_per_block
 
 # Sobol' dimensions in the table of a render build (32 KiB of constant memory):
 # the camera's 4 and 8 per vertex, so paths up to depth 30 draw Sobol' coordinates
@@ -46,8 +47,9 @@ def sobol_render_defines(spp_per_block: int) -> list[str]:
 
 def sobol_spp_per_block(default: int, spp: int | None) -> int:
     """Samples per pixel of a block: a power of two (a whole (0, m, 2)-net per replicate), at most
-    ``default``, small enough for MIN_BATCHES batches when ``spp`` allows."""
-    n = splat_spp_per_block(default, spp)
+    ``default``, small enough for MIN_BATCHES batches when ``spp`` allows; a quarter of ``default``
+    for time or noise halting (spp None), so that a short run still has batches to estimate from."""
+    n = splat_spp_per_block(default, spp) if spp is not None else max(1, default // 4)
     return 1 << (n.bit_length() - 1)
 
 
@@ -67,4 +69,4 @@ def block_batches(stats: np.ndarray) -> np.ndarray:
     return out.astype(stats.dtype)
 
 
-__all__ = ["RENDER_TABLE_DIMS", "block_batches", "sobol_render_defines", "sobol_spp_per_block"]
+__all__ = ["MIN_BATCHES", "RENDER_TABLE_DIMS", "block_batches", "sobol_render_defines", "sobol_spp_per_block"]
