@@ -5,8 +5,8 @@
 - The stderr, from the spread of the replicate means, is calibrated (rms z
   over 20 seeds) and well below independent sampling's at equal walks on a
   smooth problem.
-- Results do not depend on lanes or launch splits; replicates sets the
-  blocks; bad values are refused.
+- Results do not depend on lanes, launch splits or checkpoint and resume;
+  replicates sets the blocks; bad values are refused.
 """
 
 from __future__ import annotations
@@ -16,7 +16,9 @@ import pytest
 from scipy import stats
 from walk_problems import CONST1, CONST2, SEP1
 
+from mcocl.accumulate import Accumulator
 from mcocl.errors import InputError
+from mcocl.walks import api as walks_api
 from mcocl.walks.api import solve_fredholm
 from mcocl.walks.sobol_walks import sobol_walks_per_block, walk_batches
 
@@ -79,3 +81,22 @@ def test_bad_walk_sampler_is_refused() -> None:
         solve_fredholm(SEP1.kernel, SEP1.source, walks=1000, replicates=8)
     with pytest.raises(InputError, match="replicates"):
         solve_fredholm(SEP1.kernel, SEP1.source, walks=1000, sampler="sobol", replicates=1)
+
+
+def test_sobol_resume_gives_the_same_bits(tmp_path, monkeypatch) -> None:
+    full = solve(SEP1, 1 << 14, seed=2)  # 16 replicates of 1024 walks
+    ck = tmp_path / "walks.npz"
+    real_execute = walks_api.execute
+
+    def stop_early(job, acc, halting, *a, **kw):
+        halting.max_blocks = 5
+        return real_execute(job, acc, halting, *a, **kw)
+
+    monkeypatch.setattr(walks_api, "execute", stop_early)
+    part = solve(SEP1, 1 << 14, seed=2, checkpoint=str(ck))
+    monkeypatch.undo()
+    assert part.walks == 5 * 1024 and Accumulator.load(ck).blocks_done == 5
+    with pytest.raises(InputError, match="sampler"):  # not resumable as an independent run
+        solve_fredholm(SEP1.kernel, SEP1.source, at=SEP1.at, walks=1 << 14, seed=2, resume=str(ck))
+    resumed = solve(SEP1, 1 << 14, seed=2, resume=str(ck))
+    assert np.array_equal(resumed.values, full.values) and np.array_equal(resumed.stderr, full.stderr)
