@@ -34,7 +34,9 @@
  * and RENDER_DIM_LIGHT(d) = 8 + 8d .. 11 + 8d (emitter choice: environment or
  * area, which area light, position 2D) (rng/streams.cl): the image depends on
  * the seed alone, not on how samples are split over launches, work-items or
- * lanes.
+ * lanes.  With -DRENDER_SOBOL (the Sobol' back end) sample s of block b in
+ * pixel p has instead the index ((b * W * H + p) << SOBOL_LOG2_POINTS) + s:
+ * point s of the Owen scrambling (b, p), the same dimensions.
  *
  * Path regeneration.  In a lane build a lane whose path ends takes the next
  * sample of the work-item at once, so lanes stay busy whatever the path
@@ -223,7 +225,15 @@ kernel void render_blocks(
             intv fresh = assign_samples(need, &next, total, &j);
             uintv s = j / npix;
             uintv px = (uintv)(pix0) + (j - s * npix);
+#ifdef RENDER_SOBOL
+            /* Per pixel RQMC: the sample's number within the block is the
+             * Sobol' point, (block, pixel) the scrambling, so every pixel of
+             * every block is an independent Owen scrambling with its own seed per
+             * dimension (samplers/sobol_sampler.cl; host: mcocl/render/job.py). */
+            ulongv index = ((ulongv)(block * (ulong)npix_total) + to_ulongv(px)) << SOBOL_LOG2_POINTS | to_ulongv(s);
+#else
             ulongv index = (to_ulongv(s) + (ulongv)(spp0)) * (ulong)npix_total + to_ulongv(px);
+#endif
             mc_sampler_t fs = sampler_start(seed, index, RNG_STREAM_RENDER);
             floatv uc[2];
             sampler_seek(&fs, (uintv)(RENDER_DIM_CAMERA));

@@ -28,7 +28,8 @@
  *
  * The numbers of (seed, i, j, stream) depend on nothing else: not the lane,
  * the device, nor the launch split.  Dimensions j < SOBOL_TABLE_DIMS (the
- * host sizes the table to the coordinates a program draws, at most 1024).
+ * host sizes the table to the coordinates a program draws, at most 1024)
+ * are Sobol' coordinates; later ones are padded (sobol_padded_reversed).
  */
 #ifndef MCOCL_SOBOL_SAMPLER_CL
 #define MCOCL_SOBOL_SAMPLER_CL
@@ -151,33 +152,80 @@ MC_INLINE uintv reverse_bits(uintv x) {
  * (Burley 2020, sec. 3: each step changes a bit only by bits below it, so
  * bit k of the coordinate is flipped by a hash of bits 0..k-1, the bits above
  * it once reversed back), reverse back, map to the uniform grid. */
-MC_INLINE floatv owen_uniform(uintv x, uintv s) {
+MC_INLINE uintv laine_karras(uintv x, uintv s) {
     x += s;
     x ^= x * 0x6c50b47cu;
     x ^= x * 0xb82f1e52u;
     x ^= x * 0xc7afe638u;
     x ^= x * 0x8d22f6e6u;
-    return u01(reverse_bits(x));
+    return x;
+}
+
+MC_INLINE floatv owen_uniform(uintv x, uintv s) { return u01(reverse_bits(laine_karras(x, s))); }
+
+/* Dimensions j >= SOBOL_TABLE_DIMS, drawn only by consumers of unbounded
+ * depth (render paths deeper than the table; the integration host never
+ * asks for them): Burley 2020, sec. 4, padding by shuffling.  The point
+ * index is shuffled by a nested uniform scrambling of its own (seed: a hash
+ * of the dimension's seed), and the coordinate is dimension 0 of Sobol' (van
+ * der Corput, whose reversed bits are the index itself) at the shuffled
+ * index.  Each such dimension is a stratified 1-D set, randomly permuted
+ * against every other dimension: unbiased, without the table. */
+MC_INLINE uintv sobol_padded_reversed(uintv p, uintv s) {
+    uintv h = s ^ (s >> 16);  /* a 32-bit integer hash (lowbias32's constants) */
+    h *= 0x7feb352du;
+    h ^= h >> 15;
+    h *= 0x846ca68bu;
+    h ^= h >> 16;
+    return reverse_bits(laine_karras(reverse_bits(p), h));
 }
 
 MC_INLINE uintv philox_word(philox_ctr c, uintv w) {
     return lane_select(lane_select(c.v0, c.v1, w == 1u), lane_select(c.v2, c.v3, w == 3u), w >= 2u);
 }
 
-MC_INLINE floatv sampler_next_1d(mc_sampler_t *s) {
-    const uintv seed = philox_word(rng_block(s->replicate, s->dim >> 2), s->dim & 3u);
-    const uintv x = sobol_reversed_lanes(s->point, s->dim);
-    s->dim += 1u;
+/* The uniform of dimensions d (per lane) with scrambling seeds `seed`: from
+ * the table, or padded past it. */
+MC_INLINE floatv sobol_uniform_lanes(const mc_sampler_t *s, uintv d, uintv seed) {
+    const intv past = d >= (uintv)(SOBOL_TABLE_DIMS);
+    uintv x;
+    if (lane_any(past)) {
+        x = lane_select(sobol_reversed_lanes(s->point, lane_select(d, (uintv)(0u), past)),
+                        sobol_padded_reversed(s->point, seed), past);
+    } else {
+        x = sobol_reversed_lanes(s->point, d);
+    }
     return owen_uniform(x, seed);
 }
 
+MC_INLINE floatv sampler_next_1d(mc_sampler_t *s) {
+    const uintv seed = philox_word(rng_block(s->replicate, s->dim >> 2), s->dim & 3u);
+    const floatv u = sobol_uniform_lanes(s, s->dim, seed);
+    s->dim += 1u;
+    return u;
+}
+
 /* n consecutive dimensions: one Philox call (four scrambling seeds) per four
- * dimensions when the counter is a multiple of 4 and the same in every lane
- * (as in every present consumer); else one dimension at a time. */
+ * dimensions when the counter is a multiple of 4 in every lane (as in every
+ * present consumer), the packet shortcut of sobol_reversed_packet when it is
+ * moreover the same in every lane and inside the table; else one dimension
+ * at a time.  The three paths give the same numbers. */
 MC_INLINE void sampler_next_nd(mc_sampler_t *s, int n, floatv *u) {
     const uint d0 = SOBOL_LANE0(s->dim);
-    if ((d0 & 3u) != 0u || lane_any(s->dim != (uintv)(d0))) {
+    if (lane_any((s->dim & 3u) != 0u)) {
         for (int j = 0; j < n; ++j) u[j] = sampler_next_1d(s);
+        return;
+    }
+    if (lane_any(s->dim != (uintv)(d0)) || d0 + (uint)n > (uint)SOBOL_TABLE_DIMS) {
+        for (int j = 0; j < n; j += 4) {  /* walks and paths: lanes at different depths */
+            const uintv dj = s->dim + (uint)j;
+            const philox_ctr c = rng_block(s->replicate, dj >> 2);
+            u[j] = sobol_uniform_lanes(s, dj, c.v0);
+            if (j + 1 < n) u[j + 1] = sobol_uniform_lanes(s, dj + 1u, c.v1);
+            if (j + 2 < n) u[j + 2] = sobol_uniform_lanes(s, dj + 2u, c.v2);
+            if (j + 3 < n) u[j + 3] = sobol_uniform_lanes(s, dj + 3u, c.v3);
+        }
+        s->dim += (uint)n;
         return;
     }
     for (int j = 0; j < n; j += 4) {

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from ..engine.contract import DeviceFailureWarning
 from ..render.api import INTEGRATORS, NonFiniteSampleWarning, render
+from ..render.scene import RENDER_SAMPLERS
 from .common import (
     add_device_args,
     add_halting_args,
@@ -63,6 +64,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-depth", type=int, default=None,
                    help="longest path in segments, Mitsuba's convention (-1 unbounded, 1 emitters only, 2 direct light)")
     p.add_argument("--rr-depth", type=int, default=None, help="depth from which Russian roulette may end paths")
+    p.add_argument("--sampler", choices=RENDER_SAMPLERS, default=None,
+                   help="independent, or sobol: per-pixel Owen-scrambled Sobol', variance from block means "
+                        "(default: the scene's)")
     p.add_argument("--seed", type=int, default=0, help="64-bit seed (default 0)")
     p.add_argument("--out", default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
     p.add_argument("--png", default=None, help="also write an sRGB PNG preview")
@@ -86,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         r = render(
             args.scene, spp=args.spp, integrator=args.integrator, max_depth=args.max_depth,
             rr_depth=args.rr_depth, params=dict(args.define) or None, lenient=args.lenient,
-            mesh_folder=args.mesh_folder, **run_option_kwargs(args),
+            mesh_folder=args.mesh_folder, sampler=args.sampler, **run_option_kwargs(args),
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteSampleWarning, DeviceFailureWarning)):

@@ -11,6 +11,7 @@ import numpy as np
 from ..engine.contract import DeviceFailureWarning
 from ..integration import NonFiniteWarning
 from ..walks import ESTIMATORS, nystrom, solve_fredholm
+from ..walks.sobol_walks import WALK_SAMPLERS
 from .common import (
     add_device_args,
     add_halting_args,
@@ -96,6 +97,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-walk-length", type=count, default=10_000, help="walk-length guard (default 10000 moves)")
     p.add_argument("--table-cells", type=count, default=None, help="tabulation cells of x per axis")
     p.add_argument("--table-bins", type=count, default=None, help="tabulation bins of y per axis")
+    p.add_argument("--sampler", choices=WALK_SAMPLERS, default="independent",
+                   help="independent, or sobol: Owen-scrambled Sobol' walks, stderr from the replicate spread")
+    p.add_argument("--replicates", type=count, default=None, help="independent scramblings of --sampler sobol (default 16)")
     p.add_argument("--reference", action="store_true", help="also compute the Nyström solution at the points")
     p.add_argument("--order", type=count, default=None, help="Gauss-Legendre nodes per axis of the reference")
     add_halting_args(p, "stop once every point's standard error is at most this", "--target-stderr")
@@ -118,7 +122,8 @@ def run(args: argparse.Namespace) -> int:
             depth=args.depth, survival=args.survival, row_integral=args.row_integral,
             transition_sampler=args.transition_sampler, source_integral=args.source_integral,
             source_sampler=args.source_sampler, max_walk_length=args.max_walk_length,
-            table_cells=args.table_cells, table_bins=args.table_bins, **shared,
+            table_cells=args.table_cells, table_bins=args.table_bins, sampler=args.sampler,
+            replicates=args.replicates, **shared,
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteWarning, DeviceFailureWarning)):

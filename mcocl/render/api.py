@@ -32,8 +32,9 @@ from .compiled import CompiledScene, compile_scene
 from .emitter_choice import bounding_sphere
 from .film import STATS, film_image, relative_error
 from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
-from .scene import INTEGRATORS, Scene, check_integrator_settings
+from .scene import INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
 from .scene_file import load_scene
+from .sobol_film import MIN_BATCHES, sobol_spp_per_block
 from .splat_film import splat_spp_per_block
 
 
@@ -132,6 +133,16 @@ class RenderResult:
         return s
 
 
+def _render_sampler(cs: CompiledScene, sampler: Any) -> str:
+    """The render sampler: ``sampler`` if given, else the scene's; ``sobol`` only for the path integrators."""
+    name = getattr(cs, "sampler", "independent") if sampler is None else sampler
+    if name not in RENDER_SAMPLERS:
+        raise InputError(f"sampler: unknown render sampler {name!r}; choose one of {', '.join(RENDER_SAMPLERS)}")
+    if name == "sobol" and cs.integrator == "lt":
+        raise InputError("sampler 'sobol' works with the path integrators (path, nee, mis), not 'lt'")
+    return name
+
+
 def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any, mesh_folder: Any = None) -> CompiledScene:
     """A compiled scene with the overrides applied (a given CompiledScene is not modified)."""
     if isinstance(scene, CompiledScene):
@@ -174,6 +185,7 @@ def render(
     params: dict[str, Any] | None = None,
     lenient: bool = False,
     mesh_folder: str | os.PathLike[str] | None = None,
+    sampler: str | None = None,
 ) -> RenderResult:
     """Render a scene by path tracing.
 
@@ -205,6 +217,9 @@ def render(
         mesh_folder: a folder the scene file may read OBJ files from, besides
             its own folder (a scene cannot reach outside them).
         time, noise: deprecated names of ``time_budget`` and ``target_error``.
+        sampler: ``independent`` or ``sobol`` (per-pixel Owen-scrambled Sobol',
+            the variance from the spread of block means: :mod:`mcocl.render.sobol_film`);
+            default: the scene's ``integrator.sampler``.
 
     The shared options (seed, time_budget, target_error, placement, lanes,
     checkpoint, resume, progress) are checked by :class:`mcocl.run_options.RunOptions`.
@@ -223,6 +238,7 @@ def render(
     if isinstance(scene, (str, os.PathLike)):
         scene = load_scene(scene, params=params, lenient=lenient, mesh_folder=mesh_folder)
     cs = _compile(scene, integrator, max_depth, rr_depth)
+    sampler = _render_sampler(cs, sampler)
     opts = RunOptions(seed=seed, time_budget=time_budget, target_error=target_error, device=device, devices=devices,
                       split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)
     seed = opts.seed
@@ -243,6 +259,8 @@ def render(
         "max_depth": cs.max_depth,
         "rr_depth": cs.rr_depth,
         "seed": seed,
+        # None for independent: the checkpoints written before the option had no key, and read as None
+        "sampler": sampler if sampler != "independent" else None,
     }
     spp_limit = spp if spp is not None else UNBOUNDED_SPP
     acc: Accumulator | None = None
@@ -261,7 +279,10 @@ def render(
                 f"resume it with spp={saved_limit}, or start renders with a multiple of {spp_per_block} spp")
     elif spp_per_block is None:
         spp_per_block = default_spp_per_block(cs.width, cs.height)
-        if cs.integrator == "lt":
+        if sampler == "sobol":
+            # batches are the replicates of the variance: have a few, each a whole net
+            spp_per_block = sobol_spp_per_block(spp_per_block, spp)
+        elif cs.integrator == "lt":
             # the variance of a splatted image comes from its batches: have a few
             spp_per_block = splat_spp_per_block(spp_per_block, spp)
         elif spp is not None:
@@ -271,7 +292,7 @@ def render(
 
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
-                    spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius))
+                    spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius), sampler=sampler)
     ctx = runtime.device_context(opts.device)
     runner = job.runner(ctx)
     if acc is None:
@@ -281,6 +302,8 @@ def render(
 
     def target(a: Accumulator) -> bool:
         if opts.target_error is None or job.spp_done(a.blocks_done) < 2:
+            return False
+        if sampler == "sobol" and a.blocks_done < MIN_BATCHES:  # a variance from a few replicates is too noisy
             return False
         img = film_image(a.totals)
         err = relative_error(img.mean, img.variance)
@@ -304,6 +327,9 @@ def render(
     nonfinite = img.nonfinite
     spp_done = job.spp_done(acc.blocks_done)
     notes = list(getattr(report, "notes", []) or [])
+    if sampler == "sobol":
+        notes.append(f"sobol: variance from {acc.blocks_done} independent Owen scramblings (blocks) of "
+                     f"{spp_per_block} samples per pixel")
     if job.splats:
         notes.append(f"light tracing: variance from {acc.blocks_done} independent batches of "
                      f"{spp_per_block} light paths per pixel; specular surfaces seen directly are black")

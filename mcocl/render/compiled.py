@@ -130,6 +130,7 @@ class CompiledScene:
     env_share: float | None = None
     light_power: np.ndarray = field(default_factory=lambda: np.zeros(0))
     light_sampler: str = "power"
+    sampler: str = "independent"  # integrator.sampler (mcocl/render/sobol_film.py)
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
@@ -331,7 +332,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         shape_material=shape_material, shape_emitter=shape_emitter, materials=mats,
         emitter_radiance=emitter_radiance, light_prims=light_prims, light_cdf=cdf, light_pmf=pmf,
         prim_light=prim_light, light_area=light_area, env_radiance=env,
-        light_power=power.astype(np.float64), light_sampler=scene.light_sampler,
+        light_power=power.astype(np.float64), light_sampler=scene.light_sampler, sampler=scene.sampler,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path,
         shape_names=[sh.name or sh.key for sh in scene.shapes],

@@ -8,6 +8,9 @@ the image is bit-identical however the scheduler groups blocks into launches,
 devices or resumed runs.  Sample (pixel, s) always uses the random numbers of
 index ``s * W * H + pixel`` (kernels/render/integrator.cl), so the image does
 not depend on ``spp_per_block`` either, up to the order of float additions.
+With ``sampler="sobol"`` a block is instead one Owen scrambling per pixel and
+one batch of the film (:mod:`mcocl.render.sobol_film`): the image then depends
+on ``spp_per_block``.
 
 Inside a launch, one work-item renders one tile of ``tile_pixels``
 consecutive pixels for one block, LANES paths at a time.
@@ -42,6 +45,7 @@ from .device_scene import (
     tables_digest,
 )
 from .film import STATS
+from .sobol_film import block_batches, sobol_render_defines
 from .splat_film import SplatRunner, splat_groups
 
 INTEGRATOR_CODES = {kind.name.lower(): int(kind) for kind in Integrator}
@@ -84,6 +88,8 @@ class RenderJob:
         tile_pixels: pixels of one work-item (path integrators).
         bounding_sphere: centre xyz and radius of the scene's bounding sphere
             (light tracing's environment rays start outside it).
+        sampler: ``independent`` (Philox) or ``sobol`` (per-pixel Owen-scrambled
+            Sobol', one scrambling per block and pixel: :mod:`mcocl.render.sobol_film`).
 
     The light sampler follows the tables: those of a scene whose
     ``light_sampler`` is ``bvh`` hold the light BVH and get the BVH build;
@@ -102,6 +108,7 @@ class RenderJob:
     lanes: int | None = None
     tile_pixels: int = TILE_PIXELS
     bounding_sphere: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+    sampler: str = "independent"
     stat_shape: tuple[int, ...] = field(default=(0, 0, STATS))
 
     def __post_init__(self) -> None:
@@ -124,6 +131,8 @@ class RenderJob:
         opts = [f"-DLANES={lanes}", f"-DINTEGRATOR={INTEGRATOR_CODES[self.integrator]}"]
         if "light_bvh" in self.tables:
             opts.append(f"-DLIGHT_SAMPLER={LIGHT_SAMPLER_CODES['bvh']}")
+        if self.sampler == "sobol":
+            opts += sobol_render_defines(self.spp_per_block)
         return opts
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:
@@ -177,10 +186,10 @@ class RenderRunner:
         return ev, out, nblocks
 
     def collect(self, handle: tuple[cl.Event, np.ndarray, int]) -> np.ndarray:
-        """Wait for a launch; its (nblocks, H, W, STATS) statistics."""
+        """Wait for a launch; its (nblocks, H, W, STATS) statistics (one batch per block with ``sobol``)."""
         ev, out, _ = handle
         ev.wait()
-        return out
+        return block_batches(out) if self.job.sampler == "sobol" else out
 
 
 __all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "UNBOUNDED_SPP", "RenderJob", "RenderRunner",

@@ -57,6 +57,9 @@ LIGHT_SAMPLERS = ("power", "uniform", "bvh")
 # power: a bvh sample takes 1.3-2x as long, and bvh did not win on MSE per second on the shipped scenes,
 # though it cut the median pixel variance 3.2x (many_lights.json) and 40x (veach_mis.json): scenes/README.md.
 DEFAULT_LIGHT_SAMPLER = "power"
+# integrator.sampler: independent uniforms, or per-pixel RQMC (mcocl/render/sobol_film.py).
+RENDER_SAMPLERS = ("independent", "sobol")
+DEFAULT_RENDER_SAMPLER = "independent"
 
 
 @dataclass
@@ -133,6 +136,7 @@ class Scene:
     rr_depth: int = DEFAULT_RR_DEPTH
     spp: int = DEFAULT_SPP
     light_sampler: str = DEFAULT_LIGHT_SAMPLER
+    sampler: str = DEFAULT_RENDER_SAMPLER
 
 
 class _Checker:
@@ -339,12 +343,14 @@ def _camera(c: _Checker, v: Any, key: str) -> Camera:
 
 
 def _integrator(c: _Checker, v: Any, key: str) -> dict:
-    o = c.obj(v, key, (), ("type", "max_depth", "rr_depth", "spp", "light_sampler"))
-    return check_integrator_settings(
+    o = c.obj(v, key, (), ("type", "max_depth", "rr_depth", "spp", "light_sampler", "sampler"))
+    settings = check_integrator_settings(
         o.get("type", DEFAULT_INTEGRATOR), o.get("max_depth", DEFAULT_MAX_DEPTH),
         o.get("rr_depth", DEFAULT_RR_DEPTH), o.get("spp", DEFAULT_SPP), c, key,
         light_sampler=o.get("light_sampler", DEFAULT_LIGHT_SAMPLER),
     )
+    settings["sampler"] = c.string(o.get("sampler", DEFAULT_RENDER_SAMPLER), f"{key}.sampler", RENDER_SAMPLERS)
+    return settings
 
 
 def check_integrator_settings(integrator: Any, max_depth: Any, rr_depth: Any, spp: Any,

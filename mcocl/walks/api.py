@@ -35,9 +35,10 @@ from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
 from .codegen import generate
 from .integral_check import check_given_integrals
-from .job import STATS, WalkJob, WalkRunner, estimates
+from .job import STATS, WALKS_PER_BLOCK, WalkJob, WalkRunner, estimates
 from .nystrom import spectral_radius
 from .request import WalkRequest, validate
+from .sobol_walks import WALK_SAMPLERS, sobol_walks_per_block
 
 
 @dataclass
@@ -189,6 +190,8 @@ def solve_fredholm(
     resume: str | None = None,
     progress: bool | Callable[[Progress], None] = False,
     target_stderr: float | None = None,
+    sampler: str = "independent",
+    replicates: int | None = None,
 ) -> FredholmResult:
     """Solve f(x) = g(x) + ∫_D K(x, y) f(y) dy, D = [0, 1]^dim, at query points by random walks.
 
@@ -225,6 +228,13 @@ def solve_fredholm(
         resume: continue from a checkpoint of the same problem.
         progress: True for a progress bar on stderr, or a callback.
         target_stderr: deprecated name of ``target_error``.
+        sampler: ``independent`` (Philox) or ``sobol`` (randomised quasi-Monte
+            Carlo walks: each block of 2^m walks is one Owen-scrambled Sobol'
+            replicate; the stderr is the spread of the replicate means;
+            :mod:`mcocl.walks.sobol_walks`).
+        replicates: ``sampler="sobol"``: the number of replicates R; ``walks``
+            is split into R blocks of the largest power of two (default 16, or
+            more blocks of 4096 walks for large runs).
 
     The shared options (seed, time_budget, target_error, placement, lanes,
     checkpoint, resume, progress) are checked by :class:`mcocl.run_options.RunOptions`.
@@ -245,12 +255,19 @@ def solve_fredholm(
     if walks is not None:
         walks = whole_number("walks", walks, 1, 1 << 62)
     opts.require_stop("walks", walks)
+    if sampler not in WALK_SAMPLERS:
+        raise InputError(f"sampler: unknown walk sampler {sampler!r}; choose one of {', '.join(WALK_SAMPLERS)}")
+    if replicates is not None and (sampler != "sobol" or not 2 <= whole_number("replicates", replicates) <= 1 << 20):
+        raise InputError(f"replicates: {replicates!r} needs sampler='sobol' and a value between 2 and {1 << 20}")
+    walks_per_block = WALKS_PER_BLOCK
+    if sampler == "sobol":
+        walks_per_block = sobol_walks_per_block(walks, replicates, WALKS_PER_BLOCK)
 
     code = generate(req.kernel, req.source, req.dim, req.estimator, req.row_integral, req.transition_sampler,
                     req.source_integral, req.source_sampler)
     # a wrong A(x) or G is refused, not used (issue 10)
     check_given_integrals(req.kernel, req.source, req.dim, req.row_integral, req.source_integral, opts.device)
-    meta = req.meta()
+    meta = {**req.meta(), "sampler": sampler if sampler != "independent" else None}
     acc: Accumulator | None = None
     resume = opts.resume
     if resume is not None:
@@ -264,7 +281,7 @@ def solve_fredholm(
     ctx = runtime.device_context(opts.device)
     limit = walks if walks is not None else (1 << 62)
     job = WalkJob(code, req.at, req.seed, limit, survival=req.survival, depth=req.depth,
-                  max_len=req.max_walk_length, lanes=opts.lanes)
+                  max_len=req.max_walk_length, lanes=opts.lanes, walks_per_block=walks_per_block, sampler=sampler)
     runner = job.runner(ctx)
     if runner.program.note:
         notes.append(runner.program.note)
@@ -310,7 +327,7 @@ def solve_fredholm(
             return True  # a guard hit: stop now, the run will raise
         if opts.target_error is None:
             return False
-        if a.totals[:, 0].min() < 1000:
+        if a.totals[:, 0].min() < (8 if sampler == "sobol" else 1000):  # sobol: count = replicates
             return False
         _, errs = estimates(a.totals, job.shifts)
         return bool(np.all(np.isfinite(errs)) and np.max(errs) <= opts.target_error)
@@ -333,6 +350,9 @@ def solve_fredholm(
         raise ConvergenceError(_divergence_message(t[:, 5].sum(), t[:, 0].sum() + t[:, 1].sum() + t[:, 5].sum(),
                                                    req.max_walk_length))
     values, errs = estimates(t, job.shifts)
+    if sampler == "sobol":
+        notes.append(f"sobol: stderr from the spread of {acc.blocks_done} independent Owen-scrambled Sobol' "
+                     f"replicates of {job.walks_per_block} walks")
     nonfinite = [int(v) for v in t[:, 1]]
     stopped = "walks" if report.stopped_by == "blocks" else report.stopped_by
     if report.stopped_by == "target":
@@ -348,7 +368,7 @@ def solve_fredholm(
         seed=req.seed,
         dim=req.dim,
         description=req.describe(),
-        variance=errs**2 * t[:, 0],
+        variance=errs**2 * (t[:, 0] if sampler != "sobol" else walks_run),
         nonfinite=nonfinite,
         device=", ".join(report.devices) if report.devices else ctx.name,
         lanes=runner.lanes,

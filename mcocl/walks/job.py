@@ -30,6 +30,7 @@ from .. import runtime
 from ..accumulate import mean_and_variance
 from ..layouts import WALK_PARAMS
 from .codegen import WalkCode
+from .sobol_walks import walk_batches, walk_sobol_defines
 from .tabulate import TableGrid, WalkTables, build_tables
 
 STATS = 6
@@ -71,6 +72,7 @@ class WalkJob:
     shifts: np.ndarray | None = None
     lanes: int | None = None
     walks_per_block: int = WALKS_PER_BLOCK
+    sampler: str = "independent"
     stat_shape: tuple[int, ...] = field(init=False)
 
     def __post_init__(self) -> None:
@@ -119,7 +121,7 @@ class WalkRunner:
             job.code.generated,
             job.code.users,
             tail=job.code.tail,
-            options=job.code.options,
+            options=job.code.options + (walk_sobol_defines(job.walks_per_block) if job.sampler == "sobol" else []),
             what="integral equation",
             lanes=job.lanes,
         )
@@ -179,10 +181,10 @@ class WalkRunner:
         return self._launch(first_block, nblocks, shifts)
 
     def collect(self, handle: tuple[cl.Event, np.ndarray]) -> np.ndarray:
-        """Wait for a launch; its ``(nblocks, nq, STATS)`` statistics."""
+        """Wait for a launch; its ``(nblocks, nq, STATS)`` statistics (one batch per block with ``sobol``)."""
         ev, out = handle
         ev.wait()
-        return out
+        return walk_batches(out) if self.job.sampler == "sobol" else out
 
     # -- tabulation and sampler checks -------------------------------------
 
