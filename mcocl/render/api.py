@@ -28,10 +28,11 @@ from ..engine.dispatch import execute
 from ..errors import InputError, NonFiniteSampleWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
+from .bdpt_settings import bdpt_settings
 from .compiled import CompiledScene, compile_scene
 from .emitter_choice import bounding_sphere
 from .film import STATS, film_image, relative_error
-from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
+from .job import SPLAT_INTEGRATORS, UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
 from .scene import INTEGRATORS, Scene, check_integrator_settings
 from .scene_file import load_scene
 from .splat_film import splat_spp_per_block
@@ -174,6 +175,9 @@ def render(
     params: dict[str, Any] | None = None,
     lenient: bool = False,
     mesh_folder: str | os.PathLike[str] | None = None,
+    mis: str = "power",
+    strategy: tuple[int, int] | None = None,
+    unweighted: bool = False,
 ) -> RenderResult:
     """Render a scene by path tracing.
 
@@ -189,7 +193,8 @@ def render(
         integrator: ``path``, ``nee``, ``mis`` or ``lt`` (light tracing with
             next-event estimation to the camera; ``spp`` then counts light paths
             per pixel of the image, and mirrors or glass seen directly stay
-            black) (default: the scene's, else ``mis``).
+            black) or ``bdpt`` (bidirectional path tracing, every strategy
+            combined by MIS; area emitters only) (default: the scene's, else ``mis``).
         max_depth, rr_depth: Mitsuba 3's conventions (max_depth -1 unbounded,
             1 emitters seen directly, 2 direct light only); default: the scene's.
         seed: 64-bit seed; the image depends on nothing else.
@@ -205,6 +210,9 @@ def render(
         mesh_folder: a folder the scene file may read OBJ files from, besides
             its own folder (a scene cannot reach outside them).
         time, noise: deprecated names of ``time_budget`` and ``target_error``.
+        mis: ``bdpt``'s MIS heuristic, ``power`` (beta 2, the default) or ``balance``.
+        strategy: ``bdpt`` renders only strategy (s, t) (s light, t >= 1 camera vertices),
+            MIS-weighted unless ``unweighted``.
 
     The shared options (seed, time_budget, target_error, placement, lanes,
     checkpoint, resume, progress) are checked by :class:`mcocl.run_options.RunOptions`.
@@ -233,6 +241,7 @@ def render(
     if spp is not None and spp >= UNBOUNDED_SPP:
         raise InputError(f"spp must be below {UNBOUNDED_SPP}, got {spp}")
 
+    bdpt = bdpt_settings(cs, mis, strategy, unweighted)
     tables = scene_tables(cs)
     meta = {
         "kind": "render",
@@ -243,6 +252,7 @@ def render(
         "max_depth": cs.max_depth,
         "rr_depth": cs.rr_depth,
         "seed": seed,
+        **({"bdpt": repr(bdpt)} if cs.integrator == "bdpt" else {}),
     }
     spp_limit = spp if spp is not None else UNBOUNDED_SPP
     acc: Accumulator | None = None
@@ -261,7 +271,7 @@ def render(
                 f"resume it with spp={saved_limit}, or start renders with a multiple of {spp_per_block} spp")
     elif spp_per_block is None:
         spp_per_block = default_spp_per_block(cs.width, cs.height)
-        if cs.integrator == "lt":
+        if cs.integrator in SPLAT_INTEGRATORS:
             # the variance of a splatted image comes from its batches: have a few
             spp_per_block = splat_spp_per_block(spp_per_block, spp)
         elif spp is not None:
@@ -271,7 +281,7 @@ def render(
 
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
-                    spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius))
+                    spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius), **bdpt)
     ctx = runtime.device_context(opts.device)
     runner = job.runner(ctx)
     if acc is None:
