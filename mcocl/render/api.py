@@ -314,9 +314,11 @@ def render(
     nonfinite = img.nonfinite
     spp_done = job.spp_done(acc.blocks_done)
     notes = list(getattr(report, "notes", []) or [])
-    if job.splats:
+    if job.integrator == "lt":
         notes.append(f"light tracing: variance from {acc.blocks_done} independent batches of "
                      f"{spp_per_block} light paths per pixel; specular surfaces seen directly are black")
+    elif job.splats:
+        notes.append(f"bdpt: variance from {acc.blocks_done} independent batches of {spp_per_block} samples per pixel")
     result = RenderResult(
         mean=img.mean,
         variance=img.variance,
