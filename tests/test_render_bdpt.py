@@ -27,9 +27,11 @@ from mcocl import runtime
 from mcocl.accumulate import Accumulator
 from mcocl.errors import InputError
 from mcocl.render.api import render
+from mcocl.render.compiled import compile_scene
 from mcocl.render.device_scene import scene_tables
 from mcocl.render.job import RenderJob
 from mcocl.render.scene import parse_scene
+from mcocl.render.scene_file import load_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
@@ -95,6 +97,18 @@ def test_bdpt_agrees_with_mis_through_glass() -> None:
     b = render(cs, spp=128, integrator="bdpt", seed=2, spp_per_block=2)
     assert b.nonfinite == 0
     assert_blocks_agree(a, b)
+
+
+def test_thin_lens_bdpt_agrees_with_mis() -> None:
+    """Depth of field: camera subpaths start at lens points, t = 1 connections reach uniform lens points."""
+    sc = load_scene(SCENES / "cornell.json")
+    sc.camera.width = sc.camera.height = 32
+    sc.camera.aperture_radius, sc.camera.focus_distance = 0.15, 2.5
+    cs = compile_scene(sc)
+    a = render(cs, spp=1024, integrator="mis", seed=3)
+    b = render(cs, spp=128, integrator="bdpt", seed=4, spp_per_block=2)
+    assert_blocks_agree(a, b)
+    assert_pixels_agree(a, b)
 
 
 def test_image_does_not_depend_on_how_blocks_are_launched() -> None:
