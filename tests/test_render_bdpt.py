@@ -68,6 +68,18 @@ def test_each_unweighted_strategy_is_unbiased(strategy: tuple[int, int]) -> None
     assert np.all(np.abs(est - want) <= 5 * se + 1e-6), (est, want, se)
 
 
+@pytest.mark.parametrize("strategy", [(1, 2), (1, 3), (2, 2)])
+def test_connections_in_a_spherical_furnace_are_exact(strategy: tuple[int, int]) -> None:
+    """Inside an emitting diffuse sphere, a connection's f cos cos / d^2 over the uniform area density is
+    the same for every pair of points: the unweighted connection strategies estimate L_e rho^(k-1) of
+    paths of k segments with zero variance, so every pixel of every sample is exact."""
+    k = sum(strategy) - 1
+    r = render(SCENES / "furnace_sphere.json", spp=4, integrator="bdpt", max_depth=k, seed=2, strategy=strategy,
+               unweighted=True)
+    want = np.broadcast_to(LE * RHO ** (k - 1), r.mean.shape)
+    np.testing.assert_allclose(r.mean, want, rtol=2e-5)
+
+
 def test_weighted_strategies_sum_to_the_full_render() -> None:
     """One seed: the weighted strategies' images add up to the render of all strategies (float rounding
     apart), and the part of path length 2 matches its closed form: its MIS weights sum to 1."""
