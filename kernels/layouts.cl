@@ -13,11 +13,13 @@
 #define MAT_DIELECTRIC 3
 #define MAT_PLASTIC 4
 
-/* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl). */
+/* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl;
+    BDPT: kernels/render/bdpt.cl). */
 #define INTEGRATOR_PATH 0
 #define INTEGRATOR_NEE 1
 #define INTEGRATOR_MIS 2
 #define INTEGRATOR_LT 3
+#define INTEGRATOR_BDPT 4
 
 /* LightShape: ``light_record.shape``: how light sampling places a point on the emitter (kernels/render/lights.cl). */
 #define LIGHT_TRIANGLE 0

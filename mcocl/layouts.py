@@ -56,12 +56,14 @@ MaterialKind.__doc__ = "``materials[k].kind``: the BSDF of a material (kernels/r
 
 
 class Integrator(enum.IntEnum):
-    """The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl)."""
+    """The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl;
+    BDPT: kernels/render/bdpt.cl)."""
 
     PATH = 0
     NEE = 1
     MIS = 2
     LT = 3
+    BDPT = 4
 
 
 class LightShape(enum.IntEnum):

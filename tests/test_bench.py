@@ -329,7 +329,7 @@ def test_render_bench_against_a_cached_reference(tmp_path, capsys):
     assert "rendering the reference" in first.err
     s = json.loads((out / "render-summary.json").read_text())
     (prob,) = s["problems"]
-    assert [e["name"] for e in prob["estimators"]] == ["path", "nee", "mis", "lt"]
+    assert [e["name"] for e in prob["estimators"]] == ["path", "nee", "mis", "lt", "bdpt"]
     assert prob["baseline_unavailable"]  # said, not silently missing
     for e in prob["estimators"]:
         assert e["points"] == prob["width"] * prob["height"] and e["error"] >= 0 and e["failed"] is None

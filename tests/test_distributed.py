@@ -99,7 +99,7 @@ def test_dask_gives_the_local_random_walk_sums(client, tmp_path):
     assert np.array_equal(r1.values, r2.values) and np.array_equal(r1.stderr, r2.stderr)
 
 
-@pytest.mark.parametrize("integrator", ["mis", "lt"])
+@pytest.mark.parametrize("integrator", ["mis", "lt", "bdpt"])
 def test_dask_gives_the_local_film(client, tmp_path, integrator):
     from mcocl.render.api import render
 

@@ -68,5 +68,5 @@ def test_bad_scene_is_a_clear_error(tmp_path: Path) -> None:
     p = mcocl("render", str(bad), "--spp", "1", "--out", str(tmp_path / "x.exr"))
     assert p.returncode == 2
     assert "shapes[0].material" in p.stderr and "Traceback" not in p.stderr
-    p = mcocl("render", str(SCENES / "furnace.json"), "--integrator", "bdpt")
+    p = mcocl("render", str(SCENES / "furnace.json"), "--integrator", "photon")
     assert p.returncode == 2 and "invalid choice" in p.stderr

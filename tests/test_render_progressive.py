@@ -118,7 +118,7 @@ def test_time_and_noise_halting() -> None:
         ({"spp": 2.5}, "spp"),
         ({"time_budget": -1.0}, "time_budget"),
         ({"target_error": 0}, "target_error"),
-        ({"integrator": "bdpt"}, "integrator"),
+        ({"integrator": "photon"}, "integrator"),
         ({"max_depth": -2}, "max_depth"),
         ({"rr_depth": 0}, "rr_depth"),
         ({"seed": -1}, "seed"),

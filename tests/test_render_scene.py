@@ -80,7 +80,7 @@ def test_base_scene_is_valid(tmp_path):
         ({"camera__width": True}, "camera.width", "expected an integer"),
         ({"camera__up": [0, 0, 1]}, "camera.up", "parallel"),
         ({"camera__origin": [0, 0]}, "camera.origin", "list of 3 numbers"),
-        ({"integrator__type": "bdpt"}, "integrator.type", "unknown value 'bdpt'"),
+        ({"integrator__type": "photon"}, "integrator.type", "unknown value 'photon'"),
         ({"integrator__spp": 0}, "integrator.spp", "must be >= 1"),
         ({"integrator__max_depth": -2}, "integrator.max_depth", "must be >= -1"),
         ({"materials__w__reflectance": [1, 2]}, "materials.w.reflectance", "list of 3 numbers"),

@@ -135,6 +135,7 @@ MC_INLINE intv camera_visible(const scene_geom *geom, vec3v p, vec3v n, const ca
     return active & !trace_any_v(geom, so, k->wo, dist * (1.0f - SHADOW_EPSILON), active);
 }
 
+#ifndef LT_NO_TRACE_KERNEL /* bdpt.cl takes the splat film's helpers and fold, not this kernel */
 /* Light paths of blocks first_block .. first_block + nblocks - 1; params.ntiles
  * groups of paths per block, one work-item each; bsphere: centre and radius
  * of the scene's bounding sphere.  scratch: one group image per work-item. */
@@ -289,6 +290,8 @@ kernel void lt_trace(
         alive = next_alive;
     }
 }
+
+#endif
 
 /* Per (block, pixel): the block's group images summed in group order, as
  * one batch of the film (film_t STATS, layouts.cl FilmStat): the batch mean

@@ -54,6 +54,7 @@ DESCRIPTIONS = {
     "nee": "light sampling at every vertex (next-event estimation), BSDF sampling to continue",
     "mis": "both, combined by the power heuristic (beta 2)",
     "lt": "light tracing: paths from the emitters, every non-delta vertex connected to the camera",
+    "bdpt": "bidirectional path tracing: every connection of a camera and a light subpath, MIS-weighted",
 }
 REFERENCE_FACTOR = 8.0
 REFERENCE_SEED = 0x5EED_0F_2EF
@@ -151,7 +152,7 @@ class RenderProblem:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def estimators(self) -> list[EstimatorSpec]:
-        """path, nee, mis, lt."""
+        """path, nee, mis, lt, bdpt."""
         out = []
         for name in INTEGRATORS:
             def start(name: str = name) -> RenderRun:

@@ -47,9 +47,20 @@ examples:
   mcocl render scenes/cornell.json --time 60 --integrator mis --out cornell.exr --png cornell.png
   mcocl render scenes/veach_mis.json --integrator nee --spp 64 --out nee.exr
   mcocl render scenes/cornell.json --integrator lt --time 30 --out lt.exr
+  mcocl render scenes/caustic.json --integrator bdpt --spp 256 --out caustic.exr
+  mcocl render scenes/veach_mis.json --integrator bdpt --strategy 2,2 --out s2t2.exr
   mcocl render scenes/cornell.json --target-error 0.01 --checkpoint cornell.ckpt --out cornell.exr
   mcocl render scenes/cornell.json --resume cornell.ckpt --spp 1024 --out cornell.exr
 """
+
+
+def strategy_pair(text: str) -> tuple[int, int]:
+    """``--strategy s,t``: two whole numbers (their range is checked by the render)."""
+    try:
+        s, t = (int(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected s,t (two whole numbers), got {text!r}") from None
+    return s, t
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -61,6 +72,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_halting_args(p, "stop once the mean relative standard error of the pixels is at most this (e.g. 0.01)",
                      "--noise")
     p.add_argument("--integrator", choices=INTEGRATORS, default=None, help="light transport estimator (default: the scene's)")
+    p.add_argument("--mis-heuristic", choices=("power", "balance"), default="power",
+                   help="bdpt: how strategies are combined (power: beta 2, the default)")
+    p.add_argument("--strategy", type=strategy_pair, default=None, metavar="S,T",
+                   help="bdpt: render strategy (s, t) only (s light, t camera vertices), MIS-weighted")
+    p.add_argument("--unweighted", action="store_true", help="bdpt --strategy: leave out the MIS weight")
     p.add_argument("--max-depth", type=int, default=None,
                    help="longest path in segments, Mitsuba's convention (-1 unbounded, 1 emitters only, 2 direct light)")
     p.add_argument("--rr-depth", type=int, default=None, help="depth from which Russian roulette may end paths")
@@ -90,7 +106,8 @@ def run(args: argparse.Namespace) -> int:
         r = render(
             args.scene, spp=args.spp, integrator=args.integrator, max_depth=args.max_depth,
             rr_depth=args.rr_depth, params=dict(args.define) or None, lenient=args.lenient,
-            mesh_folder=args.mesh_folder, sampler=args.sampler, **run_option_kwargs(args),
+            mesh_folder=args.mesh_folder, sampler=args.sampler, mis=args.mis_heuristic, strategy=args.strategy,
+            unweighted=args.unweighted, **run_option_kwargs(args),
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteSampleWarning, DeviceFailureWarning)):

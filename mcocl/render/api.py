@@ -28,10 +28,11 @@ from ..engine.dispatch import execute
 from ..errors import InputError, NonFiniteSampleWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
+from .bdpt_settings import bdpt_settings
 from .compiled import CompiledScene, compile_scene
 from .emitter_choice import bounding_sphere
 from .film import STATS, film_image, relative_error
-from .job import UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
+from .job import SPLAT_INTEGRATORS, UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
 from .scene import INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
 from .scene_file import load_scene
 from .sobol_film import MIN_BATCHES, sobol_spp_per_block
@@ -138,8 +139,8 @@ def _render_sampler(cs: CompiledScene, sampler: Any) -> str:
     name = getattr(cs, "sampler", "independent") if sampler is None else sampler
     if name not in RENDER_SAMPLERS:
         raise InputError(f"sampler: unknown render sampler {name!r}; choose one of {', '.join(RENDER_SAMPLERS)}")
-    if name == "sobol" and cs.integrator == "lt":
-        raise InputError("sampler 'sobol' works with the path integrators (path, nee, mis), not 'lt'")
+    if name == "sobol" and cs.integrator in SPLAT_INTEGRATORS:
+        raise InputError(f"sampler 'sobol' works with the path integrators (path, nee, mis), not {cs.integrator!r}")
     return name
 
 
@@ -186,6 +187,9 @@ def render(
     lenient: bool = False,
     mesh_folder: str | os.PathLike[str] | None = None,
     sampler: str | None = None,
+    mis: str = "power",
+    strategy: tuple[int, int] | None = None,
+    unweighted: bool = False,
 ) -> RenderResult:
     """Render a scene by path tracing.
 
@@ -201,7 +205,8 @@ def render(
         integrator: ``path``, ``nee``, ``mis`` or ``lt`` (light tracing with
             next-event estimation to the camera; ``spp`` then counts light paths
             per pixel of the image, and mirrors or glass seen directly stay
-            black) (default: the scene's, else ``mis``).
+            black) or ``bdpt`` (bidirectional path tracing, every strategy
+            combined by MIS; area emitters only) (default: the scene's, else ``mis``).
         max_depth, rr_depth: Mitsuba 3's conventions (max_depth -1 unbounded,
             1 emitters seen directly, 2 direct light only); default: the scene's.
         seed: 64-bit seed; the image depends on nothing else.
@@ -220,6 +225,9 @@ def render(
         sampler: ``independent`` or ``sobol`` (per-pixel Owen-scrambled Sobol',
             the variance from the spread of block means: :mod:`mcocl.render.sobol_film`);
             default: the scene's ``integrator.sampler``.
+        mis: ``bdpt``'s MIS heuristic, ``power`` (beta 2, the default) or ``balance``.
+        strategy: ``bdpt`` renders only strategy (s, t) (s light, t >= 1 camera vertices),
+            MIS-weighted unless ``unweighted``.
 
     The shared options (seed, time_budget, target_error, placement, lanes,
     checkpoint, resume, progress) are checked by :class:`mcocl.run_options.RunOptions`.
@@ -249,6 +257,7 @@ def render(
     if spp is not None and spp >= UNBOUNDED_SPP:
         raise InputError(f"spp must be below {UNBOUNDED_SPP}, got {spp}")
 
+    bdpt = bdpt_settings(cs, mis, strategy, unweighted)
     tables = scene_tables(cs)
     meta = {
         "kind": "render",
@@ -261,6 +270,7 @@ def render(
         "seed": seed,
         # None for independent: the checkpoints written before the option had no key, and read as None
         "sampler": sampler if sampler != "independent" else None,
+        **({"bdpt": repr(bdpt)} if cs.integrator == "bdpt" else {}),
     }
     spp_limit = spp if spp is not None else UNBOUNDED_SPP
     acc: Accumulator | None = None
@@ -282,7 +292,7 @@ def render(
         if sampler == "sobol":
             # batches are the replicates of the variance: have a few, each a whole net
             spp_per_block = sobol_spp_per_block(spp_per_block, spp)
-        elif cs.integrator == "lt":
+        elif cs.integrator in SPLAT_INTEGRATORS:
             # the variance of a splatted image comes from its batches: have a few
             spp_per_block = splat_spp_per_block(spp_per_block, spp)
         elif spp is not None:
@@ -292,7 +302,7 @@ def render(
 
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
-                    spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius), sampler=sampler)
+                    spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius), sampler=sampler, **bdpt)
     ctx = runtime.device_context(opts.device)
     runner = job.runner(ctx)
     if acc is None:
@@ -330,9 +340,11 @@ def render(
     if sampler == "sobol":
         notes.append(f"sobol: variance from {acc.blocks_done} independent Owen scramblings (blocks) of "
                      f"{spp_per_block} samples per pixel")
-    if job.splats:
+    if job.integrator == "lt":
         notes.append(f"light tracing: variance from {acc.blocks_done} independent batches of "
                      f"{spp_per_block} light paths per pixel; specular surfaces seen directly are black")
+    elif job.splats:
+        notes.append(f"bdpt: variance from {acc.blocks_done} independent batches of {spp_per_block} samples per pixel")
     result = RenderResult(
         mean=img.mean,
         variance=img.variance,

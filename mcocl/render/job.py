@@ -61,6 +61,10 @@ TILE_PIXELS = 64
 # The scene arrays the render kernel takes after its render_params, in its argument order.
 KERNEL_BUFFERS = ("camera", "bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
                   "materials", "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail")
+# The integrators on the splatting film (mcocl/render/splat_film.py).
+SPLAT_INTEGRATORS = ("lt", "bdpt")
+# bdpt's MIS heuristics: the exponent beta of Veach's power heuristic (1: the balance heuristic).
+MIS_BETAS = {"balance": 1, "power": 2}
 # Light tracing starts its paths at emitters chosen by the power CDF: it takes no light BVH.
 LT_BUFFERS = tuple(name for name in KERNEL_BUFFERS if name not in ("light_bvh", "light_trail"))
 
@@ -90,6 +94,9 @@ class RenderJob:
             (light tracing's environment rays start outside it).
         sampler: ``independent`` (Philox) or ``sobol`` (per-pixel Owen-scrambled
             Sobol', one scrambling per block and pixel: :mod:`mcocl.render.sobol_film`).
+        mis: ``bdpt``'s MIS heuristic, ``balance`` or ``power`` (beta 2).
+        strategy: ``bdpt`` renders only strategy (s, t) when given.
+        unweighted: with ``strategy``, leave out its MIS weight.
 
     The light sampler follows the tables: those of a scene whose
     ``light_sampler`` is ``bvh`` hold the light BVH and get the BVH build;
@@ -109,6 +116,9 @@ class RenderJob:
     tile_pixels: int = TILE_PIXELS
     bounding_sphere: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
     sampler: str = "independent"
+    mis: str = "power"
+    strategy: tuple[int, int] | None = None
+    unweighted: bool = False
     stat_shape: tuple[int, ...] = field(default=(0, 0, STATS))
 
     def __post_init__(self) -> None:
@@ -116,8 +126,8 @@ class RenderJob:
 
     @property
     def splats(self) -> bool:
-        """Whether the job runs on the splatting film (light tracing)."""
-        return self.integrator == "lt"
+        """Whether the job runs on the splatting film (light tracing, bidirectional path tracing)."""
+        return self.integrator in SPLAT_INTEGRATORS
 
     @property
     def ntiles(self) -> int:
@@ -133,6 +143,12 @@ class RenderJob:
             opts.append(f"-DLIGHT_SAMPLER={LIGHT_SAMPLER_CODES['bvh']}")
         if self.sampler == "sobol":
             opts += sobol_render_defines(self.spp_per_block)
+        if self.integrator == "bdpt":
+            opts.append(f"-DBDPT_MIS_BETA={MIS_BETAS[self.mis]}")
+            if self.strategy is not None:
+                opts += [f"-DBDPT_ONLY_S={int(self.strategy[0])}", f"-DBDPT_ONLY_T={int(self.strategy[1])}"]
+                if self.unweighted:
+                    opts.append("-DBDPT_UNWEIGHTED")
         return opts
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:
@@ -192,5 +208,6 @@ class RenderRunner:
         return block_batches(out) if self.job.sampler == "sobol" else out
 
 
-__all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "UNBOUNDED_SPP", "RenderJob", "RenderRunner",
+__all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "MIS_BETAS", "SPLAT_INTEGRATORS",
+           "UNBOUNDED_SPP", "RenderJob", "RenderRunner",
            "default_spp_per_block", "light_records", "light_tables", "prim_records", "scene_tables", "tables_digest"]

@@ -44,6 +44,8 @@ from .. import runtime
 from .film import STATS
 
 KERNEL_FILE = "render/lt.cl"
+# Per splatting integrator: its kernel file and trace kernel (both fold with lt_fold_groups).
+TRACE_KERNELS = {"lt": (KERNEL_FILE, "lt_trace"), "bdpt": ("render/bdpt.cl", "bdpt_trace")}
 SPLAT_COLUMNS = 4  # R, G, B sums and the count of non-finite splats (kernels/render/lt.cl)
 MAX_GROUPS = 64
 # The group images of one launch stay under this size (float64 columns).
@@ -80,7 +82,7 @@ def splat_spp_per_block(default: int, spp: int | None) -> int:
 
 
 class SplatRunner:
-    """A splatting render job (``job.integrator == "lt"``) built on one device.
+    """A splatting render job (``job.integrator`` ``lt`` or ``bdpt``) built on one device.
 
     ``buffer_names``: the scene tables the kernel takes after its
     ``render_params``, in order (mcocl.render.job.KERNEL_BUFFERS).
@@ -93,14 +95,16 @@ class SplatRunner:
     def __init__(self, job, ctx: runtime.DeviceContext, buffer_names: tuple[str, ...]) -> None:
         self.job = job
         self.ctx = ctx
-        self.lanes = int(job.lanes) if job.lanes is not None else ctx.lanes
+        # bdpt is a scalar kernel (kernels/render/bdpt.cl): its subpaths' lengths differ per sample
+        self.lanes = 1 if job.integrator == "bdpt" else int(job.lanes) if job.lanes is not None else ctx.lanes
         t0 = time.perf_counter()
-        src = runtime.compose([KERNEL_FILE])
+        kernel_file, trace_name = TRACE_KERNELS[job.integrator]
+        src = runtime.compose([kernel_file])
         self.film_dtype = np.float64 if ctx.fp64 else np.float32
         options = job.options(self.lanes) + (["-DFILM_DOUBLE"] if ctx.fp64 else [])
-        self.program = runtime.build(ctx, src, options, what="light tracing kernel")
+        self.program = runtime.build(ctx, src, options, what=f"{job.integrator} kernel")
         self.build_seconds = time.perf_counter() - t0
-        self.trace = runtime.kernel(self.program, "lt_trace")
+        self.trace = runtime.kernel(self.program, trace_name)
         self.fold = runtime.kernel(self.program, "lt_fold_groups")
         self.buffer_names = buffer_names
         mf = cl.mem_flags
@@ -138,5 +142,5 @@ class SplatRunner:
         return out
 
 
-__all__ = ["KERNEL_FILE", "MIN_BATCHES", "SCRATCH_BYTES", "SPLAT_COLUMNS", "SplatRunner", "blocks_per_launch",
+__all__ = ["KERNEL_FILE", "MIN_BATCHES", "SCRATCH_BYTES", "SPLAT_COLUMNS", "TRACE_KERNELS", "SplatRunner", "blocks_per_launch",
            "splat_groups", "splat_spp_per_block"]

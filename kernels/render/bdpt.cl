@@ -1,0 +1,501 @@
+/* bdpt.cl — bidirectional path tracing (the lecture's "Obousměrný Path
+ * Tracing"; Veach's thesis §10.2 and §10.3, Veach & Guibas 1995).
+ *
+ * Per sample: a camera subpath z_0 .. z_{nc-1} (z_0 the lens point) and a
+ * light subpath y_0 .. y_{nl-1} (y_0 on an area emitter), kept in private
+ * arrays of at most BDPT_MAX_VERTICES vertices each; every strategy (s, t)
+ * (s light vertices, t >= 1 camera vertices, path length s + t - 1 segments)
+ * is evaluated:
+ *   s = 0       the camera subpath hits an emitter at z_{t-1};
+ *   t = 1       light vertex y_{s-1} connects to the camera (a lens point
+ *               uniform on the aperture, as lt.cl): the contribution is splatted
+ *               to the pixel it lands in;
+ *   s = 1       next-event estimation from z_{t-1}: a fresh point on an emitter,
+ *               sampled by the same density as y_0 (lights_emit.cl), so that the
+ *               MIS weights see one density for the first light vertex;
+ *   otherwise   y_{s-1} and z_{t-1} are joined by a shadow ray.
+ * Connections need non-delta endpoints (bsdf_is_smooth): a mirror, glass or a
+ * delta-sampled plastic coat is only passed through by sampling.
+ *
+ * MIS weights (Veach's thesis eq. 10.9 with the ratios of §10.2.1; the
+ * pdf ratio walk of pbrt-v3's MISWeight): every vertex stores pdf_fwd, the
+ * area density with which its own subpath generated it, and pdf_rev, the area
+ * density with which the other direction would.  For a strategy (s, t) the
+ * four vertices next to the connection get their reverse densities from the
+ * connection itself, and the weight is
+ *     w_{s,t} = 1 / (1 + sum_{i} r_i^beta),   r_i = prod pdf_rev / pdf_fwd
+ * over the strategies (s', t') of the same path that the caps allow
+ * (s' <= light vertices, t' >= 1, t' <= camera vertices); a vertex sampled
+ * through a delta lobe gets pdf_fwd = pdf_rev = 0 (counted as 1 in the
+ * ratios) and the strategies that would connect at it or next to it are left
+ * out of the sum.  beta = BDPT_MIS_BETA: 1 the balance heuristic, 2 the power
+ * heuristic.  The camera's lens is not a target of light paths (t = 0 is
+ * not a strategy), as in lt.cl.
+ *
+ * Russian roulette is a multiplicative survival weight on the subpath
+ * throughput (1 / q on survival); the pdfs of the MIS weights leave it out:
+ * any weights that sum to 1 over the strategies of a path keep every
+ * strategy's sum unbiased (Veach's thesis §9.2).
+ *
+ * Depths (Mitsuba 3's max_depth: path length in segments).  A strategy (s, t)
+ * counts when s + t - 1 <= max_depth; the camera subpath holds at most
+ * max_depth + 1 vertices, the light subpath max_depth, both capped at
+ * BDPT_MAX_VERTICES (max_depth < 0: the caps only; paths longer than
+ * 2 BDPT_MAX_VERTICES - 1 segments are dropped, a bias of order rho^(2 cap)).
+ *
+ * Random numbers.  Sample (pixel, s) has the index s W H + pixel, as in
+ * integrator.cl; its camera subpath draws in RNG_STREAM_RENDER (RENDER_DIM_CAMERA,
+ * RENDER_DIM_BSDF(k - 1) at z_k, RENDER_DIM_LIGHT(k - 1) for the s = 1 light
+ * point at z_k), its light subpath in RNG_STREAM_LIGHT_TRACE with the same
+ * index (LT_DIM_EMIT, LT_DIM_BSDF(i) and LT_DIM_LENS(i) at y_i, as lt.cl).
+ *
+ * Output: the splat film of lt.cl (mcocl/render/splat_film.py).  A block is
+ * spp_per_block W H samples in `ntiles` groups; the sample's own pixel gets
+ * W H times the t >= 2 strategies' sum, the t = 1 strategies splat W H times
+ * their contribution where they land, and lt_fold_groups divides by the
+ * block's W H spp_per_block samples.
+ *
+ * Build: a scalar kernel (LANES 1): the subpaths' lengths differ per sample.
+ * Options: -DBDPT_MIS_BETA=1|2; -DBDPT_ONLY_S=s -DBDPT_ONLY_T=t render one
+ * strategy (its MIS weight kept unless -DBDPT_UNWEIGHTED).
+ */
+#define LT_NO_TRACE_KERNEL
+#include "render/lt.cl"
+
+#if LANES != 1
+#error "bdpt.cl is a scalar kernel: build it with LANES=1"
+#endif
+#ifndef BDPT_MAX_VERTICES
+#define BDPT_MAX_VERTICES 24
+#endif
+#ifndef BDPT_MIS_BETA
+#define BDPT_MIS_BETA 2
+#endif
+
+typedef struct {
+    vec3v p;              /* position (z_0: the lens point) */
+    vec3v n;              /* front normal (z_0: the camera's forward axis) */
+    vec3v wi;             /* unit direction toward the previous vertex of its subpath */
+    vec3v beta;           /* subpath throughput up to and including the vertex's arrival */
+    float pdf_fwd;        /* area density of the vertex from its own subpath */
+    float pdf_rev;        /* area density of the vertex from the other direction */
+    float light_pdf_area; /* density of this point as y_0 (emitters only; the s = 0 strategy) */
+    int emitter;          /* emitter index, -1 if none */
+    uint mat;             /* material index */
+    int delta;            /* the vertex scattered through a delta lobe */
+} bdpt_vertex;
+
+/* The scene a sample sees: geometry, primitives, lights, camera and the image. */
+typedef struct {
+    const scene_geom *geom;
+    const prim_tables *pt;
+    const light_tables *lt;
+    global const float4 *camera;
+    global const float4 *materials;
+    float4 bsphere;
+    uint width, height;
+    float pixels;
+} bdpt_scene;
+
+/* The area density at point q (normal nq) of a direction of solid-angle density pdf_dir sampled at p. */
+MC_INLINE float to_area(float pdf_dir, vec3v p, vec3v q, vec3v nq) {
+    vec3v v = v3_sub(q, p);
+    float d2 = v3_len2(v);
+    return d2 > 0.0f ? pdf_dir * fabs(v3_dot(nq, v)) / (d2 * sqrt(d2)) : 0.0f;
+}
+
+/* f cos(theta_out) at surface vertex v for light arriving along world direction
+ * w_in (pointing away) and leaving along w_out; *pdf: the density of sampling w_out from w_in. */
+MC_INLINE vec3v vertex_eval(const bdpt_scene *sc, const bdpt_vertex *v, vec3v w_in, vec3v w_out, float *pdf) {
+    material_v m = material_load(sc->materials, v->mat);
+    frame3v fr = frame_from_normal(v->n);
+    return bsdf_eval(&m, frame_to_local(fr, w_in), frame_to_local(fr, w_out), pdf);
+}
+
+MC_INLINE int vertex_connectible(const bdpt_scene *sc, const bdpt_vertex *v) {
+    material_v m = material_load(sc->materials, v->mat);
+    return bsdf_is_smooth(&m) != 0;
+}
+
+/* Whether the segment from a (normal na) to b (normal nb) is unoccluded. */
+MC_INLINE int segment_clear(const bdpt_scene *sc, vec3v a, vec3v na, vec3v b) {
+    vec3v w = v3_normalize(v3_sub(b, a));
+    vec3v so = offset_origin(a, na, w);
+    float dist = sqrt(v3_len2(v3_sub(b, so)));
+    return !trace_any_v(sc->geom, so, w, dist * (1.0f - SHADOW_EPSILON), 1);
+}
+
+/* Grow a subpath from path[n - 1] along (o, d), sampled with solid-angle density
+ * pdf_dir, while it has fewer than maxv vertices; returns its vertex count.
+ * mode: TRANSPORT_RADIANCE (camera; dimensions RENDER_DIM_BSDF(k - 1) at z_k, Mitsuba's
+ * roulette on max(beta) eta^2) or TRANSPORT_IMPORTANCE (light; LT_DIM_BSDF(k) at y_k,
+ * roulette on max(beta) / rr_scale as lt.cl).  Roulette applies from path length rr_depth. */
+MC_INLINE int bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *path, int n, int maxv, vec3v o,
+                        vec3v d, vec3v beta, float pdf_dir, int mode, uint rr_depth, float rr_scale) {
+    float eta = 1.0f;
+    while (n < maxv) {
+        hitv h = trace_closest_v(sc->geom, o, d, 1);
+        if (!h.hit) break;
+        surface_v sf = surface_at(sc->pt, h.prim, h.t, o, d, 1);
+        bdpt_vertex *v = &path[n];
+        bdpt_vertex *prev = &path[n - 1];
+        v->p = sf.p;
+        v->n = sf.n;
+        v->wi = v3_neg(d);
+        v->beta = beta;
+        v->pdf_fwd = to_area(pdf_dir, prev->p, sf.p, sf.n);
+        v->pdf_rev = 0.0f;
+        v->emitter = sf.emitter;
+        v->light_pdf_area = sf.emitter >= 0 ? sf.pmf * (1.0f - sc->lt->env_pmf) / sf.area : 0.0f;
+        v->mat = sf.mat;
+        v->delta = 0;
+        ++n;
+        if (n >= maxv) break;
+        material_v m = material_load(sc->materials, sf.mat);
+        frame3v fr = frame_from_normal(sf.n);
+        vec3v wi = frame_to_local(fr, v->wi);
+        float ub[4]; /* lobe, direction 2D, roulette */
+        sampler_seek(smp, mode == TRANSPORT_RADIANCE ? RENDER_DIM_BSDF((uint)(n - 2)) : LT_DIM_BSDF((uint)(n - 1)));
+        sampler_next_nd(smp, 4, ub);
+        bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2], mode);
+        if (!(v3_maxc(bs.weight) > 0.0f) || !(bs.pdf > 0.0f)) break;
+        float pdf_rev_dir;
+        bsdf_eval(&m, bs.wo, wi, &pdf_rev_dir);
+        pdf_dir = bs.pdf;
+        if (bs.delta) {
+            v->delta = 1;
+            pdf_dir = 0.0f;
+            pdf_rev_dir = 0.0f;
+        }
+        beta = v3_mul(beta, bs.weight);
+        eta *= bs.eta;
+        prev->pdf_rev = to_area(pdf_rev_dir, sf.p, prev->p, prev->n);
+        vec3v wo = frame_to_world(fr, bs.wo);
+        o = offset_origin(sf.p, sf.n, wo);
+        d = wo;
+        /* roulette as integrator.cl (camera: from depth rr_depth of the vertex after z_k, i.e. k + 1)
+         * and lt.cl (light: from light vertex rr_depth) */
+        if ((uint)(mode == TRANSPORT_RADIANCE ? n - 1 : n) >= rr_depth) {
+            float q = mode == TRANSPORT_RADIANCE ? fmin(v3_maxc(beta) * eta * eta, 0.95f)
+                                                 : fmin(v3_maxc(beta) / rr_scale, 0.95f);
+            if (!(ub[3] < q)) break;
+            beta = v3_scale(beta, 1.0f / q);
+        }
+    }
+    return n;
+}
+
+/* (pdf_rev / pdf_fwd)^beta with zero densities (delta vertices) counted as 1. */
+MC_INLINE float mis_ratio(float rev, float fwd) {
+    float r = (rev != 0.0f ? rev : 1.0f) / (fwd != 0.0f ? fwd : 1.0f);
+#if BDPT_MIS_BETA == 2
+    return r * r;
+#else
+    return r;
+#endif
+}
+
+/* The MIS weight of strategy (s, t), the connection's reverse densities
+ * already in place; nl_cap, nc_cap: the most light and camera vertices a
+ * strategy of this render may use. */
+MC_INLINE float bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *cam, int s, int t, int nl_cap,
+                                int nc_cap) {
+    float sum = 0.0f, r = 1.0f;
+    /* strategies (s + t - i, i): the camera vertex z_i is taken by the light subpath instead */
+    for (int i = t - 1; i > 0; --i) {
+        if (s + t - i > nl_cap) break;
+        r *= mis_ratio(cam[i].pdf_rev, cam[i].pdf_fwd);
+        if (!cam[i].delta && !cam[i - 1].delta) sum += r;
+    }
+    r = 1.0f;
+    /* strategies (i, s + t - i): the light vertex y_i is taken by the camera subpath instead */
+    for (int i = s - 1; i >= 0; --i) {
+        if (s + t - i > nc_cap) break;
+        r *= mis_ratio(light[i].pdf_rev, light[i].pdf_fwd);
+        int delta_before = i > 0 ? light[i - 1].delta : 0;
+        if (!light[i].delta && !delta_before) sum += r;
+    }
+    return 1.0f / (1.0f + sum);
+}
+
+/* Strategy (s, t) with t >= 2: its unweighted contribution to the sample's own pixel times
+ * its weight into *w.  ul: two uniforms (the s = 1 light point's position; the emitter choice
+ * takes two more, ue). */
+MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, int t,
+                             const float *ue, int nl_cap, int nc_cap, float *w) {
+    vec3v zero = v3s(0.0f);
+    *w = 0.0f;
+    bdpt_vertex *pt = &cam[t - 1], *ptm = &cam[t - 2];
+    float save_pt = pt->pdf_rev, save_ptm = ptm->pdf_rev;
+    vec3v c = zero;
+    if (s == 0) {
+        if (pt->emitter < 0 || !(v3_dot(pt->n, pt->wi) > 0.0f)) return zero;
+        c = v3_mul(pt->beta, emitter_radiance_of(sc->lt, pt->emitter));
+        pt->pdf_rev = pt->light_pdf_area;
+        ptm->pdf_rev = to_area(emitter_pdf_solid_angle(pt->n, pt->wi), pt->p, ptm->p, ptm->n);
+        *w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+    } else if (s == 1) {
+        if (!vertex_connectible(sc, pt)) return zero;
+        float u6[6] = {ue[0], ue[1], ue[2], ue[3], 0.5f, 0.5f};
+        emitter_ray_v er = sample_emitter_ray(sc->lt, sc->bsphere, u6, 1);
+        if (!er.valid || er.env) return zero;
+        vec3v dv = v3_sub(er.pos, pt->p);
+        float d2 = v3_len2(dv);
+        vec3v wz = v3_scale(dv, 1.0f / sqrt(d2));
+        float cos_y = -v3_dot(er.n, wz);
+        if (!(cos_y > 0.0f) || !(d2 > 0.0f)) return zero;
+        float pz;
+        vec3v fz = vertex_eval(sc, pt, pt->wi, wz, &pz);
+        c = v3_scale(v3_mul(v3_mul(pt->beta, fz), er.radiance), cos_y / (d2 * er.pdf_area));
+        if (!(v3_maxc(c) > 0.0f) || !segment_clear(sc, pt->p, pt->n, er.pos)) return zero;
+        bdpt_vertex y0 = light[0];
+        light[0].p = er.pos;
+        light[0].n = er.n;
+        light[0].delta = 0;
+        light[0].pdf_fwd = er.pdf_area;
+        light[0].pdf_rev = to_area(pz, pt->p, er.pos, er.n);
+        pt->pdf_rev = to_area(cos_y * RT_INV_PI, er.pos, pt->p, pt->n);
+        float pr;
+        vertex_eval(sc, pt, wz, pt->wi, &pr);
+        ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
+        *w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+        light[0] = y0;
+    } else {
+        bdpt_vertex *qs = &light[s - 1], *qsm = &light[s - 2];
+        if (!vertex_connectible(sc, pt) || !vertex_connectible(sc, qs)) return zero;
+        vec3v dv = v3_sub(pt->p, qs->p);
+        float d2 = v3_len2(dv);
+        if (!(d2 > 0.0f)) return zero;
+        vec3v wy = v3_scale(dv, 1.0f / sqrt(d2)); /* from y_{s-1} toward z_{t-1} */
+        float py, pz;
+        vec3v fy = vertex_eval(sc, qs, qs->wi, wy, &py);
+        vec3v fz = vertex_eval(sc, pt, pt->wi, v3_neg(wy), &pz);
+        c = v3_scale(v3_mul(v3_mul(qs->beta, fy), v3_mul(fz, pt->beta)), 1.0f / d2);
+        if (!(v3_maxc(c) > 0.0f) || !segment_clear(sc, qs->p, qs->n, pt->p)) return zero;
+        float save_qs = qs->pdf_rev, save_qsm = qsm->pdf_rev;
+        pt->pdf_rev = to_area(py, qs->p, pt->p, pt->n);
+        qs->pdf_rev = to_area(pz, pt->p, qs->p, qs->n);
+        float pr;
+        vertex_eval(sc, pt, v3_neg(wy), pt->wi, &pr);
+        ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
+        vertex_eval(sc, qs, wy, qs->wi, &pr);
+        qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
+        *w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+        qs->pdf_rev = save_qs;
+        qsm->pdf_rev = save_qsm;
+    }
+    pt->pdf_rev = save_pt;
+    ptm->pdf_rev = save_ptm;
+    return c;
+}
+
+/* Strategy (s, 1): light vertex y_{s-1} seen by the camera through the lens point of (ul1, ul2).
+ * Returns the splat (W H times the contribution, unweighted) and its pixel; *w its weight. */
+MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, float ul1,
+                                    float ul2, int nl_cap, int nc_cap, uint *pixel, float *w) {
+    vec3v zero = v3s(0.0f);
+    *w = 0.0f;
+    bdpt_vertex *qs = &light[s - 1];
+    if (s > 1 && !vertex_connectible(sc, qs)) return zero;
+    camera_connection_v k = camera_connect(sc->camera, qs->p, ul1, ul2, sc->width, sc->height);
+    if (!k.valid) return zero;
+    vec3v f;
+    float pfwd = 0.0f;
+    if (s == 1) {
+        float cos_y = v3_dot(qs->n, k.wo);
+        f = v3s(cos_y > 0.0f ? cos_y : 0.0f);
+    } else {
+        f = vertex_eval(sc, qs, qs->wi, k.wo, &pfwd);
+    }
+    vec3v c = v3_scale(v3_mul(qs->beta, f), sc->pixels * k.film.importance / k.pdf_solid_angle);
+    if (!(v3_maxc(c) > 0.0f) || !camera_visible(sc->geom, qs->p, qs->n, &k, 1)) return zero;
+    *pixel = k.film.pixel;
+    float save_qs = qs->pdf_rev;
+    qs->pdf_rev = to_area(k.film.pdf_solid_angle, k.lens, qs->p, qs->n);
+    if (s > 1) {
+        bdpt_vertex *qsm = &light[s - 2];
+        float save_qsm = qsm->pdf_rev, pr;
+        vertex_eval(sc, qs, k.wo, qs->wi, &pr);
+        qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
+        *w = bdpt_mis_weight(light, cam, s, 1, nl_cap, nc_cap);
+        qsm->pdf_rev = save_qsm;
+    } else {
+        *w = bdpt_mis_weight(light, cam, s, 1, nl_cap, nc_cap);
+    }
+    qs->pdf_rev = save_qs;
+    return c;
+}
+
+/* Whether strategy (s, t) is rendered (all, or the one of -DBDPT_ONLY_S / -DBDPT_ONLY_T). */
+MC_INLINE int strategy_on(int s, int t) {
+#ifdef BDPT_ONLY_S
+    return s == BDPT_ONLY_S && t == BDPT_ONLY_T;
+#else
+    return 1;
+#endif
+}
+
+MC_INLINE float strategy_weight(float w) {
+#ifdef BDPT_UNWEIGHTED
+    return 1.0f;
+#else
+    return w;
+#endif
+}
+
+/* Samples of blocks first_block .. first_block + nblocks - 1; params.ntiles groups per block,
+ * one work-item each, on the splat film of lt.cl (scratch: one group image per work-item). */
+kernel void bdpt_trace(
+    const render_params params,
+    global const float4 *camera,
+    SCENE_GEOM_BUFFERS,
+    global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance,
+    global const float4 *light_rec, global const float *light_cdf,
+    const float4 bsphere,
+    global film_t *scratch)
+{
+    const ulong first_block = params.first_block, seed = params.seed;
+    const uint nblocks = params.nblocks, spp_per_block = params.spp_per_block, spp_limit = params.spp_limit;
+    const uint width = params.width, height = params.height;
+    const uint groups = params.ntiles, rr_depth = params.rr_depth;
+    const int max_depth = params.max_depth;
+    const uint scene_ntris = params.ntris, scene_nspheres = params.nspheres;
+    const uint gid = (uint)get_global_id(0);
+    if (gid >= nblocks * groups) return;
+    const uint bi = gid / groups;
+    const uint group = gid - bi * groups;
+    const ulong block = first_block + bi;
+    const uint npix = width * height;
+    global film_t *img = scratch + ((size_t)bi * groups + group) * npix * SPLAT_COLUMNS;
+    for (uint k = 0; k < npix * SPLAT_COLUMNS; ++k) img[k] = 0;
+    const ulong spp0 = block * (ulong)spp_per_block;
+    const uint nspp = spp0 >= (ulong)spp_limit ? 0u : (uint)min((ulong)spp_per_block, (ulong)spp_limit - spp0);
+    const ulong block_paths = (ulong)nspp * npix;
+    const ulong path0 = spp0 * npix + block_paths * group / groups;
+    const ulong total = block_paths * (group + 1u) / groups - block_paths * group / groups;
+    if (total == 0ul || max_depth == 0) return;
+
+    SCENE_GEOM_MAKE(geom);
+    prim_tables pt;
+    pt.spheres = scene_spheres;
+    pt.prim_rec = prim_rec;
+    pt.ntris = scene_ntris;
+    pt.nspheres = scene_nspheres;
+    light_tables lt;
+    lt.light_rec = light_rec;
+    lt.light_cdf = light_cdf;
+    lt.emitter_radiance = emitter_radiance;
+    lt.nlights = params.nlights;
+    lt.light_top = params.light_top;
+    lt.env_threshold = params.env_threshold;
+    lt.env_pmf = params.env_pmf;
+    lt.env_radiance = params.env_radiance;
+    bdpt_scene sc;
+    sc.geom = &geom;
+    sc.pt = &pt;
+    sc.lt = &lt;
+    sc.camera = camera;
+    sc.materials = materials;
+    sc.bsphere = bsphere;
+    sc.width = width;
+    sc.height = height;
+    sc.pixels = (float)npix;
+    const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;
+    const bool thin_lens = camera_aperture(camera) > 0.0f;
+    /* the most vertices a strategy may take from each side (see the header) */
+    const int nc_cap = max_depth >= 0 ? min(max_depth + 1, BDPT_MAX_VERTICES) : BDPT_MAX_VERTICES;
+    const int nl_cap = max_depth >= 0 ? min(max_depth, BDPT_MAX_VERTICES) : BDPT_MAX_VERTICES;
+    const vec3v forward = cam_row(camera[CAMERA_RECORD_FORWARD_QUAD]);
+
+    bdpt_vertex cam[BDPT_MAX_VERTICES];
+    bdpt_vertex light[BDPT_MAX_VERTICES];
+
+    for (ulong j = 0; j < total; ++j) {
+        const ulong index = path0 + j;
+        const uint pixel = (uint)(index % npix);
+
+        /* ---- the camera subpath ---- */
+        mc_sampler_t cs = sampler_start(seed, index, RNG_STREAM_RENDER);
+        float uc[2];
+        sampler_seek(&cs, RENDER_DIM_CAMERA);
+        sampler_next_2d(&cs, uc);
+        uint py = pixel / width;
+        float sx = (float)(pixel - py * width) + uc[0], sy = (float)py + uc[1];
+        vec3v co, cd;
+        if (thin_lens) {
+            float ul[2];
+            sampler_next_2d(&cs, ul);
+            cd = camera_ray_lens(camera, sx, sy, inv_w, inv_h, ul[0], ul[1], &co);
+        } else {
+            cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
+        }
+        camera_direction_v cdir = camera_importance(camera, co, cd, width, height);
+        cam[0].p = co;
+        cam[0].n = forward;
+        cam[0].wi = forward;
+        cam[0].beta = v3s(1.0f);
+        cam[0].pdf_fwd = 1.0f;
+        cam[0].pdf_rev = 0.0f;
+        cam[0].light_pdf_area = 0.0f;
+        cam[0].emitter = -1;
+        cam[0].mat = 0u;
+        cam[0].delta = 0;
+        int nc = bdpt_walk(&sc, &cs, cam, 1, nc_cap, co, cd, v3s(1.0f), cdir.pdf_solid_angle, TRANSPORT_RADIANCE,
+                           rr_depth, 1.0f);
+
+        /* ---- the light subpath ---- */
+        mc_sampler_t ls = sampler_start(seed, index, RNG_STREAM_LIGHT_TRACE);
+        float ue[8];
+        sampler_seek(&ls, LT_DIM_EMIT);
+        sampler_next_nd(&ls, 8, ue);
+        int nl = 0;
+        if (nl_cap > 0) {
+            emitter_ray_v er = sample_emitter_ray(&lt, bsphere, ue, 1);
+            if (er.valid && !er.env) {
+                light[0].p = er.pos;
+                light[0].n = er.n;
+                light[0].wi = er.n;
+                light[0].beta = v3_scale(er.radiance, 1.0f / er.pdf_area);
+                light[0].pdf_fwd = er.pdf_area;
+                light[0].pdf_rev = 0.0f;
+                light[0].light_pdf_area = er.pdf_area;
+                light[0].emitter = -1;
+                light[0].mat = 0u;
+                light[0].delta = 0;
+                vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
+                nl = 1;
+                if (v3_maxc(b1) > 0.0f)
+                    nl = bdpt_walk(&sc, &ls, light, 1, nl_cap, offset_origin(er.pos, er.n, er.d), er.d, b1,
+                                   er.pdf_solid_angle, TRANSPORT_IMPORTANCE, rr_depth, v3_maxc(b1));
+            }
+        }
+
+        /* ---- every strategy ---- */
+        vec3v L = v3s(0.0f);
+        for (int t = 1; t <= nc; ++t) {
+            for (int s = 0; s <= (t >= 2 ? max(nl, 1) : nl); ++s) {
+                if (s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth) || !strategy_on(s, t)) continue;
+                float w;
+                if (t == 1) {
+                    float ul[2] = {ue[6], ue[7]};
+                    if (s > 1) {
+                        sampler_seek(&ls, LT_DIM_LENS((uint)(s - 1)));
+                        sampler_next_2d(&ls, ul);
+                    }
+                    uint px = 0u;
+                    vec3v c = bdpt_connect_camera(&sc, light, cam, s, ul[0], ul[1], nl_cap, nc_cap, &px, &w);
+                    if (w > 0.0f) splat(img, px, v3_scale(c, strategy_weight(w)), 1);
+                } else {
+                    float ul[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+                    if (s == 1) {
+                        sampler_seek(&cs, RENDER_DIM_LIGHT((uint)(t - 2)));
+                        sampler_next_nd(&cs, 4, ul);
+                    }
+                    vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, nl_cap, nc_cap, &w);
+                    if (w > 0.0f) L = v3_add(L, v3_scale(c, strategy_weight(w)));
+                }
+            }
+        }
+        if (!(L.x == 0.0f && L.y == 0.0f && L.z == 0.0f)) splat(img, pixel, v3_scale(L, sc.pixels), 1);
+    }
+}

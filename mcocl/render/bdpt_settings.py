@@ -1,0 +1,53 @@
+"""The settings of bidirectional path tracing (``integrator="bdpt"``, kernels/render/bdpt.cl), checked."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from .compiled import CompiledScene
+from .job import MIS_BETAS
+
+
+def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, unweighted: Any = False) -> dict[str, Any]:
+    """The RenderJob keywords ``mis``, ``strategy``, ``unweighted`` for scene ``cs``.
+
+    Empty unless ``cs.integrator`` is ``bdpt`` (the other integrators take none
+    of them, so that giving one to them is an error, not silently ignored).
+
+    Raises:
+        InputError: an unknown heuristic, a malformed strategy, ``unweighted``
+            without a strategy, one of them for another integrator, or a scene
+            bdpt cannot render (a constant environment: bdpt.cl's subpaths end
+            on area emitters only).
+    """
+    if cs.integrator != "bdpt":
+        if mis != "power" or strategy is not None or unweighted:
+            raise InputError(f"mis, strategy and unweighted are bdpt's settings, not {cs.integrator}'s")
+        return {}
+    if mis not in MIS_BETAS:
+        raise InputError(f"mis: unknown heuristic {mis!r}; choose one of {', '.join(MIS_BETAS)}")
+    if np.any(np.asarray(cs.env_radiance)[:3] > 0):
+        raise InputError("integrator bdpt: the scene has an environment emitter; bdpt handles area emitters only "
+                         "(render it with mis or lt)")
+    if strategy is not None:
+        try:
+            s, t = (int(x) for x in strategy)
+        except (TypeError, ValueError):
+            raise InputError(f"strategy: expected two whole numbers s,t, got {strategy!r}") from None
+        if s < 0 or t < 1:
+            raise InputError(f"strategy: s >= 0 light vertices and t >= 1 camera vertices, got ({s}, {t})")
+        if s + t < 2:
+            raise InputError(f"strategy: a path needs s + t >= 2 vertices, got ({s}, {t})")
+        if cs.max_depth >= 0 and s + t - 1 > cs.max_depth:
+            raise InputError(f"strategy: ({s}, {t}) makes paths of {s + t - 1} segments, above max_depth "
+                             f"{cs.max_depth}")
+        strategy = (s, t)
+    elif unweighted:
+        raise InputError("unweighted: only with a strategy")
+    return {"mis": mis, "strategy": strategy, "unweighted": bool(unweighted)}
+
+
+__all__ = ["bdpt_settings"]

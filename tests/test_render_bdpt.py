@@ -1,0 +1,199 @@
+"""Bidirectional path tracing (``integrator="bdpt"``, kernels/render/bdpt.cl).
+
+- The white furnace's closed forms (max_depth -1, 1, 3; power and balance heuristics).
+- The strategies: each unweighted strategy of path length 2 alone is unbiased
+  for the paths it samples (the furnace's L_e rho); the weighted strategies of
+  a render sum to the full render exactly (same random numbers); so the MIS
+  weights of every path length sum to 1 in expectation (the full estimate of
+  each length matches its closed form).
+- Agreement with ``mis`` per 8 x 8-pixel block (Sidak-corrected z-tests) on the
+  Cornell box and on the caustic scene (a glass sphere: delta vertices that
+  connections must pass by sampling).
+- Determinism: bit-identical images across launch splits, sub-devices and a resume.
+- Bad settings: clear errors.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_render_lt import LE, RHO, assert_blocks_agree, assert_pixels_agree, downscaled, furnace_closed_form
+
+from mcocl import runtime
+from mcocl.accumulate import Accumulator
+from mcocl.errors import InputError
+from mcocl.render.api import render
+from mcocl.render.compiled import compile_scene
+from mcocl.render.device_scene import scene_tables
+from mcocl.render.job import RenderJob
+from mcocl.render.scene import parse_scene
+from mcocl.render.scene_file import load_scene
+
+SCENES = Path(__file__).resolve().parent.parent / "scenes"
+
+
+def _mean_and_se(r) -> tuple[np.ndarray, np.ndarray]:
+    """The image's mean per channel and its standard error (batches independent, pixels summed)."""
+    m = r.mean.reshape(-1, 3).astype(np.float64)
+    v = r.variance.reshape(-1, 3).astype(np.float64)
+    return m.mean(axis=0), np.sqrt(v.sum(axis=0)) / len(m)
+
+
+@pytest.mark.parametrize("mis", ["power", "balance"])
+@pytest.mark.parametrize("max_depth", [-1, 1, 3])
+def test_furnace_closed_form(max_depth: int, mis: str) -> None:
+    r = render(SCENES / "furnace.json", spp=32, integrator="bdpt", max_depth=max_depth, seed=11, mis=mis)
+    assert r.spp == 32 and r.nonfinite == 0 and r.integrator == "bdpt"
+    est, se = _mean_and_se(r)
+    want = furnace_closed_form(max_depth)
+    assert np.all(np.abs(est - want) <= 5 * se + 1e-6), (est, want, se)
+
+
+def test_max_depth_zero_is_black() -> None:
+    r = render(SCENES / "furnace.json", spp=2, integrator="bdpt", max_depth=0, seed=1)
+    assert np.all(r.mean == 0)
+
+
+@pytest.mark.parametrize("strategy", [(0, 3), (1, 2), (2, 1)])
+def test_each_unweighted_strategy_is_unbiased(strategy: tuple[int, int]) -> None:
+    """Paths of 2 segments in the furnace: every strategy alone estimates L_e rho."""
+    r = render(SCENES / "furnace.json", spp=64, integrator="bdpt", max_depth=2, seed=3, strategy=strategy,
+               unweighted=True)
+    est, se = _mean_and_se(r)
+    want = LE * RHO
+    assert np.all(np.abs(est - want) <= 5 * se + 1e-6), (est, want, se)
+
+
+@pytest.mark.parametrize("strategy", [(1, 2), (1, 3), (2, 2)])
+def test_connections_in_a_spherical_furnace_are_exact(strategy: tuple[int, int]) -> None:
+    """Inside an emitting diffuse sphere, a connection's f cos cos / d^2 over the uniform area density is
+    the same for every pair of points: the unweighted connection strategies estimate L_e rho^(k-1) of
+    paths of k segments with zero variance, so every pixel of every sample is exact."""
+    k = sum(strategy) - 1
+    r = render(SCENES / "furnace_sphere.json", spp=4, integrator="bdpt", max_depth=k, seed=2, strategy=strategy,
+               unweighted=True)
+    want = np.broadcast_to(LE * RHO ** (k - 1), r.mean.shape)
+    np.testing.assert_allclose(r.mean, want, rtol=2e-5)
+
+
+def test_weighted_strategies_sum_to_the_full_render() -> None:
+    """One seed: the weighted strategies' images add up to the render of all strategies (float rounding
+    apart), and the part of path length 2 matches its closed form: its MIS weights sum to 1."""
+    kw = {"spp": 32, "integrator": "bdpt", "max_depth": 2, "seed": 5}
+    full = render(SCENES / "furnace.json", **kw).mean.astype(np.float64)
+    parts = {st: render(SCENES / "furnace.json", strategy=st, **kw).mean.astype(np.float64)
+             for st in [(0, 2), (1, 1), (0, 3), (1, 2), (2, 1)]}
+    np.testing.assert_allclose(sum(parts.values()), full, rtol=1e-5, atol=1e-6)
+    length2 = sum(parts[st] for st in [(0, 3), (1, 2), (2, 1)]).reshape(-1, 3).mean(axis=0)
+    np.testing.assert_allclose(length2, LE * RHO, rtol=2e-2)
+
+
+def test_bdpt_agrees_with_mis_on_cornell() -> None:
+    cs = downscaled("cornell.json", 32)
+    a = render(cs, spp=1024, integrator="mis", seed=1)
+    b = render(cs, spp=128, integrator="bdpt", seed=2, spp_per_block=2)
+    assert b.nonfinite == 0
+    assert_blocks_agree(a, b)
+    assert_pixels_agree(a, b)
+
+
+def test_bdpt_agrees_with_mis_through_glass() -> None:
+    """The caustic scene: a glass sphere (delta vertices) and a small spherical lamp.  Blocks only: mis's
+    own per-pixel variance estimate is unreliable in the caustic (rare, large samples)."""
+    cs = downscaled("caustic.json", 32)
+    a = render(cs, spp=1024, integrator="mis", seed=1)
+    b = render(cs, spp=128, integrator="bdpt", seed=2, spp_per_block=2)
+    assert b.nonfinite == 0
+    assert_blocks_agree(a, b)
+
+
+def test_thin_lens_bdpt_agrees_with_mis() -> None:
+    """Depth of field: camera subpaths start at lens points, t = 1 connections reach uniform lens points."""
+    sc = load_scene(SCENES / "cornell.json")
+    sc.camera.width = sc.camera.height = 32
+    sc.camera.aperture_radius, sc.camera.focus_distance = 0.15, 2.5
+    cs = compile_scene(sc)
+    a = render(cs, spp=1024, integrator="mis", seed=3)
+    b = render(cs, spp=128, integrator="bdpt", seed=4, spp_per_block=2)
+    assert_blocks_agree(a, b)
+    assert_pixels_agree(a, b)
+
+
+def test_image_does_not_depend_on_how_blocks_are_launched() -> None:
+    cs = downscaled("cornell.json", 16)
+    job = RenderJob(scene_tables(cs), cs.width, cs.height, "bdpt", cs.max_depth, cs.rr_depth, seed=42,
+                    spp_per_block=2, spp_limit=15)
+    runner = job.runner(runtime.device_context())
+    runner.per_launch = 3
+    films = []
+    for chunks in ([1] * 8, [3, 5], [8], [2, 1, 4, 1]):
+        acc = Accumulator(job.stat_shape)
+        first = 0
+        for n in chunks:
+            acc.add(first, runner.collect(runner.enqueue(first, n)))
+            first += n
+        films.append(acc.totals)
+    for f in films[1:]:
+        np.testing.assert_array_equal(f, films[0])
+    assert films[0][..., 6].min() == 8
+    assert films[0][..., 0].max() > 0
+
+
+def test_sub_devices_give_the_same_image() -> None:
+    cs = downscaled("cornell.json", 12)
+    one = render(cs, spp=8, seed=4, integrator="bdpt", spp_per_block=2)
+    two = render(cs, spp=8, seed=4, integrator="bdpt", spp_per_block=2, split=2)
+    np.testing.assert_array_equal(one.mean, two.mean)
+    np.testing.assert_array_equal(one.variance, two.variance)
+
+
+def test_resumed_render_is_identical(tmp_path: Path) -> None:
+    cs = downscaled("cornell.json", 16)
+    whole = render(cs, spp=12, seed=7, integrator="bdpt", spp_per_block=2)
+    ckpt = tmp_path / "run.ckpt"
+    calls = []
+
+    def interrupt_after_first_fold(p) -> None:
+        calls.append(p.blocks_done)
+        if len(calls) == 1:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    part = render(cs, spp=12, seed=7, integrator="bdpt", spp_per_block=2, checkpoint=ckpt,
+                  progress=interrupt_after_first_fold)
+    assert part.stopped_by == "interrupt" and 0 < part.spp < 12
+    rest = render(cs, spp=12, seed=7, integrator="bdpt", resume=ckpt)
+    assert rest.spp == 12
+    np.testing.assert_array_equal(rest.mean, whole.mean)
+    np.testing.assert_array_equal(rest.variance, whole.variance)
+
+
+@pytest.mark.parametrize(("kw", "match"), [
+    ({"mis": "cubic"}, "heuristic"),
+    ({"strategy": (0, 0)}, "t >= 1"),
+    ({"strategy": (3, 3)}, "max_depth"),
+    ({"strategy": "ab"}, "whole numbers"),
+    ({"unweighted": True}, "only with a strategy"),
+])
+def test_bad_settings(kw: dict, match: str) -> None:
+    with pytest.raises(InputError, match=match):
+        render(SCENES / "furnace.json", spp=1, integrator="bdpt", max_depth=3, **kw)
+
+
+def test_bdpt_settings_are_bdpts_only() -> None:
+    with pytest.raises(InputError, match="bdpt's settings"):
+        render(SCENES / "furnace.json", spp=1, integrator="mis", mis="balance")
+
+
+def test_environment_is_refused() -> None:
+    scene = {
+        "camera": {"origin": [0, 0, 3], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 40, "width": 4, "height": 4},
+        "materials": {"m": {"type": "diffuse", "reflectance": 0.5}},
+        "environment": {"type": "constant", "radiance": 1.0},
+        "shapes": [{"name": "s", "type": "sphere", "material": "m"}],
+    }
+    with pytest.raises(InputError, match="environment"):
+        render(parse_scene(scene), spp=1, integrator="bdpt")
