@@ -228,6 +228,17 @@ def test_damaged_checkpoints_resume_or_refuse(data: st.DataObject, kind: str) ->
             assert "c.npz" in text or "checkpoint" in text, text
 
 
+def test_checkpoint_with_a_damaged_array_header_is_refused() -> None:
+    """Found by the suite above: a flipped byte in an array's header made NumPy raise tokenize.TokenError."""
+    raw = _checkpoint("render")  # an array larger than zipfile's first read: the header is parsed before the CRC
+    assert raw.count(b"'fortran_order': False,") >= 1
+    bad = raw.replace(b"'fortran_order': False,", b"'fortran_order': False(", 1)
+    with workdir(("c.npz", bad), ("scene.json", (SCENES / "furnace.json").read_bytes())) as work:
+        code, text = run_cli(["render", "scene.json", "--spp", "4", "--out", "out/a.exr", "--quiet",
+                              "--resume", "c.npz"], work)
+        assert code == 2 and "c.npz is damaged" in text, text
+
+
 # Hostile values for command-line options: numbers past every range, words, empty text.
 NUMBER = st.sampled_from(["0", "-1", "1", "2", "3", "1e30", "-1e30", "nan", "inf", "-inf", "abc", "", "1.5",
                           "99999999999", "1e-9", "0x10", "1e3", "-0"])
