@@ -242,6 +242,15 @@ def test_checkpoint_with_a_damaged_array_header_is_refused() -> None:
         assert code == 2 and "c.npz is damaged" in text, text
 
 
+def test_huge_exposure_is_refused_before_rendering() -> None:
+    """Found by the suite below: --exposure 1e30 with --png raised OverflowError after the render."""
+    with workdir(("scene.json", (SCENES / "furnace.json").read_bytes())) as work:
+        code, text = run_cli(["render", "scene.json", "--spp", "1", "--quiet", "--out", "out/a.exr",
+                              "--png", "out/a.png", "--exposure", "1e30"], work)
+        assert code == 2 and "--exposure" in text, text
+        assert not (work / "out" / "a.exr").exists()
+
+
 # Hostile values for command-line options: numbers past every range, words, empty text.
 NUMBER = st.sampled_from(["0", "-1", "1", "2", "3", "1e30", "-1e30", "nan", "inf", "-inf", "abc", "", "1.5",
                           "99999999999", "1e-9", "0x10", "1e3", "-0"])

@@ -50,6 +50,19 @@ def finite_number(text: str) -> float:
     return v
 
 
+# Exposure stops the PNG writer takes: 2^64 scales any radiance a float32 image
+# holds to a finite value, and no useful exposure lies beyond.
+EXPOSURE_LIMIT = 64.0
+
+
+def exposure_stops(text: str) -> float:
+    """A PNG exposure in stops: a finite number within +-EXPOSURE_LIMIT."""
+    v = finite_number(text)
+    if abs(v) > EXPOSURE_LIMIT:
+        raise argparse.ArgumentTypeError(f"expected stops between {-EXPOSURE_LIMIT:g} and {EXPOSURE_LIMIT:g}, got {text!r}")
+    return v
+
+
 def split_count(text: str) -> int:
     """A number of sub-devices: a whole number >= 1."""
     try:

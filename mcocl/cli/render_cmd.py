@@ -14,7 +14,7 @@ from .common import (
     add_halting_args,
     add_persistence_args,
     count,
-    finite_number,
+    exposure_stops,
     print_json,
     run_option_kwargs,
 )
@@ -68,7 +68,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--png", default=None, help="also write an sRGB PNG preview")
     p.add_argument("--mesh-folder", default=None, metavar="DIR",
                    help="a folder the scene may read OBJ files from, besides the scene file's own folder")
-    p.add_argument("--exposure", type=finite_number, default=0.0, help="PNG exposure in stops (default 0)")
+    p.add_argument("--exposure", type=exposure_stops, default=0.0, help="PNG exposure in stops (default 0)")
     add_persistence_args(p, "scene and settings", "print one JSON object describing the render")
     add_device_args(p)
     add_scene_params_args(p)
