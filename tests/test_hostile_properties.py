@@ -251,6 +251,13 @@ def test_huge_exposure_is_refused_before_rendering() -> None:
         assert not (work / "out" / "a.exr").exists()
 
 
+def test_empty_output_name_is_refused() -> None:
+    """Found by the suite below: --out '' read as "not given" and wrote SCENE.exr unasked."""
+    with workdir(("scene.json", (SCENES / "furnace.json").read_bytes())) as work:
+        code, text = run_cli(["render", "scene.json", "--spp", "1", "--quiet", "--out", ""], work)
+        assert code == 2 and "--out" in text and "empty" in text, text
+
+
 # Hostile values for command-line options: numbers past every range, words, empty text.
 NUMBER = st.sampled_from(["0", "-1", "1", "2", "3", "1e30", "-1e30", "nan", "inf", "-inf", "abc", "", "1.5",
                           "99999999999", "1e-9", "0x10", "1e3", "-0"])

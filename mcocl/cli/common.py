@@ -63,6 +63,14 @@ def exposure_stops(text: str) -> float:
     return v
 
 
+def file_path(text: str) -> str:
+    """A file name given on the command line: never empty (an empty one would read as "not given",
+    and an output would then go to its default place unasked)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a file name, got an empty one")
+    return text
+
+
 def split_count(text: str) -> int:
     """A number of sub-devices: a whole number >= 1."""
     try:
@@ -76,8 +84,8 @@ def split_count(text: str) -> int:
 
 def add_persistence_args(p: argparse.ArgumentParser, job: str, json_help: str = "print one JSON object") -> None:
     """--checkpoint, --resume, --json and --quiet, the same for every long-running command."""
-    p.add_argument("--checkpoint", default=None, help="save progress to this file (periodically and at the end)")
-    p.add_argument("--resume", default=None, help=f"continue from a checkpoint of the same {job}")
+    p.add_argument("--checkpoint", type=file_path, default=None, help="save progress to this file (periodically and at the end)")
+    p.add_argument("--resume", type=file_path, default=None, help=f"continue from a checkpoint of the same {job}")
     p.add_argument("--json", action="store_true", help=json_help)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 

@@ -15,6 +15,7 @@ from .common import (
     add_persistence_args,
     count,
     exposure_stops,
+    file_path,
     print_json,
     run_option_kwargs,
 )
@@ -64,8 +65,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="longest path in segments, Mitsuba's convention (-1 unbounded, 1 emitters only, 2 direct light)")
     p.add_argument("--rr-depth", type=int, default=None, help="depth from which Russian roulette may end paths")
     p.add_argument("--seed", type=int, default=0, help="64-bit seed (default 0)")
-    p.add_argument("--out", default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
-    p.add_argument("--png", default=None, help="also write an sRGB PNG preview")
+    p.add_argument("--out", type=file_path, default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
+    p.add_argument("--png", type=file_path, default=None, help="also write an sRGB PNG preview")
     p.add_argument("--mesh-folder", default=None, metavar="DIR",
                    help="a folder the scene may read OBJ files from, besides the scene file's own folder")
     p.add_argument("--exposure", type=exposure_stops, default=0.0, help="PNG exposure in stops (default 0)")
