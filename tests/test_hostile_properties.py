@@ -185,14 +185,26 @@ def test_mutated_problem_files_list_or_refuse(doc: Any) -> None:
 
 
 _CHECKPOINTS: dict[str, bytes] = {}
+# The runs whose checkpoints are damaged, and (with a larger budget) resumed.
+CHECKPOINTED = {
+    "integrate": ["integrate", "x[0]*x[0]", "--samples", "4096"],
+    "solve": ["solve", "--kernel", "0.5f", "--source", "1.0f", "--at", "0.25", "0.75", "--walks", "512"],
+    "render": ["render", "scene.json", "--spp", "2", "--out", "out/a.exr"],
+}
+RESUMED = {
+    "integrate": ["integrate", "x[0]*x[0]", "--samples", "8192"],
+    "solve": ["solve", "--kernel", "0.5f", "--source", "1.0f", "--at", "0.25", "0.75", "--walks", "1024"],
+    "render": ["render", "scene.json", "--spp", "4", "--out", "out/a.exr"],
+}
 
 
 def _checkpoint(kind: str) -> bytes:
     """A real checkpoint of a tiny integrate or render run, made once per session."""
     if kind not in _CHECKPOINTS:
         with workdir() as work:
-            argv = (["integrate", "x[0]*x[0]", "--samples", "4096", "--seed", "5"] if kind == "integrate"
-                    else ["render", str(SCENES / "furnace.json"), "--spp", "2", "--out", "out/a.exr"])
+            argv = [*CHECKPOINTED[kind], "--seed", "5"]
+            if kind == "render":
+                argv[1] = str(SCENES / "furnace.json")
             code, text = run_cli([*argv, "--quiet", "--checkpoint", "out/c.npz"], work)
             assert code == 0, text
             _CHECKPOINTS[kind] = (work / "out" / "c.npz").read_bytes()
@@ -217,13 +229,12 @@ def damaged(draw: st.DrawFn, raw: bytes) -> bytes:
 
 
 @_settings(30)
-@given(data=st.data(), kind=st.sampled_from(["integrate", "render"]))
+@given(data=st.data(), kind=st.sampled_from(sorted(CHECKPOINTED)))
 def test_damaged_checkpoints_resume_or_refuse(data: st.DataObject, kind: str) -> None:
     """A bit-flipped, truncated or padded checkpoint resumes exactly what was saved, or is refused."""
     raw = _checkpoint(kind)
     bad = data.draw(damaged(raw))
-    argv = (["integrate", "x[0]*x[0]", "--samples", "8192", "--seed", "5"] if kind == "integrate"
-            else ["render", "scene.json", "--spp", "4", "--out", "out/a.exr"])
+    argv = [*RESUMED[kind], "--seed", "5"]
     inputs = [("c.npz", bad), ("scene.json", (SCENES / "furnace.json").read_bytes())]
     with workdir(*inputs) as work:
         code, text = run_cli([*argv, "--quiet", "--resume", "c.npz"], work)
@@ -307,6 +318,9 @@ def argument_lists(draw: st.DrawFn) -> list[str]:
     if command == "integrate":  # snippets that must be refused or give a finite, honest answer
         argv[1] = draw(st.sampled_from(["x[0]*x[0]", "x[0]*x[0]", "x[5]", "", "return;", "x[0] < 0.5f ? 3e38f : -3e38f",
                                         "1.0f / x[0]", "sqrt(-x[0])", "float s = x[1]; return s;", "}{"]))
+    if command == "solve":
+        argv[2] = draw(st.sampled_from(["0.5f", "0.5f", "2.0f", "-0.9f", "x[0]*y[0]", "y[3]", "", "1e38f"]))
+        argv[4] = draw(st.sampled_from(["1.0f", "1.0f", "x[0]", "x[7]", "nan", "3e38f"]))
     for flag in draw(st.lists(st.sampled_from(sorted(FLAGS[command])), max_size=4, unique=True)):
         values = FLAGS[command][flag]
         argv += [flag] if values is None else [flag, draw(values)]
