@@ -34,17 +34,28 @@ def _estimate(run: subprocess.CompletedProcess) -> str:
     return next(line.split()[1] for line in run.stdout.splitlines() if line.startswith("estimate"))
 
 
-def _entry(cache: Path, integrand: str) -> Path:
-    """The cache entry of the integration kernel built for ``integrand`` (run twice: kernels recorded)."""
-    before = {p.parent for p in cache.glob("*/*/integrate_blocks")}
-    _integrate(cache, integrand)
+def _integration_entry(cache: Path, before: set[Path]) -> Path:
     (entry,) = {p.parent for p in cache.glob("*/*/integrate_blocks")} - before
     return entry
 
 
+@pytest.fixture(scope="module")
+def pristine(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, str, str]:
+    """A PoCL cache holding the integration kernels of x^2 and of x, each run twice (so that
+    mcocl's record lists their kernel libraries too); with the x^2 estimate and the two entries."""
+    cache = tmp_path_factory.mktemp("pristine") / "kcache"
+    square = _estimate(_integrate(cache, "x[0]*x[0]"))
+    a = _integration_entry(cache, set())
+    assert _estimate(_integrate(cache, "x[0]*x[0]")) == square
+    _integrate(cache, "x[0]")
+    b = _integration_entry(cache, {a})
+    _integrate(cache, "x[0]")
+    return cache, square, a.relative_to(cache).as_posix(), b.relative_to(cache).as_posix()
+
+
 def _check_damaged_run(cache: Path, integrand: str, expected: str) -> None:
     run = _integrate(cache, integrand)
-    assert "kernel cache" in run.stderr, run.stderr
+    assert "kernel cache" in run.stderr and "corrupt" in run.stderr, run.stderr
     assert "Traceback" not in run.stderr, run.stderr
     if run.returncode != 0:
         assert run.returncode == 2, run.stderr
@@ -53,47 +64,47 @@ def _check_damaged_run(cache: Path, integrand: str, expected: str) -> None:
 
 
 @pytest.fixture()
-def cache(tmp_path: Path) -> Path:
-    """A fresh PoCL kernel cache folder."""
-    return tmp_path / "kcache"
+def cache(pristine: tuple[Path, str, str, str], tmp_path: Path) -> tuple[Path, str, Path, Path]:
+    """A copy of the pristine cache to damage: (folder, x^2 estimate, entry of x^2, entry of x)."""
+    source, square, a, b = pristine
+    copy = tmp_path / "kcache"
+    shutil.copytree(source, copy)
+    return copy, square, copy / a, copy / b
 
 
-def test_swapped_entry_is_detected(cache: Path) -> None:
+def test_swapped_entry_is_detected(cache: tuple[Path, str, Path, Path]) -> None:
     """The integration kernel of x^2 replaced by that of x: same x^2 estimate (rebuilt) or exit 2."""
-    square = _estimate(_integrate(cache, "x[0]*x[0]"))
-    a = next(p.parent for p in cache.glob("*/*/integrate_blocks"))
-    assert _estimate(_integrate(cache, "x[0]*x[0]")) == square  # second run: kernel libraries recorded
-    b = _entry(cache, "x[0]")
-    _integrate(cache, "x[0]")
+    folder, square, a, b = cache
     for item in a.iterdir():
         if item.name != "last_accessed":
             shutil.rmtree(item) if item.is_dir() else item.unlink()
     for item in b.iterdir():
         if item.name != "last_accessed":
             (shutil.copytree if item.is_dir() else shutil.copy2)(item, a / item.name)
-    _check_damaged_run(cache, "x[0]*x[0]", square)
+    _check_damaged_run(folder, "x[0]*x[0]", square)
 
 
-def test_swapped_kernel_library_is_detected(cache: Path) -> None:
+def test_swapped_kernel_library_is_detected(cache: tuple[Path, str, Path, Path]) -> None:
     """Only the compiled kernel (.so) swapped, the bitcode intact: still detected."""
-    square = _estimate(_integrate(cache, "x[0]*x[0]"))
-    a = next(p.parent for p in cache.glob("*/*/integrate_blocks"))
-    _integrate(cache, "x[0]*x[0]")
-    b = _entry(cache, "x[0]")
-    _integrate(cache, "x[0]")
+    folder, square, a, b = cache
+    swapped = 0
     for so in b.glob("integrate_blocks/*/*.so"):
-        shutil.copy2(so, a / so.relative_to(b))
-    _check_damaged_run(cache, "x[0]*x[0]", square)
+        if (a / so.relative_to(b)).exists():
+            shutil.copy2(so, a / so.relative_to(b))
+            swapped += 1
+    assert swapped
+    _check_damaged_run(folder, "x[0]*x[0]", square)
 
 
 @pytest.mark.parametrize("target", ["program.bc", "integrate_blocks/*/*.so"])
-def test_corrupt_entry_is_bypassed(cache: Path, target: str) -> None:
-    """Garbage in the bitcode or the kernel library makes PoCL abort: rerun with a fresh cache, told."""
-    square = _estimate(_integrate(cache, "x[0]*x[0]"))
-    entry = next(p.parent for p in cache.glob("*/*/integrate_blocks"))
-    for f in entry.glob(target):
+def test_corrupt_entry_is_bypassed(cache: tuple[Path, str, Path, Path], target: str) -> None:
+    """Garbage in the bitcode or the kernel library makes PoCL abort or crash: rerun with a fresh cache, told."""
+    folder, square, a, _ = cache
+    # Forget mcocl's record, so that the damage reaches PoCL (with the record the build check
+    # would refuse the damaged library before PoCL loads it).
+    shutil.rmtree(folder / "mcocl-records")
+    for f in a.glob(target):
         data = bytearray(f.read_bytes())
         data[len(data) // 3: len(data) // 3 + 256] = b"\xff" * 256
         f.write_bytes(bytes(data[: len(data) // 2]))
-    _check_damaged_run(cache, "x[0]*x[0]", square)
-    assert "corrupt" in _integrate(cache, "x[0]*x[0]").stderr  # the damaged entry stays until deleted, and is named
+    _check_damaged_run(folder, "x[0]*x[0]", square)
