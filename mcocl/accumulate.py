@@ -21,6 +21,7 @@ import hashlib
 import json
 import math
 import os
+import tokenize
 import zipfile
 import zlib
 from pathlib import Path
@@ -139,8 +140,9 @@ class Accumulator:
                 digest = str(z["sha256"])
         except InputError:
             raise
+        # tokenize.TokenError and SyntaxError: NumPy parses each array's header as a Python literal
         except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile, zlib.error, UnicodeDecodeError,
-                RuntimeError, MemoryError) as e:
+                RuntimeError, MemoryError, tokenize.TokenError, SyntaxError) as e:
             raise InputError(f"{name} is damaged or truncated ({type(e).__name__}: {e})") from None
         if totals.dtype != np.float64 or blocks_arr.shape != () or blocks_arr.dtype != np.int64:
             raise InputError(f"{name} is damaged: unexpected array types")

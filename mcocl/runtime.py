@@ -21,7 +21,9 @@ import hashlib
 import importlib.util
 import os
 import re
+import sys
 import threading
+import time
 import warnings
 from dataclasses import dataclass
 from functools import cache
@@ -33,7 +35,8 @@ import pyopencl as cl
 from . import heartbeat
 from .build_output import build_log_requested, compiler_stderr_captured, show_build_log
 from .errors import DeviceError, InputError, KernelBuildError
-from .pocl_cache import cache_problem, no_device_hint
+from .pocl_cache import cache_folder, cache_problem, no_device_hint
+from .pocl_cache_record import check_entry, entry_used, record_key
 from .usercode import UserFunction, explain_build_log, probe_source
 
 
@@ -426,11 +429,13 @@ def build(
             the user snippet lines it complained about.
     """
     opts = tuple(BASE_OPTIONS) + tuple(options)
-    key = (ctx.device.int_ptr, build_digest(source, options))
+    digest = build_digest(source, options)
+    key = (ctx.device.int_ptr, digest)
     with _programs_lock:
         prg = _programs.get(key)
     if prg is not None:
         return prg
+    started = time.time()
     with warnings.catch_warnings(), compiler_stderr_captured():
         # PoCL prints ABI notes about wide vectors as warnings, and its clang
         # writes "N warnings generated." to descriptor 2: not the user's business
@@ -449,9 +454,33 @@ def build(
             heartbeat.beat("built")
     if build_log_requested():
         show_build_log(what, ctx.name, opts, prg.get_build_info(ctx.device, cl.program_build_info.LOG))
+    bad = _cache_entry_problem(ctx, prg, digest, started)
+    if bad is not None:
+        if _CACHE_BYPASS in options:  # the fresh build is damaged too: nothing left to trust
+            raise DeviceError(f"{bad}; delete PoCL's kernel cache folder {str(cache_folder())!r} and run again")
+        print(f"mcocl: warning: {bad}; it was bypassed (a fresh build is used); delete it to stop this warning",
+              file=sys.stderr)
+        prg = build(ctx, source, [*options, _CACHE_BYPASS], users, what)
     with _programs_lock:
         _programs[key] = prg
     return prg
+
+
+# An option that changes PoCL's cache key and nothing else: a program whose
+# cache entry is damaged is rebuilt under it (mcocl/pocl_cache_record.py).
+_CACHE_BYPASS = "-DMCOCL_POCL_CACHE_BYPASS=1"
+
+
+def _cache_entry_problem(ctx: DeviceContext, prg: cl.Program, digest: str, started: float) -> str | None:
+    """Why the PoCL cache entry this build used cannot be trusted, or None (see mcocl/pocl_cache_record.py)."""
+    platform = ctx.device.platform
+    if "portable computing language" not in platform.name.lower():
+        return None
+    entry = entry_used(started, time.time(), prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))
+    if entry is None:
+        return None
+    identity = f"{platform.version}\0{ctx.device.name}\0{ctx.device.driver_version}"
+    return check_entry(record_key(digest, identity), entry)
 
 
 @dataclass

@@ -50,6 +50,27 @@ def finite_number(text: str) -> float:
     return v
 
 
+# Exposure stops the PNG writer takes: 2^64 scales any radiance a float32 image
+# holds to a finite value, and no useful exposure lies beyond.
+EXPOSURE_LIMIT = 64.0
+
+
+def exposure_stops(text: str) -> float:
+    """A PNG exposure in stops: a finite number within +-EXPOSURE_LIMIT."""
+    v = finite_number(text)
+    if abs(v) > EXPOSURE_LIMIT:
+        raise argparse.ArgumentTypeError(f"expected stops between {-EXPOSURE_LIMIT:g} and {EXPOSURE_LIMIT:g}, got {text!r}")
+    return v
+
+
+def file_path(text: str) -> str:
+    """A file name given on the command line: never empty (an empty one would read as "not given",
+    and an output would then go to its default place unasked)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a file name, got an empty one")
+    return text
+
+
 def split_count(text: str) -> int:
     """A number of sub-devices: a whole number >= 1."""
     try:
@@ -63,8 +84,8 @@ def split_count(text: str) -> int:
 
 def add_persistence_args(p: argparse.ArgumentParser, job: str, json_help: str = "print one JSON object") -> None:
     """--checkpoint, --resume, --json and --quiet, the same for every long-running command."""
-    p.add_argument("--checkpoint", default=None, help="save progress to this file (periodically and at the end)")
-    p.add_argument("--resume", default=None, help=f"continue from a checkpoint of the same {job}")
+    p.add_argument("--checkpoint", type=file_path, default=None, help="save progress to this file (periodically and at the end)")
+    p.add_argument("--resume", type=file_path, default=None, help=f"continue from a checkpoint of the same {job}")
     p.add_argument("--json", action="store_true", help=json_help)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 

@@ -15,7 +15,8 @@ from .common import (
     add_halting_args,
     add_persistence_args,
     count,
-    finite_number,
+    exposure_stops,
+    file_path,
     print_json,
     run_option_kwargs,
 )
@@ -84,11 +85,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="independent, or sobol: per-pixel Owen-scrambled Sobol', variance from block means "
                         "(default: the scene's)")
     p.add_argument("--seed", type=int, default=0, help="64-bit seed (default 0)")
-    p.add_argument("--out", default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
-    p.add_argument("--png", default=None, help="also write an sRGB PNG preview")
+    p.add_argument("--out", type=file_path, default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
+    p.add_argument("--png", type=file_path, default=None, help="also write an sRGB PNG preview")
     p.add_argument("--mesh-folder", default=None, metavar="DIR",
                    help="a folder the scene may read OBJ files from, besides the scene file's own folder")
-    p.add_argument("--exposure", type=finite_number, default=0.0, help="PNG exposure in stops (default 0)")
+    p.add_argument("--exposure", type=exposure_stops, default=0.0, help="PNG exposure in stops (default 0)")
     add_persistence_args(p, "scene and settings", "print one JSON object describing the render")
     add_device_args(p)
     add_scene_params_args(p)

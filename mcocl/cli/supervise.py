@@ -18,7 +18,11 @@ environment) and supervises it from here:
   ended ``STOP_WAIT`` seconds after the last request is killed;
 - a child killed by a signal (SIGSEGV, SIGBUS, SIGABRT, ...) is reported in
   one line with exit status 2, instead of the shell's bare "Segmentation
-  fault".
+  fault";
+- a child that crashes after it began to compile is run once more with a
+  fresh temporary PoCL kernel cache (a damaged cache entry makes PoCL abort
+  or crash every run of that program); when that run succeeds, the message
+  names the cache folder as the cause.
 
 The child runs in its own session, so a terminal's Ctrl-C reaches only this
 process, which forwards it exactly once.  ``MCOCL_SUPERVISE=0`` turns the
@@ -32,10 +36,12 @@ import select
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 
 from ..heartbeat import ENV as HEARTBEAT_ENV
+from ..pocl_cache import cache_folder
 
 # Commands whose work runs user code on a device.
 SUPERVISED = frozenset({"integrate", "solve", "render", "bench"})
@@ -77,9 +83,10 @@ def _crash_message(command: str, signum: int) -> str:
 class _Child:
     """The supervised child and what it has told us."""
 
-    def __init__(self, argv: Sequence[str]) -> None:
+    def __init__(self, argv: Sequence[str], env_changes: dict[str, str] | None = None) -> None:
         read_fd, write_fd = os.pipe()
         env = dict(os.environ)
+        env.update(env_changes or {})
         env[HEARTBEAT_ENV] = str(write_fd)
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "mcocl", *argv],
@@ -90,6 +97,7 @@ class _Child:
         os.close(write_fd)
         self.pipe = read_fd
         self.launched = time.monotonic()
+        self.builds = 0  # builds started
         self.compiling = 0  # builds under way (several devices build at once)
         self.compile_since = 0.0
         self.compile_seconds = 0.0
@@ -110,6 +118,7 @@ class _Child:
         now = time.monotonic()
         for line in data.decode(errors="replace").split():
             if line == "build":
+                self.builds += 1
                 if self.compiling == 0:
                     self.compile_since = now
                 self.compiling += 1
@@ -132,8 +141,41 @@ class _Child:
 
 
 def run(argv: Sequence[str], command: str, time_budget: float | None) -> int:
-    """Run ``mcocl <argv>`` as a supervised child; return its exit status."""
-    child = _Child(argv)
+    """Run ``mcocl <argv>`` as a supervised child; return its exit status.
+
+    A child that crashes (SIGABRT, SIGBUS, SIGSEGV, SIGILL) after it began to
+    compile is run once more with a fresh, temporary PoCL kernel cache: PoCL
+    aborts, or loads a broken library, when an entry of its cache is damaged,
+    and would do so on every later run of that program.  Only when the second
+    run succeeds is the cache named as the cause.
+    """
+    code, crash = _run_once(argv, command, time_budget, None)
+    if crash is None:
+        return code
+    with tempfile.TemporaryDirectory(prefix="mcocl-pocl-cache-") as fresh:
+        code, again = _run_once(argv, command, time_budget, {"POCL_CACHE_DIR": fresh})
+    if again is not None:
+        print(_crash_message(command, again), file=sys.stderr)
+    elif code == 0:
+        folder = str(cache_folder())
+        print(f"mcocl {command}: warning: the first attempt crashed ({_signal_name(crash)}) while using PoCL's "
+              f"kernel cache {folder!r}, which holds a corrupt entry; it was bypassed (the run was repeated with "
+              f"a fresh temporary cache): delete {folder!r} to repair it", file=sys.stderr)
+    return code
+
+
+# Signals a damaged PoCL cache entry raises: PoCL's own abort, or a broken kernel library.
+_CACHE_CRASHES = frozenset({signal.SIGABRT, signal.SIGBUS, signal.SIGSEGV, signal.SIGILL})
+
+
+def _run_once(
+    argv: Sequence[str], command: str, time_budget: float | None, env_changes: dict[str, str] | None
+) -> tuple[int, int | None]:
+    """Run the child once: its exit status, and the signal that crashed it after a build began, if any.
+
+    Such a crash is left to the caller to report (it may retry); every other outcome is reported here.
+    """
+    child = _Child(argv, env_changes)
     requests: list[int] = []
 
     def forward(signum: int, frame: object) -> None:
@@ -173,10 +215,12 @@ def run(argv: Sequence[str], command: str, time_budget: float | None) -> int:
     if child.killed_for:
         print(f"mcocl {command}: error: stopped the run: {child.killed_for}; "
               "checkpoints already written (--checkpoint) are kept", file=sys.stderr)
-        return 130 if requests else EXIT_ERROR
+        return (130 if requests else EXIT_ERROR), None
     if code < 0:
         if -code in (signal.SIGINT, signal.SIGTERM):
-            return 128 - code
+            return 128 - code, None
+        if -code in _CACHE_CRASHES and child.builds and not requests:
+            return EXIT_ERROR, -code
         print(_crash_message(command, -code), file=sys.stderr)
-        return EXIT_ERROR
-    return code
+        return EXIT_ERROR, None
+    return code, None

@@ -1,0 +1,126 @@
+"""mcocl's own record of PoCL's kernel cache entries: a swapped or edited entry is noticed.
+
+PoCL reuses a cached program whenever the hash of (source, options, device)
+matches a folder of its cache (:func:`mcocl.pocl_cache.cache_folder`); it
+never checks that the files inside still belong to that program.  A swapped
+``program.bc`` or kernel ``.so`` would therefore run another program's code
+and give a wrong result with exit status 0.  (A damaged file makes PoCL abort
+instead; the supervised command line retries such a run with a fresh cache,
+see :mod:`mcocl.cli.supervise`.)
+
+After every build mcocl finds the cache entry the build used (the entry whose
+``last_accessed`` stamp PoCL set during the build and whose ``program.bc``
+names the program's kernels) and compares SHA-256 digests of its files with
+the record it wrote the first time that program (by :func:`mcocl.runtime.build_digest`)
+was built for that device: trust on first use, files recorded as they appear.
+The records live in ``mcocl-records/`` inside PoCL's cache folder, so clearing
+the cache clears them too.  The check is skipped (never fails) when the entry
+cannot be identified uniquely, e.g. while another process builds at the same
+instant, or when the records cannot be written.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from .pocl_cache import cache_folder
+
+RECORDS = "mcocl-records"
+# Seconds of slack around the build when matching last_accessed stamps: file
+# times come from the kernel's coarse clock (a tick of a few milliseconds).
+SLACK = 0.01
+
+
+def _file_digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _entry_files(entry: Path) -> dict[str, str]:
+    """Digests of the files that decide what runs: the program bitcode and every kernel library."""
+    files = {"program.bc": _file_digest(entry / "program.bc")}
+    for so in sorted(entry.glob("*/*/*.so")):
+        files[so.relative_to(entry).as_posix()] = _file_digest(so)
+    return files
+
+
+def entry_used(since: float, until: float, kernel_names: list[str]) -> Path | None:
+    """The cache entry a build between ``since`` and ``until`` used, or None if not exactly one."""
+    root = cache_folder()
+    found = []
+    try:
+        prefixes = [p for p in os.scandir(root) if p.is_dir() and len(p.name) == 2]
+        for prefix in prefixes:
+            for entry in os.scandir(prefix.path):
+                try:
+                    stamp = os.stat(os.path.join(entry.path, "last_accessed")).st_mtime
+                except OSError:
+                    continue
+                if since - SLACK <= stamp <= until + SLACK:
+                    found.append(Path(entry.path))
+    except OSError:
+        return None
+    if len(found) > 1:  # another build at the same time: keep those naming our kernels
+        names = [n.encode() for n in kernel_names if len(n) >= 4]  # short names match any file
+        found = [e for e in found if names and _names_all(e / "program.bc", names)]
+    return found[0] if len(found) == 1 else None
+
+
+def _names_all(bitcode: Path, names: list[bytes]) -> bool:
+    try:
+        data = bitcode.read_bytes()
+    except OSError:
+        return False
+    return all(n in data for n in names)
+
+
+def _record_path(key: str) -> Path:
+    return cache_folder() / RECORDS / key[:2] / f"{key}.json"
+
+
+def record_key(build_digest: str, device_identity: str) -> str:
+    """The record's name: the program's build digest on one device and driver."""
+    return hashlib.sha256(f"{build_digest}\0{device_identity}".encode()).hexdigest()
+
+
+def check_entry(key: str, entry: Path) -> str | None:
+    """Compare ``entry`` with the record ``key``; add files not yet recorded.
+
+    Returns a one-line description of the first file that differs from the
+    record, or None when everything recorded matches (or nothing could be read).
+    """
+    try:
+        now = _entry_files(entry)
+    except OSError:
+        return None
+    path = _record_path(key)
+    try:
+        recorded = json.loads(path.read_text())
+        files = dict(recorded["files"])
+    except (OSError, ValueError, KeyError, TypeError):
+        files = {}
+    for name, digest in files.items():
+        if name in now and now[name] != digest:
+            return (f"PoCL's kernel cache entry {str(entry)!r} does not hold the program mcocl built there "
+                    f"({name} changed since it was first built: a corrupt or swapped cache entry)")
+    if any(name not in files for name in now):
+        files.update({k: v for k, v in now.items() if k not in files})
+        _write_atomically(path, json.dumps({"entry": entry.name, "files": files}, sort_keys=True))
+    return None
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".rec-")
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except OSError:  # a read-only cache: the check is a defence, not a requirement
+        pass
+
+
+__all__ = ["RECORDS", "check_entry", "entry_used", "record_key"]
