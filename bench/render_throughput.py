@@ -192,12 +192,12 @@ def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, e
     for k in range(args.repeats):
         for c, cs in compiled.items():
             c0 = time.process_time()
-            r = render(cs, spp=args.spp, integrator=c[0], seed=1 + k, lanes=args.lanes)
+            r = render(cs, spp=args.spp, integrator=c[0], seed=1 + args.seed + k, lanes=args.lanes)
             ours[c]["cpu"].append(time.process_time() - c0)
             ours[c]["seconds"].append(r.seconds)
             ours[c]["mse"].append(mse(r.mean, ref, ref_var))
         p = subprocess.run([args.mitsuba, str(ROOT / "bench" / "mitsuba_render.py"), "--scene", str(scene),
-                            "--variant", args.variant, "--spp", str(args.spp), "--repeats", "1", "--seed", str(k),
+                            "--variant", args.variant, "--spp", str(args.spp), "--repeats", "1", "--seed", str(args.seed + k),
                             "--out", str(mdir)], capture_output=True, text=True, env=env, cwd=ROOT)
         if p.returncode != 0:
             raise SystemExit(f"Mitsuba failed on {scene}:\n{p.stderr[-3000:]}")
@@ -244,6 +244,7 @@ def main() -> None:
     ap.add_argument("--configs", nargs="+", default=["mis/power", "nee/power", "mis/bvh", "nee/bvh"],
                     help="mcocl integrator/light_sampler pairs (bvh only on the many-light scenes)")
     ap.add_argument("--big-triangles", type=int, default=1_000_000)
+    ap.add_argument("--seed", type=int, default=0, help="seeds of the timed renders: SEED + repeat (both renderers)")
     ap.add_argument("--reference-seconds", type=float, default=60.0)
     ap.add_argument("--out", default=str(ROOT / "bench-out" / "render"))
     ap.add_argument("--json", action="store_true", help="print the results as one JSON object")
