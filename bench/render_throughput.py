@@ -242,7 +242,9 @@ def main() -> None:
     ap.add_argument("--variant", default="llvm_ad_rgb", help="Mitsuba variant (default llvm_ad_rgb)")
     ap.add_argument("--scenes", nargs="+", default=["cornell", "cornell_spheres", "veach_mis", "many_lights", "big"])
     ap.add_argument("--configs", nargs="+", default=["mis/power", "nee/power", "mis/bvh", "nee/bvh"],
-                    help="mcocl integrator/light_sampler pairs (bvh only on the many-light scenes)")
+                    help="mcocl integrator/light_sampler pairs (bvh only on the many-light scenes); lt/power "
+                         "adds light tracing, which renders mirrors and glass seen directly black (compare it "
+                         "only on scenes without them)")
     ap.add_argument("--big-triangles", type=int, default=1_000_000)
     ap.add_argument("--seed", type=int, default=0, help="seeds of the timed renders: SEED + repeat (both renderers)")
     ap.add_argument("--reference-seconds", type=float, default=60.0)
