@@ -1,32 +1,46 @@
-"""Path-tracing throughput on the Cornell box, and efficiency against Mitsuba 3.
+"""Path-tracing throughput, and efficiency against Mitsuba 3 on the bench's scenes.
 
-    python bench/render_throughput.py                        # paths/s and build time
-    python bench/render_throughput.py --mitsuba /work/venv-mitsuba/bin/python \\
-        --llvm /work/llvm19/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
+    python bench/render_throughput.py                        # Cornell box: paths/s and build time
+    python bench/render_throughput.py --mitsuba /work/mitsuba-venv/bin/python \\
+        --llvm /work/llvm19/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \\
+        --scenes cornell cornell_spheres veach_mis many_lights big --big-triangles 1000000
 
-Renders ``scenes/cornell.json`` (Mitsuba 3's ``cornell_box()``, 256 x 256)
-with the ``mis`` integrator, max_depth 8, rr_depth 5, and reports
+Without ``--mitsuba``: renders ``scenes/cornell.json`` (256 x 256, ``mis``,
+max_depth 8, rr_depth 5) and reports the kernel build time, cold (empty PoCL
+cache, in a subprocess) and cached, and paths per second (best and median of
+``--repeats``) with the CPU seconds per million paths.
 
-- the kernel build time, cold (empty PoCL cache, in a subprocess) and cached;
-- paths per second = spp x pixels / seconds of sampling, after the build,
-  the best and the median of ``--repeats`` renders, with the CPU seconds the
-  process used per million paths (less sensitive to other load);
-- with ``--mitsuba``: Mitsuba's time for the same image (bench/mitsuba_cornell.py
-  in its own environment, box filter, same depths; one process per run,
-  interleaved with ours so that both see the same load; Mitsuba's JIT
-  compilation is excluded like our build), the RMSE of both against
-  a high-spp reference rendered by mcocl (cached in ``--out``), and the ratio
-  of efficiencies, efficiency = 1 / (RMSE^2 x seconds).  The reference's own
-  variance (known per pixel) is subtracted from the squared errors, so a
-  finite reference does not flatter either renderer.
+With ``--mitsuba``, for every scene of ``--scenes``:
 
-The machine is usually shared: run it on a quiet machine for figures to
-publish, and read the CPU-time column when it is not.
+- ``cornell``: scenes/cornell.json (Mitsuba's ``cornell_box()``);
+- ``cornell_spheres``: the same box with its two boxes replaced by a mirror
+  and a glass sphere (written into ``--out``);
+- ``veach_mis``, ``many_lights``: scenes/veach_mis.json, scenes/many_lights.json;
+- ``big``: the big-mesh scene of bench/make_big_scene.py with
+  ``--big-triangles`` triangles (generated into ``--out`` when missing);
+
+mcocl renders ``--spp`` spp with each of ``--configs`` (integrator/light
+sampler, e.g. ``mis/power``), Mitsuba (bench/mitsuba_render.py in its own
+environment, the scene converted by bench/mitsuba_scene.py: box filter,
+independent sampler, ``path`` integrator with the scene's max_depth and
+rr_depth) renders the same spp, one process per repeat, the runs interleaved
+so that both renderers see the same load.  Times exclude the kernel build
+(ours) and the JIT compilation (Mitsuba's first call) and the scene load.
+Errors are against a reference rendered by mcocl (``mis``, power light
+choice, ``--reference-seconds`` of sampling, its own seed; cached in
+``--out``); the reference's variance of the mean is subtracted from every
+squared error, so a finite reference does not flatter either renderer.
+Efficiency = 1 / (MSE x seconds), MSE over pixels and channels, seconds the
+median over repeats of wall time (and, separately, of the CPU time the
+process used, less sensitive to other load on a shared machine).  The
+table's mcocl column is the best configuration of each scene (chosen on the
+same runs: slightly optimistic; every configuration is in the JSON).
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import statistics
@@ -41,9 +55,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from mcocl.render import compile_scene  # noqa: E402
 from mcocl.render.api import render  # noqa: E402
 
 SCENE = ROOT / "scenes" / "cornell.json"
+SCENE_FILES = {"cornell": SCENE, "veach_mis": ROOT / "scenes" / "veach_mis.json",
+               "many_lights": ROOT / "scenes" / "many_lights.json"}
 
 COLD_BUILD = """
 import time, sys
@@ -68,131 +85,201 @@ def cold_build_seconds(integrator: str, lanes: int | None) -> float:
         return float(p.stdout.strip().splitlines()[-1])
 
 
-def reference(out: Path, spp: int) -> tuple[np.ndarray, np.ndarray]:
-    """A high-spp mcocl render (mean, variance of the mean), cached in `out`."""
-    f = out / f"reference_mis_{spp}spp.npz"
+def cornell_spheres(out: Path) -> Path:
+    """scenes/cornell.json with a mirror sphere and a glass sphere instead of its two boxes."""
+    d = json.loads(SCENE.read_text())
+    d["comment"] = "Written by bench/render_throughput.py: the Cornell box with a mirror and a glass sphere."
+    d["materials"]["mirror"] = {"type": "conductor"}
+    d["materials"]["glass"] = {"type": "dielectric", "int_ior": 1.5}
+    d["shapes"] = [s for s in d["shapes"] if s.get("name") not in ("small-box", "large-box")]
+    d["shapes"] += [{"name": "mirror-ball", "type": "sphere", "material": "mirror", "center": [-0.42, -0.68, -0.35],
+                     "radius": 0.32},
+                    {"name": "glass-ball", "type": "sphere", "material": "glass", "center": [0.42, -0.68, 0.25],
+                     "radius": 0.32}]
+    p = out / "cornell_spheres.json"
+    p.write_text(json.dumps(d, indent=1) + "\n")
+    return p
+
+
+def big_scene(out: Path, triangles: int) -> Path:
+    """The big-mesh scene of bench/make_big_scene.py, generated into ``out/big_<triangles>`` once."""
+    folder = out / f"big_{triangles}"
+    if not (folder / "big_scene.json").exists():
+        subprocess.run([sys.executable, str(ROOT / "bench" / "make_big_scene.py"), "--triangles", str(triangles),
+                        "--out", str(folder)], check=True)
+    return folder / "big_scene.json"
+
+
+def scene_variant(src: Path, integrator: str, light_sampler: str) -> Path:
+    """A copy of the scene beside it with the integrator and light sampler set (OBJ paths stay valid)."""
+    d = json.loads(src.read_text())
+    d.setdefault("integrator", {}).update({"type": integrator, "light_sampler": light_sampler})
+    folder = src.parent if not src.resolve().is_relative_to(ROOT / "scenes") else Path(tempfile.gettempdir())
+    p = folder / f".{src.stem}.{integrator}.{light_sampler}.json"
+    p.write_text(json.dumps(d))
+    return p
+
+
+def reference(out: Path, scene: Path, seconds: float) -> tuple[np.ndarray, np.ndarray, str]:
+    """An mcocl ``mis`` render of ``seconds`` (mean, variance of the mean, how), cached by the scene's digest."""
+    key = hashlib.sha256(scene.read_bytes() + str(seconds).encode()).hexdigest()[:12]
+    f = out / f"reference_{scene.stem}_{key}.npz"
     if f.exists():
         z = np.load(f)
-        return z["mean"], z["variance"]
-    print(f"rendering the reference ({spp} spp; cached in {f}) ...", flush=True)
-    r = render(SCENE, spp=spp, integrator="mis", max_depth=8, rr_depth=5, seed=123456, progress=True)
-    np.savez(f, mean=r.mean, variance=r.variance)
-    return r.mean, r.variance
+        return z["mean"], z["variance"], str(z["how"])
+    print(f"rendering the reference of {scene.name} ({seconds:g} s; cached in {f}) ...", flush=True)
+    r = render(compile_scene(scene_variant(scene, "mis", "power")), None, time_budget=seconds, integrator="mis",
+               seed=0x5EED, progress=False)
+    how = f"mcocl mis/power, {r.spp} spp, {r.seconds:.0f} s"
+    np.savez(f, mean=r.mean, variance=r.variance, how=how)
+    return r.mean, r.variance, how
 
 
-def rmse2(img: np.ndarray, ref: np.ndarray, ref_var: np.ndarray) -> float:
+def mse(img: np.ndarray, ref: np.ndarray, ref_var: np.ndarray) -> float:
     """Mean squared error against the reference, less the reference's own variance."""
     d = img.astype(np.float64) - ref.astype(np.float64)
     return float(np.mean(d * d) - np.mean(ref_var.astype(np.float64)))
 
 
+def throughput_only(args: argparse.Namespace, out: Path) -> None:
+    """Paths/s and build time on the Cornell box (no Mitsuba)."""
+    res: dict = {"scene": str(SCENE.relative_to(ROOT)), "integrator": args.integrator, "spp": args.spp,
+                 "cpus": os.cpu_count(), "loadavg_start": os.getloadavg()}
+    if not args.no_cold_build:
+        res["build_seconds_cold"] = cold_build_seconds(args.integrator, args.lanes)
+    warm = render(SCENE, spp=1, integrator=args.integrator, seed=999, lanes=args.lanes)
+    runs = []
+    for k in range(args.repeats):
+        c0 = time.process_time()
+        r = render(SCENE, spp=args.spp, integrator=args.integrator, seed=1 + k, lanes=args.lanes)
+        cpu = time.process_time() - c0
+        runs.append({"seconds": r.seconds, "cpu_seconds": cpu, "paths_per_second": r.samples_per_second,
+                     "cpu_seconds_per_mpath": cpu / (r.samples / 1e6)})
+    pps = [r["paths_per_second"] for r in runs]
+    res.update({"device": warm.device, "lanes": warm.lanes, "build_seconds_cached": warm.build_seconds,
+                "paths_per_second_best": max(pps), "paths_per_second_median": statistics.median(pps),
+                "cpu_seconds_per_mpath_best": min(r["cpu_seconds_per_mpath"] for r in runs), "runs": runs,
+                "loadavg_end": os.getloadavg()})
+    (out / "render_throughput.json").write_text(json.dumps(res, indent=2))
+    if args.json:
+        print(json.dumps(res, indent=2))
+        return
+    print(f"scene      {res['scene']}, {args.integrator}, {args.spp} spp x {args.repeats}")
+    print(f"device     {res['device']} ({res['lanes']} lanes), {res['cpus']} CPUs, load average "
+          f"{res['loadavg_start'][0]:.1f} -> {res['loadavg_end'][0]:.1f}")
+    if "build_seconds_cold" in res:
+        print(f"build      {res['build_seconds_cold']:.2f} s cold (empty PoCL cache), {res['build_seconds_cached']:.2f} s cached")
+    print(f"mcocl      {res['paths_per_second_best'] / 1e6:.3g} M paths/s best, {res['paths_per_second_median'] / 1e6:.3g} "
+          f"median; {res['cpu_seconds_per_mpath_best']:.3f} CPU-s per M paths")
+
+
+def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, env: dict) -> dict:
+    """mcocl's configurations and Mitsuba on one scene, interleaved run by run (see the module docstring)."""
+    configs = [c.split("/") for c in args.configs]
+    if name in ("cornell", "cornell_spheres", "big"):  # one area light: the light sampler cannot matter
+        configs = [c for c in configs if c[1] == "power"]
+    compiled, load = {}, {}
+    for integ, ls in configs:
+        t0 = time.perf_counter()
+        compiled[(integ, ls)] = compile_scene(scene_variant(scene, integ, ls))
+        load[(integ, ls)] = time.perf_counter() - t0
+        render(compiled[(integ, ls)], spp=1, integrator=integ, seed=999, lanes=args.lanes)  # build the kernel
+    mdir = out / "mitsuba" / name
+    ours: dict = {c: {"seconds": [], "cpu": [], "mse": []} for c in compiled}
+    mi_runs: dict = {"seconds": [], "cpu": [], "mse": []}
+    ref, ref_var, how = reference(out, scene, args.reference_seconds)
+    mi_info: dict = {}
+    for k in range(args.repeats):
+        for c, cs in compiled.items():
+            c0 = time.process_time()
+            r = render(cs, spp=args.spp, integrator=c[0], seed=1 + args.seed + k, lanes=args.lanes)
+            ours[c]["cpu"].append(time.process_time() - c0)
+            ours[c]["seconds"].append(r.seconds)
+            ours[c]["mse"].append(mse(r.mean, ref, ref_var))
+        p = subprocess.run([args.mitsuba, str(ROOT / "bench" / "mitsuba_render.py"), "--scene", str(scene),
+                            "--variant", args.variant, "--spp", str(args.spp), "--repeats", "1", "--seed", str(args.seed + k),
+                            "--out", str(mdir)], capture_output=True, text=True, env=env, cwd=ROOT)
+        if p.returncode != 0:
+            raise SystemExit(f"Mitsuba failed on {scene}:\n{p.stderr[-3000:]}")
+        mi_info = json.loads((mdir / "mitsuba_times.json").read_text())
+        img = np.load(mdir / f"mitsuba_{args.spp}spp_0.npy")
+        mi_runs["seconds"].append(mi_info["times"][0])
+        mi_runs["cpu"].append(mi_info["cpu_seconds"][0])
+        mi_runs["mse"].append(mse(img, ref, ref_var))
+        mi_runs.setdefault("image_mean", []).append(float(img.mean()))
+
+    def eff(runs: dict, key: str) -> float:
+        return 1.0 / (statistics.mean(runs["mse"]) * statistics.median(runs[key]))
+
+    rows = {f"{c[0]}/{c[1]}": {"seconds_median": statistics.median(v["seconds"]),
+                                "cpu_seconds_median": statistics.median(v["cpu"]),
+                                "mse": statistics.mean(v["mse"]), "load_seconds": load[c],
+                                "efficiency_ratio": eff(v, "seconds") / eff(mi_runs, "seconds"),
+                                "efficiency_ratio_cpu": eff(v, "cpu") / eff(mi_runs, "cpu")} for c, v in ours.items()}
+    best = max(rows, key=lambda c: rows[c]["efficiency_ratio"])
+    cs = next(iter(compiled.values()))
+    return {"scene": name, "file": str(scene.relative_to(ROOT)) if scene.is_relative_to(ROOT) else str(scene),
+            "size": f"{cs.width}x{cs.height}", "max_depth": cs.max_depth, "rr_depth": cs.rr_depth, "spp": args.spp,
+            "reference": how, "reference_mean": float(ref.mean()), "configs": rows, "best": best,
+            "mitsuba": {"variant": mi_info["variant"], "version": mi_info["version"],
+                        "seconds_median": statistics.median(mi_runs["seconds"]),
+                        "cpu_seconds_median": statistics.median(mi_runs["cpu"]), "mse": statistics.mean(mi_runs["mse"]),
+                        "image_mean": statistics.mean(mi_runs["image_mean"]),
+                        "load_seconds": mi_info["load_seconds"], "jit_seconds": mi_info["first_call_seconds"]},
+            "loadavg": os.getloadavg()[0]}
+
+
 def main() -> None:
+    """Throughput alone, or the comparison with Mitsuba on the chosen scenes."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--spp", type=int, default=64, help="samples per pixel of each timed render (default 64)")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--integrator", default="mis", choices=("path", "nee", "mis"))
+    ap.add_argument("--integrator", default="mis", choices=("path", "nee", "mis"), help="without --mitsuba")
     ap.add_argument("--lanes", type=int, default=None, help="vector width (default: the device's)")
     ap.add_argument("--no-cold-build", action="store_true", help="skip the cold-build measurement")
     ap.add_argument("--mitsuba", default=None, metavar="PYTHON", help="Python of a venv with mitsuba: compare with it")
     ap.add_argument("--llvm", default=None, metavar="LIBLLVM", help="libLLVM.so for Mitsuba's llvm variants (DRJIT_LIBLLVM_PATH)")
     ap.add_argument("--variant", default="llvm_ad_rgb", help="Mitsuba variant (default llvm_ad_rgb)")
-    ap.add_argument("--reference-spp", type=int, default=4096)
+    ap.add_argument("--scenes", nargs="+", default=["cornell", "cornell_spheres", "veach_mis", "many_lights", "big"])
+    ap.add_argument("--configs", nargs="+", default=["mis/power", "nee/power", "mis/bvh", "nee/bvh"],
+                    help="mcocl integrator/light_sampler pairs (bvh only on the many-light scenes); lt/power "
+                         "adds light tracing, which renders mirrors and glass seen directly black (compare it "
+                         "only on scenes without them)")
+    ap.add_argument("--big-triangles", type=int, default=1_000_000)
+    ap.add_argument("--seed", type=int, default=0, help="seeds of the timed renders: SEED + repeat (both renderers)")
+    ap.add_argument("--reference-seconds", type=float, default=60.0)
     ap.add_argument("--out", default=str(ROOT / "bench-out" / "render"))
     ap.add_argument("--json", action="store_true", help="print the results as one JSON object")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-
-    res: dict = {"scene": str(SCENE.relative_to(ROOT)), "integrator": args.integrator, "spp": args.spp,
-                 "max_depth": 8, "rr_depth": 5, "cpus": os.cpu_count(), "loadavg_start": os.getloadavg()}
-    if not args.no_cold_build:
-        res["build_seconds_cold"] = cold_build_seconds(args.integrator, args.lanes)
+    if not args.mitsuba:
+        throughput_only(args, out)
+        return
     env = dict(os.environ)
     if args.llvm:
         env["DRJIT_LIBLLVM_PATH"] = args.llvm
-    mdir = out / "mitsuba"
-
-    def mitsuba_once(k: int) -> tuple[float, float, np.ndarray, dict]:
-        """One timed Mitsuba render (after its JIT warm-up) in its own process."""
-        p = subprocess.run([args.mitsuba, str(ROOT / "bench" / "mitsuba_cornell.py"), "--variant", args.variant,
-                            "--spp", str(args.spp), "--repeats", "1", "--seed", str(k), "--out", str(mdir)],
-                           capture_output=True, text=True, env=env, cwd=ROOT)
-        if p.returncode != 0:
-            raise SystemExit(f"Mitsuba failed:\n{p.stderr[-3000:]}")
-        info = json.loads((mdir / "mitsuba_times.json").read_text())
-        return info["times"][0], info["cpu_seconds"][0], np.load(mdir / f"mitsuba_{args.spp}spp_0.npy"), info
-
-    # Interleave the two renderers run by run, so that both see the same load.
-    warm = render(SCENE, spp=1, integrator=args.integrator, max_depth=8, rr_depth=5, seed=999, lanes=args.lanes)
-    runs, images, mi_times, mi_cpu, mi_imgs, mi = [], [], [], [], [], {}
-    for k in range(args.repeats):
-        c0 = time.process_time()
-        r = render(SCENE, spp=args.spp, integrator=args.integrator, max_depth=8, rr_depth=5, seed=1 + k,
-                   lanes=args.lanes)
-        cpu = time.process_time() - c0
-        runs.append({"seconds": r.seconds, "cpu_seconds": cpu, "paths_per_second": r.samples_per_second,
-                     "cpu_seconds_per_mpath": cpu / (r.samples / 1e6), "loadavg": os.getloadavg()[0]})
-        images.append(r.mean)
-        if args.mitsuba:
-            t, c, im, mi = mitsuba_once(k)
-            mi_times.append(t)
-            mi_cpu.append(c)
-            mi_imgs.append(im)
-    pps = [r["paths_per_second"] for r in runs]
-    res.update({"device": warm.device, "lanes": warm.lanes, "build_seconds_cached": warm.build_seconds,
-                "paths_per_second_best": max(pps), "paths_per_second_median": statistics.median(pps),
-                "cpu_seconds_per_mpath_best": min(r["cpu_seconds_per_mpath"] for r in runs), "runs": runs})
-
-    if args.mitsuba:
-        ref, ref_var = reference(out, args.reference_spp)
-        e_ours = [rmse2(im, ref, ref_var) for im in images]
-        e_mi = [rmse2(im, ref, ref_var) for im in mi_imgs]
-        t_ours = statistics.median(r["seconds"] for r in runs)
-        t_mi = statistics.median(mi_times)
-        eff_ours = 1.0 / (statistics.mean(e_ours) * t_ours)
-        eff_mi = 1.0 / (statistics.mean(e_mi) * t_mi)
-        # the same with the CPU seconds each process used: less sensitive to other load on a shared machine
-        c_ours = statistics.median(r["cpu_seconds"] for r in runs)
-        c_mi = statistics.median(mi_cpu)
-        res["efficiency_ratio_cpu"] = (statistics.mean(e_mi) * c_mi) / (statistics.mean(e_ours) * c_ours)
-        mi_mean = np.mean(mi_imgs, axis=0)
-        res["mitsuba"] = {
-            "variant": mi["variant"], "version": mi["version"], "seconds_median": t_mi, "seconds": mi_times,
-            "cpu_seconds": mi_cpu,
-            "samples_per_second": args.spp * mi["width"] * mi["height"] / t_mi,
-            "rmse": float(np.sqrt(statistics.mean(e_mi))),
-            "rmse_sqrt_spp": float(np.sqrt(statistics.mean(e_mi) * args.spp)),
-            "image_mean_rgb": [float(x) for x in mi_mean.reshape(-1, 3).mean(axis=0)],
-            "first_call_seconds": mi["first_call_seconds"],
-        }
-        res["ours_rmse"] = float(np.sqrt(statistics.mean(e_ours)))
-        res["ours_rmse_sqrt_spp"] = float(np.sqrt(statistics.mean(e_ours) * args.spp))
-        res["ours_seconds_median"] = t_ours
-        res["reference_spp"] = args.reference_spp
-        res["reference_mean_rgb"] = [float(x) for x in ref.reshape(-1, 3).mean(axis=0)]
-        res["efficiency_ratio"] = eff_ours / eff_mi
-    res["loadavg_end"] = os.getloadavg()
-
+    results = []
+    for name in args.scenes:
+        scene = (SCENE_FILES[name] if name in SCENE_FILES else cornell_spheres(out) if name == "cornell_spheres"
+                 else big_scene(out, args.big_triangles))
+        results.append(compare_scene(args, out, name, scene, env))
+        (out / "mitsuba_compare.json").write_text(json.dumps(results, indent=2))
+        r = results[-1]
+        print(json.dumps({"scene": name, "best": r["best"], **r["configs"][r["best"]]}), flush=True)
     if args.json:
-        print(json.dumps(res, indent=2))
+        print(json.dumps(results, indent=2))
         return
-    print(f"scene      {res['scene']} 256x256, {args.integrator}, max_depth 8, rr_depth 5, {args.spp} spp x {args.repeats}")
-    print(f"device     {res['device']} ({res['lanes']} lanes), {res['cpus']} CPUs, load average "
-          f"{res['loadavg_start'][0]:.1f} -> {res['loadavg_end'][0]:.1f}")
-    if "build_seconds_cold" in res:
-        print(f"build      {res['build_seconds_cold']:.2f} s cold (empty PoCL cache), {res['build_seconds_cached']:.2f} s cached")
-    print(f"mcocl      {res['paths_per_second_best'] / 1e6:.3g} M paths/s best, {res['paths_per_second_median'] / 1e6:.3g} median; "
-          f"{res['cpu_seconds_per_mpath_best']:.3f} CPU-s per M paths")
-    if args.mitsuba:
-        m = res["mitsuba"]
-        print(f"Mitsuba    {m['version']} {m['variant']}: {m['samples_per_second'] / 1e6:.3g} M samples/s "
-              f"(median {m['seconds_median']:.2f} s), RMSE x sqrt(spp) = {m['rmse_sqrt_spp']:.3f}")
-        print(f"mcocl      median {res['ours_seconds_median']:.2f} s, RMSE x sqrt(spp) = {res['ours_rmse_sqrt_spp']:.3f}")
-        print(f"reference  mcocl mis {args.reference_spp} spp; image means: reference {np.round(res['reference_mean_rgb'], 4)}, "
-              f"Mitsuba {np.round(m['image_mean_rgb'], 4)}")
-        print(f"efficiency 1/(RMSE^2 x s): mcocl / Mitsuba = {res['efficiency_ratio']:.2f} (wall time), "
-              f"{res['efficiency_ratio_cpu']:.2f} (CPU time of each process)")
-    (out / "render_throughput.json").write_text(json.dumps(res, indent=2))
+    print(f"\n{args.spp} spp x {args.repeats} repeats, {os.cpu_count()} CPUs; Mitsuba {results[0]['mitsuba']['version']} "
+          f"{args.variant}")
+    print("| scene | size, depth | mcocl best | mcocl s | Mitsuba s | MSE mcocl / Mitsuba | efficiency ratio (wall) "
+          "| (CPU) | image mean mcocl ref / Mitsuba |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in results:
+        b, m = r["configs"][r["best"]], r["mitsuba"]
+        print(f"| {r['scene']} | {r['size']}, {r['max_depth']} | {r['best']} | {b['seconds_median']:.2f} | "
+              f"{m['seconds_median']:.2f} | {b['mse'] / m['mse']:.2f} | **{b['efficiency_ratio']:.2f}** | "
+              f"{b['efficiency_ratio_cpu']:.2f} | {r['reference_mean']:.4f} / {m['image_mean']:.4f} |")
 
 
 if __name__ == "__main__":
