@@ -63,9 +63,12 @@ def entry_used(since: float, until: float, kernel_names: list[str]) -> Path | No
                     found.append(Path(entry.path))
     except OSError:
         return None
-    if len(found) > 1:  # another build at the same time: keep those naming our kernels
-        names = [n.encode() for n in kernel_names if len(n) >= 4]  # short names match any file
-        found = [e for e in found if names and _names_all(e / "program.bc", names)]
+    # Keep only entries whose bitcode names our kernels, even when one entry
+    # alone was touched: PoCL may stamp another program's entry in the same
+    # instant (a probe build, a program it loads), and trusting that one would
+    # pin this program's record to the wrong entry.
+    names = [n.encode() for n in kernel_names if len(n) >= 4]  # short names match any file
+    found = [e for e in found if names and _names_all(e / "program.bc", names)]
     return found[0] if len(found) == 1 else None
 
 
@@ -100,13 +103,17 @@ def check_entry(key: str, entry: Path) -> str | None:
     try:
         recorded = json.loads(path.read_text())
         files = dict(recorded["files"])
+        if recorded["entry"] != entry.name:
+            # PoCL filed the program under another entry (its cache was cleared or
+            # rebuilt): a record of one entry says nothing of another; trust anew.
+            files = {}
     except (OSError, ValueError, KeyError, TypeError):
         files = {}
     for name, digest in files.items():
         if name in now and now[name] != digest:
             return (f"PoCL's kernel cache entry {str(entry)!r} does not hold the program mcocl built there "
                     f"({name} changed since it was first built: a corrupt or swapped cache entry)")
-    if any(name not in files for name in now):
+    if not files or any(name not in files for name in now):
         files.update({k: v for k, v in now.items() if k not in files})
         _write_atomically(path, json.dumps({"entry": entry.name, "files": files}, sort_keys=True))
     return None
