@@ -354,25 +354,15 @@ kernel void bdpt_trace(
     const float4 bsphere,
     global film_t *scratch)
 {
-    const ulong first_block = params.first_block, seed = params.seed;
-    const uint nblocks = params.nblocks, spp_per_block = params.spp_per_block, spp_limit = params.spp_limit;
-    const uint width = params.width, height = params.height;
-    const uint groups = params.ntiles, rr_depth = params.rr_depth;
+    const ulong seed = params.seed;
+    const uint width = params.width, height = params.height, rr_depth = params.rr_depth;
     const int max_depth = params.max_depth;
     const uint scene_ntris = params.ntris, scene_nspheres = params.nspheres;
-    const uint gid = (uint)get_global_id(0);
-    if (gid >= nblocks * groups) return;
-    const uint bi = gid / groups;
-    const uint group = gid - bi * groups;
-    const ulong block = first_block + bi;
-    const uint npix = width * height;
-    global film_t *img = scratch + ((size_t)bi * groups + group) * npix * SPLAT_COLUMNS;
-    for (uint k = 0; k < npix * SPLAT_COLUMNS; ++k) img[k] = 0;
-    const ulong spp0 = block * (ulong)spp_per_block;
-    const uint nspp = spp0 >= (ulong)spp_limit ? 0u : (uint)min((ulong)spp_per_block, (ulong)spp_limit - spp0);
-    const ulong block_paths = (ulong)nspp * npix;
-    const ulong path0 = spp0 * npix + block_paths * group / groups;
-    const ulong total = block_paths * (group + 1u) / groups - block_paths * group / groups;
+    path_group pg;
+    if (!path_group_at(&params, scratch, (uint)get_global_id(0), &pg)) return;
+    const uint npix = pg.npix;
+    global film_t *img = pg.img;
+    const ulong path0 = pg.path0, total = pg.total;
     if (total == 0ul || max_depth == 0) return;
 
     SCENE_GEOM_MAKE(geom);

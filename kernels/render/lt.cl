@@ -103,6 +103,32 @@ MC_INLINE void splat(global film_t *img, uintv pixel, vec3v c, intv ok) {
 #endif
 }
 
+/* The light paths of one path group.  Work-item gid of a launch is group
+ * gid % ntiles of block first_block + gid / ntiles; the block's paths are
+ * split evenly over its groups, and each group splats into its own image of
+ * scratch (cleared here), so no two work-items write the same memory.
+ * Returns 0 for a work-item past the launch. */
+typedef struct {
+    ulong path0, total;  /* the group's first path index and its number of paths */
+    uint npix;
+    global film_t *img;  /* SPLAT_COLUMNS per pixel */
+} path_group;
+
+MC_INLINE int path_group_at(const render_params *p, global film_t *scratch, uint gid, path_group *g) {
+    const uint groups = p->ntiles;
+    if (gid >= p->nblocks * groups) return 0;
+    const uint bi = gid / groups, group = gid - bi * groups;
+    g->npix = p->width * p->height;
+    g->img = scratch + ((size_t)bi * groups + group) * g->npix * SPLAT_COLUMNS;
+    for (uint k = 0; k < g->npix * SPLAT_COLUMNS; ++k) g->img[k] = 0;
+    const ulong spp0 = (p->first_block + bi) * (ulong)p->spp_per_block;
+    const uint nspp = spp0 >= (ulong)p->spp_limit ? 0u : (uint)min((ulong)p->spp_per_block, (ulong)p->spp_limit - spp0);
+    const ulong block_paths = (ulong)nspp * g->npix;
+    g->path0 = spp0 * g->npix + block_paths * group / groups;  /* this group's first light path */
+    g->total = block_paths * (group + 1u) / groups - block_paths * group / groups;
+    return 1;
+}
+
 /* Give lanes that need work the next light paths of the work-item, in lane order. */
 MC_INLINE intv assign_paths(intv need, ulong *next, ulong total, ulongv *j) {
 #if LANES == 1
@@ -148,25 +174,15 @@ kernel void lt_trace(
     const float4 bsphere,
     global film_t *scratch)
 {
-    const ulong first_block = params.first_block, seed = params.seed;
-    const uint nblocks = params.nblocks, spp_per_block = params.spp_per_block, spp_limit = params.spp_limit;
-    const uint width = params.width, height = params.height;
-    const uint groups = params.ntiles, rr_depth = params.rr_depth;
+    const ulong seed = params.seed;
+    const uint width = params.width, height = params.height, rr_depth = params.rr_depth;
     const int max_depth = params.max_depth;
     const uint scene_ntris = params.ntris, scene_nspheres = params.nspheres;
-    const uint gid = (uint)get_global_id(0);
-    if (gid >= nblocks * groups) return;
-    const uint bi = gid / groups;
-    const uint group = gid - bi * groups;
-    const ulong block = first_block + bi;
-    const uint npix = width * height;
-    global film_t *img = scratch + ((size_t)bi * groups + group) * npix * SPLAT_COLUMNS;
-    for (uint k = 0; k < npix * SPLAT_COLUMNS; ++k) img[k] = 0;
-    const ulong spp0 = block * (ulong)spp_per_block;
-    const uint nspp = spp0 >= (ulong)spp_limit ? 0u : (uint)min((ulong)spp_per_block, (ulong)spp_limit - spp0);
-    const ulong block_paths = (ulong)nspp * npix;
-    const ulong path0 = spp0 * npix + block_paths * group / groups; /* this group's first light path */
-    const ulong total = block_paths * (group + 1u) / groups - block_paths * group / groups;
+    path_group pg;
+    if (!path_group_at(&params, scratch, (uint)get_global_id(0), &pg)) return;
+    const uint npix = pg.npix;
+    global film_t *img = pg.img;
+    const ulong path0 = pg.path0, total = pg.total;
     if (total == 0ul || max_depth == 0) return;
 
     SCENE_GEOM_MAKE(geom);
