@@ -27,10 +27,14 @@ examples:
   mcocl devices
   mcocl integrate "exp(-x[0]*x[0])" --dim 1 --samples 1e6 --sampler nrooks --seed 7
   mcocl integrate "exp(-x[0]*x[0] - x[1]*x[1])" --dim 2 --samples 1e7 --json
+  mcocl integrate "exp(-(x[0]+x[1]+x[2]))*cos(x[3])" --dim 4 --sampler sobol --samples 1e7
+  mcocl render scenes/cornell.json --spp 64 --out cornell.exr --png cornell.png
+  mcocl render scene.xml -D spp=256 --integrator bdpt --out scene.exr
   mcocl <command> --help       more about one command
 
 Every per-sample computation runs in OpenCL kernels; results depend only on the
-seed, never on the device, the work split or interruptions.
+seed (and the lane width, in the last bits, for snippets that call math
+built-ins), never on the device, the work split or interruptions.
 """
 
 
