@@ -15,10 +15,7 @@ kernel void emitter_ray_samples(const render_params scene, global const float4 *
                                 ulong seed, uint n, global float *out) {
     uint base = (uint)get_global_id(0) * LANES;
     if (base >= n) return;
-    light_tables lt;
-    lt.light_rec = light_rec; lt.light_cdf = light_cdf; lt.emitter_radiance = emitter_radiance;
-    lt.nlights = scene.nlights; lt.light_top = scene.light_top; lt.env_threshold = scene.env_threshold;
-    lt.env_pmf = scene.env_pmf; lt.env_radiance = scene.env_radiance;
+    const light_tables lt = light_tables_of(&scene, light_rec, light_cdf, emitter_radiance, 0, 0);
     mc_sampler_t smp = sampler_start(seed, to_ulongv((uintv)(base) + LANE_IOTA), RNG_STREAM_LIGHT_TEST);
     floatv u[8];
     sampler_next_nd(&smp, 8, u);

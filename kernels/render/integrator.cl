@@ -164,8 +164,7 @@ kernel void render_blocks(
     const uint ntiles = params.ntiles, rr_depth = params.rr_depth;
     const int max_depth = params.max_depth;
     const uint scene_ntris = params.ntris, scene_nspheres = params.nspheres;
-    const uint nlights = params.nlights, light_top = params.light_top;
-    const float env_threshold = params.env_threshold, env_pmf = params.env_pmf;
+    const float env_pmf = params.env_pmf;
     const float4 env_radiance = params.env_radiance;
     const uint gid = (uint)get_global_id(0);
     if (gid >= nblocks * ntiles) return;
@@ -183,22 +182,8 @@ kernel void render_blocks(
     if (total == 0u) return;
 
     SCENE_GEOM_MAKE(geom);
-    prim_tables pt;
-    pt.spheres = scene_spheres;
-    pt.prim_rec = prim_rec;
-    pt.ntris = scene_ntris;
-    pt.nspheres = scene_nspheres;
-    light_tables lt;
-    lt.light_rec = light_rec;
-    lt.light_cdf = light_cdf;
-    lt.emitter_radiance = emitter_radiance;
-    lt.light_bvh = light_bvh;
-    lt.light_trail = light_trail;
-    lt.nlights = nlights;
-    lt.light_top = light_top;
-    lt.env_threshold = env_threshold;
-    lt.env_pmf = env_pmf;
-    lt.env_radiance = env_radiance;
+    const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
+    const light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, light_bvh, light_trail);
     const bool has_env = env_radiance.x > 0.0f || env_radiance.y > 0.0f || env_radiance.z > 0.0f;
     const vec3v env_le = v3((floatv)(env_radiance.x), (floatv)(env_radiance.y), (floatv)(env_radiance.z));
     const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;

@@ -19,13 +19,8 @@
 #define LIGHT_TEST_SETUP                                                                                       \
     const uint scene_ntris = scene.ntris, scene_nspheres = scene.nspheres;                                    \
     SCENE_GEOM_MAKE(geom);                                                                                     \
-    prim_tables pt;                                                                                            \
-    pt.spheres = scene_spheres; pt.prim_rec = prim_rec; pt.ntris = scene_ntris; pt.nspheres = scene_nspheres; \
-    light_tables lt;                                                                                           \
-    lt.light_rec = light_rec; lt.light_cdf = light_cdf; lt.emitter_radiance = emitter_radiance;               \
-    lt.light_bvh = light_bvh; lt.light_trail = light_trail;                                                   \
-    lt.nlights = scene.nlights; lt.light_top = scene.light_top; lt.env_threshold = scene.env_threshold;       \
-    lt.env_pmf = scene.env_pmf; lt.env_radiance = scene.env_radiance
+    const prim_tables pt = prim_tables_of(&scene, scene_spheres, prim_rec);                                    \
+    const light_tables lt = light_tables_of(&scene, light_rec, light_cdf, emitter_radiance, light_bvh, light_trail)
 
 /* out: wo.xyz, pdf, radiance.rgb, valid, env, prim, pos.xyz (13 components) */
 kernel void light_sample_dirs(LIGHT_TEST_PARAMS, float4 p4, ulong seed, uint n, global float *out) {

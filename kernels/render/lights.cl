@@ -54,6 +54,26 @@ typedef struct {
     float4 env_radiance;
 } light_tables;
 
+/* The light tables of a render launch: its buffers, and the light count and
+ * environment choice of its render_params.  light_bvh and light_trail may be 0
+ * where no light BVH is bound (the power and uniform choices never read them). */
+MC_INLINE light_tables light_tables_of(const render_params *p, global const float4 *light_rec,
+                                       global const float *light_cdf, global const float4 *emitter_radiance,
+                                       global const float4 *light_bvh, global const uint *light_trail) {
+    light_tables lt;
+    lt.light_rec = light_rec;
+    lt.light_cdf = light_cdf;
+    lt.emitter_radiance = emitter_radiance;
+    lt.light_bvh = light_bvh;
+    lt.light_trail = light_trail;
+    lt.nlights = p->nlights;
+    lt.light_top = p->light_top;
+    lt.env_threshold = p->env_threshold;
+    lt.env_pmf = p->env_pmf;
+    lt.env_radiance = p->env_radiance;
+    return lt;
+}
+
 /* Radiance of emitter e (lanes with e < 0 get black). */
 MC_INLINE vec3v emitter_radiance_of(const light_tables *lt, intv e) {
     intv has = e >= 0;

@@ -186,20 +186,9 @@ kernel void lt_trace(
     if (total == 0ul || max_depth == 0) return;
 
     SCENE_GEOM_MAKE(geom);
-    prim_tables pt;
-    pt.spheres = scene_spheres;
-    pt.prim_rec = prim_rec;
-    pt.ntris = scene_ntris;
-    pt.nspheres = scene_nspheres;
-    light_tables lt;
-    lt.light_rec = light_rec;
-    lt.light_cdf = light_cdf;
-    lt.emitter_radiance = emitter_radiance;
-    lt.nlights = params.nlights;
-    lt.light_top = params.light_top;
-    lt.env_threshold = params.env_threshold;
-    lt.env_pmf = params.env_pmf;
-    lt.env_radiance = params.env_radiance;
+    const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
+    /* light paths start at emitters chosen by power: no light BVH is bound */
+    const light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
     const float pixels = (float)npix;
     const float lens_area = camera_lens_area(camera);
     const uint depth_limit = max_depth >= 0 ? min((uint)max_depth, (uint)DEPTH_GUARD) : (uint)DEPTH_GUARD;

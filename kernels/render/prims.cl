@@ -23,6 +23,17 @@ typedef struct {
     uint ntris, nspheres;
 } prim_tables;
 
+/* The primitive tables of a render launch: its buffers and the counts of its render_params. */
+MC_INLINE prim_tables prim_tables_of(const render_params *p, global const float4 *spheres,
+                                     global const float4 *prim_rec) {
+    prim_tables pt;
+    pt.spheres = spheres;
+    pt.prim_rec = prim_rec;
+    pt.ntris = p->ntris;
+    pt.nspheres = p->nspheres;
+    return pt;
+}
+
 MC_INLINE intv prim_is_sphere(const prim_tables *pt, uintv prim) { return prim >= (uintv)(pt->ntris); }
 
 /* A surface point hit by a ray, with its primitive's record. */
