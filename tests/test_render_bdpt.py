@@ -15,21 +15,15 @@
 
 from __future__ import annotations
 
-import os
-import signal
 from pathlib import Path
 
 import numpy as np
 import pytest
 from test_render_lt import LE, RHO, assert_blocks_agree, assert_pixels_agree, downscaled, furnace_closed_form
 
-from mcocl import runtime
-from mcocl.accumulate import Accumulator
 from mcocl.errors import InputError
 from mcocl.render.api import render
 from mcocl.render.compiled import compile_scene
-from mcocl.render.device_scene import scene_tables
-from mcocl.render.job import RenderJob
 from mcocl.render.scene import parse_scene
 from mcocl.render.scene_file import load_scene
 
@@ -123,52 +117,7 @@ def test_thin_lens_bdpt_agrees_with_mis() -> None:
     assert_pixels_agree(a, b)
 
 
-def test_image_does_not_depend_on_how_blocks_are_launched() -> None:
-    cs = downscaled("cornell.json", 16)
-    job = RenderJob(scene_tables(cs), cs.width, cs.height, "bdpt", cs.max_depth, cs.rr_depth, seed=42,
-                    spp_per_block=2, spp_limit=15)
-    runner = job.runner(runtime.device_context())
-    runner.per_launch = 3
-    films = []
-    for chunks in ([1] * 8, [3, 5], [8], [2, 1, 4, 1]):
-        acc = Accumulator(job.stat_shape)
-        first = 0
-        for n in chunks:
-            acc.add(first, runner.collect(runner.enqueue(first, n)))
-            first += n
-        films.append(acc.totals)
-    for f in films[1:]:
-        np.testing.assert_array_equal(f, films[0])
-    assert films[0][..., 6].min() == 8
-    assert films[0][..., 0].max() > 0
-
-
-def test_sub_devices_give_the_same_image() -> None:
-    cs = downscaled("cornell.json", 12)
-    one = render(cs, spp=8, seed=4, integrator="bdpt", spp_per_block=2)
-    two = render(cs, spp=8, seed=4, integrator="bdpt", spp_per_block=2, split=2)
-    np.testing.assert_array_equal(one.mean, two.mean)
-    np.testing.assert_array_equal(one.variance, two.variance)
-
-
-def test_resumed_render_is_identical(tmp_path: Path) -> None:
-    cs = downscaled("cornell.json", 16)
-    whole = render(cs, spp=12, seed=7, integrator="bdpt", spp_per_block=2)
-    ckpt = tmp_path / "run.ckpt"
-    calls = []
-
-    def interrupt_after_first_fold(p) -> None:
-        calls.append(p.blocks_done)
-        if len(calls) == 1:
-            os.kill(os.getpid(), signal.SIGINT)
-
-    part = render(cs, spp=12, seed=7, integrator="bdpt", spp_per_block=2, checkpoint=ckpt,
-                  progress=interrupt_after_first_fold)
-    assert part.stopped_by == "interrupt" and 0 < part.spp < 12
-    rest = render(cs, spp=12, seed=7, integrator="bdpt", resume=ckpt)
-    assert rest.spp == 12
-    np.testing.assert_array_equal(rest.mean, whole.mean)
-    np.testing.assert_array_equal(rest.variance, whole.variance)
+# Launch splits, sub-devices and resume: tests/test_render_lt.py runs them for bdpt too (SPLATTING).
 
 
 @pytest.mark.parametrize(("kw", "match"), [

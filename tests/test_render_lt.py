@@ -408,9 +408,14 @@ def test_lt_agrees_with_mis_on_cornell() -> None:
     assert_pixels_agree(a, b)
 
 
-def test_image_does_not_depend_on_how_blocks_are_launched() -> None:
+# The splat film's promises, for every integrator that splats (lt, bdpt).
+SPLATTING = ("lt", "bdpt")
+
+
+@pytest.mark.parametrize("integrator", SPLATTING)
+def test_image_does_not_depend_on_how_blocks_are_launched(integrator: str) -> None:
     cs = downscaled("cornell.json", 16)
-    job = RenderJob(scene_tables(cs), cs.width, cs.height, "lt", cs.max_depth, cs.rr_depth, seed=42,
+    job = RenderJob(scene_tables(cs), cs.width, cs.height, integrator, cs.max_depth, cs.rr_depth, seed=42,
                     spp_per_block=2, spp_limit=15, bounding_sphere=(0.0, 0.0, 0.0, 1.0))
     runner = job.runner(runtime.device_context())
     runner.per_launch = 3  # several launches share the scratch images inside one chunk too
@@ -428,17 +433,19 @@ def test_image_does_not_depend_on_how_blocks_are_launched() -> None:
     assert films[0][..., 0].max() > 0
 
 
-def test_sub_devices_give_the_same_image() -> None:
+@pytest.mark.parametrize("integrator", SPLATTING)
+def test_sub_devices_give_the_same_image(integrator: str) -> None:
     cs = downscaled("cornell.json", 12)
-    one = render(cs, spp=8, seed=4, integrator="lt", spp_per_block=2)
-    two = render(cs, spp=8, seed=4, integrator="lt", spp_per_block=2, split=2)
+    one = render(cs, spp=8, seed=4, integrator=integrator, spp_per_block=2)
+    two = render(cs, spp=8, seed=4, integrator=integrator, spp_per_block=2, split=2)
     np.testing.assert_array_equal(one.mean, two.mean)
     np.testing.assert_array_equal(one.variance, two.variance)
 
 
-def test_resumed_render_is_identical(tmp_path: Path) -> None:
+@pytest.mark.parametrize("integrator", SPLATTING)
+def test_resumed_render_is_identical(tmp_path: Path, integrator: str) -> None:
     cs = downscaled("cornell.json", 16)
-    whole = render(cs, spp=12, seed=7, integrator="lt", spp_per_block=2)
+    whole = render(cs, spp=12, seed=7, integrator=integrator, spp_per_block=2)
     ckpt = tmp_path / "run.ckpt"
     calls = []
 
@@ -447,10 +454,10 @@ def test_resumed_render_is_identical(tmp_path: Path) -> None:
         if len(calls) == 1:
             os.kill(os.getpid(), signal.SIGINT)
 
-    part = render(cs, spp=12, seed=7, integrator="lt", spp_per_block=2, checkpoint=ckpt,
+    part = render(cs, spp=12, seed=7, integrator=integrator, spp_per_block=2, checkpoint=ckpt,
                   progress=interrupt_after_first_fold)
     assert part.stopped_by == "interrupt" and 0 < part.spp < 12
-    rest = render(cs, spp=12, seed=7, integrator="lt", resume=ckpt)
+    rest = render(cs, spp=12, seed=7, integrator=integrator, resume=ckpt)
     assert rest.spp == 12 and rest.spp_this_run == 12 - part.spp
     np.testing.assert_array_equal(rest.mean, whole.mean)
     np.testing.assert_array_equal(rest.variance, whole.variance)
