@@ -346,13 +346,7 @@ MC_INLINE float strategy_weight(float w) {
 /* Samples of blocks first_block .. first_block + nblocks - 1; params.ntiles groups per block,
  * one work-item each, on the splat film of lt.cl (scratch: one group image per work-item). */
 kernel void bdpt_trace(
-    const render_params params,
-    global const float4 *camera,
-    SCENE_GEOM_BUFFERS,
-    global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance,
-    global const float4 *light_rec, global const float *light_cdf,
-    const float4 bsphere,
-    global film_t *scratch)
+    SPLAT_TRACE_PARAMS)
 {
     const ulong seed = params.seed;
     const uint width = params.width, height = params.height, rr_depth = params.rr_depth;

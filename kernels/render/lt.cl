@@ -103,6 +103,15 @@ MC_INLINE void splat(global film_t *img, uintv pixel, vec3v c, intv ok) {
 #endif
 }
 
+/* The arguments of every splatting trace kernel (lt_trace, bdpt_trace), in the
+ * order the host binds them (mcocl/render/job.py LT_BUFFERS, splat_film.py):
+ * the launch's render_params, the scene's buffers, the bounding sphere light
+ * paths from the environment start outside, and the group images. */
+#define SPLAT_TRACE_PARAMS                                                                                  \
+    const render_params params, global const float4 *camera, SCENE_GEOM_BUFFERS,                            \
+    global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance, \
+    global const float4 *light_rec, global const float *light_cdf, const float4 bsphere, global film_t *scratch
+
 /* The light paths of one path group.  Work-item gid of a launch is group
  * gid % ntiles of block first_block + gid / ntiles; the block's paths are
  * split evenly over its groups, and each group splats into its own image of
@@ -166,13 +175,7 @@ MC_INLINE intv camera_visible(const scene_geom *geom, vec3v p, vec3v n, const ca
  * groups of paths per block, one work-item each; bsphere: centre and radius
  * of the scene's bounding sphere.  scratch: one group image per work-item. */
 kernel void lt_trace(
-    const render_params params,
-    global const float4 *camera,
-    SCENE_GEOM_BUFFERS,
-    global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance,
-    global const float4 *light_rec, global const float *light_cdf,
-    const float4 bsphere,
-    global film_t *scratch)
+    SPLAT_TRACE_PARAMS)
 {
     const ulong seed = params.seed;
     const uint width = params.width, height = params.height, rr_depth = params.rr_depth;
