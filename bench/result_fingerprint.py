@@ -8,13 +8,16 @@ result bit-identical:
     diff /tmp/old.json /tmp/new.json
 
 Covers integrate (independent, stratified, nrooks at lanes 1 and 16), the four
-walk estimators, and path/nee/mis renders of the Cornell box at lanes 1 and 16.
+walk estimators, and path/nee/mis renders of the Cornell box at lanes 1 and 16;
+then sobol and vegas integration, lt, bdpt, sobol rendering, the light BVH, and
+the other shipped scenes.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import tempfile
 import warnings
 from pathlib import Path
 
@@ -44,6 +47,38 @@ def fingerprints() -> dict[str, object]:
         for lanes in (1, 16):
             img = mcocl.render(CORNELL, spp=2, integrator=integrator, seed=1, lanes=lanes)
             out[f"render-{integrator}-{lanes}"] = _digest(img.mean, img.variance)
+    out.update(later_fingerprints())
+    return out
+
+
+def later_fingerprints() -> dict[str, object]:
+    """Results of what came after issue 9: QMC and VEGAS, splatting integrators, light BVH, other scenes."""
+    out: dict[str, object] = {}
+    for sampler in ("sobol", "vegas"):
+        r = mcocl.integrate("exp(-x[0]*x[1])*cos(x[2])", dim=3, samples=2**20, sampler=sampler, seed=5)
+        out[f"int-{sampler}"] = (r.estimate.hex(), float(r.stderr).hex())
+    scenes = Path(CORNELL).parent
+    cases = [
+        ("cornell.json", {"integrator": "lt"}),
+        ("cornell.json", {"integrator": "bdpt"}),
+        ("cornell.json", {"integrator": "mis", "sampler": "sobol"}),
+        ("veach_mis.json", {"integrator": "mis"}),
+        ("caustic.json", {"integrator": "mis"}),
+        ("many_lights.json", {"integrator": "nee"}),
+        ("xml/cornell.xml", {"integrator": "mis"}),
+    ]
+    for name, options in cases:
+        img = mcocl.render(str(scenes / name), spp=2, seed=1, **options)
+        key = "-".join([name] + [f"{k}={v}" for k, v in sorted(options.items())])
+        out[f"render-{key}"] = _digest(img.mean, img.variance)
+    with tempfile.TemporaryDirectory() as folder:
+        # The light BVH is a scene option, so the Veach scene is copied with it set.
+        scene = json.loads((scenes / "veach_mis.json").read_text())
+        scene.setdefault("integrator", {})["light_sampler"] = "bvh"
+        path = Path(folder) / "veach_bvh.json"
+        path.write_text(json.dumps(scene))
+        img = mcocl.render(str(path), spp=2, seed=1, integrator="mis")
+        out["render-veach_mis.json-light_sampler=bvh"] = _digest(img.mean, img.variance)
     return out
 
 
