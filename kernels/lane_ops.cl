@@ -84,10 +84,15 @@ MC_INLINE floatv lane_sign(floatv x) {
     return lane_select(one, (floatv)(0.0f), (x == 0.0f) | (x != x));
 }
 
-/* x clamped into the open interval (0, 1): [2^-24, the largest float below 1]
- * (sampling/unit_interval.cl's clamp_open01) */
+/* x clamped into the open interval (0, 1): [the smallest normal float, the
+ * largest float below 1] (sampling/unit_interval.cl's clamp_open01).  The
+ * lower end is FLT_MIN, not 2^-24: a point (cell + u) / m in the first
+ * stratum, or a power-law warp u^(1/(a+1)), is far below 2^-24, and clamping
+ * it there removed the mass of (0, 2^-24) from singular integrands (x^-1/2:
+ * -1.2e-4 relative, issue 12 part 3).  Zero, NaN and subnormals (which PoCL
+ * may flush to zero) become FLT_MIN. */
 MC_INLINE floatv lane_open01(floatv x) {
-    return lane_select(lane_min(x, (floatv)(0x1.fffffep-1f)), (floatv)(0x1p-24f), !(x > 0x1p-24f));
+    return lane_select(lane_min(x, (floatv)(0x1.fffffep-1f)), (floatv)(0x1p-126f), !(x >= 0x1p-126f));
 }
 
 /* sqrt lane by lane through the compiler's scalar builtin, which LLVM turns

@@ -8,6 +8,7 @@ from . import render, rng
 from .engine.contract import DeviceFailureWarning
 from .errors import ConvergenceError, DeviceError, InputError, KernelBuildError, MCOCLError
 from .integration import (
+    HeavyTailWarning,
     IntegrationResult,
     NonFiniteWarning,
     Proposal,
@@ -35,6 +36,7 @@ __all__ = [
     "IntegrationResult",
     "KernelBuildError",
     "MCOCLError",
+    "HeavyTailWarning",
     "NonFiniteWarning",
     "Proposal",
     "RenderResult",

@@ -55,6 +55,10 @@ class NonFiniteWarning(RuntimeWarning):
     """Some samples were NaN or infinite and were left out of the estimate (integration, random walks)."""
 
 
+class HeavyTailWarning(RuntimeWarning):
+    """The variance looks infinite or unresolved, so the standard error is unreliable (mcocl/integration/heavy_tail.py)."""
+
+
 class NonFiniteSampleWarning(RuntimeWarning):
     """Some path samples were NaN or infinite and were left out of the image (rendering)."""
 

@@ -28,6 +28,7 @@
  * width nor on the work-group size.
  */
 #include "samplers/sampler.cl"
+#include "samplers/refine_zero.cl"
 #include "sampling/stratified.cl"
 #include "sampling/nrooks.cl"
 
@@ -57,10 +58,12 @@ MC_INLINE double vlane_sum(const doublev *acc) {
 }
 
 /* Uniform coordinates (dimensions 0 .. NCOORD-1) of the packet of samples
- * base + stride * lane. */
+ * base + stride * lane, with full float resolution near 0
+ * (samplers/refine_zero.cl). */
 MC_INLINE void sample_uniforms(ulong base, uint stride, ulong seed, floatv *u) {
     mc_sampler_t s = sampler_start_at(seed, base, stride * LANE_IOTA, RNG_STREAM_SAMPLE);
     sampler_next_nd(&s, NCOORD, u);
+    refine_first_cells(u, NCOORD, rng_init_offset(base, stride * LANE_IOTA, seed, RNG_STREAM_REFINE));
 }
 
 /* Float partial sums are flushed into the double accumulators every FLUSH

@@ -20,6 +20,9 @@
 /* N-rooks permutation keys: "sample" = design index, dimension 4 * axis
  * (one Philox block of four round keys per axis; sampling/nrooks.cl). */
 #define RNG_STREAM_PERMUTATION 3u
+/* Refinement of uniforms in the first grid cell (samplers/refine_zero.cl):
+ * "sample" = the sample's index in RNG_STREAM_SAMPLE, dimension 4 * coordinate. */
+#define RNG_STREAM_REFINE 4u
 
 /* ---- random walks (walks/walk.cl) ---- */
 /* Walk moves and roulette of query point q: stream RNG_STREAM_WALK + q,

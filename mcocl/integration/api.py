@@ -14,13 +14,14 @@ from .. import runtime
 from ..accumulate import Accumulator
 from ..engine.contract import Progress
 from ..engine.dispatch import execute
-from ..errors import InputError, NonFiniteWarning
+from ..errors import HeavyTailWarning, InputError, NonFiniteWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..usercode import UserFunction
 from ..validate import whole_number
 from .codegen import HEURISTICS, generate
 from .density_check import check_user_densities
 from .design import UNBOUNDED_UNITS, design_from_checkpoint
+from .heavy_tail import PEAK_KEY, TailWatchingAccumulator, heavy_tail_note
 from .job import ROW, IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
 from .samplers import SAMPLER_SPECS, SamplerSpec, Vegas, sampler_spec, spec_of
@@ -319,7 +320,9 @@ def integrate(
         raise InputError("vegas_iterations, vegas_bins and alpha apply only to sampler='vegas'")
     acc: Accumulator | None = None
     if opts.resume is not None:
-        acc = Accumulator.load(opts.resume, expect_meta=meta)
+        acc = TailWatchingAccumulator.load(opts.resume, expect_meta=meta)
+        if PEAK_KEY in acc.meta:
+            acc.meta_float(PEAK_KEY, opts.resume, math.inf)
         design = design_from_checkpoint(acc.meta.get("design"), opts.resume, SAMPLER_SPECS)
         shift = acc.meta_float("shift", opts.resume, FLOAT32_MAX)  # a mean of float32 samples
         acc.check_shape((ROW,), opts.resume)
@@ -343,7 +346,7 @@ def integrate(
         shift = runner.pilot_shift()
     job.shift = shift
     if acc is None:
-        acc = Accumulator((job.stat_shape[0],), {**meta, "design": design.to_dict(), "shift": shift})
+        acc = TailWatchingAccumulator((job.stat_shape[0],), {**meta, "design": design.to_dict(), "shift": shift})
     notes = [runner.program.note] if runner.program.note else []
 
     def target(a: Accumulator) -> bool:
@@ -374,6 +377,9 @@ def integrate(
     nonfinite = int(acc.totals[1])
     stderr = math.sqrt(var) if var >= 0 else math.nan
     notes += spec.notes(design, req.dim)
+    tail = heavy_tail_note(acc)
+    if tail:
+        notes.append(tail)
     result = IntegrationResult(
         estimate=est,
         stderr=stderr,
@@ -401,6 +407,8 @@ def integrate(
             NonFiniteWarning,
             stacklevel=2,
         )
+    if tail:
+        warnings.warn(tail.removeprefix("WARNING: "), HeavyTailWarning, stacklevel=2)
     _report_overflowed_sums(acc.totals, result)
     return result
 
