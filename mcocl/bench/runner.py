@@ -266,6 +266,14 @@ def _run_one(start: Any, rec: EstimatorRecord, budget: float, status: BenchStatu
             run.close()
 
 
+def relative_to(plain: str, estimators: Sequence[str] | None) -> str:
+    """The estimator relative efficiencies are taken against: the suite's plain one, or, when a chosen
+    list leaves it out (``bench render --integrators mis lt bdpt``), the first one chosen."""
+    if not estimators or plain in estimators:
+        return plain
+    return estimators[0]
+
+
 def run_suite(suite: Suite, problems: Sequence[BenchProblem], budget: float, options: BenchOptions,
               estimators: Sequence[str] | None = None, baseline: bool = True, status: BenchStatus | None = None) -> BenchResult:
     """Run every selected estimator (and the NumPy baseline) of every problem for ``budget`` seconds each.
@@ -285,12 +293,13 @@ def run_suite(suite: Suite, problems: Sequence[BenchProblem], budget: float, opt
         with ``interrupted`` set.
     """
     t0 = time.perf_counter()
+    reference = relative_to(suite.reference_estimator, estimators)
     result = BenchResult(suite.name, budget, options, started=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                         error_kind=suite.error_kind, reference=suite.reference_estimator)
+                         error_kind=suite.error_kind, reference=reference)
     plan: list[tuple[BenchProblem, ProblemRecord, list[Any]]] = []
     for prob in problems:
         chosen, missing = select_estimators(prob.estimators(), estimators)
-        rec = ProblemRecord(prob.name, prob.description, prob.summary(), reference=suite.reference_estimator)
+        rec = ProblemRecord(prob.name, prob.description, prob.summary(), reference=reference)
         rec.skipped = [(m, f"not an estimator of {prob.name} (it offers {', '.join(s.name for s in prob.estimators())})")
                        for m in missing]
         # optional: only problems with peers (integrate) have estimators that can be unavailable
