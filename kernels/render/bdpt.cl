@@ -232,6 +232,19 @@ MC_INLINE float bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *cam
     return 1.0f / (1.0f + sum);
 }
 
+/* bdpt_mis_weight for a path that strategy (s, t) joined at cam[t - 1] and light[s - 1]: the path scatters
+ * there by the connection's smooth lobe, whatever lobe the walk went on with (a plastic's delta coat), so
+ * the two endpoints count as non-delta (pbrt-v3's MISWeight does the same). */
+MC_INLINE float bdpt_connection_weight(bdpt_vertex *light, bdpt_vertex *cam, int s, int t, int nl_cap, int nc_cap) {
+    int dz = cam[t - 1].delta, dy = s > 0 ? light[s - 1].delta : 0;
+    cam[t - 1].delta = 0;
+    if (s > 0) light[s - 1].delta = 0;
+    float w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+    cam[t - 1].delta = dz;
+    if (s > 0) light[s - 1].delta = dy;
+    return w;
+}
+
 /* Strategy (s, t) with t >= 2: its unweighted contribution to the sample's own pixel times
  * its weight into *w.  ul: two uniforms (the s = 1 light point's position; the emitter choice
  * takes two more, ue). */
@@ -247,7 +260,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         c = v3_mul(pt->beta, emitter_radiance_of(sc->lt, pt->emitter));
         pt->pdf_rev = pt->light_pdf_area;
         ptm->pdf_rev = to_area(emitter_pdf_solid_angle(pt->n, pt->wi), pt->p, ptm->p, ptm->n);
-        *w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
     } else if (s == 1) {
         if (!vertex_connectible(sc, pt)) return zero;
         float u6[6] = {ue[0], ue[1], ue[2], ue[3], 0.5f, 0.5f};
@@ -272,7 +285,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         float pr;
         vertex_eval(sc, pt, wz, pt->wi, &pr);
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
-        *w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
         light[0] = y0;
     } else {
         bdpt_vertex *qs = &light[s - 1], *qsm = &light[s - 2];
@@ -294,7 +307,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
         vertex_eval(sc, qs, wy, qs->wi, &pr);
         qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
-        *w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
         qs->pdf_rev = save_qs;
         qsm->pdf_rev = save_qsm;
     }
@@ -331,10 +344,10 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
         float save_qsm = qsm->pdf_rev, pr;
         vertex_eval(sc, qs, k.wo, qs->wi, &pr);
         qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
-        *w = bdpt_mis_weight(light, cam, s, 1, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
         qsm->pdf_rev = save_qsm;
     } else {
-        *w = bdpt_mis_weight(light, cam, s, 1, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
     }
     qs->pdf_rev = save_qs;
     return c;
