@@ -266,12 +266,10 @@ def _run_one(start: Any, rec: EstimatorRecord, budget: float, status: BenchStatu
             run.close()
 
 
-def relative_to(plain: str, estimators: Sequence[str] | None) -> str:
-    """The estimator relative efficiencies are taken against: the suite's plain one, or, when a chosen
-    list leaves it out (``bench render --integrators mis lt bdpt``), the first one chosen."""
-    if not estimators or plain in estimators:
-        return plain
-    return estimators[0]
+def relative_to(plain: str, chosen: Sequence[str]) -> str:
+    """The estimator relative efficiencies are taken against: the suite's plain one, or, when the chosen
+    ones leave it out (``bench render --integrators mis lt bdpt``), the first one chosen."""
+    return plain if plain in chosen or not chosen else chosen[0]
 
 
 def run_suite(suite: Suite, problems: Sequence[BenchProblem], budget: float, options: BenchOptions,
@@ -293,12 +291,14 @@ def run_suite(suite: Suite, problems: Sequence[BenchProblem], budget: float, opt
         with ``interrupted`` set.
     """
     t0 = time.perf_counter()
-    reference = relative_to(suite.reference_estimator, estimators)
     result = BenchResult(suite.name, budget, options, started=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                         error_kind=suite.error_kind, reference=reference)
+                         error_kind=suite.error_kind, reference=suite.reference_estimator)
     plan: list[tuple[BenchProblem, ProblemRecord, list[Any]]] = []
     for prob in problems:
         chosen, missing = select_estimators(prob.estimators(), estimators)
+        reference = relative_to(suite.reference_estimator, [s.name for s in chosen])
+        if not result.problems:
+            result.reference = reference
         rec = ProblemRecord(prob.name, prob.description, prob.summary(), reference=reference)
         rec.skipped = [(m, f"not an estimator of {prob.name} (it offers {', '.join(s.name for s in prob.estimators())})")
                        for m in missing]
