@@ -1,14 +1,16 @@
 """Bidirectional path tracing (``integrator="bdpt"``, kernels/render/bdpt.cl).
 
-- The white furnace's closed forms (max_depth -1, 1, 3; power and balance heuristics).
+- The white furnace's closed forms (max_depth -1, 1, 3; power and balance heuristics), also inside the
+  emitting sphere at max_depth 3, where same-length weighted strategies must agree pixel by pixel
+  (tests/test_bdpt_weights.py checks that one path's weights sum to 1).
 - The strategies: each unweighted strategy of path length 2 alone is unbiased
   for the paths it samples (the furnace's L_e rho); the weighted strategies of
   a render sum to the full render exactly (same random numbers); so the MIS
   weights of every path length sum to 1 in expectation (the full estimate of
   each length matches its closed form).
 - Agreement with ``mis`` per 8 x 8-pixel block (Sidak-corrected z-tests) on the
-  Cornell box and on the caustic scene (a glass sphere: delta vertices that
-  connections must pass by sampling).
+  Cornell box, with plastic walls, and on the caustic scene (a glass sphere: delta
+  vertices that connections must pass by sampling).
 - Determinism: bit-identical images across launch splits, sub-devices and a resume.
 - Bad settings: clear errors.
 """
