@@ -122,7 +122,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common(pr, top=False)
     pr.add_argument("scene", nargs="?", default=None, help="scene file")
     pr.add_argument("--reference", default=None, metavar="EXR",
-                    help="reference image of the scene (default: rendered by mis and cached in OUT/cache)")
+                    help="reference image of the scene (default: rendered by --reference-integrator and cached "
+                         "in OUT/cache)")
     pr.add_argument("--reference-time", type=positive, default=None, metavar="SECONDS",
                     help="render time of the cached reference (default 8x the budget)")
     pr.add_argument("--integrators", nargs="+", dest="estimators", default=argparse.SUPPRESS, metavar="NAME",
