@@ -338,6 +338,35 @@ def test_render_bench_against_a_cached_reference(tmp_path, capsys):
     assert "rendering the reference" not in capsys.readouterr().err
 
 
+def test_render_bench_compares_chosen_integrators(tmp_path, capsys):
+    """--integrators mis lt bdpt: those three at equal time, rel. eff. against the first (mis), the
+    reference rendered by --reference-integrator and cached apart from a mis reference."""
+    out = tmp_path / "out"
+    args = ["bench", "render", str(FURNACE), "--budget", "0.1", "--reference-time", "0.5", "--out", str(out),
+            "--no-plot", "--integrators", "mis", "lt", "bdpt", "--reference-integrator", "bdpt"]
+    assert main(args) == 0
+    got = capsys.readouterr()
+    assert "rendering the reference (bdpt" in got.err
+    assert "rel. eff. against 'mis'" in got.out
+    s = json.loads((out / "render-summary.json").read_text())
+    (prob,) = s["problems"]
+    assert prob["reference"].startswith("bdpt, ")
+    assert [e["name"] for e in prob["estimators"]] == ["mis", "lt", "bdpt"]
+    by_name = {e["name"]: e for e in prob["estimators"]}
+    assert by_name["mis"]["relative_efficiency"] == pytest.approx(1.0)
+    assert all(e["failed"] is None for e in prob["estimators"])
+    assert main([*args[:-1], "mis"]) == 0  # a mis reference is another cache entry
+    assert "rendering the reference (mis" in capsys.readouterr().err
+    assert len(list((out / "cache").glob("render-reference-*.exr"))) == 2
+
+
+def test_render_bench_refuses_an_unknown_reference_integrator(tmp_path, capsys):
+    status = main(["bench", "render", str(FURNACE), "--reference-integrator", "photon", "--budget", "0.05",
+                   "--out", str(tmp_path / "o")])
+    assert status == 2
+    assert "--reference-integrator" in capsys.readouterr().err
+
+
 def test_render_bench_reference_of_the_wrong_size(tmp_path, capsys):
     import mcocl
 

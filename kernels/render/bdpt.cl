@@ -127,6 +127,14 @@ MC_INLINE int segment_clear(const bdpt_scene *sc, vec3v a, vec3v na, vec3v b) {
 
 /* Grow a subpath from path[n - 1] along (o, d), sampled with solid-angle density
  * pdf_dir, while it has fewer than maxv vertices; returns its vertex count.
+ * The MIS densities (pdf_fwd, pdf_rev) and wi are functions of the vertices'
+ * positions alone, as the connections compute them: a walk's ray leaves from
+ * an offset origin (offset_origin), so its sampled direction differs from the
+ * direction between the two vertices by about RAY_EPSILON / distance, and
+ * weights taken from it would not sum to 1 with the connections' (a bias of
+ * -1e-3 in a spherical furnace, tests/test_render_bdpt.py).  So each new
+ * vertex w re-evaluates the previous vertex v's densities along the
+ * geometric directions: w's pdf_fwd and the pdf_rev of the vertex before v.
  * mode: TRANSPORT_RADIANCE (camera; dimensions RENDER_DIM_BSDF(k - 1) at z_k, Mitsuba's
  * roulette on max(beta) eta^2) or TRANSPORT_IMPORTANCE (light; LT_DIM_BSDF(k) at y_k,
  * roulette on max(beta) / rr_scale as lt.cl).  Roulette applies from path length rr_depth. */
@@ -141,9 +149,23 @@ MC_INLINE int bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *pa
         bdpt_vertex *prev = &path[n - 1];
         v->p = sf.p;
         v->n = sf.n;
-        v->wi = v3_neg(d);
+        vec3v back = v3_sub(prev->p, sf.p);
+        v->wi = v3_len2(back) > 0.0f ? v3_normalize(back) : v3_neg(d);
         v->beta = beta;
-        v->pdf_fwd = to_area(pdf_dir, prev->p, sf.p, sf.n);
+        /* prev's density of the direction toward v: the camera's rays leave the lens point itself (pdf_dir),
+         * an emitter's by its cosine, a surface's by its BSDF given its own geometric wi */
+        float pdf_geo = pdf_dir;
+        if (n >= 2 && prev->delta) {
+            pdf_geo = 0.0f;
+        } else if (n >= 2) {
+            float pdf_back;
+            vertex_eval(sc, prev, prev->wi, v3_neg(v->wi), &pdf_geo);
+            vertex_eval(sc, prev, v3_neg(v->wi), prev->wi, &pdf_back);
+            path[n - 2].pdf_rev = to_area(pdf_back, prev->p, path[n - 2].p, path[n - 2].n);
+        } else if (mode == TRANSPORT_IMPORTANCE) {
+            pdf_geo = emitter_pdf_solid_angle(prev->n, v3_neg(v->wi));
+        }
+        v->pdf_fwd = to_area(pdf_geo, prev->p, sf.p, sf.n);
         v->pdf_rev = 0.0f;
         v->emitter = sf.emitter;
         v->light_pdf_area = sf.emitter >= 0 ? sf.pmf * (1.0f - sc->lt->env_pmf) / sf.area : 0.0f;
@@ -159,17 +181,9 @@ MC_INLINE int bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *pa
         sampler_next_nd(smp, 4, ub);
         bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2], mode);
         if (!(v3_maxc(bs.weight) > 0.0f) || !(bs.pdf > 0.0f)) break;
-        float pdf_rev_dir;
-        bsdf_eval(&m, bs.wo, wi, &pdf_rev_dir);
-        pdf_dir = bs.pdf;
-        if (bs.delta) {
-            v->delta = 1;
-            pdf_dir = 0.0f;
-            pdf_rev_dir = 0.0f;
-        }
+        if (bs.delta) v->delta = 1;
         beta = v3_mul(beta, bs.weight);
         eta *= bs.eta;
-        prev->pdf_rev = to_area(pdf_rev_dir, sf.p, prev->p, prev->n);
         vec3v wo = frame_to_world(fr, bs.wo);
         o = offset_origin(sf.p, sf.n, wo);
         d = wo;
@@ -218,6 +232,19 @@ MC_INLINE float bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *cam
     return 1.0f / (1.0f + sum);
 }
 
+/* bdpt_mis_weight for a path that strategy (s, t) joined at cam[t - 1] and light[s - 1]: the path scatters
+ * there by the connection's smooth lobe, whatever lobe the walk went on with (a plastic's delta coat), so
+ * the two endpoints count as non-delta (pbrt-v3's MISWeight does the same). */
+MC_INLINE float bdpt_connection_weight(bdpt_vertex *light, bdpt_vertex *cam, int s, int t, int nl_cap, int nc_cap) {
+    int dz = cam[t - 1].delta, dy = s > 0 ? light[s - 1].delta : 0;
+    cam[t - 1].delta = 0;
+    if (s > 0) light[s - 1].delta = 0;
+    float w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+    cam[t - 1].delta = dz;
+    if (s > 0) light[s - 1].delta = dy;
+    return w;
+}
+
 /* Strategy (s, t) with t >= 2: its unweighted contribution to the sample's own pixel times
  * its weight into *w.  ul: two uniforms (the s = 1 light point's position; the emitter choice
  * takes two more, ue). */
@@ -233,7 +260,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         c = v3_mul(pt->beta, emitter_radiance_of(sc->lt, pt->emitter));
         pt->pdf_rev = pt->light_pdf_area;
         ptm->pdf_rev = to_area(emitter_pdf_solid_angle(pt->n, pt->wi), pt->p, ptm->p, ptm->n);
-        *w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
     } else if (s == 1) {
         if (!vertex_connectible(sc, pt)) return zero;
         float u6[6] = {ue[0], ue[1], ue[2], ue[3], 0.5f, 0.5f};
@@ -258,7 +285,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         float pr;
         vertex_eval(sc, pt, wz, pt->wi, &pr);
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
-        *w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
         light[0] = y0;
     } else {
         bdpt_vertex *qs = &light[s - 1], *qsm = &light[s - 2];
@@ -280,7 +307,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
         vertex_eval(sc, qs, wy, qs->wi, &pr);
         qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
-        *w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
         qs->pdf_rev = save_qs;
         qsm->pdf_rev = save_qsm;
     }
@@ -317,10 +344,10 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
         float save_qsm = qsm->pdf_rev, pr;
         vertex_eval(sc, qs, k.wo, qs->wi, &pr);
         qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
-        *w = bdpt_mis_weight(light, cam, s, 1, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
         qsm->pdf_rev = save_qsm;
     } else {
-        *w = bdpt_mis_weight(light, cam, s, 1, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
     }
     qs->pdf_rev = save_qs;
     return c;

@@ -8,10 +8,16 @@ and measures the error of each checkpoint as the RMSE over the image
 
 - ``--reference FILE``: an EXR of the same size (its ``variance`` layer, when
   present, is used as below);
-- otherwise ``mis`` renders one first for ``--reference-time`` seconds
-  (default 8x the budget) with a seed of its own, and it is cached in
-  ``OUT/cache`` under a digest of the compiled scene and the settings, so the
-  next bench of the same scene reuses it.
+- otherwise ``--reference-integrator`` (``mis`` by default; ``bdpt`` on a
+  caustic, which ``mis`` leaves noisy for a long time) renders one first for
+  ``--reference-time`` seconds (default 8x the budget) with a seed of its
+  own, and it is cached in ``OUT/cache`` under a digest of the compiled scene,
+  the settings, the integrator and its kernel, so the next bench of the same
+  scene reuses it.
+
+``--integrators mis lt bdpt`` (the same as ``--estimators``) compares some
+of them at equal time; relative efficiency is then against the first named
+(mcocl/bench/runner.py, relative_to).
 
 The reference's own noise would inflate every RMSE: E[(I - R)^2] =
 MSE(I) + Var(R) per pixel.  When the reference carries its variance of the
@@ -45,8 +51,16 @@ from ..engine.contract import Progress
 from ..errors import InputError
 from ..render import CompiledScene, NonFiniteSampleWarning, RenderResult, compile_scene, render
 from ..render.image_io import read_exr
-from ..render.job import INTEGRATOR_CODES, KERNEL_FILE, default_spp_per_block, scene_tables, tables_digest
+from ..render.job import (
+    INTEGRATOR_CODES,
+    KERNEL_FILE,
+    SPLAT_INTEGRATORS,
+    default_spp_per_block,
+    scene_tables,
+    tables_digest,
+)
 from ..render.scene import INTEGRATORS
+from ..render.splat_film import TRACE_KERNELS
 from .suite import BaselineSpec, BenchOptions, EstimatorSpec, Observation, Tick
 
 DESCRIPTIONS = {
@@ -185,24 +199,33 @@ def _reference_from_file(path: str, cs: CompiledScene) -> Reference:
     return Reference(img.mean.astype(np.float64), var, how, str(path))
 
 
-def _kernel_digest(options: BenchOptions) -> str:
+def _kernel_digest(options: BenchOptions, integrator: str = "mis") -> str:
     """Digest of the reference render's program: the full flattened source and the build options.
 
-    The source is the integrator kernel with every include resolved, so an
+    The source is the integrator's kernel with every include resolved, so an
     edit to any file it includes (RNG, MIS weights, BSDFs) makes a cached
     reference stale; the options are those the render kernel is built with on
-    the bench's device (integrator, lanes, film precision).
+    the bench's device (integrator, lanes, film precision), or for the
+    splatting integrators (lt, bdpt: their own kernel files) the integrator's
+    name and the lanes.
     """
     ctx = runtime.device_context(options.device)
     lanes = int(options.lanes) if options.lanes is not None else ctx.lanes
-    build_options = [f"-DLANES={lanes}", f"-DINTEGRATOR={INTEGRATOR_CODES['mis']}"]
+    if integrator in SPLAT_INTEGRATORS:
+        source, _ = TRACE_KERNELS[integrator]
+        return runtime.build_digest(runtime.compose([source]), [f"-DLANES={lanes}", f"-D{integrator.upper()}"])
+    build_options = [f"-DLANES={lanes}", f"-DINTEGRATOR={INTEGRATOR_CODES[integrator]}"]
     build_options += ["-DFILM_DOUBLE"] if ctx.fp64 else []  # as RenderRunner adds it
     return runtime.build_digest(runtime.compose([KERNEL_FILE]), build_options)
 
 
 def _cached_reference(cs: CompiledScene, seconds: float, cache_dir: str, options: BenchOptions) -> Reference:
+    integrator = options.reference_integrator
+    if integrator not in INTEGRATORS:
+        raise InputError(f"--reference-integrator {integrator!r}: not an integrator (one of {', '.join(INTEGRATORS)})")
     key = hashlib.sha256(repr((tables_digest(scene_tables(cs)), cs.width, cs.height, cs.max_depth, cs.rr_depth,
-                               round(seconds, 3), REFERENCE_SEED, __version__, _kernel_digest(options))).encode()).hexdigest()[:16]
+                               round(seconds, 3), REFERENCE_SEED, __version__, integrator,
+                               _kernel_digest(options, integrator))).encode()).hexdigest()[:16]
     path = Path(cache_dir) / f"render-reference-{key}.exr"
     if path.is_file():
         img = read_exr(path)
@@ -211,16 +234,16 @@ def _cached_reference(cs: CompiledScene, seconds: float, cache_dir: str, options
         except ValueError:
             secs = "?"
         return Reference(img.mean.astype(np.float64), None if img.variance is None else img.variance.astype(np.float64),
-                         f"mis, {secs} s, {img.metadata.get('spp', '?')} spp (cached)", str(path))
-    print(f"bench render: rendering the reference (mis, {seconds:g} s) into {path}", file=sys.stderr)
-    r = render(cs, None, time_budget=seconds, integrator="mis", seed=REFERENCE_SEED, device=options.device,
+                         f"{integrator}, {secs} s, {img.metadata.get('spp', '?')} spp (cached)", str(path))
+    print(f"bench render: rendering the reference ({integrator}, {seconds:g} s) into {path}", file=sys.stderr)
+    r = render(cs, None, time_budget=seconds, integrator=integrator, seed=REFERENCE_SEED, device=options.device,
                lanes=options.lanes, progress=True)
     if r.stopped_by == "interrupt":
         raise KeyboardInterrupt  # a cut-short reference must not be cached as a finished one
     path.parent.mkdir(parents=True, exist_ok=True)
     r.save_exr(path)
     return Reference(r.mean.astype(np.float64), r.variance.astype(np.float64),
-                     f"mis, {r.seconds:.4g} s, {r.spp} spp (rendered now)", str(path))
+                     f"{integrator}, {r.seconds:.4g} s, {r.spp} spp (rendered now)", str(path))
 
 
 class RenderSuite:

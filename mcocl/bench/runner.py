@@ -266,6 +266,12 @@ def _run_one(start: Any, rec: EstimatorRecord, budget: float, status: BenchStatu
             run.close()
 
 
+def relative_to(plain: str, chosen: Sequence[str]) -> str:
+    """The estimator relative efficiencies are taken against: the suite's plain one, or, when the chosen
+    ones leave it out (``bench render --integrators mis lt bdpt``), the first one chosen."""
+    return plain if plain in chosen or not chosen else chosen[0]
+
+
 def run_suite(suite: Suite, problems: Sequence[BenchProblem], budget: float, options: BenchOptions,
               estimators: Sequence[str] | None = None, baseline: bool = True, status: BenchStatus | None = None) -> BenchResult:
     """Run every selected estimator (and the NumPy baseline) of every problem for ``budget`` seconds each.
@@ -290,7 +296,10 @@ def run_suite(suite: Suite, problems: Sequence[BenchProblem], budget: float, opt
     plan: list[tuple[BenchProblem, ProblemRecord, list[Any]]] = []
     for prob in problems:
         chosen, missing = select_estimators(prob.estimators(), estimators)
-        rec = ProblemRecord(prob.name, prob.description, prob.summary(), reference=suite.reference_estimator)
+        reference = relative_to(suite.reference_estimator, [s.name for s in chosen])
+        if not result.problems:
+            result.reference = reference
+        rec = ProblemRecord(prob.name, prob.description, prob.summary(), reference=reference)
         rec.skipped = [(m, f"not an estimator of {prob.name} (it offers {', '.join(s.name for s in prob.estimators())})")
                        for m in missing]
         # optional: only problems with peers (integrate) have estimators that can be unavailable

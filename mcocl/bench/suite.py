@@ -137,6 +137,8 @@ class BenchOptions:
         reference: a reference file given by the user (``render``).
         reference_seconds: time for a reference the bench renders itself
             (``render``; default 8x the budget).
+        reference_integrator: the integrator of that reference (``render``;
+            ``mis`` by default; ``bdpt`` where only it resolves a caustic).
         cache_dir: where references computed by the bench are cached.
         budget: seconds per estimator (set by :func:`mcocl.bench.run_bench`).
         peers: also run other packages' integrators (``integrate``: scipy's
@@ -153,6 +155,7 @@ class BenchOptions:
     inputs: list[str] = field(default_factory=list)
     reference: str | None = None
     reference_seconds: float | None = None
+    reference_integrator: str = "mis"
     cache_dir: str | None = None
     budget: float | None = None
     peers: bool = False

@@ -48,8 +48,10 @@ Modes:
               discontinuous, singular, additive, two-peak, the six Genz
               families, 1 to 10 dimensions), or your own from --problem FILE
   solve       random-walk estimators on integral equations with known solutions
-  render      path, nee and mis on a scene against a reference image (given
-              with --reference, or rendered by mis for 8x the budget and cached)
+  render      path, nee, mis, lt and bdpt on a scene at equal time against one
+              reference image (given with --reference, or rendered by
+              --reference-integrator, mis by default, for --reference-time,
+              8x the budget by default, and cached); --integrators picks some
   integrate --peers
               adds mcocl's sobol and vegas samplers and, timed alike in the
               same process on the NumPy twin, scipy's scrambled Sobol'
@@ -65,6 +67,7 @@ examples:
   mcocl bench integrate --budget 5 --out bench-out/
   mcocl bench solve --budget 5 --out bench-out/
   mcocl bench render scenes/veach_mis.json --budget 30 --out bench-out/
+  mcocl bench render scenes/caustic.json --budget 30 --integrators mis lt bdpt --reference-integrator bdpt
   mcocl bench integrate --problem my_problems.json --estimators independent stratified nrooks
   mcocl bench integrate --only 'genz-*' two-peak-2d --budget 2
   mcocl bench integrate --list
@@ -119,9 +122,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common(pr, top=False)
     pr.add_argument("scene", nargs="?", default=None, help="scene file")
     pr.add_argument("--reference", default=None, metavar="EXR",
-                    help="reference image of the scene (default: rendered by mis and cached in OUT/cache)")
+                    help="reference image of the scene (default: rendered by --reference-integrator and cached "
+                         "in OUT/cache)")
     pr.add_argument("--reference-time", type=positive, default=None, metavar="SECONDS",
                     help="render time of the cached reference (default 8x the budget)")
+    pr.add_argument("--integrators", nargs="+", dest="estimators", default=argparse.SUPPRESS, metavar="NAME",
+                    help="the integrators to compare (path nee mis lt bdpt; default all), as --estimators; "
+                         "rel. eff. is against path, or the first named when path is not")
+    pr.add_argument("--reference-integrator", default="mis", metavar="NAME",
+                    help="integrator of the rendered reference (default mis; bdpt resolves caustics that mis "
+                         "and path leave noisy)")
     pr.add_argument("--cache", default=None, metavar="DIR", help="where rendered references are cached (default OUT/cache)")
     pr.add_argument("--list", action="store_true", help="list the integrators, run nothing")
     p.set_defaults(func=run)
@@ -134,6 +144,7 @@ def _options(args: argparse.Namespace) -> BenchOptions:
         problem_files=list(getattr(args, "problem", []) or []), only=getattr(args, "only", None),
         inputs=[args.scene] if getattr(args, "scene", None) else [], reference=getattr(args, "reference", None),
         reference_seconds=getattr(args, "reference_time", None),
+        reference_integrator=getattr(args, "reference_integrator", "mis"),
         cache_dir=getattr(args, "cache", None) or str(Path(out) / "cache"),
         peers=getattr(args, "peers", False),
     )

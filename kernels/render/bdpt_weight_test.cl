@@ -1,0 +1,167 @@
+/* bdpt_weight_test.cl — a check that bdpt.cl's MIS weights of one path sum
+ * to 1 (Veach's thesis eq. 10.9: sum over s + t = k + 1 of w_{s,t}(x) = 1),
+ * for tests/test_bdpt_weights.py.
+ *
+ * Per sample, a camera and a light subpath are grown by bdpt_walk (the
+ * render's own walk, pinhole or thin lens) and joined by every deterministic
+ * strategy (s, t) of bdpt.cl (s = 0 or s >= 2 with t >= 2; t = 1 with s >= 2
+ * for a pinhole: no random numbers inside the connection).  For each joined
+ * path x_0 (lens) .. x_k (emitter) the kernel recomputes, from the vertices
+ * alone, the area density of every vertex from the camera side (pc) and from
+ * the light side (pl), lays them out as the subpaths of every strategy
+ * (s', t') that could have produced x (s' + t' = k + 1 within the depth caps,
+ * the connection's two vertices not delta-scattering), and asks bdpt_mis_weight
+ * for each weight.  A path is bad when its weights do not sum to 1
+ * (|sum - 1| > WEIGHT_TOL) or when the weight the render's own connection gave
+ * it (bdpt_connect or bdpt_connect_camera: the walk's densities) differs from
+ * the one recomputed from the vertices (relative WEIGHT_TOL).  Counts per
+ * sample, splatted to its own pixel: R paths checked, G bad paths, B checked
+ * paths with a delta-scattering vertex.  The splat film divides by the
+ * pixel's samples, so the image holds per-sample means.
+ */
+#include "render/bdpt.cl"
+
+#define WEIGHT_TOL 1e-3f
+#define PATH_MAX (2 * BDPT_MAX_VERTICES)
+
+/* Unit direction from a to b. */
+MC_INLINE vec3v unit_to(vec3v a, vec3v b) { return v3_normalize(v3_sub(b, a)); }
+
+/* The weights of every strategy of path x[0..k] (x[0] the lens, x[k] on an emitter, delta: how the path
+ * scatters at each vertex); *w_st: that of (s, t).  Returns their sum. */
+MC_INLINE float path_weight_sum(const bdpt_scene *sc, const bdpt_vertex *x, int k, int s, int t, int nl_cap,
+                                int nc_cap, float *w_st) {
+    float pc[PATH_MAX], pl[PATH_MAX];
+    pc[0] = 1.0f;
+    pl[k] = x[k].light_pdf_area;
+    for (int i = 1; i <= k; ++i) {  /* x_i from x_{i-1} (given x_{i-2}) */
+        float pdf = 0.0f;
+        if (i == 1) {
+            pdf = camera_importance(sc->camera, x[0].p, unit_to(x[0].p, x[1].p), sc->width, sc->height).pdf_solid_angle;
+        } else if (!x[i - 1].delta) {
+            vertex_eval(sc, &x[i - 1], unit_to(x[i - 1].p, x[i - 2].p), unit_to(x[i - 1].p, x[i].p), &pdf);
+        }
+        pc[i] = to_area(pdf, x[i - 1].p, x[i].p, x[i].n);
+    }
+    for (int i = k - 1; i >= 1; --i) {  /* x_i from x_{i+1} (given x_{i+2}) */
+        float pdf = 0.0f;
+        if (i == k - 1) {
+            pdf = emitter_pdf_solid_angle(x[k].n, unit_to(x[k].p, x[i].p));
+        } else if (!x[i + 1].delta) {
+            vertex_eval(sc, &x[i + 1], unit_to(x[i + 1].p, x[i + 2].p), unit_to(x[i + 1].p, x[i].p), &pdf);
+        }
+        pl[i] = to_area(pdf, x[i + 1].p, x[i].p, x[i].n);
+    }
+    pl[0] = 0.0f;
+    float sum = 0.0f;
+    *w_st = -1.0f;
+    bdpt_vertex cam[BDPT_MAX_VERTICES], light[BDPT_MAX_VERTICES];
+    for (int tt = 1; tt <= k + 1; ++tt) {
+        int ss = k + 1 - tt;
+        if (tt > nc_cap || ss > nl_cap) continue;
+        if (ss > 0 && (x[tt - 1].delta || x[tt].delta)) continue;  /* no connection at a delta scattering */
+        for (int j = 0; j < tt; ++j) {
+            cam[j] = x[j];
+            cam[j].pdf_fwd = pc[j];
+            cam[j].pdf_rev = pl[j];
+        }
+        for (int j = 0; j < ss; ++j) {
+            light[j] = x[k - j];
+            light[j].pdf_fwd = pl[k - j];
+            light[j].pdf_rev = pc[k - j];
+        }
+        float w = bdpt_mis_weight(light, cam, ss, tt, nl_cap, nc_cap);
+        sum += w;
+        if (ss == s && tt == t) *w_st = w;
+    }
+    return sum;
+}
+
+/* x[0..k]: cam[0..t-1] then light[s-1..0]; the joined endpoints scatter by their smooth lobes. */
+MC_INLINE int join_path(const bdpt_vertex *cam, const bdpt_vertex *light, int s, int t, bdpt_vertex *x) {
+    for (int j = 0; j < t; ++j) x[j] = cam[j];
+    for (int j = 0; j < s; ++j) x[t + j] = light[s - 1 - j];
+    int k = s + t - 1;
+    x[t - 1].delta = 0;
+    if (s > 0) x[t].delta = 0;
+    if (s > 0) x[k].light_pdf_area = light[0].light_pdf_area;
+    return k;
+}
+
+kernel void bdpt_weight_check(
+    SPLAT_TRACE_PARAMS)
+{
+    const uint width = params.width, height = params.height;
+    const int max_depth = params.max_depth;
+    const uint scene_ntris = params.ntris, scene_nspheres = params.nspheres;
+    path_group pg;
+    if (!path_group_at(&params, scratch, (uint)get_global_id(0), &pg)) return;
+    if (pg.total == 0ul || max_depth == 0) return;
+    SCENE_GEOM_MAKE(geom);
+    const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
+    const light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
+    bdpt_scene sc = {&geom, &pt, &lt, camera, materials, bsphere, width, height, (float)pg.npix};
+    const bool thin_lens = camera_aperture(camera) > 0.0f;
+    const int nc_cap = max_depth >= 0 ? min(max_depth + 1, BDPT_MAX_VERTICES) : BDPT_MAX_VERTICES;
+    const int nl_cap = max_depth >= 0 ? min(max_depth, BDPT_MAX_VERTICES) : BDPT_MAX_VERTICES;
+    bdpt_vertex cam[BDPT_MAX_VERTICES], light[BDPT_MAX_VERTICES], x[PATH_MAX];
+
+    for (ulong j = 0; j < pg.total; ++j) {
+        const ulong index = pg.path0 + j;
+        const uint pixel = (uint)(index % pg.npix);
+        mc_sampler_t cs = sampler_start(params.seed, index, RNG_STREAM_RENDER);
+        float uc[4];
+        sampler_seek(&cs, RENDER_DIM_CAMERA);
+        sampler_next_nd(&cs, 4, uc);
+        uint py = pixel / width;
+        vec3v co, cd;
+        float sx = (float)(pixel - py * width) + uc[0], sy = (float)py + uc[1];
+        cd = thin_lens ? camera_ray_lens(camera, sx, sy, 1.0f / width, 1.0f / height, uc[2], uc[3], &co)
+                       : camera_ray(camera, sx, sy, 1.0f / width, 1.0f / height, &co);
+        bdpt_vertex z0 = {co, cam_row(camera[CAMERA_RECORD_FORWARD_QUAD]), cam_row(camera[CAMERA_RECORD_FORWARD_QUAD]),
+                          v3s(1.0f), 1.0f, 0.0f, 0.0f, -1, 0u, 0};
+        cam[0] = z0;
+        float pdf_cam = camera_importance(camera, co, cd, width, height).pdf_solid_angle;
+        int nc = bdpt_walk(&sc, &cs, cam, 1, nc_cap, co, cd, v3s(1.0f), pdf_cam, TRANSPORT_RADIANCE,
+                           params.rr_depth, 1.0f);
+        mc_sampler_t ls = sampler_start(params.seed, index, RNG_STREAM_LIGHT_TRACE);
+        float ue[8];
+        sampler_seek(&ls, LT_DIM_EMIT);
+        sampler_next_nd(&ls, 8, ue);
+        emitter_ray_v er = sample_emitter_ray(&lt, bsphere, ue, 1);
+        int nl = 0;
+        if (nl_cap > 0 && er.valid && !er.env) {
+            bdpt_vertex y0 = {er.pos, er.n, er.n, v3s(1.0f), er.pdf_area, 0.0f, er.pdf_area, -1, 0u, 0};
+            light[0] = y0;
+            vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
+            nl = bdpt_walk(&sc, &ls, light, 1, nl_cap, offset_origin(er.pos, er.n, er.d), er.d, b1,
+                           er.pdf_solid_angle, TRANSPORT_IMPORTANCE, params.rr_depth, v3_maxc(b1));
+        }
+        float checked = 0.0f, bad = 0.0f, with_delta = 0.0f;
+        for (int t = 1; t <= nc; ++t) {
+            for (int s = 0; s <= nl; ++s) {
+                if (s == 1 || s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth)) continue;
+                if (t == 1 && (s < 2 || thin_lens)) continue;
+                float w = 0.0f;
+                if (t == 1) {
+                    uint px;
+                    bdpt_connect_camera(&sc, light, cam, s, 0.0f, 0.0f, nl_cap, nc_cap, &px, &w);
+                } else {
+                    float ul[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+                    bdpt_connect(&sc, light, cam, s, t, ul, nl_cap, nc_cap, &w);
+                }
+                if (!(w > 0.0f)) continue;  /* not joined (occluded, no contribution) */
+                int k = join_path(cam, light, s, t, x);
+                float w_st;
+                float sum = path_weight_sum(&sc, x, k, s, t, nl_cap, nc_cap, &w_st);
+                checked += 1.0f;
+                if (!(fabs(sum - 1.0f) <= WEIGHT_TOL) || !(fabs(w_st - w) <= WEIGHT_TOL * fmax(w, w_st))) bad += 1.0f;
+                int any_delta = 0;
+                for (int i = 1; i < k; ++i) any_delta |= x[i].delta;
+                with_delta += (float)any_delta;
+            }
+        }
+        if (checked > 0.0f)
+            splat(pg.img, pixel, v3_scale(v3(checked, bad, with_delta), sc.pixels), 1);
+    }
+}
