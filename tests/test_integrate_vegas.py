@@ -66,7 +66,9 @@ def test_vegas_approaches_zero_variance_on_a_separable_product_of_peaks() -> Non
 
 
 CALIBRATION = {
+    "lorentz-1d": (*_lorentz(1e-2), 1),
     "lorentz-2d": (_lorentz(1e-2)[0].replace("x[0]", "x[1]"), _lorentz(1e-2)[1], 2),
+    "gauss-peaks-10d": (*_gauss_peaks(10, 0.2), 10),
     "gauss-peaks-5d": (*_gauss_peaks(5, 0.1), 5),
     "jump-2d": ("x[0] + x[1] < 0.7f ? 2.0f : 0.0f", 0.7 * 0.7, 2),
 }
