@@ -28,7 +28,8 @@
  *
  * Random numbers.  Sample (pixel, s) has the 64-bit index s * W * H + pixel
  * and draws, through the sampler (samplers/sampler.cl) in stream
- * RNG_STREAM_RENDER, dimensions 0-1 (pixel jitter), 2-3 (the point on a
+ * RNG_STREAM_RENDER, dimensions 0-1 (the film point, drawn from the pixel
+ * filter: render/pixel_filter.cl), 2-3 (the point on a
  * thin lens; render/camera.cl) and, at depth d,
  * RENDER_DIM_BSDF(d) = 4 + 8d .. 7 + 8d (lobe choice, direction 2D, roulette)
  * and RENDER_DIM_LIGHT(d) = 8 + 8d .. 11 + 8d (emitter choice: environment or
@@ -53,6 +54,7 @@
 #include "render/vec3.cl"
 #include "render/lane_io.cl"
 #include "render/camera.cl"
+#include "render/pixel_filter.cl"
 #include "render/bsdf.cl"
 #include "render/prims.cl"
 #include "render/lights.cl"
@@ -225,8 +227,9 @@ kernel void render_blocks(
             sampler_next_2d(&fs, uc);
             smp = sampler_select(smp, fs, fresh);
             uintv py = px / width;
-            floatv sx = to_floatv(px - py * width) + uc[0];
-            floatv sy = to_floatv(py) + uc[1];
+            /* the film point: the pixel filter's sample (render/pixel_filter.cl) */
+            floatv sx = film_coordinate(to_floatv(px - py * width), uc[0]);
+            floatv sy = film_coordinate(to_floatv(py), uc[1]);
             vec3v co, cd;
             if (thin_lens) {
                 floatv ul[2]; /* the lens point: dimensions 2-3 of the camera's block */

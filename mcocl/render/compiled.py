@@ -88,6 +88,7 @@ from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
 from .emitter_choice import LUMINANCE, environment_choice, light_choice
+from .pixel_filter import BOX, PixelFilter
 from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
 from .shape_registry import SHAPES
@@ -131,6 +132,7 @@ class CompiledScene:
     light_power: np.ndarray = field(default_factory=lambda: np.zeros(0))
     light_sampler: str = "power"
     sampler: str = "independent"  # integrator.sampler (mcocl/render/sobol_film.py)
+    pixel_filter: PixelFilter = BOX  # the camera's reconstruction filter (mcocl/render/pixel_filter.py)
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
@@ -334,7 +336,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         prim_light=prim_light, light_area=light_area, env_radiance=env,
         light_power=power.astype(np.float64), light_sampler=scene.light_sampler, sampler=scene.sampler,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
-        bounds=bounds, source=scene.path,
+        bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
                    "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},

@@ -45,6 +45,7 @@ from .device_scene import (
     tables_digest,
 )
 from .film import STATS
+from .pixel_filter import BOX, PixelFilter, require_box
 from .sobol_film import block_batches, sobol_render_defines
 from .splat_film import SplatRunner, splat_groups
 
@@ -119,6 +120,7 @@ class RenderJob:
     mis: str = "power"
     strategy: tuple[int, int] | None = None
     unweighted: bool = False
+    pixel_filter: PixelFilter = BOX  # the reconstruction filter (mcocl/render/pixel_filter.py)
     stat_shape: tuple[int, ...] = field(default=(0, 0, STATS))
 
     def __post_init__(self) -> None:
@@ -149,7 +151,9 @@ class RenderJob:
                 opts += [f"-DBDPT_ONLY_S={int(self.strategy[0])}", f"-DBDPT_ONLY_T={int(self.strategy[1])}"]
                 if self.unweighted:
                     opts.append("-DBDPT_UNWEIGHTED")
-        return opts
+        if self.splats:
+            require_box(self.pixel_filter, self.integrator)
+        return opts + self.pixel_filter.defines()
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:
         """The kernel's ``render_params`` (mcocl/layouts.py) for a launch of ``nblocks`` from ``first_block``."""

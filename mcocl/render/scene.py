@@ -28,6 +28,7 @@ from ..datafile import decode_utf8
 from ..errors import InputError
 from ..layouts import Integrator, MaterialKind
 from . import transform as tf
+from .pixel_filter import BOX, PixelFilter, parse_filter
 from .shape_registry import GEOMETRY_LIMIT, SHAPES
 
 # The names a scene file uses: the codes of mcocl/layouts.py, lower case.
@@ -78,6 +79,7 @@ class Camera:
     height: int
     aperture_radius: float = 0.0
     focus_distance: float | None = None
+    pixel_filter: PixelFilter = BOX  # camera.filter (mcocl/render/pixel_filter.py)
 
 
 @dataclass
@@ -322,7 +324,7 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
 
 
 def _camera(c: _Checker, v: Any, key: str) -> Camera:
-    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance"))
+    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance", "filter"))
     origin = c.vector(o["origin"], f"{key}.origin", limit=GEOMETRY_LIMIT)
     target = c.vector(o["target"], f"{key}.target", limit=GEOMETRY_LIMIT)
     up = c.vector(o.get("up", [0, 1, 0]), f"{key}.up", limit=GEOMETRY_LIMIT)
@@ -339,7 +341,8 @@ def _camera(c: _Checker, v: Any, key: str) -> Camera:
     focus = None
     if "focus_distance" in o:
         focus = c.number(o["focus_distance"], f"{key}.focus_distance", 0.0, GEOMETRY_LIMIT, lo_open=True)
-    return Camera(origin, target, up, fov, width, height, aperture, focus)
+    pf = parse_filter(o["filter"], f"{key}.filter") if "filter" in o else BOX
+    return Camera(origin, target, up, fov, width, height, aperture, focus, pf)
 
 
 def _integrator(c: _Checker, v: Any, key: str) -> dict:

@@ -12,7 +12,9 @@
 - ``thinlens``: the same, plus ``aperture_radius`` (required, as in Mitsuba)
   and ``focus_distance`` (Mitsuba's default: ``far_clip``, 10^4) → mcocl's
   thin-lens camera.
-- ``hdrfilm``: ``width``/``height`` (Mitsuba's defaults 768 × 576).
+- ``hdrfilm``: ``width``/``height`` (Mitsuba's defaults 768 × 576); ``<rfilter>`` ``box``,
+  ``tent`` (``radius``, default 1) or ``gaussian`` (``stddev``, default 0.5; Mitsuba's default
+  filter when the film names none) → ``camera.filter`` (mcocl/render/pixel_filter.py).
 - samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
   ``ldsampler``: ``sample_count`` (default 4) → ``spp``; mcocl always draws from
   its counter-based Philox generator, so the sample pattern differs, not the
@@ -30,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from ...errors import InputError
+from ..pixel_filter import PIXEL_FILTERS, PixelFilter, make_filter
 from .properties import split_children
 from .report import Reporter, nearest
 from .xml_source import Node
@@ -66,10 +70,12 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     for o in objects:
         if o.tag not in ("film", "sampler"):
             rep.unsupported(o, f"<{o.tag}> inside a sensor", "<film> and <sampler>", "nothing (ignored)", comments)
+    pixel_filter = make_filter("gaussian")
     if films:
-        width, height = _film(films[0], rep, comments)
+        width, height, pixel_filter = _film(films[0], rep, comments)
     else:
-        comments.append(f"no <film>: Mitsuba's hdrfilm default {width} x {height}, Gaussian filter (mcocl: box filter)")
+        comments.append(f"no <film>: Mitsuba's hdrfilm default {width} x {height} with its Gaussian filter "
+                        "(stddev 0.5)")
     if samplers:
         spp = _sampler(samplers[0], rep, comments)
     else:
@@ -103,7 +109,7 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
         comments.append(f"fov {fov:g} on axis {axis!r} of {width} x {height} = {fov_small:.9g} on the smaller axis")
     cam: dict[str, Any] = {"comment": comments}
     cam.update(_orientation(node, props, rep, comments))
-    cam.update({"fov": fov_small, "width": width, "height": height})
+    cam.update({"fov": fov_small, "width": width, "height": height, "filter": pixel_filter.to_json()})
     lens_keys: tuple[str, ...] = ()
     if kind == "thinlens":
         lens_keys = ("aperture_radius", "focus_distance")
@@ -164,20 +170,43 @@ def _film(node: Node, rep: Reporter, comments: list[str]) -> tuple[int, int]:
     for o in objects:
         if o.tag != "rfilter":
             rep.unsupported(o, f"<{o.tag}> inside a film", "<rfilter>", "nothing (ignored)", comments)
-    if not filters:
-        comments.append("no <rfilter>: Mitsuba's default is a Gaussian filter; mcocl's film is a box filter "
-                        "(each pixel the plain mean of its samples)")
-    for f in filters:
-        if f.attrib.get("type") != "box":
-            rep.unsupported(f, f"the reconstruction filter {f.attrib.get('type')!r}", "box",
-                            "the box filter", comments)
+    if len(filters) > 1:
+        filters[1].fail("a film takes one <rfilter>")
+    if filters:
+        pixel_filter = _rfilter(filters[0], rep, comments)
+    else:
+        pixel_filter = make_filter("gaussian")
+        comments.append("no <rfilter>: Mitsuba's default Gaussian filter (stddev 0.5, radius 2), "
+                        "by filter importance sampling")
     for k in ("pixel_format", "component_format", "file_format", "banner"):
         if k in props:
             props.read.add(k)
             comments.append(f"{k}: ignored (mcocl writes float32 RGB EXR with a variance layer)")
     rep.leftover(node, props.unread(), ("width", "height", "pixel_format", "component_format", "file_format"),
                  comments)
-    return width, height
+    return width, height, pixel_filter
+
+
+def _rfilter(node: Node, rep: Reporter, comments: list[str]) -> PixelFilter:
+    """Mitsuba's ``box``, ``tent`` (``radius``) and ``gaussian`` (``stddev``) reconstruction filters."""
+    kind = node.attrib.get("type", "")
+    props, objects = split_children(node)
+    for o in objects:
+        rep.unsupported(o, f"<{o.tag}> inside an rfilter", "leave it out", "nothing (ignored)", comments)
+    if kind not in PIXEL_FILTERS:
+        rep.unsupported(node, f"the reconstruction filter {kind!r}", nearest(kind, PIXEL_FILTERS),
+                        "the Gaussian filter (stddev 0.5)", comments)
+        return make_filter("gaussian")
+    names = {"box": (), "tent": ("radius",), "gaussian": ("stddev",)}[kind]
+    values = {k: props.get(k, ("float",), None) for k in names}
+    try:
+        f = make_filter(kind, **values)
+    except InputError as e:
+        node.fail(str(e))
+    comments.append(f"rfilter {kind}" + "".join(f", {k} {v:g}" for k, v in values.items() if v is not None)
+                    + ("" if kind == "box" else " (sampled as the film point's distribution)"))
+    rep.leftover(node, props.unread(), names, comments)
+    return f
 
 
 def _sampler(node: Node, rep: Reporter, comments: list[str]) -> int:
