@@ -156,3 +156,55 @@ def test_xml_rfilter(tmp_path: Path) -> None:
     assert cs.pixel_filter == make_filter("tent", radius=1.5)
     with pytest.raises(InputError, match="lanczos"):
         compile_scene(_xml(tmp_path, '<rfilter type="lanczos"/>'))
+
+
+def _edge_columns(tmp_path: Path, crop, integrator: str = "mis", spp: int = 256) -> np.ndarray:
+    shapes = [{"type": "rectangle", "material": "black",
+               "transform": [{"scale": [50.0, 50.0, 1.0]}, {"translate": [50.0, 0.0, -1.0]}]}]
+    p = _scene(tmp_path, None, shapes, 1.0, size=16)
+    data = json.loads(p.read_text())
+    if crop is not None:
+        data["camera"]["crop"] = crop
+    p.write_text(json.dumps(data))
+    return mcocl.render(p, spp=spp, seed=4, integrator=integrator).mean[..., 0]
+
+
+def test_crop_renders_its_window_of_the_film(tmp_path: Path) -> None:
+    # the edge x = 0 is the film's column boundary 8; a crop at x offset 5 sees it at its column 3
+    img = _edge_columns(tmp_path, {"offset": [5, 2], "size": [6, 9]})
+    assert img.shape == (9, 6)
+    np.testing.assert_array_equal(img[:, :3], 1.0)
+    np.testing.assert_array_equal(img[:, 3:], 0.0)
+    img = _edge_columns(tmp_path, {"offset": [9, 0], "size": [7, 16]})
+    np.testing.assert_array_equal(img, 0.0)
+
+
+def test_crop_light_tracing_lands_in_the_same_window(tmp_path: Path) -> None:
+    # lt connects to the camera through the importance: the crop's window must match the gather side
+    cam = {"origin": [0, 0, 0], "target": [0, 0, -1], "up": [0, 1, 0], "fov": 90, "width": 16, "height": 16,
+           "crop": {"offset": [4, 6], "size": [8, 5]}}
+    data = {"camera": cam, "integrator": {"type": "mis", "max_depth": 2, "spp": 4},
+            "materials": {"white": {"type": "diffuse", "reflectance": [0.8, 0.8, 0.8]}},
+            "shapes": [{"type": "rectangle", "material": "white", "transform": [{"scale": 2.0},
+                                                                               {"translate": [0.3, 0, -1.0]}]},
+                       {"type": "rectangle", "material": "white", "emitter": {"type": "area", "radiance": [4, 4, 4]},
+                        "transform": [{"scale": 0.3}, {"rotate": {"axis": [1, 0, 0], "angle": 180}},
+                                      {"translate": [0.0, 0.0, 1.0]}]}]}
+    p = tmp_path / "lit.json"
+    p.write_text(json.dumps(data))
+    a = mcocl.render(p, spp=256, integrator="mis", seed=1)
+    b = mcocl.render(p, spp=256, integrator="lt", seed=2, spp_per_block=16)
+    z = (a.mean - b.mean) / np.sqrt(a.stderr ** 2 + b.stderr ** 2 + 1e-30)
+    assert a.mean.shape == (5, 8, 3) and a.mean.mean() > 0.01
+    assert np.all(np.abs(z) < 5.0), np.abs(z).max()
+
+
+def test_crop_errors_and_xml(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="crop"):
+        _edge_columns(tmp_path, {"offset": [10, 0], "size": [7, 16]})
+    p = _xml(tmp_path, '<rfilter type="box"/><integer name="crop_offset_x" value="2"/>'
+                       '<integer name="crop_width" value="3"/>')
+    cs = compile_scene(p)
+    assert (cs.width, cs.height) == (3, 8)
+    with pytest.raises(InputError, match="crop_width"):
+        compile_scene(_xml(tmp_path, '<integer name="crop_offset_x" value="6"/><integer name="crop_width" value="3"/>'))

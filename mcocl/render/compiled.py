@@ -196,11 +196,15 @@ class CompiledScene:
 
 def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: float,
                   width: int, height: int, aperture_radius: float = 0.0,
-                  focus_distance: float | None = None) -> np.ndarray:
+                  focus_distance: float | None = None,
+                  crop: tuple[int, int, int, int] | None = None) -> np.ndarray:
     """The (4, 4) float32 camera rows ``origin, right, up, forward`` of the contract.
 
     A thin lens (``aperture_radius`` > 0) focuses at ``focus_distance`` along
-    ``forward`` (None: the distance from ``origin`` to ``target``).
+    ``forward`` (None: the distance from ``origin`` to ``target``).  ``crop``
+    (offset x, offset y, width, height in pixels of the ``width`` x ``height``
+    film) renders that window: ``right``/``up`` span the crop and
+    crop_shift_x/y place its centre (kernels/render/camera.cl).
     """
     fwd = np.asarray(target, np.float64) - origin
     fwd /= np.linalg.norm(fwd)
@@ -211,6 +215,12 @@ def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: f
     # fov spans the smaller axis; the other axis extends by the aspect ratio.
     sx, sy = (t * width / height, t) if width >= height else (t, t * height / width)
     cam = np.zeros(1, CAMERA_RECORD.dtype())
+    if crop is not None:
+        ox, oy, cw, ch = crop
+        # full-film ndc = crop ndc * (cw / W) + (2 ox + cw) / W - 1 (rows count downwards: 1 - (2 oy + ch) / H)
+        sx, sy = sx * cw / width, sy * ch / height
+        cam["crop_shift_x"] = ((2.0 * ox + cw) / width - 1.0) * width / cw
+        cam["crop_shift_y"] = (1.0 - (2.0 * oy + ch) / height) * height / ch
     cam["origin"], cam["right"], cam["up"], cam["forward"] = origin, right * sx, true_up * sy, fwd
     if aperture_radius > 0.0:
         dist = float(np.linalg.norm(np.asarray(target, np.float64) - origin))
@@ -325,9 +335,9 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     cam = scene.camera
     bounds = np.ascontiguousarray(bvh.bounds if len(ids) else np.zeros((2, 3)), np.float32)
     cs = CompiledScene(
-        width=cam.width, height=cam.height,
+        width=cam.crop[2] if cam.crop else cam.width, height=cam.crop[3] if cam.crop else cam.height,
         camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height,
-                             cam.aperture_radius, cam.focus_distance),
+                             cam.aperture_radius, cam.focus_distance, cam.crop),
         tri_vertices=np.ascontiguousarray(tri_vertices), spheres=np.ascontiguousarray(sph32),
         sphere_flip=np.array(sphere_flip, np.uint32), prim_shape=prim_shape,
         bvh_nodes=np.ascontiguousarray(bvh.nodes), bvh_prims=np.ascontiguousarray(bvh.prims),

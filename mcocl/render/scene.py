@@ -80,6 +80,7 @@ class Camera:
     aperture_radius: float = 0.0
     focus_distance: float | None = None
     pixel_filter: PixelFilter = BOX  # camera.filter (mcocl/render/pixel_filter.py)
+    crop: tuple[int, int, int, int] | None = None  # offset x, y, width, height of the rendered window
 
 
 @dataclass
@@ -324,7 +325,7 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
 
 
 def _camera(c: _Checker, v: Any, key: str) -> Camera:
-    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance", "filter"))
+    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance", "filter", "crop"))
     origin = c.vector(o["origin"], f"{key}.origin", limit=GEOMETRY_LIMIT)
     target = c.vector(o["target"], f"{key}.target", limit=GEOMETRY_LIMIT)
     up = c.vector(o.get("up", [0, 1, 0]), f"{key}.up", limit=GEOMETRY_LIMIT)
@@ -342,7 +343,22 @@ def _camera(c: _Checker, v: Any, key: str) -> Camera:
     if "focus_distance" in o:
         focus = c.number(o["focus_distance"], f"{key}.focus_distance", 0.0, GEOMETRY_LIMIT, lo_open=True)
     pf = parse_filter(o["filter"], f"{key}.filter") if "filter" in o else BOX
-    return Camera(origin, target, up, fov, width, height, aperture, focus, pf)
+    crop = _crop(c, o["crop"], f"{key}.crop", width, height) if "crop" in o else None
+    return Camera(origin, target, up, fov, width, height, aperture, focus, pf, crop)
+
+
+def _crop(c: _Checker, v: Any, key: str, width: int, height: int) -> tuple[int, int, int, int] | None:
+    """``camera.crop``: ``{"offset": [x, y], "size": [w, h]}`` inside the width x height film."""
+    o = c.obj(v, key, ("offset", "size"), ())
+    off, size = o["offset"], o["size"]
+    for name, pair in (("offset", off), ("size", size)):
+        if not isinstance(pair, list) or len(pair) != 2:
+            c.fail(f"{key}.{name}", f"expected [x, y], got {pair!r}")
+    ox = c.integer(off[0], f"{key}.offset[0]", 0, width - 1)
+    oy = c.integer(off[1], f"{key}.offset[1]", 0, height - 1)
+    cw = c.integer(size[0], f"{key}.size[0]", 1, width - ox)
+    ch = c.integer(size[1], f"{key}.size[1]", 1, height - oy)
+    return None if (ox, oy, cw, ch) == (0, 0, width, height) else (ox, oy, cw, ch)
 
 
 def _integrator(c: _Checker, v: Any, key: str) -> dict:

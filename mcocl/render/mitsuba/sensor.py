@@ -14,7 +14,8 @@
   thin-lens camera.
 - ``hdrfilm``: ``width``/``height`` (Mitsuba's defaults 768 × 576); ``<rfilter>`` ``box``,
   ``tent`` (``radius``, default 1) or ``gaussian`` (``stddev``, default 0.5; Mitsuba's default
-  filter when the film names none) → ``camera.filter`` (mcocl/render/pixel_filter.py).
+  filter when the film names none) → ``camera.filter`` (mcocl/render/pixel_filter.py);
+  ``crop_offset_x/y``, ``crop_width/height`` → ``camera.crop`` (the image is the window).
 - samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
   ``ldsampler``: ``sample_count`` (default 4) → ``spp``; mcocl always draws from
   its counter-based Philox generator, so the sample pattern differs, not the
@@ -44,6 +45,7 @@ FILM_SIZE = (768, 576)
 SAMPLE_COUNT = 4
 FOV_AXES = ("x", "y", "diagonal", "smaller", "larger")
 SENSORS = ("perspective", "thinlens")
+CROP_KEYS = ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height")
 FAR_CLIP = 1e4  # Mitsuba's far_clip, the default focus_distance of a thinlens
 
 
@@ -70,9 +72,9 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     for o in objects:
         if o.tag not in ("film", "sampler"):
             rep.unsupported(o, f"<{o.tag}> inside a sensor", "<film> and <sampler>", "nothing (ignored)", comments)
-    pixel_filter = make_filter("gaussian")
+    pixel_filter, crop = make_filter("gaussian"), None
     if films:
-        width, height, pixel_filter = _film(films[0], rep, comments)
+        width, height, pixel_filter, crop = _film(films[0], rep, comments)
     else:
         comments.append(f"no <film>: Mitsuba's hdrfilm default {width} x {height} with its Gaussian filter "
                         "(stddev 0.5)")
@@ -110,6 +112,8 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     cam: dict[str, Any] = {"comment": comments}
     cam.update(_orientation(node, props, rep, comments))
     cam.update({"fov": fov_small, "width": width, "height": height, "filter": pixel_filter.to_json()})
+    if crop is not None:
+        cam["crop"] = crop
     lens_keys: tuple[str, ...] = ()
     if kind == "thinlens":
         lens_keys = ("aperture_radius", "focus_distance")
@@ -166,6 +170,7 @@ def _film(node: Node, rep: Reporter, comments: list[str]) -> tuple[int, int]:
             props.node(k).fail(f"{k} must be >= 1, got {v}")
     if "width" not in props or "height" not in props:
         comments.append(f"film size {width} x {height} (Mitsuba's default 768 x 576 where not given)")
+    crop = _crop(node, props, width, height, comments)
     filters = [o for o in objects if o.tag == "rfilter"]
     for o in objects:
         if o.tag != "rfilter":
@@ -182,9 +187,25 @@ def _film(node: Node, rep: Reporter, comments: list[str]) -> tuple[int, int]:
         if k in props:
             props.read.add(k)
             comments.append(f"{k}: ignored (mcocl writes float32 RGB EXR with a variance layer)")
-    rep.leftover(node, props.unread(), ("width", "height", "pixel_format", "component_format", "file_format"),
-                 comments)
-    return width, height, pixel_filter
+    rep.leftover(node, props.unread(), ("width", "height", *CROP_KEYS, "pixel_format", "component_format",
+                                        "file_format"), comments)
+    return width, height, pixel_filter, crop
+
+
+def _crop(film: Node, props, width: int, height: int, comments: list[str]) -> dict | None:
+    """hdrfilm ``crop_offset_x/y``, ``crop_width/height`` (Mitsuba's defaults: the whole film) → ``camera.crop``."""
+    ox = props.get("crop_offset_x", ("integer",), 0)
+    oy = props.get("crop_offset_y", ("integer",), 0)
+    cw = props.get("crop_width", ("integer",), width)
+    ch = props.get("crop_height", ("integer",), height)
+    for k, v, lo, hi in (("crop_offset_x", ox, 0, width - 1), ("crop_offset_y", oy, 0, height - 1),
+                         ("crop_width", cw, 1, width - ox), ("crop_height", ch, 1, height - oy)):
+        if not lo <= v <= hi:
+            (props.node(k) if k in props else film).fail(f"{k} must lie in [{lo}, {hi}] for a {width} x {height} film, got {v}")
+    if (ox, oy, cw, ch) == (0, 0, width, height):
+        return None
+    comments.append(f"crop: the {cw} x {ch} window at ({ox}, {oy}) of the {width} x {height} film")
+    return {"offset": [ox, oy], "size": [cw, ch]}
 
 
 def _rfilter(node: Node, rep: Reporter, comments: list[str]) -> PixelFilter:
