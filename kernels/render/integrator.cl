@@ -59,6 +59,7 @@
 #include "render/prims.cl"
 #include "render/lights.cl"
 #include "render/trace.cl"
+#include "render/shading_normal.cl"
 
 /* INTEGRATOR_PATH, _NEE, _MIS: the Integrator codes of layouts.cl. */
 #ifndef INTEGRATOR
@@ -158,6 +159,7 @@ kernel void render_blocks(
     global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance,
     global const float4 *light_rec, global const float *light_cdf,
     global const float4 *light_bvh, global const uint *light_trail,
+    global const float4 *vertex_normals,
     global film_t *out)
 {
     const ulong first_block = params.first_block, seed = params.seed;
@@ -264,6 +266,12 @@ kernel void render_blocks(
 
         surface_v sf = surface_at(&pt, h.prim, h.t, o, d, hit);
         vec3v p = sf.p, n = sf.n;
+#ifdef SHADING_NORMALS
+        /* the BSDF's frame (render/shading_normal.cl); n stays the geometric normal */
+        vec3v ns = shading_normal(vertex_normals, &pt, h.prim, h.b1, h.b2, n, hit);
+#else
+        vec3v ns = n;
+#endif
 
         /* ---- emission of the surface hit (one-sided: front = normal) ---- */
         /* (max_depth 0 renders black, as in Mitsuba 3) */
@@ -289,7 +297,7 @@ kernel void render_blocks(
         intv next_alive = (intv)(0);
         if (lane_any(cont)) {
             material_v m = material_load(materials, lane_select((uintv)(0u), sf.mat, cont));
-            frame3v fr = frame_from_normal(n);
+            frame3v fr = frame_from_normal(ns);
             vec3v wi = frame_to_local(fr, v3_neg(d));
             floatv ub[4]; /* lobe, direction 2D, roulette */
             sampler_seek(&smp, RENDER_DIM_BSDF(depth));
@@ -321,6 +329,9 @@ kernel void render_blocks(
 #endif
                 vec3v c = v3_scale(v3_mul(v3_mul(thr, f), ls.radiance), w / ls.pdf);
                 intv ok = nee & ls.valid & (v3_maxc(c) > 0.0f);
+#ifdef SHADING_NORMALS
+                ok = ok & shading_side_agrees(n, ns, v3_neg(d)) & shading_side_agrees(n, ns, ls.wo);
+#endif
                 if (lane_any(ok)) {
                     vec3v so = p_up;
                     vec3v sd = v3_sub(ls.pos, so);
@@ -335,6 +346,11 @@ kernel void render_blocks(
             /* -- BSDF sampling continues the path -- */
             bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2], TRANSPORT_RADIANCE);
             vec3v wo = frame_to_world(fr, bs.wo);
+#ifdef SHADING_NORMALS
+            /* a direction the two normals disagree on carries nothing (no light leaks) */
+            intv leak = !(shading_side_agrees(n, ns, v3_neg(d)) & shading_side_agrees(n, ns, wo));
+            bs.weight = v3_select(bs.weight, v3s(0.0f), leak);
+#endif
             thr = v3_select(thr, v3_mul(thr, bs.weight), cont);
             eta = lane_select(eta, eta * bs.eta, cont);
             vec3v o_next = offset_origin(p, n, wo);

@@ -91,6 +91,7 @@ from .emitter_choice import LUMINANCE, environment_choice, light_choice
 from .pixel_filter import BOX, PixelFilter
 from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
+from .shading_normals import vertex_normal_table
 from .shape_registry import SHAPES
 
 # Primitives up to which compile_scene builds the binned SAH tree (see there).
@@ -133,6 +134,8 @@ class CompiledScene:
     light_sampler: str = "power"
     sampler: str = "independent"  # integrator.sampler (mcocl/render/sobol_film.py)
     pixel_filter: PixelFilter = BOX  # the camera's reconstruction filter (mcocl/render/pixel_filter.py)
+    # (T, 3, 4) corner normals of the triangles that shade smoothly, None if none does (render/shading_normals.py)
+    vertex_normals: np.ndarray | None = None
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
@@ -347,6 +350,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         light_power=power.astype(np.float64), light_sampler=scene.light_sampler, sampler=scene.sampler,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
+        vertex_normals=vertex_normal_table(scene.shapes, tri64),
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
                    "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},

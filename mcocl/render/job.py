@@ -46,6 +46,7 @@ from .device_scene import (
 )
 from .film import STATS
 from .pixel_filter import BOX, PixelFilter, require_box
+from .shading_normals import VERTEX_NORMALS_ABSENT, require_face_normals, shading_defines
 from .sobol_film import block_batches, sobol_render_defines
 from .splat_film import SplatRunner, splat_groups
 
@@ -61,7 +62,8 @@ PATHS_PER_BLOCK = 1 << 20
 TILE_PIXELS = 64
 # The scene arrays the render kernel takes after its render_params, in its argument order.
 KERNEL_BUFFERS = ("camera", "bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
-                  "materials", "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail")
+                  "materials", "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail",
+                  "vertex_normals")
 # The integrators on the splatting film (mcocl/render/splat_film.py).
 SPLAT_INTEGRATORS = ("lt", "bdpt")
 # bdpt's MIS heuristics: the exponent beta of Veach's power heuristic (1: the balance heuristic).
@@ -153,7 +155,9 @@ class RenderJob:
                     opts.append("-DBDPT_UNWEIGHTED")
         if self.splats:
             require_box(self.pixel_filter, self.integrator)
-        return opts + self.pixel_filter.defines()
+        if self.integrator == "bdpt":
+            require_face_normals(self.tables)
+        return opts + self.pixel_filter.defines() + shading_defines(self.tables)
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:
         """The kernel's ``render_params`` (mcocl/layouts.py) for a launch of ``nblocks`` from ``first_block``."""
@@ -188,7 +192,7 @@ class RenderRunner:
         self.build_seconds = time.perf_counter() - t0
         self.kernel = runtime.kernel(self.program, "render_blocks")
         mf = cl.mem_flags
-        t = {**LIGHT_BVH_ABSENT, **job.tables}
+        t = {**LIGHT_BVH_ABSENT, **VERTEX_NORMALS_ABSENT, **job.tables}
         self.buffers = {
             name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(t[name]))
             for name in KERNEL_BUFFERS
