@@ -120,7 +120,7 @@ class Shape:
     center: np.ndarray | None = None
     radius: float = 0.0
     name: str = ""
-    # Per-vertex data of a PLY mesh, kept for later shading normals and textures; nothing reads them yet.
+    # Per-vertex data of a PLY or serialized mesh: normals shade smoothly (render/shading_normals.py); uvs unused.
     normals: np.ndarray | None = None
     uvs: np.ndarray | None = None
 

@@ -146,7 +146,8 @@ class Mesh(ShapeSpec):
     keys_doc = ("either `vertices` ([[x, y, z], ...]) and `faces` ([[i, j, k], ...], 0-based), or `obj` "
                 "(path of a Wavefront OBJ file), or `ply` (path of a PLY file, ASCII or binary; polygons become "
                 "triangle fans), or `serialized` (path of a Mitsuba serialized file, with `shape_index`, default 0, "
-                "choosing its mesh); `face_normals` (default false) drops the file's vertex normals; a file's path is relative to the scene file, it must lie in the scene file's folder "
+                "choosing its mesh); a PLY or serialized file's vertex normals shade smoothly (interpolated across each "
+                "triangle) unless `face_normals` is true (default false; OBJ normals are not read); a file's path is relative to the scene file, it must lie in the scene file's folder "
                 "or below it — `mcocl render --mesh-folder DIR` / `render(mesh_folder=DIR)` allows one more folder — "
                 "and the file must hold at least one face")
 

@@ -6,7 +6,7 @@ similarity ``to_world``), ``obj`` and ``ply`` (``filename`` relative to the
 file it is written in, confined to the scene's folder); ``to_world`` and
 ``serialized`` (with ``shape_index``: mcocl/render/serialized_reader.py);
 ``flip_normals`` on all of them, ``face_normals`` on ``obj``, ``ply`` and ``serialized``
-(mcocl shades every triangle with its face normal).  A shape without a BSDF
+(PLY and serialized vertex normals shade smoothly unless it is set; OBJ normals are not read).  A shape without a BSDF
 gets Mitsuba's default, diffuse 0.5, or black when it emits.  Emitters:
 ``area`` inside a shape and a top-level ``constant``, each with ``radiance``
 (default 1).
@@ -162,10 +162,12 @@ class ShapeTranslator:
                 out["shape_index"] = index
             if props.get("face_normals", ("boolean",), False):
                 out["face_normals"] = True
-                comments.append("face_normals: mcocl shades every triangle with its face normal")
+                comments.append("face_normals: every triangle shades with its face normal")
+            elif kind == "obj":
+                comments.append("mcocl's OBJ reader ignores vn normals: every triangle shades with its face normal "
+                                "(Mitsuba interpolates the file's vertex normals)")
             else:
-                comments.append("mcocl shades every triangle with its face normal (Mitsuba interpolates the file's "
-                                "vertex normals unless face_normals is true)")
+                comments.append("the file's vertex normals, if any, shade smoothly (as in Mitsuba)")
             if "flip_tex_coords" in props:
                 props.read.add("flip_tex_coords")
                 comments.append("flip_tex_coords: ignored (no textures)")
