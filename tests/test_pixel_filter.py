@@ -99,14 +99,16 @@ def test_constant_radiance_is_the_same_under_every_filter(tmp_path: Path) -> Non
     np.testing.assert_allclose(images[0][..., 0], 0.25)
 
 
-@pytest.mark.parametrize("filt", [make_filter("gaussian"), make_filter("tent", radius=1.5), BOX],
-                         ids=lambda f: f.kind)
-def test_an_edge_is_blurred_by_the_filter(tmp_path: Path, filt: PixelFilter) -> None:
+@pytest.mark.parametrize("filt,sampler", [(make_filter("gaussian"), "independent"),
+                                          (make_filter("tent", radius=1.5), "independent"), (BOX, "independent"),
+                                          (make_filter("gaussian"), "sobol")], ids=lambda x: getattr(x, "kind", x))
+def test_an_edge_is_blurred_by_the_filter(tmp_path: Path, filt: PixelFilter, sampler: str) -> None:
     # a black plane covers x > 0 at z = -1: its edge is the film's centre line sx = W / 2 exactly
     size, spp = 16, 256
     shapes = [{"type": "rectangle", "material": "black",
                "transform": [{"scale": [50.0, 50.0, 1.0]}, {"translate": [50.0, 0.0, -1.0]}]}]
-    img = mcocl.render(_scene(tmp_path, filt.to_json(), shapes, 1.0, size=size), spp=spp, seed=9).mean[..., 0]
+    p = _scene(tmp_path, filt.to_json(), shapes, 1.0, size=size)
+    img = mcocl.render(p, spp=spp, seed=9, sampler=sampler).mean[..., 0]
     col = img.mean(axis=0).astype(np.float64)
     centre = np.arange(size) + 0.5
     total = filt.integral(np.array(-filt.radius), np.array(filt.radius))
