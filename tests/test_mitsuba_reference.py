@@ -4,9 +4,10 @@ The scene exercises Mitsuba's default Gaussian reconstruction filter (no
 ``<rfilter>`` in the XML) and shading normals from a PLY's vertex normals.
 mcocl renders the same XML; per 8 x 8 block and channel the means must agree
 within 4.5 combined standard errors (Mitsuba's block errors come from its 32
-independent passes, since its filter correlates neighbouring pixels), and the
-mean squared per-pixel z must stay below 2 (1.5 measured).  The same render with a box filter
-(the negative control) must not pass the per-pixel check: the filter is seen.
+independent passes, since its filter correlates neighbouring pixels), and
+fewer than 2 % of the pixels may lie beyond 4 standard errors.  The same
+render with a box filter (the negative control) must fail that per-pixel
+check: the filter is seen.
 """
 
 from __future__ import annotations
@@ -40,19 +41,20 @@ def _compare(img, ref: dict[str, np.ndarray]) -> tuple[np.ndarray, float]:
     # rounding of Mitsuba's filter-weight normalisation (~1e-6 relative): leave them out
     var = img.stderr**2 + ref["stderr"] ** 2
     m = img.stderr > 0
-    z2 = float(((img.mean - ref["mean"])[m] ** 2 / var[m]).mean())
-    return z_block, z2
+    z = np.abs(img.mean - ref["mean"])[m] / np.sqrt(var[m])
+    return z_block, float((z > 4.0).mean())
 
 
 def test_gaussian_filter_and_shading_normals_match_mitsuba(reference) -> None:
     cs = compile_scene(DATA / "smooth_gaussian.xml")
     assert cs.pixel_filter == make_filter("gaussian") and cs.vertex_normals is not None
     img = mcocl.render(cs, spp=4096, seed=11, integrator="mis")
-    z_block, z2 = _compare(img, reference)
+    z_block, outliers = _compare(img, reference)
     assert np.abs(z_block).max() < 4.5, np.round(z_block[..., 0], 1)
-    # measured 1.5 (1 for identical estimators; Mitsuba's errors come from 32 passes only, and a
-    # few silhouette pixels of the tessellated sphere reach |z| ~ 5); the box filter gives ~430
-    assert z2 < 2.0, z2
+    # The per-pixel |z| has heavier tails than a normal's (Mitsuba's errors come from 32 passes, and a
+    # rare bright path makes an outlier): measured 0.5-0.8 % of the pixels beyond 4 over three seeds.
+    # The box filter misses the Gaussian's blur at the sphere's outline: 24 % beyond 4.
+    assert outliers < 0.02, outliers
     cs.pixel_filter = BOX
-    _, z2_box = _compare(mcocl.render(cs, spp=4096, seed=12, integrator="mis"), reference)
-    assert z2_box > 50.0, z2_box
+    _, outliers_box = _compare(mcocl.render(cs, spp=4096, seed=12, integrator="mis"), reference)
+    assert outliers_box > 0.1, outliers_box

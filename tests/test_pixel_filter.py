@@ -65,6 +65,40 @@ def test_lane_build_draws_the_scalar_offsets() -> None:
     assert np.all(np.abs(a - b) <= tol + 1e-6)
 
 
+def _inverse_cdf(f: PixelFilter, u: np.ndarray) -> np.ndarray:
+    """The exact quantiles of the filter (float64 bisection on its closed-form integral)."""
+    lo, hi = np.full(len(u), -f.radius), np.full(len(u), f.radius)
+    total = f.integral(np.array(-f.radius), np.array(f.radius))
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        below = f.integral(np.full(len(u), -f.radius), mid) < u * total
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+@pytest.mark.parametrize("f", [make_filter("gaussian"), make_filter("gaussian", stddev=1.3), make_filter("tent")],
+                         ids=lambda f: f"{f.kind}-{f.stddev:g}")
+def test_offsets_are_the_exact_quantiles(f: PixelFilter) -> None:
+    # the kernel inverts the CDF to float precision: the error is ulp(CDF) / density
+    n = 4096
+    u = ((np.arange(n) + 0.5) / n).astype(np.float32)
+    ctx = runtime.device_context()
+    prg = runtime.build(ctx, runtime.compose(["render/pixel_filter_test.cl"]), ["-DLANES=8", *f.defines()],
+                        what="pixel filter test kernel")
+    mf = cl.mem_flags
+    bu = cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=u)
+    out = np.empty(n, np.float32)
+    bo = cl.Buffer(ctx.context, mf.WRITE_ONLY, out.nbytes)
+    g, lsz = ctx.work_size(n // 8)
+    runtime.kernel(prg, "filter_offsets_of")(ctx.queue, g, lsz, np.uint32(n), bu, bo)
+    cl.enqueue_copy(ctx.queue, out, bo)
+    exact = _inverse_cdf(f, u.astype(np.float64))
+    peak = f.profile(np.array([0.0]))[0]
+    tol = 8 * np.finfo(np.float32).eps * f.radius * peak / np.maximum(f.profile(exact), 1e-3 * peak) + 1e-6
+    err = np.abs(out - exact)
+    assert np.all(err <= tol), (err / tol).max()
+
+
 def test_filter_profile_matches_mitsuba_definition() -> None:
     # Mitsuba 3: gaussian stddev 0.5, radius 4 stddev, exp(-x^2/(2 s^2)) minus its value at the radius
     g = make_filter("gaussian")

@@ -7,6 +7,13 @@
 #include "render/lane_io.cl"
 #include "render/pixel_filter.cl"
 
+/* The offsets of given uniforms u[i] (for the test of the inverse CDF's accuracy). */
+kernel void filter_offsets_of(uint n, global const float *u, global float *out) {
+    uint base = (uint)get_global_id(0) * LANES;
+    if (base >= n) return;
+    store_floatv(filter_offset(load_floatv(u + base)), out + base);
+}
+
 kernel void filter_offsets(ulong seed, uint n, global float *out) {
     uint base = (uint)get_global_id(0) * LANES;
     if (base >= n) return;
