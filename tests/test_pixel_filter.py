@@ -8,7 +8,9 @@
   proportion, checked column by column with z-tests (this fixes the
   centre convention and the sign of the offsets);
 - the splatting integrators refuse non-box filters; the JSON key and the XML
-  ``<rfilter>`` reach the compiled scene, with Mitsuba's Gaussian default in XML.
+  ``<rfilter>`` reach the compiled scene, with Mitsuba's Gaussian default in XML;
+- the rest of the film and camera window: a crop renders its window of the
+  film (gather and light tracing alike), near_clip hides what lies nearer.
 """
 
 from __future__ import annotations
@@ -244,3 +246,24 @@ def test_crop_errors_and_xml(tmp_path: Path) -> None:
     assert (cs.width, cs.height) == (3, 8)
     with pytest.raises(InputError, match="crop_width"):
         compile_scene(_xml(tmp_path, '<integer name="crop_offset_x" value="6"/><integer name="crop_width" value="3"/>'))
+
+
+def test_near_clip_hides_what_lies_nearer(tmp_path: Path) -> None:
+    # a black plane 0.5 in front of the camera hides the environment unless the near clip passes it
+    shapes = [{"type": "rectangle", "material": "black",
+               "transform": [{"scale": 10.0}, {"translate": [0.0, 0.0, -0.5]}]}]
+    p = _scene(tmp_path, None, shapes, 1.0, size=8)
+    data = json.loads(p.read_text())
+    np.testing.assert_array_equal(mcocl.render(p, spp=4, seed=1).mean, 0.0)
+    for near, seen in ((0.45, 0.0), (0.55, 1.0)):
+        data["camera"]["near_clip"] = near
+        p.write_text(json.dumps(data))
+        np.testing.assert_array_equal(mcocl.render(p, spp=4, seed=1).mean, seen)
+    with pytest.raises(InputError, match="near_clip"):
+        mcocl.render(p, spp=1, integrator="lt")
+    xml = _xml(tmp_path, '<rfilter type="box"/>').read_text()
+    p = tmp_path / "clip.xml"
+    p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
+                             '<float name="near_clip" value="0.25"/>'))
+    assert compile_scene(p).near_clip == 0.25
+    assert compile_scene(_xml(tmp_path, "")).near_clip == 0.0  # Mitsuba's 0.01 default is not applied

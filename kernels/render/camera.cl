@@ -104,6 +104,18 @@ MC_INLINE vec3v camera_ray_lens(global const float4 *cam, floatv sx, floatv sy, 
     return v3_normalize(v3_sub(focal, *origin));
 }
 
+/* Mitsuba's near_clip (-DNEAR_CLIP, scene units along the optical axis; the
+ * path integrators only): the primary ray starts where it crosses the plane
+ * at that distance in front of its origin, o + d near / (d . forward), so
+ * geometry nearer than the plane is not seen. */
+MC_INLINE vec3v camera_clip_origin(global const float4 *cam, vec3v o, vec3v d) {
+#ifdef NEAR_CLIP
+    return v3_madd(o, NEAR_CLIP / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD])), d);
+#else
+    return o;
+#endif
+}
+
 /* Where the ray from lens point xl in the unit direction d meets the film:
  * raster position (sx, sy) in pixels and the pixel index (row-major); cos theta
  * to `forward`.  Valid when d points forwards and lands inside the image. */

@@ -240,6 +240,7 @@ kernel void render_blocks(
             } else {
                 cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
             }
+            co = camera_clip_origin(camera, co, cd);
             pixel = lane_select(pixel, px, fresh);
             o = v3_select(o, co, fresh);
             d = v3_select(d, cd, fresh);

@@ -136,6 +136,7 @@ class CompiledScene:
     pixel_filter: PixelFilter = BOX  # the camera's reconstruction filter (mcocl/render/pixel_filter.py)
     # (T, 3, 4) corner normals of the triangles that shade smoothly, None if none does (render/shading_normals.py)
     vertex_normals: np.ndarray | None = None
+    near_clip: float = 0.0  # camera.near_clip (kernels/render/camera.cl, camera_clip_origin)
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
@@ -350,7 +351,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         light_power=power.astype(np.float64), light_sampler=scene.light_sampler, sampler=scene.sampler,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
-        vertex_normals=vertex_normal_table(scene.shapes, tri64),
+        vertex_normals=vertex_normal_table(scene.shapes, tri64), near_clip=cam.near_clip,
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
                    "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},

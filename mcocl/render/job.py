@@ -34,6 +34,7 @@ import numpy as np
 import pyopencl as cl
 
 from .. import runtime
+from ..errors import InputError
 from ..layouts import Integrator, LightSampler
 from .device_scene import (
     LIGHT_BVH_ABSENT,
@@ -70,6 +71,13 @@ SPLAT_INTEGRATORS = ("lt", "bdpt")
 MIS_BETAS = {"balance": 1, "power": 2}
 # Light tracing starts its paths at emitters chosen by the power CDF: it takes no light BVH.
 LT_BUFFERS = tuple(name for name in KERNEL_BUFFERS if name not in ("light_bvh", "light_trail"))
+
+
+def require_no_clip(near_clip: float, integrator: str) -> None:
+    """Refuse a camera near_clip for a splatting integrator (its camera connections do not clip)."""
+    if near_clip > 0.0:
+        raise InputError(f"camera.near_clip works with the path integrators (path, nee, mis), not {integrator!r}: "
+                         "leave it out (0) or use mis")
 
 
 def default_spp_per_block(width: int, height: int) -> int:
@@ -123,6 +131,7 @@ class RenderJob:
     strategy: tuple[int, int] | None = None
     unweighted: bool = False
     pixel_filter: PixelFilter = BOX  # the reconstruction filter (mcocl/render/pixel_filter.py)
+    near_clip: float = 0.0  # camera.near_clip: -DNEAR_CLIP (kernels/render/camera.cl)
     stat_shape: tuple[int, ...] = field(default=(0, 0, STATS))
 
     def __post_init__(self) -> None:
@@ -155,9 +164,11 @@ class RenderJob:
                     opts.append("-DBDPT_UNWEIGHTED")
         if self.splats:
             require_box(self.pixel_filter, self.integrator)
+            require_no_clip(self.near_clip, self.integrator)
         if self.integrator == "bdpt":
             require_face_normals(self.tables)
-        return opts + self.pixel_filter.defines() + shading_defines(self.tables)
+        clip = [f"-DNEAR_CLIP={float(np.float32(self.near_clip))!r}f"] if self.near_clip > 0.0 else []
+        return opts + self.pixel_filter.defines() + shading_defines(self.tables) + clip
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:
         """The kernel's ``render_params`` (mcocl/layouts.py) for a launch of ``nblocks`` from ``first_block``."""
@@ -218,4 +229,4 @@ class RenderRunner:
 
 __all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "MIS_BETAS", "SPLAT_INTEGRATORS",
            "UNBOUNDED_SPP", "RenderJob", "RenderRunner",
-           "default_spp_per_block", "light_records", "light_tables", "prim_records", "scene_tables", "tables_digest"]
+           "default_spp_per_block", "light_records", "require_no_clip", "light_tables", "prim_records", "scene_tables", "tables_digest"]

@@ -81,6 +81,7 @@ class Camera:
     focus_distance: float | None = None
     pixel_filter: PixelFilter = BOX  # camera.filter (mcocl/render/pixel_filter.py)
     crop: tuple[int, int, int, int] | None = None  # offset x, y, width, height of the rendered window
+    near_clip: float = 0.0  # primary rays start this far along the optical axis (path integrators)
 
 
 @dataclass
@@ -325,7 +326,8 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
 
 
 def _camera(c: _Checker, v: Any, key: str) -> Camera:
-    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance", "filter", "crop"))
+    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance", "filter", "crop",
+                                                                   "near_clip"))
     origin = c.vector(o["origin"], f"{key}.origin", limit=GEOMETRY_LIMIT)
     target = c.vector(o["target"], f"{key}.target", limit=GEOMETRY_LIMIT)
     up = c.vector(o.get("up", [0, 1, 0]), f"{key}.up", limit=GEOMETRY_LIMIT)
@@ -344,7 +346,8 @@ def _camera(c: _Checker, v: Any, key: str) -> Camera:
         focus = c.number(o["focus_distance"], f"{key}.focus_distance", 0.0, GEOMETRY_LIMIT, lo_open=True)
     pf = parse_filter(o["filter"], f"{key}.filter") if "filter" in o else BOX
     crop = _crop(c, o["crop"], f"{key}.crop", width, height) if "crop" in o else None
-    return Camera(origin, target, up, fov, width, height, aperture, focus, pf, crop)
+    near = c.number(o.get("near_clip", 0.0), f"{key}.near_clip", 0.0, GEOMETRY_LIMIT)
+    return Camera(origin, target, up, fov, width, height, aperture, focus, pf, crop, near)
 
 
 def _crop(c: _Checker, v: Any, key: str, width: int, height: int) -> tuple[int, int, int, int] | None:

@@ -16,6 +16,8 @@
   ``tent`` (``radius``, default 1) or ``gaussian`` (``stddev``, default 0.5; Mitsuba's default
   filter when the film names none) → ``camera.filter`` (mcocl/render/pixel_filter.py);
   ``crop_offset_x/y``, ``crop_width/height`` → ``camera.crop`` (the image is the window).
+- ``near_clip`` given in the file → ``camera.near_clip`` (Mitsuba's default 0.01 is not
+  applied, so that files without it render as their JSON twins); ``far_clip`` is unsupported.
 - samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
   ``ldsampler``: ``sample_count`` (default 4) → ``spp``; mcocl always draws from
   its counter-based Philox generator, so the sample pattern differs, not the
@@ -46,6 +48,7 @@ SAMPLE_COUNT = 4
 FOV_AXES = ("x", "y", "diagonal", "smaller", "larger")
 SENSORS = ("perspective", "thinlens")
 CROP_KEYS = ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height")
+NEAR_CLIP = 1e-2  # Mitsuba's default near_clip
 FAR_CLIP = 1e4  # Mitsuba's far_clip, the default focus_distance of a thinlens
 
 
@@ -125,12 +128,21 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
             focus = FAR_CLIP
             comments.append(f"focus_distance: Mitsuba's default, far_clip = {FAR_CLIP:g}")
         cam.update({"aperture_radius": aperture, "focus_distance": focus})
-    for k in ("near_clip", "far_clip"):
-        if k in props:
-            props.read.add(k)
-            rep.unsupported(props.node(k), f"{k} (mcocl does not clip along the view ray)", "leave it out",
-                            "no clipping", comments)
-    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", *lens_keys), comments)
+    near = props.get("near_clip", ("float",), None)
+    if near is None:
+        comments.append(f"near_clip: Mitsuba's default {NEAR_CLIP:g} is not applied (nothing is clipped)")
+    elif not 0.0 <= near < FAR_CLIP:
+        props.node("near_clip").fail(f"near_clip must lie in [0, {FAR_CLIP:g}), got {near:g}")
+    elif near > 0.0:
+        cam["near_clip"] = near
+        comments.append(f"near_clip {near:g}: primary rays start at that distance along the optical axis "
+                        "(path integrators only)")
+    if "far_clip" in props:
+        props.read.add("far_clip")
+        rep.unsupported(props.node("far_clip"), "far_clip (mcocl does not clip far along the view ray)",
+                        "leave it out", "no clipping", comments)
+    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", "near_clip", *lens_keys),
+                 comments)
     return cam, spp
 
 
