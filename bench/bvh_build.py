@@ -121,11 +121,12 @@ def bench_obj(n: int, repeat: int) -> None:
         cs, _, t_load, c_load = timed(lambda: load_compiled(Path(tmp) / "scene.json"), 1)
         size = obj.stat().st_size
     tables = scene_tables(cs)
-    kernel_bytes = sum(tables[name].nbytes for name in KERNEL_BUFFERS)
+    kernel_bytes = sum(tables[name].nbytes for name in KERNEL_BUFFERS if name in tables)
     all_bytes = sum(a.nbytes for a in tables.values())
     print(f"obj      {len(tris):>9d} triangles ({size / 1e6:.1f} MB): read {t_read:5.2f} s wall (first run "
           f"{f_read:5.2f}), {c_read:5.2f} s cpu; whole scene load {t_load:5.2f} s wall, {c_load:5.2f} s cpu")
-    per = {name: tables[name].nbytes / len(tris) for name in KERNEL_BUFFERS if tables[name].nbytes >= len(tris)}
+    per = {name: tables[name].nbytes / len(tris) for name in KERNEL_BUFFERS
+           if name in tables and tables[name].nbytes >= len(tris)}
     print(f"device   {kernel_bytes / len(tris):6.1f} bytes/triangle in the kernel's buffers "
           f"({all_bytes / len(tris):.1f} with every table): "
           + ", ".join(f"{k} {b:.1f}" for k, b in sorted(per.items(), key=lambda kv: -kv[1])))

@@ -184,16 +184,16 @@ typedef struct {
 #define MATERIAL_RECORD_FLAGS_QUAD 1
 #define MATERIAL_RECORD_FLAGS_COMP w
 
-/* perspective camera: origin and the right/up/forward axes (right, up scaled by the fov); thin lens: aperture radius (0: a pinhole) and focus distance */
+/* perspective camera: origin and the right/up/forward axes (right, up scaled by the fov); thin lens: aperture radius (0: a pinhole) and focus distance; a film crop's centre in the crop's NDC units */
 typedef struct {
     float origin[3];
     float aperture_radius;
     float right[3];
     float focus_distance;
     float up[3];
-    float pad2;
+    float crop_shift_x;
     float forward[3];
-    float pad3;
+    float crop_shift_y;
 } camera_record;
 #define CAMERA_RECORD_QUADS 4u
 /* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
@@ -214,14 +214,14 @@ typedef struct {
 #define CAMERA_RECORD_UP_COMP x
 #define CAMERA_RECORD_UP_COMP1 y
 #define CAMERA_RECORD_UP_COMP2 z
-#define CAMERA_RECORD_PAD2_QUAD 2
-#define CAMERA_RECORD_PAD2_COMP w
+#define CAMERA_RECORD_CROP_SHIFT_X_QUAD 2
+#define CAMERA_RECORD_CROP_SHIFT_X_COMP w
 #define CAMERA_RECORD_FORWARD_QUAD 3
 #define CAMERA_RECORD_FORWARD_COMP x
 #define CAMERA_RECORD_FORWARD_COMP1 y
 #define CAMERA_RECORD_FORWARD_COMP2 z
-#define CAMERA_RECORD_PAD3_QUAD 3
-#define CAMERA_RECORD_PAD3_COMP w
+#define CAMERA_RECORD_CROP_SHIFT_Y_QUAD 3
+#define CAMERA_RECORD_CROP_SHIFT_Y_COMP w
 
 /* nodes[0] of a BVH: primitive count, internal nodes, depth, row of the leaf primitives */
 typedef struct {

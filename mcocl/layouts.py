@@ -241,9 +241,9 @@ MATERIAL_RECORD = _quad_record(
 # Camera (host: compiled.camera_matrix; kernel: camera.cl), one per scene.
 CAMERA_RECORD = _quad_record(
     "camera_record", "perspective camera: origin and the right/up/forward axes (right, up scaled by the fov); "
-    "thin lens: aperture radius (0: a pinhole) and focus distance",
+    "thin lens: aperture radius (0: a pinhole) and focus distance; a film crop's centre in the crop's NDC units",
     ("origin", "float", 3), ("aperture_radius", "float"), ("right", "float", 3), ("focus_distance", "float"),
-    ("up", "float", 3), ("pad2", "float"), ("forward", "float", 3), ("pad3", "float"),
+    ("up", "float", 3), ("crop_shift_x", "float"), ("forward", "float", 3), ("crop_shift_y", "float"),
 )
 
 # BVH (host: mcocl/render/bvh.py; kernels: bvh.cl, trace_packet.cl): nodes[0] is the header,

@@ -9,8 +9,15 @@
  * ndc_x = 2 sx / W - 1, ndc_y = 1 - 2 sy / H and the pinhole direction
  * d = forward + ndc_x right + ndc_y up (forward component 1); `right` and `up`
  * already carry the tangent of the half field of view and the aspect ratio.
- * The pixel filter is a box: (sx, sy) = pixel corner + a uniform jitter, so a
- * pixel's value is the plain mean of its samples.
+ * The film point (sx, sy) is drawn from the pixel filter
+ * (render/pixel_filter.cl; the box: pixel corner + a uniform jitter).
+ *
+ * A film crop (Mitsuba's hdrfilm crop_*): W x H is the crop, `right` and `up`
+ * span the crop's part of the image plane, and up.w / forward.w hold the crop
+ * centre's position (crop_shift_x, crop_shift_y) in those units, added to
+ * ndc_x, ndc_y (0 without a crop: x + 0 = x bit for bit).  The optical axis
+ * stays `forward`, so the importance below (its cos theta to the axis, the
+ * crop's image-plane area A) holds unchanged.
  *
  * Thin lens (Mitsuba 3's `thinlens`, pbrt-v4 §5.2.3): a point x_l uniform on
  * the aperture disk of radius a (area A_lens = pi a^2) in the plane of right
@@ -65,10 +72,18 @@ MC_INLINE vec3v camera_lens_point(global const float4 *cam, floatv u1, floatv u2
     return v3_madd(v3_madd(o, rr * c * inv_r, cam_row(r4)), rr * s * inv_u, cam_row(u4));
 }
 
+/* The crop centre's shift of ndc_x and ndc_y (0, 0 without a crop). */
+MC_INLINE float camera_crop_shift_x(global const float4 *cam) {
+    return cam[CAMERA_RECORD_CROP_SHIFT_X_QUAD].CAMERA_RECORD_CROP_SHIFT_X_COMP;
+}
+MC_INLINE float camera_crop_shift_y(global const float4 *cam) {
+    return cam[CAMERA_RECORD_CROP_SHIFT_Y_QUAD].CAMERA_RECORD_CROP_SHIFT_Y_COMP;
+}
+
 /* The pinhole direction through film point (sx, sy), forward component 1. */
 MC_INLINE vec3v camera_film_direction(global const float4 *cam, floatv sx, floatv sy, float inv_w, float inv_h) {
-    floatv ndc_x = 2.0f * sx * inv_w - 1.0f;
-    floatv ndc_y = 1.0f - 2.0f * sy * inv_h;
+    floatv ndc_x = 2.0f * sx * inv_w - 1.0f + camera_crop_shift_x(cam);
+    floatv ndc_y = 1.0f - 2.0f * sy * inv_h + camera_crop_shift_y(cam);
     return v3_madd(v3_madd(cam_row(cam[CAMERA_RECORD_FORWARD_QUAD]), ndc_x, cam_row(cam[CAMERA_RECORD_RIGHT_QUAD])),
                    ndc_y, cam_row(cam[CAMERA_RECORD_UP_QUAD]));
 }
@@ -87,6 +102,18 @@ MC_INLINE vec3v camera_ray_lens(global const float4 *cam, floatv sx, floatv sy, 
     vec3v focal = v3_madd(cam_row(cam[CAMERA_RECORD_ORIGIN_QUAD]), (floatv)(focus), d);
     *origin = camera_lens_point(cam, ul1, ul2);
     return v3_normalize(v3_sub(focal, *origin));
+}
+
+/* Mitsuba's near_clip (-DNEAR_CLIP, scene units along the optical axis; the
+ * path integrators only): the primary ray starts where it crosses the plane
+ * at that distance in front of its origin, o + d near / (d . forward), so
+ * geometry nearer than the plane is not seen. */
+MC_INLINE vec3v camera_clip_origin(global const float4 *cam, vec3v o, vec3v d) {
+#ifdef NEAR_CLIP
+    return v3_madd(o, NEAR_CLIP / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD])), d);
+#else
+    return o;
+#endif
 }
 
 /* Where the ray from lens point xl in the unit direction d meets the film:
@@ -121,8 +148,8 @@ MC_INLINE camera_direction_v camera_importance(global const float4 *cam, vec3v x
         v = v3_scale(v3_sub(v3_madd(xl, focus / z, d), cam_row(cam[CAMERA_RECORD_ORIGIN_QUAD])), 1.0f / focus);
     }
     floatv vz = lane_select((floatv)(1.0f), v3_dot(v, fwd), front);
-    floatv ndc_x = v3_dot(v, right) / (vz * r2);
-    floatv ndc_y = v3_dot(v, up) / (vz * u2);
+    floatv ndc_x = v3_dot(v, right) / (vz * r2) - camera_crop_shift_x(cam);
+    floatv ndc_y = v3_dot(v, up) / (vz * u2) - camera_crop_shift_y(cam);
     c.raster_x = 0.5f * (ndc_x + 1.0f) * (float)width;
     c.raster_y = 0.5f * (1.0f - ndc_y) * (float)height;
     intv inside = front & (c.raster_x >= 0.0f) & (c.raster_x < (float)width) & (c.raster_y >= 0.0f) &

@@ -28,7 +28,8 @@
  *
  * Random numbers.  Sample (pixel, s) has the 64-bit index s * W * H + pixel
  * and draws, through the sampler (samplers/sampler.cl) in stream
- * RNG_STREAM_RENDER, dimensions 0-1 (pixel jitter), 2-3 (the point on a
+ * RNG_STREAM_RENDER, dimensions 0-1 (the film point, drawn from the pixel
+ * filter: render/pixel_filter.cl), 2-3 (the point on a
  * thin lens; render/camera.cl) and, at depth d,
  * RENDER_DIM_BSDF(d) = 4 + 8d .. 7 + 8d (lobe choice, direction 2D, roulette)
  * and RENDER_DIM_LIGHT(d) = 8 + 8d .. 11 + 8d (emitter choice: environment or
@@ -53,10 +54,12 @@
 #include "render/vec3.cl"
 #include "render/lane_io.cl"
 #include "render/camera.cl"
+#include "render/pixel_filter.cl"
 #include "render/bsdf.cl"
 #include "render/prims.cl"
 #include "render/lights.cl"
 #include "render/trace.cl"
+#include "render/shading_normal.cl"
 
 /* INTEGRATOR_PATH, _NEE, _MIS: the Integrator codes of layouts.cl. */
 #ifndef INTEGRATOR
@@ -156,6 +159,7 @@ kernel void render_blocks(
     global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance,
     global const float4 *light_rec, global const float *light_cdf,
     global const float4 *light_bvh, global const uint *light_trail,
+    global const float4 *vertex_normals,
     global film_t *out)
 {
     const ulong first_block = params.first_block, seed = params.seed;
@@ -225,8 +229,9 @@ kernel void render_blocks(
             sampler_next_2d(&fs, uc);
             smp = sampler_select(smp, fs, fresh);
             uintv py = px / width;
-            floatv sx = to_floatv(px - py * width) + uc[0];
-            floatv sy = to_floatv(py) + uc[1];
+            /* the film point: the pixel filter's sample (render/pixel_filter.cl) */
+            floatv sx = film_coordinate(to_floatv(px - py * width), uc[0]);
+            floatv sy = film_coordinate(to_floatv(py), uc[1]);
             vec3v co, cd;
             if (thin_lens) {
                 floatv ul[2]; /* the lens point: dimensions 2-3 of the camera's block */
@@ -235,6 +240,7 @@ kernel void render_blocks(
             } else {
                 cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
             }
+            co = camera_clip_origin(camera, co, cd);
             pixel = lane_select(pixel, px, fresh);
             o = v3_select(o, co, fresh);
             d = v3_select(d, cd, fresh);
@@ -261,6 +267,12 @@ kernel void render_blocks(
 
         surface_v sf = surface_at(&pt, h.prim, h.t, o, d, hit);
         vec3v p = sf.p, n = sf.n;
+#ifdef SHADING_NORMALS
+        /* the BSDF's frame (render/shading_normal.cl); n stays the geometric normal */
+        vec3v ns = shading_normal(vertex_normals, &pt, h.prim, h.b1, h.b2, n, hit);
+#else
+        vec3v ns = n;
+#endif
 
         /* ---- emission of the surface hit (one-sided: front = normal) ---- */
         /* (max_depth 0 renders black, as in Mitsuba 3) */
@@ -286,7 +298,7 @@ kernel void render_blocks(
         intv next_alive = (intv)(0);
         if (lane_any(cont)) {
             material_v m = material_load(materials, lane_select((uintv)(0u), sf.mat, cont));
-            frame3v fr = frame_from_normal(n);
+            frame3v fr = frame_from_normal(ns);
             vec3v wi = frame_to_local(fr, v3_neg(d));
             floatv ub[4]; /* lobe, direction 2D, roulette */
             sampler_seek(&smp, RENDER_DIM_BSDF(depth));
@@ -318,6 +330,9 @@ kernel void render_blocks(
 #endif
                 vec3v c = v3_scale(v3_mul(v3_mul(thr, f), ls.radiance), w / ls.pdf);
                 intv ok = nee & ls.valid & (v3_maxc(c) > 0.0f);
+#ifdef SHADING_NORMALS
+                ok = ok & shading_side_agrees(n, ns, v3_neg(d)) & shading_side_agrees(n, ns, ls.wo);
+#endif
                 if (lane_any(ok)) {
                     vec3v so = p_up;
                     vec3v sd = v3_sub(ls.pos, so);
@@ -332,6 +347,11 @@ kernel void render_blocks(
             /* -- BSDF sampling continues the path -- */
             bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2], TRANSPORT_RADIANCE);
             vec3v wo = frame_to_world(fr, bs.wo);
+#ifdef SHADING_NORMALS
+            /* a direction the two normals disagree on carries nothing (no light leaks) */
+            intv leak = !(shading_side_agrees(n, ns, v3_neg(d)) & shading_side_agrees(n, ns, wo));
+            bs.weight = v3_select(bs.weight, v3s(0.0f), leak);
+#endif
             thr = v3_select(thr, v3_mul(thr, bs.weight), cont);
             eta = lane_select(eta, eta * bs.eta, cont);
             vec3v o_next = offset_origin(p, n, wo);

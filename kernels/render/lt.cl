@@ -62,6 +62,7 @@
 #include "render/lights.cl"
 #include "render/lights_emit.cl"
 #include "render/trace.cl"
+#include "render/shading_normal.cl"
 
 /* See integrator.cl: the random-number dimension of a vertex must fit 32 bits. */
 #define DEPTH_GUARD 65536
@@ -110,7 +111,8 @@ MC_INLINE void splat(global film_t *img, uintv pixel, vec3v c, intv ok) {
 #define SPLAT_TRACE_PARAMS                                                                                  \
     const render_params params, global const float4 *camera, SCENE_GEOM_BUFFERS,                            \
     global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance, \
-    global const float4 *light_rec, global const float *light_cdf, const float4 bsphere, global film_t *scratch
+    global const float4 *light_rec, global const float *light_cdf, global const float4 *vertex_normals,      \
+    const float4 bsphere, global film_t *scratch
 
 /* The light paths of one path group.  Work-item gid of a launch is group
  * gid % ntiles of block first_block + gid / ntiles; the block's paths are
@@ -257,7 +259,13 @@ kernel void lt_trace(
         surface_v sf = surface_at(&pt, h.prim, h.t, o, d, hit);
         vec3v p = sf.p, n = sf.n;
         material_v m = material_load(materials, lane_select((uintv)(0u), sf.mat, hit));
+#ifdef SHADING_NORMALS
+        /* the BSDF's frame; importance transport takes the adjoint factor (render/shading_normal.cl) */
+        vec3v ns = shading_normal(vertex_normals, &pt, h.prim, h.b1, h.b2, n, hit);
+        frame3v fr = frame_from_normal(ns);
+#else
         frame3v fr = frame_from_normal(n);
+#endif
         vec3v wi = frame_to_local(fr, v3_neg(d));
 
         /* ---- next-event estimation to the camera ---- */
@@ -270,6 +278,9 @@ kernel void lt_trace(
             floatv bpdf;
             vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, k.wo), &bpdf);
             vec3v c = v3_scale(v3_mul(beta, f), pixels * k.film.importance / k.pdf_solid_angle);
+#ifdef SHADING_NORMALS
+            c = v3_scale(c, shading_adjoint(n, ns, v3_neg(d), k.wo));
+#endif
             intv ok = conn & k.valid & (v3_maxc(c) > 0.0f);
             ok = camera_visible(&geom, p, n, &k, ok);
             if (lane_any(ok)) splat(img, k.film.pixel, c, ok);
@@ -284,6 +295,9 @@ kernel void lt_trace(
             sampler_next_nd(&smp, 4, ub);
             bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2], TRANSPORT_IMPORTANCE);
             vec3v wo = frame_to_world(fr, bs.wo);
+#ifdef SHADING_NORMALS
+            bs.weight = v3_scale(bs.weight, shading_adjoint(n, ns, v3_neg(d), wo));
+#endif
             beta = v3_select(beta, v3_mul(beta, bs.weight), cont);
             o = v3_select(o, offset_origin(p, n, wo), cont);
             d = v3_select(d, wo, cont);

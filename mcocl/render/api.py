@@ -32,7 +32,16 @@ from .bdpt_settings import bdpt_settings
 from .compiled import CompiledScene, compile_scene
 from .emitter_choice import bounding_sphere
 from .film import STATS, film_image, relative_error
-from .job import SPLAT_INTEGRATORS, UNBOUNDED_SPP, RenderJob, default_spp_per_block, scene_tables, tables_digest
+from .job import (
+    SPLAT_INTEGRATORS,
+    UNBOUNDED_SPP,
+    RenderJob,
+    default_spp_per_block,
+    require_no_clip,
+    scene_tables,
+    tables_digest,
+)
+from .pixel_filter import BOX, require_box
 from .scene import INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
 from .scene_file import load_scene
 from .sobol_film import MIN_BATCHES, sobol_spp_per_block
@@ -258,6 +267,11 @@ def render(
         raise InputError(f"spp must be below {UNBOUNDED_SPP}, got {spp}")
 
     bdpt = bdpt_settings(cs, mis, strategy, unweighted)
+    pixel_filter = getattr(cs, "pixel_filter", BOX)
+    near_clip = float(getattr(cs, "near_clip", 0.0))
+    if cs.integrator in SPLAT_INTEGRATORS:
+        require_box(pixel_filter, cs.integrator)
+        require_no_clip(near_clip, cs.integrator)
     tables = scene_tables(cs)
     meta = {
         "kind": "render",
@@ -271,6 +285,9 @@ def render(
         # None for independent: the checkpoints written before the option had no key, and read as None
         "sampler": sampler if sampler != "independent" else None,
         **({"bdpt": repr(bdpt)} if cs.integrator == "bdpt" else {}),
+        # no key for the box: the checkpoints written before filters existed have none
+        **({"filter": repr(pixel_filter)} if pixel_filter != BOX else {}),
+        **({"near_clip": near_clip} if near_clip > 0.0 else {}),
     }
     spp_limit = spp if spp is not None else UNBOUNDED_SPP
     acc: Accumulator | None = None
@@ -302,7 +319,8 @@ def render(
 
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
-                    spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius), sampler=sampler, **bdpt)
+                    spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius), sampler=sampler,
+                    pixel_filter=pixel_filter, near_clip=near_clip, **bdpt)
     ctx = runtime.device_context(opts.device)
     runner = job.runner(ctx)
     if acc is None:

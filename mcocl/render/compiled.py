@@ -88,8 +88,10 @@ from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
 from .emitter_choice import LUMINANCE, environment_choice, light_choice
+from .pixel_filter import BOX, PixelFilter
 from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
+from .shading_normals import vertex_normal_table
 from .shape_registry import SHAPES
 
 # Primitives up to which compile_scene builds the binned SAH tree (see there).
@@ -131,6 +133,10 @@ class CompiledScene:
     light_power: np.ndarray = field(default_factory=lambda: np.zeros(0))
     light_sampler: str = "power"
     sampler: str = "independent"  # integrator.sampler (mcocl/render/sobol_film.py)
+    pixel_filter: PixelFilter = BOX  # the camera's reconstruction filter (mcocl/render/pixel_filter.py)
+    # (T, 3, 4) corner normals of the triangles that shade smoothly, None if none does (render/shading_normals.py)
+    vertex_normals: np.ndarray | None = None
+    near_clip: float = 0.0  # camera.near_clip (kernels/render/camera.cl, camera_clip_origin)
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
@@ -194,11 +200,15 @@ class CompiledScene:
 
 def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: float,
                   width: int, height: int, aperture_radius: float = 0.0,
-                  focus_distance: float | None = None) -> np.ndarray:
+                  focus_distance: float | None = None,
+                  crop: tuple[int, int, int, int] | None = None) -> np.ndarray:
     """The (4, 4) float32 camera rows ``origin, right, up, forward`` of the contract.
 
     A thin lens (``aperture_radius`` > 0) focuses at ``focus_distance`` along
-    ``forward`` (None: the distance from ``origin`` to ``target``).
+    ``forward`` (None: the distance from ``origin`` to ``target``).  ``crop``
+    (offset x, offset y, width, height in pixels of the ``width`` x ``height``
+    film) renders that window: ``right``/``up`` span the crop and
+    crop_shift_x/y place its centre (kernels/render/camera.cl).
     """
     fwd = np.asarray(target, np.float64) - origin
     fwd /= np.linalg.norm(fwd)
@@ -209,6 +219,12 @@ def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: f
     # fov spans the smaller axis; the other axis extends by the aspect ratio.
     sx, sy = (t * width / height, t) if width >= height else (t, t * height / width)
     cam = np.zeros(1, CAMERA_RECORD.dtype())
+    if crop is not None:
+        ox, oy, cw, ch = crop
+        # full-film ndc = crop ndc * (cw / W) + (2 ox + cw) / W - 1 (rows count downwards: 1 - (2 oy + ch) / H)
+        sx, sy = sx * cw / width, sy * ch / height
+        cam["crop_shift_x"] = ((2.0 * ox + cw) / width - 1.0) * width / cw
+        cam["crop_shift_y"] = (1.0 - (2.0 * oy + ch) / height) * height / ch
     cam["origin"], cam["right"], cam["up"], cam["forward"] = origin, right * sx, true_up * sy, fwd
     if aperture_radius > 0.0:
         dist = float(np.linalg.norm(np.asarray(target, np.float64) - origin))
@@ -323,9 +339,9 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     cam = scene.camera
     bounds = np.ascontiguousarray(bvh.bounds if len(ids) else np.zeros((2, 3)), np.float32)
     cs = CompiledScene(
-        width=cam.width, height=cam.height,
+        width=cam.crop[2] if cam.crop else cam.width, height=cam.crop[3] if cam.crop else cam.height,
         camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height,
-                             cam.aperture_radius, cam.focus_distance),
+                             cam.aperture_radius, cam.focus_distance, cam.crop),
         tri_vertices=np.ascontiguousarray(tri_vertices), spheres=np.ascontiguousarray(sph32),
         sphere_flip=np.array(sphere_flip, np.uint32), prim_shape=prim_shape,
         bvh_nodes=np.ascontiguousarray(bvh.nodes), bvh_prims=np.ascontiguousarray(bvh.prims),
@@ -334,7 +350,8 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         prim_light=prim_light, light_area=light_area, env_radiance=env,
         light_power=power.astype(np.float64), light_sampler=scene.light_sampler, sampler=scene.sampler,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
-        bounds=bounds, source=scene.path,
+        bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
+        vertex_normals=vertex_normal_table(scene.shapes, tri64), near_clip=cam.near_clip,
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
                    "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},

@@ -142,6 +142,8 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         "env_choice": np.array([lt["env_threshold"], lt["env_pmf"]], np.float32),
         "geometry_counts": np.array([cs.num_triangles, cs.num_spheres], np.uint32),
     }
+    if getattr(cs, "vertex_normals", None) is not None:  # only then: other scenes keep their tables digest
+        tables["vertex_normals"] = np.ascontiguousarray(cs.vertex_normals, np.float32).reshape(-1, 4)
     if cs.light_sampler == "bvh":
         tree = build_light_bvh(cs)
         tables["light_bvh"], tables["light_trail"] = tree.nodes, tree.trail

@@ -34,6 +34,7 @@ import numpy as np
 import pyopencl as cl
 
 from .. import runtime
+from ..errors import InputError
 from ..layouts import Integrator, LightSampler
 from .device_scene import (
     LIGHT_BVH_ABSENT,
@@ -45,6 +46,8 @@ from .device_scene import (
     tables_digest,
 )
 from .film import STATS
+from .pixel_filter import BOX, PixelFilter, require_box
+from .shading_normals import VERTEX_NORMALS_ABSENT, require_face_normals, shading_defines
 from .sobol_film import block_batches, sobol_render_defines
 from .splat_film import SplatRunner, splat_groups
 
@@ -60,13 +63,21 @@ PATHS_PER_BLOCK = 1 << 20
 TILE_PIXELS = 64
 # The scene arrays the render kernel takes after its render_params, in its argument order.
 KERNEL_BUFFERS = ("camera", "bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
-                  "materials", "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail")
+                  "materials", "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail",
+                  "vertex_normals")
 # The integrators on the splatting film (mcocl/render/splat_film.py).
 SPLAT_INTEGRATORS = ("lt", "bdpt")
 # bdpt's MIS heuristics: the exponent beta of Veach's power heuristic (1: the balance heuristic).
 MIS_BETAS = {"balance": 1, "power": 2}
 # Light tracing starts its paths at emitters chosen by the power CDF: it takes no light BVH.
 LT_BUFFERS = tuple(name for name in KERNEL_BUFFERS if name not in ("light_bvh", "light_trail"))
+
+
+def require_no_clip(near_clip: float, integrator: str) -> None:
+    """Refuse a camera near_clip for a splatting integrator (its camera connections do not clip)."""
+    if near_clip > 0.0:
+        raise InputError(f"camera.near_clip works with the path integrators (path, nee, mis), not {integrator!r}: "
+                         "leave it out (0) or use mis")
 
 
 def default_spp_per_block(width: int, height: int) -> int:
@@ -119,6 +130,8 @@ class RenderJob:
     mis: str = "power"
     strategy: tuple[int, int] | None = None
     unweighted: bool = False
+    pixel_filter: PixelFilter = BOX  # the reconstruction filter (mcocl/render/pixel_filter.py)
+    near_clip: float = 0.0  # camera.near_clip: -DNEAR_CLIP (kernels/render/camera.cl)
     stat_shape: tuple[int, ...] = field(default=(0, 0, STATS))
 
     def __post_init__(self) -> None:
@@ -149,7 +162,13 @@ class RenderJob:
                 opts += [f"-DBDPT_ONLY_S={int(self.strategy[0])}", f"-DBDPT_ONLY_T={int(self.strategy[1])}"]
                 if self.unweighted:
                     opts.append("-DBDPT_UNWEIGHTED")
-        return opts
+        if self.splats:
+            require_box(self.pixel_filter, self.integrator)
+            require_no_clip(self.near_clip, self.integrator)
+        if self.integrator == "bdpt":
+            require_face_normals(self.tables)
+        clip = [f"-DNEAR_CLIP={float(np.float32(self.near_clip))!r}f"] if self.near_clip > 0.0 else []
+        return opts + self.pixel_filter.defines() + shading_defines(self.tables) + clip
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:
         """The kernel's ``render_params`` (mcocl/layouts.py) for a launch of ``nblocks`` from ``first_block``."""
@@ -184,7 +203,7 @@ class RenderRunner:
         self.build_seconds = time.perf_counter() - t0
         self.kernel = runtime.kernel(self.program, "render_blocks")
         mf = cl.mem_flags
-        t = {**LIGHT_BVH_ABSENT, **job.tables}
+        t = {**LIGHT_BVH_ABSENT, **VERTEX_NORMALS_ABSENT, **job.tables}
         self.buffers = {
             name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(t[name]))
             for name in KERNEL_BUFFERS
@@ -210,4 +229,4 @@ class RenderRunner:
 
 __all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "MIS_BETAS", "SPLAT_INTEGRATORS",
            "UNBOUNDED_SPP", "RenderJob", "RenderRunner",
-           "default_spp_per_block", "light_records", "light_tables", "prim_records", "scene_tables", "tables_digest"]
+           "default_spp_per_block", "light_records", "require_no_clip", "light_tables", "prim_records", "scene_tables", "tables_digest"]

@@ -28,6 +28,7 @@ from ..datafile import decode_utf8
 from ..errors import InputError
 from ..layouts import Integrator, MaterialKind
 from . import transform as tf
+from .pixel_filter import BOX, PixelFilter, parse_filter
 from .shape_registry import GEOMETRY_LIMIT, SHAPES
 
 # The names a scene file uses: the codes of mcocl/layouts.py, lower case.
@@ -78,6 +79,9 @@ class Camera:
     height: int
     aperture_radius: float = 0.0
     focus_distance: float | None = None
+    pixel_filter: PixelFilter = BOX  # camera.filter (mcocl/render/pixel_filter.py)
+    crop: tuple[int, int, int, int] | None = None  # offset x, y, width, height of the rendered window
+    near_clip: float = 0.0  # primary rays start this far along the optical axis (path integrators)
 
 
 @dataclass
@@ -117,7 +121,7 @@ class Shape:
     center: np.ndarray | None = None
     radius: float = 0.0
     name: str = ""
-    # Per-vertex data of a PLY mesh, kept for later shading normals and textures; nothing reads them yet.
+    # Per-vertex data of a PLY or serialized mesh: normals shade smoothly (render/shading_normals.py); uvs unused.
     normals: np.ndarray | None = None
     uvs: np.ndarray | None = None
 
@@ -322,7 +326,8 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
 
 
 def _camera(c: _Checker, v: Any, key: str) -> Camera:
-    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance"))
+    o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance", "filter", "crop",
+                                                                   "near_clip"))
     origin = c.vector(o["origin"], f"{key}.origin", limit=GEOMETRY_LIMIT)
     target = c.vector(o["target"], f"{key}.target", limit=GEOMETRY_LIMIT)
     up = c.vector(o.get("up", [0, 1, 0]), f"{key}.up", limit=GEOMETRY_LIMIT)
@@ -339,7 +344,24 @@ def _camera(c: _Checker, v: Any, key: str) -> Camera:
     focus = None
     if "focus_distance" in o:
         focus = c.number(o["focus_distance"], f"{key}.focus_distance", 0.0, GEOMETRY_LIMIT, lo_open=True)
-    return Camera(origin, target, up, fov, width, height, aperture, focus)
+    pf = parse_filter(o["filter"], f"{key}.filter") if "filter" in o else BOX
+    crop = _crop(c, o["crop"], f"{key}.crop", width, height) if "crop" in o else None
+    near = c.number(o.get("near_clip", 0.0), f"{key}.near_clip", 0.0, GEOMETRY_LIMIT)
+    return Camera(origin, target, up, fov, width, height, aperture, focus, pf, crop, near)
+
+
+def _crop(c: _Checker, v: Any, key: str, width: int, height: int) -> tuple[int, int, int, int] | None:
+    """``camera.crop``: ``{"offset": [x, y], "size": [w, h]}`` inside the width x height film."""
+    o = c.obj(v, key, ("offset", "size"), ())
+    off, size = o["offset"], o["size"]
+    for name, pair in (("offset", off), ("size", size)):
+        if not isinstance(pair, list) or len(pair) != 2:
+            c.fail(f"{key}.{name}", f"expected [x, y], got {pair!r}")
+    ox = c.integer(off[0], f"{key}.offset[0]", 0, width - 1)
+    oy = c.integer(off[1], f"{key}.offset[1]", 0, height - 1)
+    cw = c.integer(size[0], f"{key}.size[0]", 1, width - ox)
+    ch = c.integer(size[1], f"{key}.size[1]", 1, height - oy)
+    return None if (ox, oy, cw, ch) == (0, 0, width, height) else (ox, oy, cw, ch)
 
 
 def _integrator(c: _Checker, v: Any, key: str) -> dict:

@@ -137,26 +137,35 @@ class Sphere(ShapeSpec):
 
 @register_shape
 class Mesh(ShapeSpec):
-    """Triangles given inline, by a Wavefront OBJ file or by a PLY file."""
+    """Triangles given inline, by a Wavefront OBJ file, a PLY file or a Mitsuba serialized file."""
 
     name = "mesh"
-    keys = ("vertices", "faces", "obj", "ply")
+    keys = ("vertices", "faces", "obj", "ply", "serialized", "shape_index", "face_normals")
+    files = ("obj", "ply", "serialized")
     geometry = "triangles"
     keys_doc = ("either `vertices` ([[x, y, z], ...]) and `faces` ([[i, j, k], ...], 0-based), or `obj` "
                 "(path of a Wavefront OBJ file), or `ply` (path of a PLY file, ASCII or binary; polygons become "
-                "triangle fans); a file's path is relative to the scene file, it must lie in the scene file's folder "
+                "triangle fans), or `serialized` (path of a Mitsuba serialized file, with `shape_index`, default 0, "
+                "choosing its mesh); a PLY or serialized file's vertex normals shade smoothly (interpolated across each "
+                "triangle) unless `face_normals` is true (default false; OBJ normals are not read); a file's path is relative to the scene file, it must lie in the scene file's folder "
                 "or below it — `mcocl render --mesh-folder DIR` / `render(mesh_folder=DIR)` allows one more folder — "
                 "and the file must hold at least one face")
 
     def build(self, c: Any, o: dict, key: str, shape: Any, roots: list[Path]) -> None:
         """Inline vertices and faces (indices checked), or an OBJ or PLY file inside ``roots``."""
-        given = [k for k in ("vertices", "obj", "ply") if k in o or (k == "vertices" and "faces" in o)]
+        given = [k for k in ("vertices", *self.files) if k in o or (k == "vertices" and "faces" in o)]
         if len(given) > 1:
-            c.fail(f"{key}.{given[1]}", "give one of vertices/faces, obj or ply")
-        for kind in ("obj", "ply"):
+            c.fail(f"{key}.{given[1]}", "give one of vertices/faces, obj or ply, or a serialized file")
+        if "shape_index" in o and "serialized" not in o:
+            c.fail(f"{key}.shape_index", "shape_index chooses a mesh of a serialized file (give serialized)")
+        for kind in self.files:
             if kind in o:
                 self._file(c, o, key, shape, roots, kind)
+                if c.boolean(o.get("face_normals", False), f"{key}.face_normals"):
+                    shape.normals = None  # shade with the face normals (Mitsuba's face_normals)
                 return
+        if "face_normals" in o:
+            c.boolean(o["face_normals"], f"{key}.face_normals")  # inline meshes have no vertex normals
         for k in ("vertices", "faces"):
             if k not in o:
                 c.fail(f"{key}.{k}", "missing required key (or give obj or ply)")
@@ -176,6 +185,11 @@ class Mesh(ShapeSpec):
         try:
             if kind == "obj":
                 shape.vertices, shape.faces = shape_lib.read_obj(path, where)
+            elif kind == "serialized":
+                index = c.integer(o.get("shape_index", 0), f"{key}.shape_index", 0, 2**31 - 1)
+                mesh = shape_lib.read_serialized(path, index, where)
+                shape.vertices, shape.faces, shape.uvs = mesh.vertices, mesh.faces, mesh.uvs
+                shape.normals = None if mesh.face_normals else mesh.normals
             else:
                 mesh = shape_lib.read_ply(path, where)
                 shape.vertices, shape.faces, shape.normals, shape.uvs = mesh.vertices, mesh.faces, mesh.normals, mesh.uvs

@@ -26,6 +26,7 @@ import numpy as np
 from ..errors import InputError
 from .obj_reader import parse_obj
 from .ply_reader import PlyMesh, parse_ply
+from .serialized_reader import SerializedMesh, parse_serialized
 
 SEGMENTS = 128  # segments of the disk's and the cylinder's circles
 
@@ -124,6 +125,14 @@ def read_obj(path: Path, where: str) -> tuple[np.ndarray, np.ndarray]:
     return v, f
 
 
+def _check_vertex_data(mesh: PlyMesh, label: str) -> None:
+    """Refuse bad indices or a non-finite position, normal or texture coordinate."""
+    check_mesh(mesh.vertices, mesh.faces, label)
+    for name, a in (("normals", mesh.normals), ("texture coordinates", mesh.uvs)):
+        if a is not None and not np.all(np.isfinite(a)):
+            raise InputError(f"{label}: the vertex {name} contain a non-finite number")
+
+
 def read_ply(path: Path, where: str) -> PlyMesh:
     """Vertices, triangles and any per-vertex normals and UVs of a PLY file (ASCII or binary).
 
@@ -139,11 +148,25 @@ def read_ply(path: Path, where: str) -> PlyMesh:
     except OSError as e:
         raise InputError(f"{where}: cannot read PLY file {path}: {e.strerror or e}") from None
     mesh = parse_ply(data, f"{where}: {path}")
-    check_mesh(mesh.vertices, mesh.faces, f"{where}: {path}")
-    for name, a in (("normals", mesh.normals), ("texture coordinates", mesh.uvs)):
-        if a is not None and not np.all(np.isfinite(a)):
-            raise InputError(f"{where}: {path}: the vertex {name} contain a non-finite number")
+    _check_vertex_data(mesh, f"{where}: {path}")
     return mesh
 
 
-__all__ = ["SEGMENTS", "check_mesh", "cube", "cylinder", "disk", "read_obj", "read_ply", "rectangle"]
+def read_serialized(path: Path, shape_index: int, where: str) -> SerializedMesh:
+    """Mesh ``shape_index`` of a Mitsuba serialized file (:mod:`mcocl.render.serialized_reader`).
+
+    Raises:
+        InputError: the file is missing or malformed, or holds no such mesh; the
+            message names the scene key ``where`` and the file.
+    """
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise InputError(f"{where}: cannot read serialized file {path}: {e.strerror or e}") from None
+    mesh = parse_serialized(data, shape_index, f"{where}: {path}")
+    _check_vertex_data(mesh, f"{where}: {path}")
+    return mesh
+
+
+__all__ = ["SEGMENTS", "check_mesh", "cube", "cylinder", "disk", "read_obj", "read_ply", "read_serialized",
+           "rectangle"]

@@ -42,6 +42,7 @@ import pyopencl as cl
 
 from .. import runtime
 from .film import STATS
+from .shading_normals import VERTEX_NORMALS_ABSENT
 
 KERNEL_FILE = "render/lt.cl"
 # Per splatting integrator: its kernel file and trace kernel (both fold with lt_fold_groups).
@@ -108,8 +109,9 @@ class SplatRunner:
         self.fold = runtime.kernel(self.program, "lt_fold_groups")
         self.buffer_names = buffer_names
         mf = cl.mem_flags
+        tables = {**VERTEX_NORMALS_ABSENT, **job.tables}
         self.buffers = {
-            name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(job.tables[name]))
+            name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(tables[name]))
             for name in buffer_names
         }
         self.per_launch = blocks_per_launch(job.width, job.height, job.ntiles)

@@ -12,7 +12,12 @@
 - ``thinlens``: the same, plus ``aperture_radius`` (required, as in Mitsuba)
   and ``focus_distance`` (Mitsuba's default: ``far_clip``, 10^4) → mcocl's
   thin-lens camera.
-- ``hdrfilm``: ``width``/``height`` (Mitsuba's defaults 768 × 576).
+- ``hdrfilm``: ``width``/``height`` (Mitsuba's defaults 768 × 576); ``<rfilter>`` ``box``,
+  ``tent`` (``radius``, default 1) or ``gaussian`` (``stddev``, default 0.5; Mitsuba's default
+  filter when the film names none) → ``camera.filter`` (mcocl/render/pixel_filter.py);
+  ``crop_offset_x/y``, ``crop_width/height`` → ``camera.crop`` (the image is the window).
+- ``near_clip`` given in the file → ``camera.near_clip`` (Mitsuba's default 0.01 is not
+  applied, so that files without it render as their JSON twins); ``far_clip`` is unsupported.
 - samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
   ``ldsampler``: ``sample_count`` (default 4) → ``spp``; mcocl always draws from
   its counter-based Philox generator, so the sample pattern differs, not the
@@ -30,6 +35,8 @@ from typing import Any
 
 import numpy as np
 
+from ...errors import InputError
+from ..pixel_filter import PIXEL_FILTERS, PixelFilter, make_filter
 from .properties import split_children
 from .report import Reporter, nearest
 from .xml_source import Node
@@ -40,6 +47,8 @@ FILM_SIZE = (768, 576)
 SAMPLE_COUNT = 4
 FOV_AXES = ("x", "y", "diagonal", "smaller", "larger")
 SENSORS = ("perspective", "thinlens")
+CROP_KEYS = ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height")
+NEAR_CLIP = 1e-2  # Mitsuba's default near_clip
 FAR_CLIP = 1e4  # Mitsuba's far_clip, the default focus_distance of a thinlens
 
 
@@ -66,10 +75,12 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     for o in objects:
         if o.tag not in ("film", "sampler"):
             rep.unsupported(o, f"<{o.tag}> inside a sensor", "<film> and <sampler>", "nothing (ignored)", comments)
+    pixel_filter, crop = make_filter("gaussian"), None
     if films:
-        width, height = _film(films[0], rep, comments)
+        width, height, pixel_filter, crop = _film(films[0], rep, comments)
     else:
-        comments.append(f"no <film>: Mitsuba's hdrfilm default {width} x {height}, Gaussian filter (mcocl: box filter)")
+        comments.append(f"no <film>: Mitsuba's hdrfilm default {width} x {height} with its Gaussian filter "
+                        "(stddev 0.5)")
     if samplers:
         spp = _sampler(samplers[0], rep, comments)
     else:
@@ -103,7 +114,9 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
         comments.append(f"fov {fov:g} on axis {axis!r} of {width} x {height} = {fov_small:.9g} on the smaller axis")
     cam: dict[str, Any] = {"comment": comments}
     cam.update(_orientation(node, props, rep, comments))
-    cam.update({"fov": fov_small, "width": width, "height": height})
+    cam.update({"fov": fov_small, "width": width, "height": height, "filter": pixel_filter.to_json()})
+    if crop is not None:
+        cam["crop"] = crop
     lens_keys: tuple[str, ...] = ()
     if kind == "thinlens":
         lens_keys = ("aperture_radius", "focus_distance")
@@ -115,12 +128,21 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
             focus = FAR_CLIP
             comments.append(f"focus_distance: Mitsuba's default, far_clip = {FAR_CLIP:g}")
         cam.update({"aperture_radius": aperture, "focus_distance": focus})
-    for k in ("near_clip", "far_clip"):
-        if k in props:
-            props.read.add(k)
-            rep.unsupported(props.node(k), f"{k} (mcocl does not clip along the view ray)", "leave it out",
-                            "no clipping", comments)
-    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", *lens_keys), comments)
+    near = props.get("near_clip", ("float",), None)
+    if near is None:
+        comments.append(f"near_clip: Mitsuba's default {NEAR_CLIP:g} is not applied (nothing is clipped)")
+    elif not 0.0 <= near < FAR_CLIP:
+        props.node("near_clip").fail(f"near_clip must lie in [0, {FAR_CLIP:g}), got {near:g}")
+    elif near > 0.0:
+        cam["near_clip"] = near
+        comments.append(f"near_clip {near:g}: primary rays start at that distance along the optical axis "
+                        "(path integrators only)")
+    if "far_clip" in props:
+        props.read.add("far_clip")
+        rep.unsupported(props.node("far_clip"), "far_clip (mcocl does not clip far along the view ray)",
+                        "leave it out", "no clipping", comments)
+    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", "near_clip", *lens_keys),
+                 comments)
     return cam, spp
 
 
@@ -160,24 +182,64 @@ def _film(node: Node, rep: Reporter, comments: list[str]) -> tuple[int, int]:
             props.node(k).fail(f"{k} must be >= 1, got {v}")
     if "width" not in props or "height" not in props:
         comments.append(f"film size {width} x {height} (Mitsuba's default 768 x 576 where not given)")
+    crop = _crop(node, props, width, height, comments)
     filters = [o for o in objects if o.tag == "rfilter"]
     for o in objects:
         if o.tag != "rfilter":
             rep.unsupported(o, f"<{o.tag}> inside a film", "<rfilter>", "nothing (ignored)", comments)
-    if not filters:
-        comments.append("no <rfilter>: Mitsuba's default is a Gaussian filter; mcocl's film is a box filter "
-                        "(each pixel the plain mean of its samples)")
-    for f in filters:
-        if f.attrib.get("type") != "box":
-            rep.unsupported(f, f"the reconstruction filter {f.attrib.get('type')!r}", "box",
-                            "the box filter", comments)
+    if len(filters) > 1:
+        filters[1].fail("a film takes one <rfilter>")
+    if filters:
+        pixel_filter = _rfilter(filters[0], rep, comments)
+    else:
+        pixel_filter = make_filter("gaussian")
+        comments.append("no <rfilter>: Mitsuba's default Gaussian filter (stddev 0.5, radius 2), "
+                        "by filter importance sampling")
     for k in ("pixel_format", "component_format", "file_format", "banner"):
         if k in props:
             props.read.add(k)
             comments.append(f"{k}: ignored (mcocl writes float32 RGB EXR with a variance layer)")
-    rep.leftover(node, props.unread(), ("width", "height", "pixel_format", "component_format", "file_format"),
-                 comments)
-    return width, height
+    rep.leftover(node, props.unread(), ("width", "height", *CROP_KEYS, "pixel_format", "component_format",
+                                        "file_format"), comments)
+    return width, height, pixel_filter, crop
+
+
+def _crop(film: Node, props, width: int, height: int, comments: list[str]) -> dict | None:
+    """hdrfilm ``crop_offset_x/y``, ``crop_width/height`` (Mitsuba's defaults: the whole film) → ``camera.crop``."""
+    ox = props.get("crop_offset_x", ("integer",), 0)
+    oy = props.get("crop_offset_y", ("integer",), 0)
+    cw = props.get("crop_width", ("integer",), width)
+    ch = props.get("crop_height", ("integer",), height)
+    for k, v, lo, hi in (("crop_offset_x", ox, 0, width - 1), ("crop_offset_y", oy, 0, height - 1),
+                         ("crop_width", cw, 1, width - ox), ("crop_height", ch, 1, height - oy)):
+        if not lo <= v <= hi:
+            (props.node(k) if k in props else film).fail(f"{k} must lie in [{lo}, {hi}] for a {width} x {height} film, got {v}")
+    if (ox, oy, cw, ch) == (0, 0, width, height):
+        return None
+    comments.append(f"crop: the {cw} x {ch} window at ({ox}, {oy}) of the {width} x {height} film")
+    return {"offset": [ox, oy], "size": [cw, ch]}
+
+
+def _rfilter(node: Node, rep: Reporter, comments: list[str]) -> PixelFilter:
+    """Mitsuba's ``box``, ``tent`` (``radius``) and ``gaussian`` (``stddev``) reconstruction filters."""
+    kind = node.attrib.get("type", "")
+    props, objects = split_children(node)
+    for o in objects:
+        rep.unsupported(o, f"<{o.tag}> inside an rfilter", "leave it out", "nothing (ignored)", comments)
+    if kind not in PIXEL_FILTERS:
+        rep.unsupported(node, f"the reconstruction filter {kind!r}", nearest(kind, PIXEL_FILTERS),
+                        "the Gaussian filter (stddev 0.5)", comments)
+        return make_filter("gaussian")
+    names = {"box": (), "tent": ("radius",), "gaussian": ("stddev",)}[kind]
+    values = {k: props.get(k, ("float",), None) for k in names}
+    try:
+        f = make_filter(kind, **values)
+    except InputError as e:
+        node.fail(str(e))
+    comments.append(f"rfilter {kind}" + "".join(f", {k} {v:g}" for k, v in values.items() if v is not None)
+                    + ("" if kind == "box" else " (sampled as the film point's distribution)"))
+    rep.leftover(node, props.unread(), names, comments)
+    return f
 
 
 def _sampler(node: Node, rep: Reporter, comments: list[str]) -> int:

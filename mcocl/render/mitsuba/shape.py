@@ -4,8 +4,9 @@ Shapes: ``rectangle``, ``cube``, ``disk``, ``cylinder`` (the last two
 tessellated: mcocl/render/shapes.py), ``sphere`` (``center``, ``radius``, a
 similarity ``to_world``), ``obj`` and ``ply`` (``filename`` relative to the
 file it is written in, confined to the scene's folder); ``to_world`` and
-``flip_normals`` on all of them, ``face_normals`` on ``obj`` and ``ply``
-(mcocl shades every triangle with its face normal).  A shape without a BSDF
+``serialized`` (with ``shape_index``: mcocl/render/serialized_reader.py);
+``flip_normals`` on all of them, ``face_normals`` on ``obj``, ``ply`` and ``serialized``
+(PLY and serialized vertex normals shade smoothly unless it is set; OBJ normals are not read).  A shape without a BSDF
 gets Mitsuba's default, diffuse 0.5, or black when it emits.  Emitters:
 ``area`` inside a shape and a top-level ``constant``, each with ``radiance``
 (default 1).
@@ -26,11 +27,10 @@ from .properties import split_children
 from .report import Reporter, nearest
 from .xml_source import Node
 
-SUPPORTED = ("rectangle", "cube", "disk", "cylinder", "sphere", "obj", "ply")
-MESH_FILES = ("obj", "ply")  # plugins that become a "mesh" shape reading the file of the same kind
+SUPPORTED = ("rectangle", "cube", "disk", "cylinder", "sphere", "obj", "ply", "serialized")
+MESH_FILES = ("obj", "ply", "serialized")  # plugins that become a "mesh" shape reading the file of the same kind
 # Unsupported shape plugin → the nearest supported alternative.
 ALTERNATIVES = {
-    "serialized": "ply or obj (convert the mesh)",
     "shapegroup": "the shapes themselves, repeated",
     "instance": "the shapes themselves, repeated",
 }
@@ -154,11 +154,20 @@ class ShapeTranslator:
         elif kind in MESH_FILES:
             supported += ["filename", "face_normals", "flip_tex_coords"]
             out[kind] = self._mesh_file(node, props, kind)
+            if kind == "serialized":
+                supported.append("shape_index")
+                index = props.get("shape_index", ("integer",), 0)
+                if index < 0:
+                    props.node("shape_index").fail(f"shape_index must be >= 0, got {index}")
+                out["shape_index"] = index
             if props.get("face_normals", ("boolean",), False):
-                comments.append("face_normals: mcocl shades every triangle with its face normal")
+                out["face_normals"] = True
+                comments.append("face_normals: every triangle shades with its face normal")
+            elif kind == "obj":
+                comments.append("mcocl's OBJ reader ignores vn normals: every triangle shades with its face normal "
+                                "(Mitsuba interpolates the file's vertex normals)")
             else:
-                comments.append("mcocl shades every triangle with its face normal (Mitsuba interpolates the file's "
-                                "vertex normals unless face_normals is true)")
+                comments.append("the file's vertex normals, if any, shade smoothly (as in Mitsuba)")
             if "flip_tex_coords" in props:
                 props.read.add("flip_tex_coords")
                 comments.append("flip_tex_coords: ignored (no textures)")

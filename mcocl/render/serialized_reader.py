@@ -1,0 +1,152 @@
+"""Mitsuba's ``serialized`` mesh files: zlib-compressed meshes, several per file, picked by ``shape_index``.
+
+The format (Mitsuba's documentation of the ``serialized`` plugin; little-endian throughout):
+
+- each mesh starts with the uncompressed uint16 format identifier ``0x041C``
+  and a uint16 version (3 or 4), followed by one zlib stream holding
+  - uint32 ``flags``: 0x0001 per-vertex normals, 0x0002 texture coordinates,
+    0x0008 vertex colours, 0x0010 face normals (shade flat), 0x1000 single
+    precision, 0x2000 double precision (exactly one of the last two);
+  - version 4 only: the mesh's name, UTF-8, terminated by a zero byte;
+  - uint64 vertex count V, uint64 triangle count T;
+  - V × 3 positions, then V × 3 normals, V × 2 texture coordinates and V × 3
+    colours when flagged, in the file's precision;
+  - T × 3 vertex indices, uint32 (uint64 when V needs more than 32 bits);
+- after the last mesh, a table of where each mesh starts (uint64 offsets in
+  version 4, uint32 in version 3) and, in the file's last 4 bytes, the uint32
+  number of meshes.
+
+The decompression is bounded: the header is read first, and the body is
+inflated only up to the size that V and T imply, which must also be within
+deflate's largest ratio (1032:1) of the compressed bytes, so a corrupt count
+or a zip bomb is refused before memory is spent on it.
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from .ply_reader import PlyMesh
+
+MAGIC = 0x041C
+VERSIONS = (3, 4)
+HAS_NORMALS, HAS_UVS, HAS_COLORS, FACE_NORMALS = 0x0001, 0x0002, 0x0008, 0x0010
+SINGLE, DOUBLE = 0x1000, 0x2000
+DEFLATE_MAX_RATIO = 1032  # the most bytes one compressed byte can inflate to
+_HEAD_BYTES = 4 + 4096 + 16  # flags, a name of up to 4 KiB, the two counts
+
+
+@dataclass
+class SerializedMesh(PlyMesh):
+    """A mesh of a serialized file: :class:`PlyMesh` plus its name and whether it asks for face normals."""
+
+    name: str = ""
+    face_normals: bool = False
+
+
+def mesh_count(data: bytes, label: str) -> int:
+    """How many meshes the file holds (from its closing table)."""
+    return len(_offsets(data, label)) - 1
+
+
+def _offsets(data: bytes, label: str) -> list[int]:
+    """Where each mesh starts, then where the closing table starts (the last mesh's end)."""
+    if len(data) < 8:
+        raise InputError(f"{label}: not a serialized mesh file (too short)")
+    magic, version = np.frombuffer(data, "<u2", 2)
+    if magic != MAGIC or version not in VERSIONS:
+        raise InputError(f"{label}: not a serialized mesh file (it must begin with 0x041C and version 3 or 4)")
+    count = int(np.frombuffer(data, "<u4", 1, len(data) - 4)[0])
+    width = 8 if version == 4 else 4
+    table = len(data) - 4 - count * width
+    if count < 1 or table < 4:
+        raise InputError(f"{label}: the table of meshes at the end of the file is corrupt ({count} meshes)")
+    offs = np.frombuffer(data, "<u8" if width == 8 else "<u4", count, table).astype(np.int64)
+    ends = np.append(offs[1:], table)
+    if offs[0] != 0 or np.any(ends - offs < 4):
+        raise InputError(f"{label}: the table of meshes at the end of the file is corrupt (bad offsets)")
+    return [*offs.tolist(), table]
+
+
+def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMesh:
+    """Mesh ``shape_index`` (0-based) of a serialized file's bytes.
+
+    Raises:
+        InputError: not a serialized file, an index out of range, or a corrupt mesh (named by ``label``).
+    """
+    bounds = _offsets(data, label)
+    n = len(bounds) - 1
+    if not 0 <= shape_index < n:
+        raise InputError(f"{label}: shape_index {shape_index} is out of range (the file holds {n} meshes: 0..{n - 1})")
+    start, end = bounds[shape_index], bounds[shape_index + 1]
+    at = f"{label}: mesh {shape_index}"
+    magic, version = np.frombuffer(data, "<u2", 2, start)
+    if magic != MAGIC or version not in VERSIONS:
+        raise InputError(f"{at}: does not begin with 0x041C and version 3 or 4")
+    packed = data[start + 4:end]
+    inflate = zlib.decompressobj()
+    try:
+        head = inflate.decompress(packed, _HEAD_BYTES)
+    except zlib.error as e:
+        raise InputError(f"{at}: corrupt zlib data ({e})") from None
+    flags, name, nv, nt, pos = _header(head, int(version), at)
+    real = 8 if flags & DOUBLE else 4
+    per_vertex = 3 + 3 * bool(flags & HAS_NORMALS) + 2 * bool(flags & HAS_UVS) + 3 * bool(flags & HAS_COLORS)
+    index = 8 if nv > 0xFFFFFFFF else 4
+    need = nv * per_vertex * real + nt * 3 * index
+    if need > DEFLATE_MAX_RATIO * len(packed) + _HEAD_BYTES:
+        raise InputError(f"{at}: {nv} vertices and {nt} triangles cannot come from {len(packed)} compressed bytes")
+    rest = need - (len(head) - pos)
+    try:
+        body = head[pos:] + (inflate.decompress(inflate.unconsumed_tail, rest) if rest > 0 else b"")
+    except zlib.error as e:
+        raise InputError(f"{at}: corrupt zlib data ({e})") from None
+    if len(body) < need:
+        raise InputError(f"{at}: the data ends early ({len(body)} of {need} bytes)")
+    ftype = "<f8" if real == 8 else "<f4"
+    off = 0
+
+    def take(count: int, dtype: str) -> np.ndarray:
+        nonlocal off
+        a = np.frombuffer(body, dtype, count, off)
+        off += count * np.dtype(dtype).itemsize
+        return a
+
+    vertices = take(nv * 3, ftype).reshape(nv, 3).astype(np.float64)
+    normals = take(nv * 3, ftype).reshape(nv, 3).astype(np.float64) if flags & HAS_NORMALS else None
+    uvs = take(nv * 2, ftype).reshape(nv, 2).astype(np.float64) if flags & HAS_UVS else None
+    if flags & HAS_COLORS:
+        take(nv * 3, ftype)  # vertex colours: not used
+    faces = take(nt * 3, "<u8" if index == 8 else "<u4").reshape(nt, 3)
+    if nt and int(faces.max()) >= nv:
+        raise InputError(f"{at}: a triangle's vertex index {int(faces.max())} is outside 0..{nv - 1}")
+    return SerializedMesh(vertices, faces.astype(np.int64), normals, uvs, name, bool(flags & FACE_NORMALS))
+
+
+def _header(head: bytes, version: int, at: str) -> tuple[int, str, int, int, int]:
+    """(flags, name, vertex count, triangle count, where the arrays start) of an inflated mesh."""
+    if len(head) < 4:
+        raise InputError(f"{at}: the compressed mesh is empty")
+    flags = int(np.frombuffer(head, "<u4", 1)[0])
+    if bool(flags & SINGLE) == bool(flags & DOUBLE):
+        raise InputError(f"{at}: flags 0x{flags:04x} must give exactly one of single (0x1000) or double (0x2000)")
+    pos, name = 4, ""
+    if version == 4:
+        z = head.find(b"\0", pos)
+        if z < 0:
+            raise InputError(f"{at}: the mesh name has no terminating zero byte within {_HEAD_BYTES - 20} bytes")
+        name = head[pos:z].decode("utf-8", "replace")
+        pos = z + 1
+    if len(head) < pos + 16:
+        raise InputError(f"{at}: the data ends inside the header")
+    nv, nt = (int(x) for x in np.frombuffer(head, "<u8", 2, pos))
+    if nv < 3 or nt < 1 or nv >= 1 << 40 or nt >= 1 << 40:
+        raise InputError(f"{at}: implausible counts ({nv} vertices, {nt} triangles)")
+    return flags, name, nv, nt, pos + 16
+
+
+__all__ = ["SerializedMesh", "mesh_count", "parse_serialized"]

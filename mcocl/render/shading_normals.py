@@ -1,0 +1,80 @@
+"""Per-triangle vertex normals for shading (kernels/render/shading_normal.cl).
+
+A mesh shape whose file gives vertex normals (PLY, serialized) shades with
+normals interpolated across each triangle unless its ``face_normals`` is set
+(Mitsuba's behaviour).  :func:`vertex_normal_table` lays them out for the
+device: three float4 per triangle, in the order of the compiled scene's
+``tri_vertices`` (the corners reordered as :func:`~mcocl.render.compiled.compile_scene`
+reorders them for a mirroring transform or ``flip_normals``), transformed to
+world space by the inverse transpose of the shape's matrix, normalised, and
+turned to the face's front side (the side whose normal the triangle's winding
+gives, where emission and ``twosided`` look): a corner normal set whose sum
+points behind the face is negated.  w = 1 marks a triangle with normals.
+
+Scenes without any such triangle have no table, and their kernels are built
+without -DSHADING_NORMALS: they render bit for bit as before.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from . import transform as tf
+from .shape_registry import SHAPES
+
+# What the kernels read for vertex_normals when the scene has none (OpenCL has no empty buffers).
+VERTEX_NORMALS_ABSENT = {"vertex_normals": np.zeros((1, 4), np.float32)}
+
+
+def _world_normals(shape) -> np.ndarray:
+    """The shape's vertex normals in world space, unit length (zero rows stay zero), float64."""
+    lin = np.asarray(shape.matrix, np.float64)[:3, :3]
+    n = np.asarray(shape.normals, np.float64) @ np.linalg.inv(lin)  # rows times M^-1: (M^-T n) as rows
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+
+
+def vertex_normal_table(shapes: list, world_triangles: np.ndarray) -> np.ndarray | None:
+    """(T, 3, 4) float32 corner normals for the compiled triangles, or None when no shape has any.
+
+    ``shapes`` are the scene's shapes in order; ``world_triangles`` (T, 3, 3)
+    the compiled triangles (to orient the normals to each face's front).
+    """
+    if not any(sh.normals is not None and not SHAPES[sh.kind].sphere for sh in shapes):
+        return None
+    table = np.zeros((len(world_triangles), 3, 4), np.float32)
+    start = 0
+    for sh in shapes:
+        if SHAPES[sh.kind].sphere:
+            continue
+        count = len(sh.faces)
+        if sh.normals is not None:
+            faces = sh.faces
+            if tf.is_orientation_reversing(sh.matrix) != sh.flip_normals:
+                faces = faces[:, [0, 2, 1]]  # as compiled.py's _shape_triangles
+            corner = _world_normals(sh)[faces]  # (count, 3, 3)
+            tri = world_triangles[start:start + count]
+            face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            behind = np.einsum("ij,ij->i", corner.sum(axis=1), face_n) < 0.0
+            corner[behind] *= -1.0
+            table[start:start + count, :, :3] = corner
+            table[start:start + count, :, 3] = 1.0
+        start += count
+    return table
+
+
+def require_face_normals(tables: dict) -> None:
+    """Refuse shading normals in bidirectional path tracing (its adjoint corrections are not written yet)."""
+    if "vertex_normals" in tables:
+        raise InputError("bdpt does not support shading normals yet: set face_normals to true on the meshes with "
+                         "vertex normals (JSON \"face_normals\": true, XML <boolean name=\"face_normals\" "
+                         "value=\"true\"/>), or render with mis or lt")
+
+
+def shading_defines(tables: dict) -> list[str]:
+    """The build option of a scene with vertex normals (none otherwise)."""
+    return ["-DSHADING_NORMALS"] if "vertex_normals" in tables else []
+
+
+__all__ = ["VERTEX_NORMALS_ABSENT", "require_face_normals", "shading_defines", "vertex_normal_table"]
