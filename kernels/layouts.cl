@@ -12,6 +12,8 @@
 #define MAT_ROUGHCONDUCTOR 2
 #define MAT_DIELECTRIC 3
 #define MAT_PLASTIC 4
+#define MAT_ROUGHDIELECTRIC 5
+#define MAT_THINDIELECTRIC 6
 
 /* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl;
     BDPT: kernels/render/bdpt.cl). */

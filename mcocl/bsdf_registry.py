@@ -109,6 +109,9 @@ class BsdfSpec:
         transmissive: sampling may refract (writes the path's ``eta``).
         mixed: a delta lobe beside smooth ones: the sample function takes a last
             argument ``intv *delta`` (the lanes that sampled the delta lobe).
+        eval_mode: eval depends on the transport mode (refraction's radiance
+            scaling of a smooth transmissive BSDF): the eval function takes a last
+            argument ``int mode``.
         summary: one line for scenes/README.md.
     """
 
@@ -119,6 +122,7 @@ class BsdfSpec:
     delta: ClassVar[bool] = False
     transmissive: ClassVar[bool] = False
     mixed: ClassVar[bool] = False
+    eval_mode: ClassVar[bool] = False
     summary: ClassVar[str]
 
     @property
@@ -190,6 +194,9 @@ def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]
     return out
 
 
+ALPHA = Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0)
+DISTRIBUTION = Param("distribution", "choice", "flags", "the microfacet distribution", default="ggx",
+                     choices=("ggx", "beckmann"))
 TWOSIDED = Param("twosided", "flag", "flags", "the same BSDF mirrored onto the back side, as Mitsuba's `twosided`", default=False)
 
 
@@ -225,10 +232,7 @@ class RoughConductor(BsdfSpec):
     name = "roughconductor"
     code = 2
     params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0),
-              Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0),
-              Param("distribution", "choice", "flags", "the microfacet distribution", default="ggx",
-                    choices=("ggx", "beckmann")),
-              TWOSIDED)
+              ALPHA, DISTRIBUTION, TWOSIDED)
     summary = ("microfacet reflection with roughness α: GGX sampled by visible normals, or Beckmann sampled by "
                "D(m) cos θ_m; one-sided unless `twosided`")
 
@@ -272,6 +276,57 @@ class Plastic(BsdfSpec):
                "one-sided unless `twosided`")
 
 
+
+
+def _distinct_iors(values: dict[str, object]) -> tuple[str, str] | None:
+    """An interface between equal indices would be invisible."""
+    if values["int_ior"] == values["ext_ior"]:
+        return "int_ior", "int_ior equals ext_ior: the interface would be invisible"
+    return None
+
+
+@register_bsdf
+class RoughDielectric(BsdfSpec):
+    """Rough glass, Walter et al. 2007 (kernels/render/bsdf_roughdielectric.cl), Mitsuba 3's `roughdielectric`.
+
+    As roughconductor, the distribution's default is GGX in mcocl's JSON; the
+    Mitsuba importer writes Mitsuba's default, Beckmann.
+    """
+
+    name = "roughdielectric"
+    code = 5
+    params = (Param("int_ior", "number", "int_ior", "BK7", default=1.5046, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              ALPHA, DISTRIBUTION)
+    fixed = {"rgb": (1.0, 1.0, 1.0)}
+    transmissive = True
+    eval_mode = True
+    summary = ("rough glass (Walter et al. 2007): microfacet reflection and refraction with roughness α, GGX "
+               "sampled by visible normals or Beckmann by D(m) cos θ_m; `int_ior` is inside")
+
+    def check(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """An interface between equal indices would be invisible."""
+        return _distinct_iors(values)
+
+
+@register_bsdf
+class ThinDielectric(BsdfSpec):
+    """A thin glass sheet (kernels/render/bsdf_thindielectric.cl), Mitsuba 3's `thindielectric`."""
+
+    name = "thindielectric"
+    code = 6
+    params = (Param("int_ior", "number", "int_ior", "BK7", default=1.5046, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT))
+    fixed = {"rgb": (1.0, 1.0, 1.0)}
+    delta = True
+    summary = ("a thin glass sheet: Fresnel reflection with the inter-reflections of its two faces summed, "
+               "transmission straight through (no refraction)")
+
+    def check(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """An interface between equal indices would be invisible."""
+        return _distinct_iors(values)
+
+
 def _any_kind(specs: list[BsdfSpec]) -> str:
     """C: the lanes whose material is one of ``specs``."""
     if not specs:
@@ -304,9 +359,9 @@ def dispatcher_source() -> str:
         " *",
         " * Transport modes (Veach's thesis §5.2; pbrt-v4's and Mitsuba 3's TransportMode):",
         " * camera paths carry radiance (TRANSPORT_RADIANCE), light paths importance",
-        " * (TRANSPORT_IMPORTANCE).  eval is the same in both modes for the BSDFs here",
-        " * (all symmetric but for refraction's radiance scaling), so only sample takes",
-        " * the mode, and passes it to every BSDF's sample function.",
+        " * (TRANSPORT_IMPORTANCE).  The BSDFs here are symmetric but for refraction's",
+        " * radiance scaling: sample passes the mode to every BSDF's sample function,",
+        " * eval (bsdf_eval_mode) to the smooth refracting ones (roughdielectric).",
         " */",
         "#ifndef MCOCL_BSDF_CL",
         "#define MCOCL_BSDF_CL",
@@ -333,9 +388,10 @@ def dispatcher_source() -> str:
         f"    return {_any_kind(smooth)};",
         "}",
         "",
-        "/* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi.",
+        "/* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi, in",
+        " * transport mode `mode` (it matters to rough refraction only, see the top).",
         " * Zero for the delta materials (a mirror never reflects a sampled light). */",
-        "MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {",
+        "MC_INLINE vec3v bsdf_eval_mode(const material_v *m, vec3v wi, vec3v wo, floatv *pdf, int mode) {",
         "    vec3v f = v3s(0.0f);",
         "    floatv p = (floatv)(0.0f);",
         "    intv back = bsdf_mirrored(m, wi);",
@@ -347,7 +403,7 @@ def dispatcher_source() -> str:
             f"    intv is_{s.name} = m->kind == {s.c_code};",
             f"    if (lane_any(is_{s.name})) {{",
             "        floatv pk;",
-            f"        vec3v fk = {s.eval_function}(m, wi, wo, &pk);",
+            f"        vec3v fk = {s.eval_function}(m, wi, wo, &pk{', mode' if s.eval_mode else ''});",
             f"        f = v3_select(f, fk, is_{s.name});",
             f"        p = lane_select(p, pk, is_{s.name});",
             "    }",
@@ -355,6 +411,11 @@ def dispatcher_source() -> str:
     out += [
         "    *pdf = p;",
         "    return f;",
+        "}",
+        "",
+        "/* bsdf_eval_mode for camera paths (radiance). */",
+        "MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {",
+        "    return bsdf_eval_mode(m, wi, wo, pdf, TRANSPORT_RADIANCE);",
         "}",
         "",
         "typedef struct {",
