@@ -26,8 +26,9 @@ committed and rewritten by ``python -m mcocl.layouts``; tests/test_bsdf_registry
 fails when either is stale.
 
 Adding a BSDF: its kernel file, one class here, its test (docs/architecture.md).
-This module imports nothing from mcocl, so that mcocl/layouts.py can derive
-its enum from it.
+This module imports nothing from mcocl but its table of conductor presets
+(mcocl/conductor_iors.py, itself without imports), so that mcocl/layouts.py
+can derive its enum from it.
 """
 
 from __future__ import annotations
@@ -35,19 +36,24 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+from .conductor_iors import CONDUCTOR_IORS
+
 # The material_record fields a key can pack into (mcocl/layouts.py, MATERIAL_RECORD),
 # with the value a material that does not set them stores.
 # Indices of refraction beyond this are refused (no material has one; float32 Fresnel terms degrade).
 IOR_LIMIT = 1e6
 
 RECORD_FIELDS: dict[str, object] = {"rgb": (1.0, 1.0, 1.0), "alpha": 0.0, "int_ior": 1.0, "ext_ior": 1.0,
-                                    "flags": 0}
+                                    "flags": 0, "alpha_second": 0.0, "eta_rgb": (0.0, 0.0, 0.0), "k_rgb": (0.0, 0.0, 0.0)}
 
 # Bits of material_record.flags (``MAT_FLAG_<NAME>`` in kernels/render/bsdf.cl), set by the ``"flag"`` keys
 # (bit named as the key) and the ``"choice"`` keys (bit named as the choice; the first choice sets none).
 # twosided: the BSDF is mirrored onto the back side (Mitsuba's `twosided` wrapper), see dispatcher_source;
-# beckmann: roughconductor's microfacet distribution (kernels/render/bsdf_roughconductor.cl).
-FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2}
+# beckmann: the microfacet distribution of the rough BSDFs (kernels/render/bsdf_roughconductor.cl);
+# anisotropic: alpha is the roughness along the first tangent, alpha_v along the second;
+# complex_ior: a conductor's Fresnel term from eta_rgb, k_rgb (kernels/render/fresnel_conductor.cl).
+# The last two make material_load read the record's extended fields (render/material.cl).
+FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2, "anisotropic": 4, "complex_ior": 8}
 
 DISPATCHER_PATH = "render/bsdf.cl"  # relative to the kernels folder
 
@@ -59,12 +65,15 @@ class Param:
     Attributes:
         key: the JSON key.
         kind: ``"rgb"`` (three numbers >= 0, or one for grey), ``"number"``, ``"flag"``
-            (a boolean: true sets the bit :data:`FLAG_BITS` ``[key]`` of the ``flags`` field) or
-            ``"choice"`` (a string of ``choices``: the bit :data:`FLAG_BITS` ``[choice]``, none for the first).
+            (a boolean: true sets the bit :data:`FLAG_BITS` ``[key]`` of the ``flags`` field),
+            ``"choice"`` (a string of ``choices``: the bit :data:`FLAG_BITS` ``[choice]``, none for the first)
+            or ``"name"`` (a string of ``choices``).  A ``"name"`` key and an optional one have the field
+            ``""``: they are kept under their key for :meth:`BsdfSpec.derive`, which packs them.
         field: the ``material_record`` field it fills (a key of :data:`RECORD_FIELDS`).
         doc: the meaning, for scenes/README.md.
         default: the value when the key is absent; ``None`` makes the key required.
         lo, hi: bounds of a number (``None``: unbounded); ``lo_open``/``hi_open`` exclude them.
+        optional: the key may be absent (then nothing is packed; ``default`` is ``None``).
     """
 
     key: str
@@ -77,6 +86,12 @@ class Param:
     hi: float | None = None
     lo_open: bool = False
     hi_open: bool = False
+    optional: bool = False
+
+    @property
+    def derived(self) -> bool:
+        """The key is packed by :meth:`BsdfSpec.derive`, not into a field of its own."""
+        return self.kind == "name" or self.optional
 
     def describe(self) -> str:
         """The key's type, range and default as scenes/README.md writes them."""
@@ -86,13 +101,15 @@ class Param:
             return f"`{self.key}` (boolean, default {'true' if self.default else 'false'}; {self.doc})"
         elif self.kind == "choice":
             return f"`{self.key}` ({' or '.join(map(repr, self.choices))}, default {self.default!r}; {self.doc})"
+        elif self.kind == "name":
+            return f"`{self.key}` (a name, default {self.default!r}; {self.doc})"
         elif self.lo is not None and self.hi is not None:
             what = f"number in {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}{')' if self.hi_open else ']'}"
         elif self.lo is not None:
             what = f"number {'>' if self.lo_open else '≥'} {self.lo:g}"
         else:
             what = "number"
-        tail = "required" if self.default is None else f"default {self.default:g}"
+        tail = "optional" if self.optional else "required" if self.default is None else f"default {self.default:g}"
         return f"`{self.key}` ({what}, {tail}{'; ' + self.doc if self.doc else ''})"
 
 
@@ -149,6 +166,11 @@ class BsdfSpec:
         """A check across keys on the validated record ``values``: ``(key, message)`` when it fails."""
         return None
 
+    def derive(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """Fill record fields that follow from several keys (``values`` from :func:`record_values`,
+        with the ``"name"`` keys and the given optional keys); ``(key, message)`` when they conflict."""
+        return None
+
 
 BSDFS: dict[str, BsdfSpec] = {}
 
@@ -158,8 +180,8 @@ def register_bsdf(cls: type[BsdfSpec]) -> type[BsdfSpec]:
     spec = cls()
     if spec.name in BSDFS or any(s.code == spec.code for s in BSDFS.values()):
         raise ValueError(f"BSDF {spec.name!r} (code {spec.code}): name or code already registered")
-    unknown = [p.field for p in spec.params if p.field not in RECORD_FIELDS] + \
-              [f for f in spec.fixed if f not in RECORD_FIELDS]
+    unknown = [p.field for p in spec.params if p.field not in RECORD_FIELDS and not (p.field == "" and p.derived)] \
+        + [f for f in spec.fixed if f not in RECORD_FIELDS]
     if unknown:
         raise ValueError(f"BSDF {spec.name!r}: no material_record field {unknown[0]!r}")
     bad_flags = [p.key for p in spec.params if (p.kind in ("flag", "choice")) != (p.field == "flags") or
@@ -176,7 +198,8 @@ def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]
 
     ``given`` maps record fields to values, except that ``"flag"`` and
     ``"choice"`` keys are given under their key names (a boolean, a choice);
-    their bits are OR-ed into ``flags``.
+    their bits are OR-ed into ``flags``; derived keys (:attr:`Param.derived`) are
+    given under their key names too, and stay so for :meth:`BsdfSpec.derive`.
     """
     out = dict(RECORD_FIELDS)
     out.update(spec.fixed)
@@ -210,15 +233,61 @@ class Diffuse(BsdfSpec):
     summary = "Lambertian with that albedo, one-sided (black from behind) unless `twosided`"
 
 
+METAL = Param("material", "name", "", "Mitsuba's conductor presets (Au, Ag, Cu, Al, Cr, ...: "
+              "mcocl/conductor_iors.py); 'none' is a perfect mirror", default="none",
+              choices=("none", *CONDUCTOR_IORS))
+ETA = Param("eta", "rgb", "", "real part of the complex index of refraction (with `k`; not with `material`)",
+            optional=True)
+K = Param("k", "rgb", "", "imaginary part (absorption); default 1 when only `eta` is given", optional=True)
+ALPHA_U = Param("alpha_u", "number", "", "roughness along the first tangent (with `alpha_v`: anisotropic; "
+                "replaces `alpha`)", lo=1e-4, hi=1.0, optional=True)
+ALPHA_V = Param("alpha_v", "number", "", "roughness along the second tangent", lo=1e-4, hi=1.0, optional=True)
+
+
+def _derive_conductor(values: dict[str, object]) -> tuple[str, str] | None:
+    """The complex index of refraction of a conductor (Mitsuba 3's rules): a named preset, or eta/k
+    (defaults 0 and 1: a perfect mirror), or neither: the constant specular reflectance."""
+    name, eta, k = values.pop("material", "none"), values.pop("eta", None), values.pop("k", None)
+    if name != "none" and (eta is not None or k is not None):
+        return "material", "give either material or eta/k, not both"
+    if name != "none":
+        eta, k = CONDUCTOR_IORS[str(name)]
+    if eta is None and k is None:
+        return None
+    values["eta_rgb"] = tuple(float(x) for x in (eta if eta is not None else (0.0, 0.0, 0.0)))  # type: ignore[union-attr]
+    values["k_rgb"] = tuple(float(x) for x in (k if k is not None else (1.0, 1.0, 1.0)))  # type: ignore[union-attr]
+    values["flags"] = int(values["flags"]) | FLAG_BITS["complex_ior"]  # type: ignore[call-overload]
+    return None
+
+
+def _derive_anisotropy(values: dict[str, object]) -> tuple[str, str] | None:
+    """alpha_u/alpha_v (both or neither): equal ones are an isotropic alpha, else the anisotropic flag."""
+    au, av = values.pop("alpha_u", None), values.pop("alpha_v", None)
+    if au is None and av is None:
+        return None
+    if au is None or av is None:
+        return ("alpha_v" if av is None else "alpha_u"), "give both alpha_u and alpha_v (or alpha)"
+    values["alpha"] = au
+    if au != av:
+        values["alpha_second"] = av
+        values["flags"] = int(values["flags"]) | FLAG_BITS["anisotropic"]  # type: ignore[call-overload]
+    return None
+
+
 @register_bsdf
 class Conductor(BsdfSpec):
     """A perfect mirror (kernels/render/bsdf_conductor.cl)."""
 
     name = "conductor"
     code = 1
-    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0), TWOSIDED)
+    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0), METAL, ETA, K, TWOSIDED)
     delta = True
-    summary = "a perfect mirror, one-sided unless `twosided`"
+    summary = ("a smooth metal: the conductor Fresnel term of `material` or `eta`/`k` times "
+               "`specular_reflectance` (a perfect mirror without them); one-sided unless `twosided`")
+
+    def derive(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """The complex index of refraction."""
+        return _derive_conductor(values)
 
 
 @register_bsdf
@@ -231,10 +300,14 @@ class RoughConductor(BsdfSpec):
 
     name = "roughconductor"
     code = 2
-    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0),
-              ALPHA, DISTRIBUTION, TWOSIDED)
-    summary = ("microfacet reflection with roughness α: GGX sampled by visible normals, or Beckmann sampled by "
-               "D(m) cos θ_m; one-sided unless `twosided`")
+    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0), METAL, ETA, K,
+              ALPHA, ALPHA_U, ALPHA_V, DISTRIBUTION, TWOSIDED)
+    summary = ("microfacet reflection with roughness α (or anisotropic α_u, α_v): GGX sampled by visible normals, "
+               "or Beckmann sampled by D(m) cos θ_m; Fresnel as `conductor`; one-sided unless `twosided`")
+
+    def derive(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """The complex index of refraction and the anisotropic roughness."""
+        return _derive_conductor(values) or _derive_anisotropy(values)
 
 
 @register_bsdf
@@ -297,7 +370,7 @@ class RoughDielectric(BsdfSpec):
     code = 5
     params = (Param("int_ior", "number", "int_ior", "BK7", default=1.5046, lo=0.0, lo_open=True, hi=IOR_LIMIT),
               Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT),
-              ALPHA, DISTRIBUTION)
+              ALPHA, ALPHA_U, ALPHA_V, DISTRIBUTION)
     fixed = {"rgb": (1.0, 1.0, 1.0)}
     transmissive = True
     eval_mode = True
@@ -307,6 +380,10 @@ class RoughDielectric(BsdfSpec):
     def check(self, values: dict[str, object]) -> tuple[str, str] | None:
         """An interface between equal indices would be invisible."""
         return _distinct_iors(values)
+
+    def derive(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """The anisotropic roughness."""
+        return _derive_anisotropy(values)
 
 
 @register_bsdf
@@ -319,6 +396,7 @@ class ThinDielectric(BsdfSpec):
               Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT))
     fixed = {"rgb": (1.0, 1.0, 1.0)}
     delta = True
+    transmissive = True  # goes through the surface (eta stays 1: no change of medium)
     summary = ("a thin glass sheet: Fresnel reflection with the inter-reflections of its two faces summed, "
                "transmission straight through (no refraction)")
 

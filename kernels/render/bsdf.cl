@@ -28,6 +28,8 @@
 /* Bits of material_record.flags (mcocl/bsdf_registry.py, FLAG_BITS). */
 #define MAT_FLAG_TWOSIDED 1
 #define MAT_FLAG_BECKMANN 2
+#define MAT_FLAG_ANISOTROPIC 4
+#define MAT_FLAG_COMPLEX_IOR 8
 #include "render/bsdf_diffuse.cl"
 #include "render/bsdf_conductor.cl"
 #include "render/bsdf_roughconductor.cl"
@@ -181,6 +183,7 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
         s.wo = v3_select(s.wo, wo, is_thindielectric);
         s.weight = v3_select(s.weight, w, is_thindielectric);
         s.pdf = lane_select(s.pdf, p, is_thindielectric);
+        s.eta = lane_select(s.eta, e, is_thindielectric);
     }
     s.wo.z = lane_select(s.wo.z, -s.wo.z, back);
     return s;

@@ -2,7 +2,8 @@
  * Walter, Marschner, Li & Torrance 2007, "Microfacet models for refraction
  * through rough surfaces", as Mitsuba 3's `roughdielectric`: GGX or (lanes
  * with MAT_FLAG_BECKMANN) Beckmann microfacets of roughness alpha, the
- * functions D, G1 and the normal sampling of render/bsdf_roughconductor.cl.
+ * functions D, G1 and the normal sampling of render/bsdf_roughconductor.cl
+ * (anisotropic lanes, MAT_FLAG_ANISOTROPIC: render/microfacet_aniso.cl).
  * Two-sided by nature: cos theta_i < 0 means the path is inside
  * (eta = int_ior / ext_ior is behind the front side).
  *
@@ -40,21 +41,28 @@
 #include "render/bsdf_dielectric.cl"
 #include "render/bsdf_roughconductor.cl"
 
-/* The density of the sampled microfacet normal m for wu = wi turned to the upper side. */
-MC_INLINE floatv roughdielectric_normal_pdf(vec3v wu, vec3v m, floatv alpha, intv beck) {
+/* The density of the sampled microfacet normal m for wu = wi turned to the upper side;
+ * av, aniso: the second roughness of the anisotropic lanes (render/microfacet_aniso.cl). */
+MC_INLINE floatv roughdielectric_normal_pdf(vec3v wu, vec3v m, floatv alpha, floatv av, intv beck, intv aniso) {
     floatv a2 = alpha * alpha;
     floatv pg = ggx_g1(wu, m, a2) * lane_max(v3_dot(wu, m), 0.0f) * ggx_d(m, a2) / wu.z;
     floatv pb = beckmann_d(m, a2) * m.z;
-    return lane_select(pg, pb, beck);
+    floatv p = lane_select(pg, pb, beck);
+    if (lane_any(aniso)) p = lane_select(p, aniso_normal_pdf(wu, m, alpha, av, beck), aniso);
+    return p;
 }
 
 /* D(m) G1(i) G1(o) of the lanes' distribution. */
-MC_INLINE floatv roughdielectric_dg(vec3v wi, vec3v wo, vec3v m, floatv alpha, intv beck) {
+MC_INLINE floatv roughdielectric_dg(vec3v wi, vec3v wo, vec3v m, floatv alpha, floatv av, intv beck, intv aniso) {
     floatv a2 = alpha * alpha;
     floatv dg = ggx_d(m, a2) * ggx_g1(wi, m, a2) * ggx_g1(wo, m, a2);
     if (lane_any(beck)) {
         floatv db = beckmann_d(m, a2) * beckmann_g1(wi, m, alpha) * beckmann_g1(wo, m, alpha);
         dg = lane_select(dg, db, beck);
+    }
+    if (lane_any(aniso)) {
+        floatv da = aniso_d(m, alpha, av, beck) * aniso_g1(wi, m, alpha, av, beck) * aniso_g1(wo, m, alpha, av, beck);
+        dg = lane_select(dg, da, aniso);
     }
     return dg;
 }
@@ -62,7 +70,9 @@ MC_INLINE floatv roughdielectric_dg(vec3v wi, vec3v wo, vec3v m, floatv alpha, i
 /* f cos(theta_o) and the pdf of sampling wo; mode as the sample function's. */
 MC_INLINE vec3v roughdielectric_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, floatv *pdf, int mode) {
     floatv alpha = lane_max(mat->alpha, GGX_MIN_ALPHA);
+    floatv av = lane_max(mat->alpha_v, GGX_MIN_ALPHA);
     intv beck = (mat->flags & MAT_FLAG_BECKMANN) != 0;
+    intv aniso = (mat->flags & MAT_FLAG_ANISOTROPIC) != 0;
     floatv ci = wi.z, co = wo.z;
     intv refl = ci * co > 0.0f;
     floatv eta_p = lane_select(1.0f / mat->eta, mat->eta, ci > 0.0f);
@@ -74,9 +84,9 @@ MC_INLINE vec3v roughdielectric_bsdf_eval(const material_v *mat, vec3v wi, vec3v
     intv ok = (ci != 0.0f) & (co != 0.0f) & (dih * ci > 0.0f) & (doh * co > 0.0f);
     floatv ct, it, ti;
     floatv f = fresnel_dielectric(dih, mat->eta, &ct, &it, &ti);
-    floatv dg = roughdielectric_dg(wi, wo, h, alpha, beck);
+    floatv dg = roughdielectric_dg(wi, wo, h, alpha, av, beck, aniso);
     vec3v wu = v3_scale(wi, lane_copysign((floatv)(1.0f), ci));
-    floatv pm = roughdielectric_normal_pdf(wu, h, alpha, beck);
+    floatv pm = roughdielectric_normal_pdf(wu, h, alpha, av, beck, aniso);
     floatv aci = lane_abs(ci);
     floatv den = dih + eta_p * doh;
     floatv jac_t = eta_p * eta_p * lane_abs(doh) / (den * den);  /* |dh / do| of refraction, Walter eq. 17 */
@@ -95,7 +105,9 @@ MC_INLINE vec3v roughdielectric_bsdf_eval(const material_v *mat, vec3v wi, vec3v
 MC_INLINE vec3v roughdielectric_bsdf_sample(const material_v *mat, vec3v wi, floatv u_lobe, floatv u1, floatv u2,
                                             vec3v *wo, floatv *pdf, floatv *eta, int mode) {
     floatv alpha = lane_max(mat->alpha, GGX_MIN_ALPHA);
+    floatv av = lane_max(mat->alpha_v, GGX_MIN_ALPHA);
     intv beck = (mat->flags & MAT_FLAG_BECKMANN) != 0;
+    intv aniso = (mat->flags & MAT_FLAG_ANISOTROPIC) != 0;
     floatv ci = wi.z;
     floatv sgn = lane_copysign((floatv)(1.0f), ci);
     vec3v wu = v3_scale(wi, sgn);
@@ -111,7 +123,8 @@ MC_INLINE vec3v roughdielectric_bsdf_sample(const material_v *mat, vec3v wi, flo
         floatv sn = lane_sincos_2pi(u2, &c);
         m = v3_select(m, v3(sm * c, sm * sn, cm), beck);
     }
-    floatv pm = roughdielectric_normal_pdf(wuv, m, alpha, beck);
+    if (lane_any(aniso)) m = v3_select(m, aniso_sample_normal(wuv, alpha, av, u1, u2, beck), aniso);
+    floatv pm = roughdielectric_normal_pdf(wuv, m, alpha, av, beck, aniso);
     floatv dim = v3_dot(wi, m);
     floatv cos_t, eta_it, eta_ti;
     floatv f = fresnel_dielectric(dim, mat->eta, &cos_t, &eta_it, &eta_ti);
@@ -123,7 +136,7 @@ MC_INLINE vec3v roughdielectric_bsdf_sample(const material_v *mat, vec3v wi, flo
     floatv doh = v3_dot(o, m);
     intv ok = up & (pm > 0.0f) & (dim * ci > 0.0f) & (doh * o.z > 0.0f) &
               lane_select(o.z * ci < 0.0f, o.z * ci > 0.0f, refl);
-    floatv dg = roughdielectric_dg(wi, o, m, alpha, beck);
+    floatv dg = roughdielectric_dg(wi, o, m, alpha, av, beck, aniso);
     floatv w = dg * lane_abs(dim) / (lane_abs(ci) * pm);
     floatv den = dim + eta_it * doh;
     floatv pr = f * pm / (4.0f * lane_abs(doh));

@@ -29,7 +29,7 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   Degenerate triangles (zero area) are left out of the BVH: no ray hits them.
 - ``shape_material``: uint32 (num_shapes,); ``shape_emitter``: int32
   (num_shapes,), index into ``emitter_radiance`` or −1.
-- ``materials``: float32 (M, 8), one :data:`mcocl.layouts.MATERIAL_RECORD` per row:
+- ``materials``: float32 (M, 16), one :data:`mcocl.layouts.MATERIAL_RECORD` per row:
   ``[kind, r, g, b, alpha, int_ior, ext_ior, 0]`` with kind a
   :class:`mcocl.layouts.MaterialKind` code (:data:`MATERIAL_CODES` by name);
   (r, g, b) = albedo (diffuse) or specular reflectance (conductors; 1 for dielectrics).
