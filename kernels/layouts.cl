@@ -14,6 +14,7 @@
 #define MAT_PLASTIC 4
 #define MAT_ROUGHDIELECTRIC 5
 #define MAT_THINDIELECTRIC 6
+#define MAT_ROUGHPLASTIC 7
 
 /* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl;
     BDPT: kernels/render/bdpt.cl). */
@@ -170,7 +171,7 @@ typedef struct {
     float alpha_second;
     float eta_rgb[3];
     float k_rgb[3];
-    float pad;
+    float table;
 } material_record;
 #define MATERIAL_RECORD_QUADS 4u
 /* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
@@ -199,8 +200,8 @@ typedef struct {
 #define MATERIAL_RECORD_K_RGB_COMP x
 #define MATERIAL_RECORD_K_RGB_COMP1 y
 #define MATERIAL_RECORD_K_RGB_COMP2 z
-#define MATERIAL_RECORD_PAD_QUAD 3
-#define MATERIAL_RECORD_PAD_COMP w
+#define MATERIAL_RECORD_TABLE_QUAD 3
+#define MATERIAL_RECORD_TABLE_COMP w
 
 /* perspective camera: origin and the right/up/forward axes (right, up scaled by the fov); thin lens: aperture radius (0: a pinhole) and focus distance */
 typedef struct {

@@ -239,7 +239,7 @@ MATERIAL_RECORD = _quad_record(
     # Read only by the lanes whose flags ask for them (render/material.cl, MAT_FLAGS_EXTENDED):
     ("alpha_second", "float"),  # roughness along the second tangent (anisotropic; the key alpha_v)
     ("eta_rgb", "float", 3), ("k_rgb", "float", 3),  # complex index of refraction of a conductor
-    ("pad", "float"),
+    ("table", "float"),  # index of the first float of the material's table in the materials table (roughplastic)
 )
 
 # Camera (host: compiled.camera_matrix; kernel: camera.cl), one per scene.

@@ -363,12 +363,13 @@ def test_unknown_plugin_names_line_element_and_nearest(tmp_path):
 
 def test_lenient_substitutes_with_a_warning(tmp_path):
     body = ('<bsdf type="roughplastic" id="p"><rgb name="diffuse_reflectance" value="0.2, 0.3, 0.4"/>'
-            '<float name="alpha" value="0.2"/></bsdf>'
+            '<float name="alpha" value="0.2"/><boolean name="nonlinear" value="true"/></bsdf>'
             '<bsdf type="conductor" id="gold"><float name="sheen" value="1"/></bsdf>'
             '<bsdf type="mask" id="t"><bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>'
             '<shape type="serialized"/><emitter type="envmap"/>')
     p = write(tmp_path, body)
-    with pytest.raises(InputError, match=r"'roughplastic' BSDF is not supported \(nearest supported: plastic\)"):
+    with pytest.raises(InputError, match=r"the nonlinear plastic model is not supported \(nearest supported: "
+                                         r"nonlinear=false\)"):
         read_mitsuba(p)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -376,8 +377,8 @@ def test_lenient_substitutes_with_a_warning(tmp_path):
     msgs = [str(w.message) for w in caught if w.category is SceneSubstitutionWarning]
     assert len(msgs) == 5 and all(re.match(r".*s\.xml:\d+: <", m) for m in msgs)
     m = d["materials"]
-    assert m["p"] == {"type": "plastic", "diffuse_reflectance": [0.2, 0.3, 0.4], "int_ior": 1.49, "ext_ior": 1.000277,
-                      "comment": m["p"]["comment"]}
+    assert m["p"] == {"type": "roughplastic", "diffuse_reflectance": [0.2, 0.3, 0.4], "int_ior": 1.49,
+                      "ext_ior": 1.000277, "alpha": 0.2, "distribution": "beckmann", "comment": m["p"]["comment"]}
     assert m["gold"]["type"] == "conductor" and m["t"]["reflectance"] == 0.7
     assert d["shapes"] == [] and "environment" not in d
     parse_scene(d, p)  # the substituted scene is valid

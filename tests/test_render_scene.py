@@ -85,7 +85,7 @@ def test_base_scene_is_valid(tmp_path):
         ({"integrator__max_depth": -2}, "integrator.max_depth", "must be >= -1"),
         ({"materials__w__reflectance": [1, 2]}, "materials.w.reflectance", "list of 3 numbers"),
         ({"materials__w__reflectance": -0.5}, "materials.w.reflectance", ">= 0"),
-        ({"materials__w__type": "roughplastic"}, "materials.w.type", "unknown value 'roughplastic'"),
+        ({"materials__w__type": "principled"}, "materials.w.type", "unknown value 'principled'"),
         ({"materials__w__twosided": 1}, "materials.w.twosided", "expected true or false"),
         ({"materials__m__alpha": 0}, "materials.m.alpha", "must be >="),
         ({"materials__w__ior": 1.5}, "materials.w.ior", "unknown key"),

@@ -30,6 +30,7 @@
 #define MAT_FLAG_BECKMANN 2
 #define MAT_FLAG_ANISOTROPIC 4
 #define MAT_FLAG_COMPLEX_IOR 8
+#define MAT_FLAG_TABULATED 16
 #include "render/bsdf_diffuse.cl"
 #include "render/bsdf_conductor.cl"
 #include "render/bsdf_roughconductor.cl"
@@ -37,6 +38,7 @@
 #include "render/bsdf_plastic.cl"
 #include "render/bsdf_roughdielectric.cl"
 #include "render/bsdf_thindielectric.cl"
+#include "render/bsdf_roughplastic.cl"
 
 /* Lanes that see a twosided material from behind.  There the BSDF is the
  * front one mirrored through the surface (Mitsuba 3's `twosided`): eval and
@@ -48,7 +50,7 @@ MC_INLINE intv bsdf_mirrored(const material_v *m, vec3v wi) {
 
 /* Lanes whose material has a non-delta lobe: light sampling applies there. */
 MC_INLINE intv bsdf_is_smooth(const material_v *m) {
-    return (m->kind == MAT_DIFFUSE) | (m->kind == MAT_ROUGHCONDUCTOR) | (m->kind == MAT_PLASTIC) | (m->kind == MAT_ROUGHDIELECTRIC);
+    return (m->kind == MAT_DIFFUSE) | (m->kind == MAT_ROUGHCONDUCTOR) | (m->kind == MAT_PLASTIC) | (m->kind == MAT_ROUGHDIELECTRIC) | (m->kind == MAT_ROUGHPLASTIC);
 }
 
 /* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi, in
@@ -87,6 +89,13 @@ MC_INLINE vec3v bsdf_eval_mode(const material_v *m, vec3v wi, vec3v wo, floatv *
         vec3v fk = roughdielectric_bsdf_eval(m, wi, wo, &pk, mode);
         f = v3_select(f, fk, is_roughdielectric);
         p = lane_select(p, pk, is_roughdielectric);
+    }
+    intv is_roughplastic = m->kind == MAT_ROUGHPLASTIC;
+    if (lane_any(is_roughplastic)) {
+        floatv pk;
+        vec3v fk = roughplastic_bsdf_eval(m, wi, wo, &pk);
+        f = v3_select(f, fk, is_roughplastic);
+        p = lane_select(p, pk, is_roughplastic);
     }
     *pdf = p;
     return f;
@@ -184,6 +193,15 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
         s.weight = v3_select(s.weight, w, is_thindielectric);
         s.pdf = lane_select(s.pdf, p, is_thindielectric);
         s.eta = lane_select(s.eta, e, is_thindielectric);
+    }
+    intv is_roughplastic = m->kind == MAT_ROUGHPLASTIC;
+    if (lane_any(is_roughplastic)) {
+        vec3v wo;
+        floatv p, e;
+        vec3v w = roughplastic_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);
+        s.wo = v3_select(s.wo, wo, is_roughplastic);
+        s.weight = v3_select(s.weight, w, is_roughplastic);
+        s.pdf = lane_select(s.pdf, p, is_roughplastic);
     }
     s.wo.z = lane_select(s.wo.z, -s.wo.z, back);
     return s;

@@ -25,11 +25,13 @@ typedef struct {
     floatv alpha_v;   /* roughness along the second tangent; alpha where not anisotropic */
     vec3v cond_eta;   /* a conductor's complex index of refraction (MAT_FLAG_COMPLEX_IOR) */
     vec3v cond_k;
+    floatv table;     /* the first float of the material's table in `base` (MAT_FLAG_TABULATED) */
+    global const float *base;  /* the materials table, for the tables after its records */
 } material_v;
 
 /* Bits of material_record.flags that make material_load read the record's extended
- * fields (mcocl/bsdf_registry.py FLAG_BITS: anisotropic 4, complex_ior 8). */
-#define MAT_FLAGS_EXTENDED 12
+ * fields (mcocl/bsdf_registry.py FLAG_BITS: anisotropic 4, complex_ior 8, tabulated 16). */
+#define MAT_FLAGS_EXTENDED 28
 
 /* The material record `index` of every lane (MATERIAL_RECORD_QUADS float4 per material):
  * its first two float4 always, the extended two only when some lane's flags ask for them. */
@@ -45,6 +47,8 @@ MC_INLINE material_v material_load(global const float4 *mats, uintv index) {
     m.alpha_v = m.alpha;
     m.cond_eta = v3s(0.0f);
     m.cond_k = v3s(0.0f);
+    m.table = (floatv)(0.0f);
+    m.base = (global const float *)mats;
     intv ext = (m.flags & MAT_FLAGS_EXTENDED) != 0;
     if (lane_any(ext)) {
         rec4v q2 = gather_rec4(mats, index * MATERIAL_RECORD_QUADS + 2u);
@@ -52,6 +56,7 @@ MC_INLINE material_v material_load(global const float4 *mats, uintv index) {
         m.alpha_v = lane_select(m.alpha_v, REC_FIELD(q, MATERIAL_RECORD_ALPHA_SECOND), ext);
         m.cond_eta = v3_select(m.cond_eta, REC_VEC3(q, MATERIAL_RECORD_ETA_RGB), ext);
         m.cond_k = v3_select(m.cond_k, REC_VEC3(q, MATERIAL_RECORD_K_RGB), ext);
+        m.table = lane_select(m.table, REC_FIELD(q, MATERIAL_RECORD_TABLE), ext);
     }
     return m;
 }

@@ -7,8 +7,9 @@ Supported exactly: ``diffuse``; ``conductor`` and ``roughconductor`` with a
 (the default) and ``alpha`` or ``alpha_u``/``alpha_v``;
 ``dielectric``, ``thindielectric`` and ``roughdielectric`` (roughness as
 ``roughconductor``) with numeric or named ``int_ior``/``ext_ior`` (Mitsuba's
-defaults: BK7 1.5046 inside, air 1.000277 outside); ``plastic`` (linear, a
-specular reflectance of 1; polypropylene 1.49 inside, air outside);
+defaults: BK7 1.5046 inside, air 1.000277 outside); ``plastic`` and
+``roughplastic`` (linear, a specular reflectance of 1; polypropylene 1.49
+inside, air outside; roughness as ``roughconductor``, isotropic);
 ``twosided`` around one BSDF that has mcocl's ``twosided`` key (diffuse,
 conductors, plastic) sets that key; around a dielectric it changes nothing
 (glass is two-sided already).  Any other BSDF registered
@@ -37,7 +38,6 @@ SUPPORTED = tuple(BSDFS)
 
 # Unsupported BSDF plugin → (nearest supported alternative, lenient substitute).
 SUBSTITUTES = {
-    "roughplastic": ("plastic", "a smooth plastic with the same diffuse_reflectance and iors"),
     "principled": ("diffuse", "a diffuse BSDF with its base_color (default 0.5)"),
     "twosided": ("one nested BSDF, the same on both sides", "its first nested BSDF on both sides"),
     "mask": ("its nested BSDF", "its nested BSDF (opacity ignored)"),
@@ -114,8 +114,8 @@ def translate_bsdf(node: Node, rep: Reporter, resolve) -> dict:
         mat = {"type": "dielectric", "int_ior": ni, "ext_ior": ne}
         rep.leftover(node, props.unread(), ("int_ior", "ext_ior", "specular_reflectance",
                                             "specular_transmittance"), comments)
-    elif kind == "plastic":
-        mat = _plastic(node, props, rep, comments)
+    elif kind in ("plastic", "roughplastic"):
+        mat = _plastic(node, props, rep, comments, kind=kind)
     elif kind == "roughdielectric":
         mat = _rough_dielectric(node, props, rep, comments)
     elif kind == "thindielectric":
@@ -125,14 +125,7 @@ def translate_bsdf(node: Node, rep: Reporter, resolve) -> dict:
     elif kind in SUBSTITUTES:
         alt, sub = SUBSTITUTES[kind]
         rep.unsupported(node, f"the {kind!r} BSDF", alt, sub, comments)
-        if alt == "plastic":
-            mat = _plastic(node, props, rep, comments, check_leftovers=False)
-        elif alt == "diffuse":
-            key = "base_color" if kind == "principled" else "diffuse_reflectance"
-            mat = {"type": "diffuse", "reflectance": rgb_json(props.colour(key, 0.5))}
-        else:
-            mat = {"type": "dielectric", "int_ior": _ior(props, "int_ior", "bk7", comments),
-                   "ext_ior": _ior(props, "ext_ior", "air", comments)}
+        mat = {"type": "diffuse", "reflectance": rgb_json(props.colour("base_color", 0.5))}  # principled
     else:
         rep.unsupported(node, f"the BSDF plugin {kind!r}", nearest(kind, SUPPORTED), "a diffuse BSDF of reflectance 0.5",
                         comments)
@@ -163,11 +156,12 @@ def _twosided(node: Node, objects: list[Node], rep: Reporter, resolve, comments:
     return mat
 
 
-def _plastic(node: Node, props, rep: Reporter, comments: list[str], check_leftovers: bool = True) -> dict:
-    """Mitsuba's ``plastic`` (kernels/render/bsdf_plastic.cl): linear, with a specular reflectance of 1."""
+def _plastic(node: Node, props, rep: Reporter, comments: list[str], kind: str = "plastic") -> dict:
+    """Mitsuba's ``plastic`` or ``roughplastic`` (kernels/render/bsdf_plastic.cl, bsdf_roughplastic.cl): linear,
+    with a specular reflectance of 1; the rough one's roughness as ``roughconductor``'s."""
     if "diffuse_reflectance" not in props:
         comments.append("diffuse_reflectance: Mitsuba's default 0.5")
-    mat = {"type": "plastic", "diffuse_reflectance": rgb_json(props.colour("diffuse_reflectance", 0.5)),
+    mat = {"type": kind, "diffuse_reflectance": rgb_json(props.colour("diffuse_reflectance", 0.5)),
            "int_ior": _ior(props, "int_ior", "polypropylene", comments),
            "ext_ior": _ior(props, "ext_ior", "air", comments)}
     v = props.colour("specular_reflectance", 1.0)
@@ -177,9 +171,13 @@ def _plastic(node: Node, props, rep: Reporter, comments: list[str], check_leftov
     if props.get("nonlinear", ("boolean",), False):
         rep.unsupported(props.node("nonlinear"), "the nonlinear plastic model", "nonlinear=false",
                         "the linear model", comments)
-    if check_leftovers:
-        rep.leftover(node, props.unread(), ("diffuse_reflectance", "int_ior", "ext_ior", "specular_reflectance",
-                                            "nonlinear"), comments)
+    supported: tuple[str, ...] = ("diffuse_reflectance", "int_ior", "ext_ior", "specular_reflectance", "nonlinear")
+    if kind == "roughplastic":
+        _roughness(node, kind, props, rep, comments, mat)
+        if "alpha_u" in mat:
+            props.node("alpha_u").fail("roughplastic is isotropic in Mitsuba too: give alpha")
+        supported += ROUGHNESS_PROPS
+    rep.leftover(node, props.unread(), supported, comments)
     return mat
 
 
