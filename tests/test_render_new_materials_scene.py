@@ -1,4 +1,6 @@
-"""Scenes with roughdielectric and thindielectric rendered by every integrator agree (8x8-block z-tests).
+"""A scene of the newer materials rendered by every integrator agrees (8x8-block z-tests): roughdielectric,
+thindielectric, roughplastic (its table in the materials buffer) and an anisotropic gold roughconductor
+(extended records).
 
 path (BSDF sampling only) is the reference the others must match: mis and
 nee light-sample through rough refraction (the shadow ray leaves from the far
@@ -30,11 +32,14 @@ def _scene(integrator: str, pane: bool = True) -> dict:
             "frost": {"type": "roughdielectric", "alpha": 0.3, "int_ior": 1.5},
             "frost_b": {"type": "roughdielectric", "alpha": 0.2, "int_ior": 1.33, "distribution": "beckmann"},
             "pane": {"type": "thindielectric", "int_ior": 1.5},
+            "coat": {"type": "roughplastic", "alpha": 0.2, "diffuse_reflectance": [0.2, 0.5, 0.3]},
+            "gold": {"type": "roughconductor", "material": "Au", "alpha_u": 0.05, "alpha_v": 0.4, "twosided": True},
         },
         "shapes": [
             {"type": "rectangle", "material": "white",
              "transform": [{"scale": 2}, {"rotate": {"axis": [1, 0, 0], "angle": -90}}, {"translate": [0, -1, 0]}]},
-            {"type": "rectangle", "material": "white", "transform": [{"scale": 2}, {"translate": [0, 0, -1.2]}]},
+            {"type": "rectangle", "material": "gold", "transform": [{"scale": 2}, {"translate": [0, 0, -1.2]}]},
+            {"type": "sphere", "material": "coat", "center": [-0.6, 0.5, -0.6], "radius": 0.3},
             {"type": "sphere", "material": "frost", "center": [-0.45, -0.5, 0], "radius": 0.45},
             {"type": "cube", "material": "frost_b",
              "transform": [{"scale": 0.3}, {"rotate": {"axis": [0, 1, 0], "angle": 30}}, {"translate": [0.5, -0.6, 0.1]}]},
