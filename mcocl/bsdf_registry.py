@@ -51,10 +51,9 @@ RECORD_FIELDS: dict[str, object] = {"rgb": (1.0, 1.0, 1.0), "alpha": 0.0, "int_i
 # twosided: the BSDF is mirrored onto the back side (Mitsuba's `twosided` wrapper), see dispatcher_source;
 # beckmann: the microfacet distribution of the rough BSDFs (kernels/render/bsdf_roughconductor.cl);
 # anisotropic: alpha is the roughness along the first tangent, alpha_v along the second;
-# complex_ior: a conductor's Fresnel term from eta_rgb, k_rgb (kernels/render/fresnel_conductor.cl);
-# tabulated: the record's `table` field points at the material's table (roughplastic).
-# The last three make material_load read the record's extended fields (render/material.cl).
-FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2, "anisotropic": 4, "complex_ior": 8, "tabulated": 16}
+# complex_ior: a conductor's Fresnel term from eta_rgb, k_rgb (kernels/render/fresnel_conductor.cl).
+# The BSDFs read the record's extended fields only for lanes with these bits (render/material.cl).
+FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2, "anisotropic": 4, "complex_ior": 8}
 
 DISPATCHER_PATH = "render/bsdf.cl"  # relative to the kernels folder
 
@@ -359,7 +358,7 @@ class RoughPlastic(BsdfSpec):
     distribution, GGX in mcocl's JSON as for the other rough BSDFs (the
     Mitsuba importer writes Mitsuba's default, Beckmann).  Its coat's
     transmittance and internal reflectance are tabulated per material at load
-    time (mcocl/render/roughplastic_tables.py).
+    time (mcocl/render/roughplastic_tables.py; the record's ``table`` field).
     """
 
     name = "roughplastic"
@@ -371,11 +370,6 @@ class RoughPlastic(BsdfSpec):
     summary = ("rough plastic: a microfacet coat (GGX or Beckmann, roughness α) over a Lambertian base, the "
                "light between them summed with the coat's tabulated transmittance (Mitsuba's `roughplastic`, "
                "linear); one-sided unless `twosided`")
-
-    def derive(self, values: dict[str, object]) -> tuple[str, str] | None:
-        """Every roughplastic reads its table (mcocl/render/roughplastic_tables.py)."""
-        values["flags"] = int(values["flags"]) | FLAG_BITS["tabulated"]  # type: ignore[call-overload]
-        return None
 
 
 def _distinct_iors(values: dict[str, object]) -> tuple[str, str] | None:

@@ -21,7 +21,6 @@ from chi2 import Chi2Family
 from direction_bins import directions_to_bins, integrate_bins, quadrature_directions
 from test_render_bsdf import N, evaluate, sample
 
-from mcocl import runtime
 from mcocl.bsdf_registry import FLAG_BITS
 from mcocl.conductor_iors import CONDUCTOR_IORS
 from mcocl.layouts import MaterialKind
@@ -173,12 +172,6 @@ def test_scene_keys() -> None:
         assert r[4] == np.float32(0.1) and r[8] == np.float32(0.3) and int(r[7]) & int(ANISO)
         with pytest.raises(Exception, match="give both alpha_u and alpha_v"):
             _record(kind, alpha_u=0.1)
-
-
-def test_extended_flags_match_the_kernel() -> None:
-    """material.cl reads the extended fields for exactly the flags that need them."""
-    src = (runtime.KERNEL_DIR / "render" / "material.cl").read_text()
-    assert f"#define MAT_FLAGS_EXTENDED {FLAG_BITS['anisotropic'] | FLAG_BITS['complex_ior']}" in src
 
 
 def test_lane_build_matches_scalar_build() -> None:

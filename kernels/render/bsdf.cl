@@ -30,7 +30,6 @@
 #define MAT_FLAG_BECKMANN 2
 #define MAT_FLAG_ANISOTROPIC 4
 #define MAT_FLAG_COMPLEX_IOR 8
-#define MAT_FLAG_TABULATED 16
 #include "render/bsdf_diffuse.cl"
 #include "render/bsdf_conductor.cl"
 #include "render/bsdf_roughconductor.cl"

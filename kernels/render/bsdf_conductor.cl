@@ -21,7 +21,11 @@ MC_INLINE vec3v conductor_bsdf_sample(const material_v *mat, vec3v wi, floatv u_
     *eta = (floatv)(1.0f);
     vec3v r = mat->color;
     intv cplx = (mat->flags & MAT_FLAG_COMPLEX_IOR) != 0;
-    if (lane_any(cplx)) r = v3_select(r, v3_mul(r, fresnel_conductor(wi.z, mat->cond_eta, mat->cond_k)), cplx);
+    if (lane_any(cplx)) {
+        vec3v eta, k;
+        material_conductor_ior(mat, &eta, &k);
+        r = v3_select(r, v3_mul(r, fresnel_conductor(wi.z, eta, k)), cplx);
+    }
     return v3_select(v3s(0.0f), r, ok);
 }
 

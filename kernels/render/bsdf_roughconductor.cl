@@ -4,7 +4,7 @@
  * lanes whose material has MAT_FLAG_BECKMANN, the Beckmann distribution
  * (below the GGX functions).  Lanes with MAT_FLAG_ANISOTROPIC use the
  * anisotropic distributions of render/microfacet_aniso.cl (alpha along the
- * first tangent, alpha_v along the second); lanes with MAT_FLAG_COMPLEX_IOR
+ * first tangent, alpha_second along the second); lanes with MAT_FLAG_COMPLEX_IOR
  * multiply F by the conductor Fresnel term at i.m (render/fresnel_conductor.cl).
  *
  *   D(m)      = 1 / (pi a^2 (((m_x^2 + m_y^2) / a^2 + m_z^2)^2))          (Walter eq. 33)
@@ -95,7 +95,11 @@ MC_INLINE floatv beckmann_sample(vec3v wi, floatv alpha, floatv u1, floatv u2, v
 MC_INLINE vec3v roughconductor_fresnel(const material_v *mat, floatv cos_im) {
     vec3v spec = mat->color;
     intv cplx = (mat->flags & MAT_FLAG_COMPLEX_IOR) != 0;
-    if (lane_any(cplx)) spec = v3_select(spec, v3_mul(spec, fresnel_conductor(cos_im, mat->cond_eta, mat->cond_k)), cplx);
+    if (lane_any(cplx)) {
+        vec3v eta, k;
+        material_conductor_ior(mat, &eta, &k);
+        spec = v3_select(spec, v3_mul(spec, fresnel_conductor(cos_im, eta, k)), cplx);
+    }
     return spec;
 }
 
@@ -118,7 +122,7 @@ MC_INLINE vec3v roughconductor_bsdf_eval(const material_v *mat, vec3v wi, vec3v 
     }
     intv aniso = (mat->flags & MAT_FLAG_ANISOTROPIC) != 0;
     if (lane_any(aniso)) {
-        floatv av = lane_max(mat->alpha_v, GGX_MIN_ALPHA);
+        floatv av = lane_max(material_alpha_second(mat), GGX_MIN_ALPHA);
         floatv da = aniso_d(m, alpha, av, beck);
         floatv fa = da * aniso_g1(wi, m, alpha, av, beck) * aniso_g1(wo, m, alpha, av, beck) / (4.0f * wi.z);
         floatv pa = aniso_normal_pdf(wi, m, alpha, av, beck) / (4.0f * lane_abs(v3_dot(wo, m)));
@@ -164,7 +168,7 @@ MC_INLINE vec3v roughconductor_bsdf_sample(const material_v *mat, vec3v wi, floa
         m = v3_select(m, mb, beck);
     }
     if (lane_any(aniso)) {
-        floatv av = lane_max(mat->alpha_v, GGX_MIN_ALPHA);
+        floatv av = lane_max(material_alpha_second(mat), GGX_MIN_ALPHA);
         vec3v ma = aniso_sample_normal(wiv, alpha, av, u1, u2, beck);
         floatv da = v3_dot(wiv, ma);
         vec3v oa = v3_sub(v3_scale(ma, 2.0f * da), wiv);

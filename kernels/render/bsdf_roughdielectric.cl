@@ -70,9 +70,10 @@ MC_INLINE floatv roughdielectric_dg(vec3v wi, vec3v wo, vec3v m, floatv alpha, f
 /* f cos(theta_o) and the pdf of sampling wo; mode as the sample function's. */
 MC_INLINE vec3v roughdielectric_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, floatv *pdf, int mode) {
     floatv alpha = lane_max(mat->alpha, GGX_MIN_ALPHA);
-    floatv av = lane_max(mat->alpha_v, GGX_MIN_ALPHA);
     intv beck = (mat->flags & MAT_FLAG_BECKMANN) != 0;
     intv aniso = (mat->flags & MAT_FLAG_ANISOTROPIC) != 0;
+    floatv av = alpha;
+    if (lane_any(aniso)) av = lane_select(av, lane_max(material_alpha_second(mat), GGX_MIN_ALPHA), aniso);
     floatv ci = wi.z, co = wo.z;
     intv refl = ci * co > 0.0f;
     floatv eta_p = lane_select(1.0f / mat->eta, mat->eta, ci > 0.0f);
@@ -105,9 +106,10 @@ MC_INLINE vec3v roughdielectric_bsdf_eval(const material_v *mat, vec3v wi, vec3v
 MC_INLINE vec3v roughdielectric_bsdf_sample(const material_v *mat, vec3v wi, floatv u_lobe, floatv u1, floatv u2,
                                             vec3v *wo, floatv *pdf, floatv *eta, int mode) {
     floatv alpha = lane_max(mat->alpha, GGX_MIN_ALPHA);
-    floatv av = lane_max(mat->alpha_v, GGX_MIN_ALPHA);
     intv beck = (mat->flags & MAT_FLAG_BECKMANN) != 0;
     intv aniso = (mat->flags & MAT_FLAG_ANISOTROPIC) != 0;
+    floatv av = alpha;
+    if (lane_any(aniso)) av = lane_select(av, lane_max(material_alpha_second(mat), GGX_MIN_ALPHA), aniso);
     floatv ci = wi.z;
     floatv sgn = lane_copysign((floatv)(1.0f), ci);
     vec3v wu = v3_scale(wi, sgn);

@@ -29,12 +29,13 @@
 /* Entries of the transmittance table (mcocl/render/roughplastic_tables.py RES); R_int follows them. */
 #define ROUGHPLASTIC_RES 64
 
-/* t(mu) by linear interpolation of the table at mu = k / (RES - 1). */
-MC_INLINE floatv roughplastic_transmittance(const material_v *mat, floatv mu) {
+/* t(mu) by linear interpolation of the table (first float `table`) at mu = k / (RES - 1). */
+MC_INLINE floatv roughplastic_transmittance(const material_v *mat, floatv table, floatv mu) {
+    global const float *base = (global const float *)mat->mats;
     floatv x = lane_min(lane_max(mu, 0.0f), 1.0f) * (float)(ROUGHPLASTIC_RES - 1);
     floatv i0 = lane_min(floor(x), (floatv)((float)(ROUGHPLASTIC_RES - 2)));
-    uintv k = to_uintv(mat->table + i0);
-    floatv a = gather_float(mat->base, k), b = gather_float(mat->base, k + 1u);
+    uintv k = to_uintv(table + i0);
+    floatv a = gather_float(base, k), b = gather_float(base, k + 1u);
     return a + (x - i0) * (b - a);
 }
 
@@ -48,8 +49,9 @@ MC_INLINE vec3v roughplastic_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo
     floatv ct, it, ti;
     floatv f = fresnel_dielectric(v3_dot(wi, h), mat->eta, &ct, &it, &ti);
     floatv spec = f * roughdielectric_dg(wi, wo, h, alpha, alpha, beck, none) / (4.0f * wi.z);
-    floatv t_i = roughplastic_transmittance(mat, wi.z), t_o = roughplastic_transmittance(mat, wo.z);
-    floatv r_int = gather_float(mat->base, to_uintv(mat->table) + (uint)ROUGHPLASTIC_RES);
+    floatv table = material_table(mat);
+    floatv t_i = roughplastic_transmittance(mat, table, wi.z), t_o = roughplastic_transmittance(mat, table, wo.z);
+    floatv r_int = gather_float((global const float *)mat->mats, to_uintv(table) + (uint)ROUGHPLASTIC_RES);
     floatv kd = t_i * t_o * wo.z * RT_INV_PI / ((1.0f - r_int) * mat->eta * mat->eta);
     floatv d_mean = (mat->color.x + mat->color.y + mat->color.z) * (1.0f / 3.0f);
     floatv s = 1.0f / (1.0f + d_mean);
@@ -69,7 +71,7 @@ MC_INLINE vec3v roughplastic_bsdf_sample(const material_v *mat, vec3v wi, floatv
     intv beck = (mat->flags & MAT_FLAG_BECKMANN) != 0;
     intv front = wi.z > 0.0f;
     vec3v wiv = v3_select(v3(0.0f, 0.0f, 1.0f), wi, front);
-    floatv t_i = roughplastic_transmittance(mat, wiv.z);
+    floatv t_i = roughplastic_transmittance(mat, material_table(mat), wiv.z);
     floatv d_mean = (mat->color.x + mat->color.y + mat->color.z) * (1.0f / 3.0f);
     floatv s = 1.0f / (1.0f + d_mean);
     floatv ps = (1.0f - t_i) * s, pd = t_i * (1.0f - s);
