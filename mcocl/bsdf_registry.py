@@ -7,8 +7,10 @@ A registration says everything the rest of mcocl needs to know about a BSDF:
   ``material_record.kind``);
 - its scene-file keys (:class:`Param`): type, default, range, and the
   ``material_record`` field each one packs into (``rgb``, ``alpha``,
-  ``int_ior``, ``ext_ior``; :data:`mcocl.layouts.MATERIAL_RECORD`), plus
-  fixed values of fields it has no key for and a check across keys;
+  ``int_ior``, ``ext_ior``, ``alpha_second``, ``eta_rgb``, ``k_rgb``;
+  :data:`mcocl.layouts.MATERIAL_RECORD`), plus fixed values of fields it has
+  no key for, a check across keys and the packing of keys that fill several
+  fields (:meth:`BsdfSpec.derive`);
 - its kernel file ``kernels/render/bsdf_<name>.cl`` and the functions it defines
   (:attr:`BsdfSpec.eval_function`, :attr:`BsdfSpec.sample_function`, with the
   signatures written in :func:`dispatcher_source`);
@@ -149,7 +151,8 @@ class BsdfSpec:
 
     @property
     def eval_function(self) -> str:
-        """``vec3v <name>_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, floatv *pdf)``: f cos and pdf."""
+        """``vec3v <name>_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, floatv *pdf)``: f cos and pdf
+        (with a last argument ``int mode`` when :attr:`eval_mode`)."""
         return f"{self.name}_bsdf_eval"
 
     @property

@@ -37,3 +37,19 @@ def test_new_materials_match_mitsuba() -> None:
     assert 2 * stats.norm.sf(z.max()) > level, \
         f"max z {z.max():.2f} at block {worst}: mcocl {m1[worst]:.4f}, Mitsuba {m2[worst]:.4f}"
     assert np.all(m2 > 0)
+
+
+def test_convert_keeps_the_new_materials(tmp_path) -> None:
+    """`mcocl convert` writes JSON that compiles to the XML's materials table (records and roughplastic tables)."""
+    from mcocl.cli import main
+    from mcocl.render.compiled import compile_scene
+
+    xml = tmp_path / "s.xml"
+    text = (DATA / "new_materials.xml").read_text()
+    xml.write_text(text.replace('<bsdf type="thindielectric" id="pane"/>',
+                                '<bsdf type="thindielectric" id="pane"/><bsdf type="roughplastic" id="coat">'
+                                '<float name="alpha" value="0.2"/></bsdf>'))
+    out = tmp_path / "s.json"
+    assert main(["convert", str(xml), "-o", str(out)]) == 0
+    a, b = compile_scene(out).materials, compile_scene(xml).materials
+    assert a.shape == (7 + 5, 16) and np.array_equal(a, b)

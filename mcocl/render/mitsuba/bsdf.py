@@ -186,10 +186,16 @@ def _registered(node: Node, kind: str, props, rep: Reporter, comments: list[str]
     mat: dict[str, Any] = {"type": kind}
     spec = BSDFS[kind]
     for p in spec.params:
+        if p.optional and p.key not in props:
+            continue
         if p.kind == "rgb":
             v = props.colour(p.key, p.default)
             if v is not None:
                 mat[p.key] = rgb_json(v)
+        elif p.kind in ("flag", "choice", "name"):
+            v = props.get(p.key, ("boolean",) if p.kind == "flag" else ("string",), p.default)
+            if v is not None:
+                mat[p.key] = v
         else:
             v = props.get(p.key, ("float",), p.default)
             if v is not None:
