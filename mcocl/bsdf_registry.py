@@ -243,7 +243,9 @@ ETA = Param("eta", "rgb", "", "real part of the complex index of refraction (wit
             optional=True)
 K = Param("k", "rgb", "", "imaginary part (absorption); default 1 when only `eta` is given", optional=True)
 ALPHA_U = Param("alpha_u", "number", "", "roughness along the first tangent (with `alpha_v`: anisotropic; "
-                "replaces `alpha`)", lo=1e-4, hi=1.0, optional=True)
+                "replaces `alpha`).  The tangent is the x axis of the frame built from the normal alone "
+                "(Duff et al. 2017), not the surface's dp/du: Mitsuba's only where the two agree, e.g. on "
+                "an unrotated rectangle", lo=1e-4, hi=1.0, optional=True)
 ALPHA_V = Param("alpha_v", "number", "", "roughness along the second tangent", lo=1e-4, hi=1.0, optional=True)
 
 
