@@ -12,6 +12,9 @@
 #define MAT_ROUGHCONDUCTOR 2
 #define MAT_DIELECTRIC 3
 #define MAT_PLASTIC 4
+#define MAT_ROUGHDIELECTRIC 5
+#define MAT_THINDIELECTRIC 6
+#define MAT_ROUGHPLASTIC 7
 
 /* Integrator: The render kernel's ``-DINTEGRATOR`` variant (kernels/render/integrator.cl; LT: kernels/render/lt.cl;
     BDPT: kernels/render/bdpt.cl). */
@@ -165,10 +168,14 @@ typedef struct {
     float int_ior;
     float ext_ior;
     float flags;
+    float alpha_second;
+    float eta_rgb[3];
+    float k_rgb[3];
+    float table;
 } material_record;
-#define MATERIAL_RECORD_QUADS 2u
-/* Every lane's record `index` of a float4 table into rec4v q0 .. q1 (render/lane_io.cl's gather_rec4). */
-#define MATERIAL_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 2u + 0u), q##1 = gather_rec4((table), (index) * 2u + 1u)
+#define MATERIAL_RECORD_QUADS 4u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
+#define MATERIAL_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 4u + 0u), q##1 = gather_rec4((table), (index) * 4u + 1u), q##2 = gather_rec4((table), (index) * 4u + 2u), q##3 = gather_rec4((table), (index) * 4u + 3u)
 #define MATERIAL_RECORD_KIND_QUAD 0
 #define MATERIAL_RECORD_KIND_COMP x
 #define MATERIAL_RECORD_RGB_QUAD 0
@@ -183,6 +190,18 @@ typedef struct {
 #define MATERIAL_RECORD_EXT_IOR_COMP z
 #define MATERIAL_RECORD_FLAGS_QUAD 1
 #define MATERIAL_RECORD_FLAGS_COMP w
+#define MATERIAL_RECORD_ALPHA_SECOND_QUAD 2
+#define MATERIAL_RECORD_ALPHA_SECOND_COMP x
+#define MATERIAL_RECORD_ETA_RGB_QUAD 2
+#define MATERIAL_RECORD_ETA_RGB_COMP y
+#define MATERIAL_RECORD_ETA_RGB_COMP1 z
+#define MATERIAL_RECORD_ETA_RGB_COMP2 w
+#define MATERIAL_RECORD_K_RGB_QUAD 3
+#define MATERIAL_RECORD_K_RGB_COMP x
+#define MATERIAL_RECORD_K_RGB_COMP1 y
+#define MATERIAL_RECORD_K_RGB_COMP2 z
+#define MATERIAL_RECORD_TABLE_QUAD 3
+#define MATERIAL_RECORD_TABLE_COMP w
 
 /* perspective camera: origin and the right/up/forward axes (right, up scaled by the fov); thin lens: aperture radius (0: a pinhole) and focus distance; a film crop's centre in the crop's NDC units */
 typedef struct {

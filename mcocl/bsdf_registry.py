@@ -7,8 +7,10 @@ A registration says everything the rest of mcocl needs to know about a BSDF:
   ``material_record.kind``);
 - its scene-file keys (:class:`Param`): type, default, range, and the
   ``material_record`` field each one packs into (``rgb``, ``alpha``,
-  ``int_ior``, ``ext_ior``; :data:`mcocl.layouts.MATERIAL_RECORD`), plus
-  fixed values of fields it has no key for and a check across keys;
+  ``int_ior``, ``ext_ior``, ``alpha_second``, ``eta_rgb``, ``k_rgb``;
+  :data:`mcocl.layouts.MATERIAL_RECORD`), plus fixed values of fields it has
+  no key for, a check across keys and the packing of keys that fill several
+  fields (:meth:`BsdfSpec.derive`);
 - its kernel file ``kernels/render/bsdf_<name>.cl`` and the functions it defines
   (:attr:`BsdfSpec.eval_function`, :attr:`BsdfSpec.sample_function`, with the
   signatures written in :func:`dispatcher_source`);
@@ -26,8 +28,9 @@ committed and rewritten by ``python -m mcocl.layouts``; tests/test_bsdf_registry
 fails when either is stale.
 
 Adding a BSDF: its kernel file, one class here, its test (docs/architecture.md).
-This module imports nothing from mcocl, so that mcocl/layouts.py can derive
-its enum from it.
+This module imports nothing from mcocl but its table of conductor presets
+(mcocl/conductor_iors.py, itself without imports), so that mcocl/layouts.py
+can derive its enum from it.
 """
 
 from __future__ import annotations
@@ -35,19 +38,24 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+from .conductor_iors import CONDUCTOR_IORS
+
 # The material_record fields a key can pack into (mcocl/layouts.py, MATERIAL_RECORD),
 # with the value a material that does not set them stores.
 # Indices of refraction beyond this are refused (no material has one; float32 Fresnel terms degrade).
 IOR_LIMIT = 1e6
 
 RECORD_FIELDS: dict[str, object] = {"rgb": (1.0, 1.0, 1.0), "alpha": 0.0, "int_ior": 1.0, "ext_ior": 1.0,
-                                    "flags": 0}
+                                    "flags": 0, "alpha_second": 0.0, "eta_rgb": (0.0, 0.0, 0.0), "k_rgb": (0.0, 0.0, 0.0)}
 
 # Bits of material_record.flags (``MAT_FLAG_<NAME>`` in kernels/render/bsdf.cl), set by the ``"flag"`` keys
 # (bit named as the key) and the ``"choice"`` keys (bit named as the choice; the first choice sets none).
 # twosided: the BSDF is mirrored onto the back side (Mitsuba's `twosided` wrapper), see dispatcher_source;
-# beckmann: roughconductor's microfacet distribution (kernels/render/bsdf_roughconductor.cl).
-FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2}
+# beckmann: the microfacet distribution of the rough BSDFs (kernels/render/bsdf_roughconductor.cl);
+# anisotropic: alpha is the roughness along the first tangent, alpha_v along the second;
+# complex_ior: a conductor's Fresnel term from eta_rgb, k_rgb (kernels/render/fresnel_conductor.cl).
+# The BSDFs read the record's extended fields only for lanes with these bits (render/material.cl).
+FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2, "anisotropic": 4, "complex_ior": 8}
 
 DISPATCHER_PATH = "render/bsdf.cl"  # relative to the kernels folder
 
@@ -59,12 +67,15 @@ class Param:
     Attributes:
         key: the JSON key.
         kind: ``"rgb"`` (three numbers >= 0, or one for grey), ``"number"``, ``"flag"``
-            (a boolean: true sets the bit :data:`FLAG_BITS` ``[key]`` of the ``flags`` field) or
-            ``"choice"`` (a string of ``choices``: the bit :data:`FLAG_BITS` ``[choice]``, none for the first).
+            (a boolean: true sets the bit :data:`FLAG_BITS` ``[key]`` of the ``flags`` field),
+            ``"choice"`` (a string of ``choices``: the bit :data:`FLAG_BITS` ``[choice]``, none for the first)
+            or ``"name"`` (a string of ``choices``).  A ``"name"`` key and an optional one have the field
+            ``""``: they are kept under their key for :meth:`BsdfSpec.derive`, which packs them.
         field: the ``material_record`` field it fills (a key of :data:`RECORD_FIELDS`).
         doc: the meaning, for scenes/README.md.
         default: the value when the key is absent; ``None`` makes the key required.
         lo, hi: bounds of a number (``None``: unbounded); ``lo_open``/``hi_open`` exclude them.
+        optional: the key may be absent (then nothing is packed; ``default`` is ``None``).
     """
 
     key: str
@@ -77,6 +88,12 @@ class Param:
     hi: float | None = None
     lo_open: bool = False
     hi_open: bool = False
+    optional: bool = False
+
+    @property
+    def derived(self) -> bool:
+        """The key is packed by :meth:`BsdfSpec.derive`, not into a field of its own."""
+        return self.kind == "name" or self.optional
 
     def describe(self) -> str:
         """The key's type, range and default as scenes/README.md writes them."""
@@ -86,13 +103,15 @@ class Param:
             return f"`{self.key}` (boolean, default {'true' if self.default else 'false'}; {self.doc})"
         elif self.kind == "choice":
             return f"`{self.key}` ({' or '.join(map(repr, self.choices))}, default {self.default!r}; {self.doc})"
+        elif self.kind == "name":
+            return f"`{self.key}` (a name, default {self.default!r}; {self.doc})"
         elif self.lo is not None and self.hi is not None:
             what = f"number in {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}{')' if self.hi_open else ']'}"
         elif self.lo is not None:
             what = f"number {'>' if self.lo_open else '≥'} {self.lo:g}"
         else:
             what = "number"
-        tail = "required" if self.default is None else f"default {self.default:g}"
+        tail = "optional" if self.optional else "required" if self.default is None else f"default {self.default:g}"
         return f"`{self.key}` ({what}, {tail}{'; ' + self.doc if self.doc else ''})"
 
 
@@ -109,6 +128,9 @@ class BsdfSpec:
         transmissive: sampling may refract (writes the path's ``eta``).
         mixed: a delta lobe beside smooth ones: the sample function takes a last
             argument ``intv *delta`` (the lanes that sampled the delta lobe).
+        eval_mode: eval depends on the transport mode (refraction's radiance
+            scaling of a smooth transmissive BSDF): the eval function takes a last
+            argument ``int mode``.
         summary: one line for scenes/README.md.
     """
 
@@ -119,6 +141,7 @@ class BsdfSpec:
     delta: ClassVar[bool] = False
     transmissive: ClassVar[bool] = False
     mixed: ClassVar[bool] = False
+    eval_mode: ClassVar[bool] = False
     summary: ClassVar[str]
 
     @property
@@ -128,7 +151,8 @@ class BsdfSpec:
 
     @property
     def eval_function(self) -> str:
-        """``vec3v <name>_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, floatv *pdf)``: f cos and pdf."""
+        """``vec3v <name>_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, floatv *pdf)``: f cos and pdf
+        (with a last argument ``int mode`` when :attr:`eval_mode`)."""
         return f"{self.name}_bsdf_eval"
 
     @property
@@ -145,6 +169,11 @@ class BsdfSpec:
         """A check across keys on the validated record ``values``: ``(key, message)`` when it fails."""
         return None
 
+    def derive(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """Fill record fields that follow from several keys (``values`` from :func:`record_values`,
+        with the ``"name"`` keys and the given optional keys); ``(key, message)`` when they conflict."""
+        return None
+
 
 BSDFS: dict[str, BsdfSpec] = {}
 
@@ -154,8 +183,8 @@ def register_bsdf(cls: type[BsdfSpec]) -> type[BsdfSpec]:
     spec = cls()
     if spec.name in BSDFS or any(s.code == spec.code for s in BSDFS.values()):
         raise ValueError(f"BSDF {spec.name!r} (code {spec.code}): name or code already registered")
-    unknown = [p.field for p in spec.params if p.field not in RECORD_FIELDS] + \
-              [f for f in spec.fixed if f not in RECORD_FIELDS]
+    unknown = [p.field for p in spec.params if p.field not in RECORD_FIELDS and not (p.field == "" and p.derived)] \
+        + [f for f in spec.fixed if f not in RECORD_FIELDS]
     if unknown:
         raise ValueError(f"BSDF {spec.name!r}: no material_record field {unknown[0]!r}")
     bad_flags = [p.key for p in spec.params if (p.kind in ("flag", "choice")) != (p.field == "flags") or
@@ -172,7 +201,8 @@ def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]
 
     ``given`` maps record fields to values, except that ``"flag"`` and
     ``"choice"`` keys are given under their key names (a boolean, a choice);
-    their bits are OR-ed into ``flags``.
+    their bits are OR-ed into ``flags``; derived keys (:attr:`Param.derived`) are
+    given under their key names too, and stay so for :meth:`BsdfSpec.derive`.
     """
     out = dict(RECORD_FIELDS)
     out.update(spec.fixed)
@@ -190,6 +220,9 @@ def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]
     return out
 
 
+ALPHA = Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0)
+DISTRIBUTION = Param("distribution", "choice", "flags", "the microfacet distribution", default="ggx",
+                     choices=("ggx", "beckmann"))
 TWOSIDED = Param("twosided", "flag", "flags", "the same BSDF mirrored onto the back side, as Mitsuba's `twosided`", default=False)
 
 
@@ -203,15 +236,63 @@ class Diffuse(BsdfSpec):
     summary = "Lambertian with that albedo, one-sided (black from behind) unless `twosided`"
 
 
+METAL = Param("material", "name", "", "Mitsuba's conductor presets (Au, Ag, Cu, Al, Cr, ...: "
+              "mcocl/conductor_iors.py); 'none' is a perfect mirror", default="none",
+              choices=("none", *CONDUCTOR_IORS))
+ETA = Param("eta", "rgb", "", "real part of the complex index of refraction (with `k`; not with `material`)",
+            optional=True)
+K = Param("k", "rgb", "", "imaginary part (absorption); default 1 when only `eta` is given", optional=True)
+ALPHA_U = Param("alpha_u", "number", "", "roughness along the first tangent (with `alpha_v`: anisotropic; "
+                "replaces `alpha`).  The tangent is the x axis of the frame built from the normal alone "
+                "(Duff et al. 2017), not the surface's dp/du: Mitsuba's only where the two agree, e.g. on "
+                "an unrotated rectangle", lo=1e-4, hi=1.0, optional=True)
+ALPHA_V = Param("alpha_v", "number", "", "roughness along the second tangent", lo=1e-4, hi=1.0, optional=True)
+
+
+def _derive_conductor(values: dict[str, object]) -> tuple[str, str] | None:
+    """The complex index of refraction of a conductor (Mitsuba 3's rules): a named preset, or eta/k
+    (defaults 0 and 1: a perfect mirror), or neither: the constant specular reflectance."""
+    name, eta, k = values.pop("material", "none"), values.pop("eta", None), values.pop("k", None)
+    if name != "none" and (eta is not None or k is not None):
+        return "material", "give either material or eta/k, not both"
+    if name != "none":
+        eta, k = CONDUCTOR_IORS[str(name)]
+    if eta is None and k is None:
+        return None
+    values["eta_rgb"] = tuple(float(x) for x in (eta if eta is not None else (0.0, 0.0, 0.0)))  # type: ignore[union-attr]
+    values["k_rgb"] = tuple(float(x) for x in (k if k is not None else (1.0, 1.0, 1.0)))  # type: ignore[union-attr]
+    values["flags"] = int(values["flags"]) | FLAG_BITS["complex_ior"]  # type: ignore[call-overload]
+    return None
+
+
+def _derive_anisotropy(values: dict[str, object]) -> tuple[str, str] | None:
+    """alpha_u/alpha_v (both or neither): equal ones are an isotropic alpha, else the anisotropic flag."""
+    au, av = values.pop("alpha_u", None), values.pop("alpha_v", None)
+    if au is None and av is None:
+        return None
+    if au is None or av is None:
+        return ("alpha_v" if av is None else "alpha_u"), "give both alpha_u and alpha_v (or alpha)"
+    values["alpha"] = au
+    if au != av:
+        values["alpha_second"] = av
+        values["flags"] = int(values["flags"]) | FLAG_BITS["anisotropic"]  # type: ignore[call-overload]
+    return None
+
+
 @register_bsdf
 class Conductor(BsdfSpec):
     """A perfect mirror (kernels/render/bsdf_conductor.cl)."""
 
     name = "conductor"
     code = 1
-    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0), TWOSIDED)
+    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0), METAL, ETA, K, TWOSIDED)
     delta = True
-    summary = "a perfect mirror, one-sided unless `twosided`"
+    summary = ("a smooth metal: the conductor Fresnel term of `material` or `eta`/`k` times "
+               "`specular_reflectance` (a perfect mirror without them); one-sided unless `twosided`")
+
+    def derive(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """The complex index of refraction."""
+        return _derive_conductor(values)
 
 
 @register_bsdf
@@ -224,13 +305,14 @@ class RoughConductor(BsdfSpec):
 
     name = "roughconductor"
     code = 2
-    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0),
-              Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0),
-              Param("distribution", "choice", "flags", "the microfacet distribution", default="ggx",
-                    choices=("ggx", "beckmann")),
-              TWOSIDED)
-    summary = ("microfacet reflection with roughness α: GGX sampled by visible normals, or Beckmann sampled by "
-               "D(m) cos θ_m; one-sided unless `twosided`")
+    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0), METAL, ETA, K,
+              ALPHA, ALPHA_U, ALPHA_V, DISTRIBUTION, TWOSIDED)
+    summary = ("microfacet reflection with roughness α (or anisotropic α_u, α_v): GGX sampled by visible normals, "
+               "or Beckmann sampled by D(m) cos θ_m; Fresnel as `conductor`; one-sided unless `twosided`")
+
+    def derive(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """The complex index of refraction and the anisotropic roughness."""
+        return _derive_conductor(values) or _derive_anisotropy(values)
 
 
 @register_bsdf
@@ -272,6 +354,83 @@ class Plastic(BsdfSpec):
                "one-sided unless `twosided`")
 
 
+
+@register_bsdf
+class RoughPlastic(BsdfSpec):
+    """A rough dielectric coat over a Lambertian base (kernels/render/bsdf_roughplastic.cl), Mitsuba 3's `roughplastic`.
+
+    Defaults are Mitsuba 3's (as ``plastic``, with alpha 0.1) but for the
+    distribution, GGX in mcocl's JSON as for the other rough BSDFs (the
+    Mitsuba importer writes Mitsuba's default, Beckmann).  Its coat's
+    transmittance and internal reflectance are tabulated per material at load
+    time (mcocl/render/roughplastic_tables.py; the record's ``table`` field).
+    """
+
+    name = "roughplastic"
+    code = 7
+    params = (Param("diffuse_reflectance", "rgb", "rgb", "base albedo", default=0.5),
+              Param("int_ior", "number", "int_ior", "polypropylene", default=1.49, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              Param("ext_ior", "number", "ext_ior", "air", default=1.000277, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              ALPHA, DISTRIBUTION, TWOSIDED)
+    summary = ("rough plastic: a microfacet coat (GGX or Beckmann, roughness α) over a Lambertian base, the "
+               "light between them summed with the coat's tabulated transmittance (Mitsuba's `roughplastic`, "
+               "linear); one-sided unless `twosided`")
+
+
+def _distinct_iors(values: dict[str, object]) -> tuple[str, str] | None:
+    """An interface between equal indices would be invisible."""
+    if values["int_ior"] == values["ext_ior"]:
+        return "int_ior", "int_ior equals ext_ior: the interface would be invisible"
+    return None
+
+
+@register_bsdf
+class RoughDielectric(BsdfSpec):
+    """Rough glass, Walter et al. 2007 (kernels/render/bsdf_roughdielectric.cl), Mitsuba 3's `roughdielectric`.
+
+    As roughconductor, the distribution's default is GGX in mcocl's JSON; the
+    Mitsuba importer writes Mitsuba's default, Beckmann.
+    """
+
+    name = "roughdielectric"
+    code = 5
+    params = (Param("int_ior", "number", "int_ior", "BK7", default=1.5046, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              ALPHA, ALPHA_U, ALPHA_V, DISTRIBUTION)
+    fixed = {"rgb": (1.0, 1.0, 1.0)}
+    transmissive = True
+    eval_mode = True
+    summary = ("rough glass (Walter et al. 2007): microfacet reflection and refraction with roughness α, GGX "
+               "sampled by visible normals or Beckmann by D(m) cos θ_m; `int_ior` is inside")
+
+    def check(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """An interface between equal indices would be invisible."""
+        return _distinct_iors(values)
+
+    def derive(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """The anisotropic roughness."""
+        return _derive_anisotropy(values)
+
+
+@register_bsdf
+class ThinDielectric(BsdfSpec):
+    """A thin glass sheet (kernels/render/bsdf_thindielectric.cl), Mitsuba 3's `thindielectric`."""
+
+    name = "thindielectric"
+    code = 6
+    params = (Param("int_ior", "number", "int_ior", "BK7", default=1.5046, lo=0.0, lo_open=True, hi=IOR_LIMIT),
+              Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT))
+    fixed = {"rgb": (1.0, 1.0, 1.0)}
+    delta = True
+    transmissive = True  # goes through the surface (eta stays 1: no change of medium)
+    summary = ("a thin glass sheet: Fresnel reflection with the inter-reflections of its two faces summed, "
+               "transmission straight through (no refraction)")
+
+    def check(self, values: dict[str, object]) -> tuple[str, str] | None:
+        """An interface between equal indices would be invisible."""
+        return _distinct_iors(values)
+
+
 def _any_kind(specs: list[BsdfSpec]) -> str:
     """C: the lanes whose material is one of ``specs``."""
     if not specs:
@@ -304,9 +463,9 @@ def dispatcher_source() -> str:
         " *",
         " * Transport modes (Veach's thesis §5.2; pbrt-v4's and Mitsuba 3's TransportMode):",
         " * camera paths carry radiance (TRANSPORT_RADIANCE), light paths importance",
-        " * (TRANSPORT_IMPORTANCE).  eval is the same in both modes for the BSDFs here",
-        " * (all symmetric but for refraction's radiance scaling), so only sample takes",
-        " * the mode, and passes it to every BSDF's sample function.",
+        " * (TRANSPORT_IMPORTANCE).  The BSDFs here are symmetric but for refraction's",
+        " * radiance scaling: sample passes the mode to every BSDF's sample function,",
+        " * eval (bsdf_eval_mode) to the smooth refracting ones (roughdielectric).",
         " */",
         "#ifndef MCOCL_BSDF_CL",
         "#define MCOCL_BSDF_CL",
@@ -333,9 +492,10 @@ def dispatcher_source() -> str:
         f"    return {_any_kind(smooth)};",
         "}",
         "",
-        "/* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi.",
+        "/* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi, in",
+        " * transport mode `mode` (it matters to rough refraction only, see the top).",
         " * Zero for the delta materials (a mirror never reflects a sampled light). */",
-        "MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {",
+        "MC_INLINE vec3v bsdf_eval_mode(const material_v *m, vec3v wi, vec3v wo, floatv *pdf, int mode) {",
         "    vec3v f = v3s(0.0f);",
         "    floatv p = (floatv)(0.0f);",
         "    intv back = bsdf_mirrored(m, wi);",
@@ -347,7 +507,7 @@ def dispatcher_source() -> str:
             f"    intv is_{s.name} = m->kind == {s.c_code};",
             f"    if (lane_any(is_{s.name})) {{",
             "        floatv pk;",
-            f"        vec3v fk = {s.eval_function}(m, wi, wo, &pk);",
+            f"        vec3v fk = {s.eval_function}(m, wi, wo, &pk{', mode' if s.eval_mode else ''});",
             f"        f = v3_select(f, fk, is_{s.name});",
             f"        p = lane_select(p, pk, is_{s.name});",
             "    }",
@@ -355,6 +515,11 @@ def dispatcher_source() -> str:
     out += [
         "    *pdf = p;",
         "    return f;",
+        "}",
+        "",
+        "/* bsdf_eval_mode for camera paths (radiance). */",
+        "MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {",
+        "    return bsdf_eval_mode(m, wi, wo, pdf, TRANSPORT_RADIANCE);",
         "}",
         "",
         "typedef struct {",

@@ -235,7 +235,11 @@ MATERIAL_RECORD = _quad_record(
     "material_record", "a material: its MaterialKind code (as a float) and parameters",
     ("kind", "float"), ("rgb", "float", 3),  # albedo (diffuse) or specular reflectance (conductors)
     ("alpha", "float"), ("int_ior", "float"), ("ext_ior", "float"),
-    ("flags", "float"),  # FLAG_BITS of mcocl/bsdf_registry.py (an integer stored as a float): twosided, beckmann
+    ("flags", "float"),  # FLAG_BITS of mcocl/bsdf_registry.py (an integer stored as a float): twosided, beckmann, ...
+    # Read only by the BSDFs and lanes that use them (render/material.cl):
+    ("alpha_second", "float"),  # roughness along the second tangent (anisotropic; the key alpha_v)
+    ("eta_rgb", "float", 3), ("k_rgb", "float", 3),  # complex index of refraction of a conductor
+    ("table", "float"),  # index of the first float of the material's table in the materials table (roughplastic)
 )
 
 # Camera (host: compiled.camera_matrix; kernel: camera.cl), one per scene.

@@ -363,12 +363,13 @@ def test_unknown_plugin_names_line_element_and_nearest(tmp_path):
 
 def test_lenient_substitutes_with_a_warning(tmp_path):
     body = ('<bsdf type="roughplastic" id="p"><rgb name="diffuse_reflectance" value="0.2, 0.3, 0.4"/>'
-            '<float name="alpha" value="0.2"/></bsdf>'
-            '<bsdf type="conductor" id="gold"><string name="material" value="Au"/></bsdf>'
+            '<float name="alpha" value="0.2"/><boolean name="nonlinear" value="true"/></bsdf>'
+            '<bsdf type="conductor" id="gold"><float name="sheen" value="1"/></bsdf>'
             '<bsdf type="mask" id="t"><bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>'
             '<shape type="instance"/><emitter type="envmap"/>')  # serialized is supported now
     p = write(tmp_path, body)
-    with pytest.raises(InputError, match=r"'roughplastic' BSDF is not supported \(nearest supported: plastic\)"):
+    with pytest.raises(InputError, match=r"the nonlinear plastic model is not supported \(nearest supported: "
+                                         r"nonlinear=false\)"):
         read_mitsuba(p)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -376,8 +377,8 @@ def test_lenient_substitutes_with_a_warning(tmp_path):
     msgs = [str(w.message) for w in caught if w.category is SceneSubstitutionWarning]
     assert len(msgs) == 5 and all(re.match(r".*s\.xml:\d+: <", m) for m in msgs)
     m = d["materials"]
-    assert m["p"] == {"type": "plastic", "diffuse_reflectance": [0.2, 0.3, 0.4], "int_ior": 1.49, "ext_ior": 1.000277,
-                      "comment": m["p"]["comment"]}
+    assert m["p"] == {"type": "roughplastic", "diffuse_reflectance": [0.2, 0.3, 0.4], "int_ior": 1.49,
+                      "ext_ior": 1.000277, "alpha": 0.2, "distribution": "beckmann", "comment": m["p"]["comment"]}
     assert m["gold"]["type"] == "conductor" and m["t"]["reflectance"] == 0.7
     assert d["shapes"] == [] and "environment" not in d
     parse_scene(d, p)  # the substituted scene is valid
@@ -396,9 +397,19 @@ def test_conductors(tmp_path):
     m = read_mitsuba(p)["materials"]
     assert m["c"] == {"type": "conductor", "specular_reflectance": 0.9}
     assert m["r"] == {"type": "roughconductor", "specular_reflectance": 1.0, "alpha": 0.3}
-    p = write(tmp_path, '<bsdf type="conductor" id="c">\n<string name="material" value="Au"/></bsdf>')
-    with pytest.raises(InputError, match=r"s\.xml:\d+: <string name=\"material\">: the conductor material 'Au'.*"
-                                         r"nearest supported: conductor with material=\"none\""):
+    p = write(tmp_path, '<bsdf type="conductor" id="c">\n<string name="material" value="Au"/></bsdf>'
+                        '<bsdf type="conductor" id="d"/>'
+                        '<bsdf type="roughconductor" id="e"><rgb name="eta" value="0.2, 0.4, 1.4"/>'
+                        '<float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>')
+    m = read_mitsuba(p)["materials"]
+    assert m["c"]["material"] == "Au" and "material" not in m["d"]  # Mitsuba 3's default: "none", a mirror
+    assert m["e"]["eta"] == [0.2, 0.4, 1.4] and (m["e"]["alpha_u"], m["e"]["alpha_v"]) == (0.1, 0.3)
+    p = write(tmp_path, '<bsdf type="conductor" id="c">\n<string name="material" value="Gold"/></bsdf>')
+    with pytest.raises(InputError, match=r"s\.xml:\d+: <string name=\"material\">: unknown conductor material 'Gold'"):
+        read_mitsuba(p)
+    p = write(tmp_path, '<bsdf type="conductor" id="c">\n<string name="material" value="Au"/>'
+                        '<float name="k" value="2"/></bsdf>')
+    with pytest.raises(InputError, match=r"either material or eta/k"):
         read_mitsuba(p)
     p = write(tmp_path, '<bsdf type="roughconductor" id="c"><string name="material" value="none"/></bsdf>')
     c = read_mitsuba(p)["materials"]["c"]  # Mitsuba's default distribution

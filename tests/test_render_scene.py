@@ -58,7 +58,7 @@ def test_base_scene_is_valid(tmp_path):
     cs = compile_scene(write(tmp_path, BASE))
     assert cs.num_triangles == 2 + 12 + 1 and cs.num_spheres == 1
     assert (cs.integrator, cs.max_depth, cs.rr_depth, cs.spp) == ("nee", 3, 2, 4)
-    assert cs.materials.shape == (2, 8) and cs.materials[1, 0] == 2 and cs.materials[1, 4] == np.float32(0.2)
+    assert cs.materials.shape == (2, 16) and cs.materials[1, 0] == 2 and cs.materials[1, 4] == np.float32(0.2)
     np.testing.assert_array_equal(cs.materials[1, 1:4], 1.0)  # specular reflectance defaults to 1
     assert list(cs.shape_emitter) == [-1, -1, 0, -1]
     assert list(cs.light_prims) == [cs.num_triangles] and list(cs.light_cdf) == [0.0, 1.0]
@@ -85,7 +85,7 @@ def test_base_scene_is_valid(tmp_path):
         ({"integrator__max_depth": -2}, "integrator.max_depth", "must be >= -1"),
         ({"materials__w__reflectance": [1, 2]}, "materials.w.reflectance", "list of 3 numbers"),
         ({"materials__w__reflectance": -0.5}, "materials.w.reflectance", ">= 0"),
-        ({"materials__w__type": "roughplastic"}, "materials.w.type", "unknown value 'roughplastic'"),
+        ({"materials__w__type": "principled"}, "materials.w.type", "unknown value 'principled'"),
         ({"materials__w__twosided": 1}, "materials.w.twosided", "expected true or false"),
         ({"materials__m__alpha": 0}, "materials.m.alpha", "must be >="),
         ({"materials__w__ior": 1.5}, "materials.w.ior", "unknown key"),

@@ -105,11 +105,14 @@ MC_INLINE float to_area(float pdf_dir, vec3v p, vec3v q, vec3v nq) {
 }
 
 /* f cos(theta_out) at surface vertex v for light arriving along world direction
- * w_in (pointing away) and leaving along w_out; *pdf: the density of sampling w_out from w_in. */
-MC_INLINE vec3v vertex_eval(const bdpt_scene *sc, const bdpt_vertex *v, vec3v w_in, vec3v w_out, float *pdf) {
+ * w_in (pointing away) and leaving along w_out; *pdf: the density of sampling w_out from w_in.
+ * mode: TRANSPORT_RADIANCE at camera vertices, TRANSPORT_IMPORTANCE at light vertices (only
+ * rough refraction tells them apart; pdfs are the same in both). */
+MC_INLINE vec3v vertex_eval(const bdpt_scene *sc, const bdpt_vertex *v, vec3v w_in, vec3v w_out, float *pdf,
+                            int mode) {
     material_v m = material_load(sc->materials, v->mat);
     frame3v fr = frame_from_normal(v->n);
-    return bsdf_eval(&m, frame_to_local(fr, w_in), frame_to_local(fr, w_out), pdf);
+    return bsdf_eval_mode(&m, frame_to_local(fr, w_in), frame_to_local(fr, w_out), pdf, mode);
 }
 
 MC_INLINE int vertex_connectible(const bdpt_scene *sc, const bdpt_vertex *v) {
@@ -272,7 +275,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         float cos_y = -v3_dot(er.n, wz);
         if (!(cos_y > 0.0f) || !(d2 > 0.0f)) return zero;
         float pz;
-        vec3v fz = vertex_eval(sc, pt, pt->wi, wz, &pz);
+        vec3v fz = vertex_eval(sc, pt, pt->wi, wz, &pz, TRANSPORT_RADIANCE);
         c = v3_scale(v3_mul(v3_mul(pt->beta, fz), er.radiance), cos_y / (d2 * er.pdf_area));
         if (!(v3_maxc(c) > 0.0f) || !segment_clear(sc, pt->p, pt->n, er.pos)) return zero;
         bdpt_vertex y0 = light[0];
@@ -283,7 +286,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         light[0].pdf_rev = to_area(pz, pt->p, er.pos, er.n);
         pt->pdf_rev = to_area(cos_y * RT_INV_PI, er.pos, pt->p, pt->n);
         float pr;
-        vertex_eval(sc, pt, wz, pt->wi, &pr);
+        vertex_eval(sc, pt, wz, pt->wi, &pr, TRANSPORT_RADIANCE);
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
         *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
         light[0] = y0;
@@ -295,17 +298,17 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         if (!(d2 > 0.0f)) return zero;
         vec3v wy = v3_scale(dv, 1.0f / sqrt(d2)); /* from y_{s-1} toward z_{t-1} */
         float py, pz;
-        vec3v fy = vertex_eval(sc, qs, qs->wi, wy, &py);
-        vec3v fz = vertex_eval(sc, pt, pt->wi, v3_neg(wy), &pz);
+        vec3v fy = vertex_eval(sc, qs, qs->wi, wy, &py, TRANSPORT_IMPORTANCE);
+        vec3v fz = vertex_eval(sc, pt, pt->wi, v3_neg(wy), &pz, TRANSPORT_RADIANCE);
         c = v3_scale(v3_mul(v3_mul(qs->beta, fy), v3_mul(fz, pt->beta)), 1.0f / d2);
         if (!(v3_maxc(c) > 0.0f) || !segment_clear(sc, qs->p, qs->n, pt->p)) return zero;
         float save_qs = qs->pdf_rev, save_qsm = qsm->pdf_rev;
         pt->pdf_rev = to_area(py, qs->p, pt->p, pt->n);
         qs->pdf_rev = to_area(pz, pt->p, qs->p, qs->n);
         float pr;
-        vertex_eval(sc, pt, v3_neg(wy), pt->wi, &pr);
+        vertex_eval(sc, pt, v3_neg(wy), pt->wi, &pr, TRANSPORT_RADIANCE);
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
-        vertex_eval(sc, qs, wy, qs->wi, &pr);
+        vertex_eval(sc, qs, wy, qs->wi, &pr, TRANSPORT_IMPORTANCE);
         qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
         *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
         qs->pdf_rev = save_qs;
@@ -332,7 +335,7 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
         float cos_y = v3_dot(qs->n, k.wo);
         f = v3s(cos_y > 0.0f ? cos_y : 0.0f);
     } else {
-        f = vertex_eval(sc, qs, qs->wi, k.wo, &pfwd);
+        f = vertex_eval(sc, qs, qs->wi, k.wo, &pfwd, TRANSPORT_IMPORTANCE);
     }
     vec3v c = v3_scale(v3_mul(qs->beta, f), sc->pixels * k.film.importance / k.pdf_solid_angle);
     if (!(v3_maxc(c) > 0.0f) || !camera_visible(sc->geom, qs->p, qs->n, &k, 1)) return zero;
@@ -342,7 +345,7 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
     if (s > 1) {
         bdpt_vertex *qsm = &light[s - 2];
         float save_qsm = qsm->pdf_rev, pr;
-        vertex_eval(sc, qs, k.wo, qs->wi, &pr);
+        vertex_eval(sc, qs, k.wo, qs->wi, &pr, TRANSPORT_IMPORTANCE);
         qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
         *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
         qsm->pdf_rev = save_qsm;

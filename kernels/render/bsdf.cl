@@ -13,9 +13,9 @@
  *
  * Transport modes (Veach's thesis §5.2; pbrt-v4's and Mitsuba 3's TransportMode):
  * camera paths carry radiance (TRANSPORT_RADIANCE), light paths importance
- * (TRANSPORT_IMPORTANCE).  eval is the same in both modes for the BSDFs here
- * (all symmetric but for refraction's radiance scaling), so only sample takes
- * the mode, and passes it to every BSDF's sample function.
+ * (TRANSPORT_IMPORTANCE).  The BSDFs here are symmetric but for refraction's
+ * radiance scaling: sample passes the mode to every BSDF's sample function,
+ * eval (bsdf_eval_mode) to the smooth refracting ones (roughdielectric).
  */
 #ifndef MCOCL_BSDF_CL
 #define MCOCL_BSDF_CL
@@ -28,11 +28,16 @@
 /* Bits of material_record.flags (mcocl/bsdf_registry.py, FLAG_BITS). */
 #define MAT_FLAG_TWOSIDED 1
 #define MAT_FLAG_BECKMANN 2
+#define MAT_FLAG_ANISOTROPIC 4
+#define MAT_FLAG_COMPLEX_IOR 8
 #include "render/bsdf_diffuse.cl"
 #include "render/bsdf_conductor.cl"
 #include "render/bsdf_roughconductor.cl"
 #include "render/bsdf_dielectric.cl"
 #include "render/bsdf_plastic.cl"
+#include "render/bsdf_roughdielectric.cl"
+#include "render/bsdf_thindielectric.cl"
+#include "render/bsdf_roughplastic.cl"
 
 /* Lanes that see a twosided material from behind.  There the BSDF is the
  * front one mirrored through the surface (Mitsuba 3's `twosided`): eval and
@@ -44,12 +49,13 @@ MC_INLINE intv bsdf_mirrored(const material_v *m, vec3v wi) {
 
 /* Lanes whose material has a non-delta lobe: light sampling applies there. */
 MC_INLINE intv bsdf_is_smooth(const material_v *m) {
-    return (m->kind == MAT_DIFFUSE) | (m->kind == MAT_ROUGHCONDUCTOR) | (m->kind == MAT_PLASTIC);
+    return (m->kind == MAT_DIFFUSE) | (m->kind == MAT_ROUGHCONDUCTOR) | (m->kind == MAT_PLASTIC) | (m->kind == MAT_ROUGHDIELECTRIC) | (m->kind == MAT_ROUGHPLASTIC);
 }
 
-/* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi.
+/* f cos(theta_o) for the pair (wi, wo), and the pdf of sampling wo from wi, in
+ * transport mode `mode` (it matters to rough refraction only, see the top).
  * Zero for the delta materials (a mirror never reflects a sampled light). */
-MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {
+MC_INLINE vec3v bsdf_eval_mode(const material_v *m, vec3v wi, vec3v wo, floatv *pdf, int mode) {
     vec3v f = v3s(0.0f);
     floatv p = (floatv)(0.0f);
     intv back = bsdf_mirrored(m, wi);
@@ -76,8 +82,27 @@ MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) 
         f = v3_select(f, fk, is_plastic);
         p = lane_select(p, pk, is_plastic);
     }
+    intv is_roughdielectric = m->kind == MAT_ROUGHDIELECTRIC;
+    if (lane_any(is_roughdielectric)) {
+        floatv pk;
+        vec3v fk = roughdielectric_bsdf_eval(m, wi, wo, &pk, mode);
+        f = v3_select(f, fk, is_roughdielectric);
+        p = lane_select(p, pk, is_roughdielectric);
+    }
+    intv is_roughplastic = m->kind == MAT_ROUGHPLASTIC;
+    if (lane_any(is_roughplastic)) {
+        floatv pk;
+        vec3v fk = roughplastic_bsdf_eval(m, wi, wo, &pk);
+        f = v3_select(f, fk, is_roughplastic);
+        p = lane_select(p, pk, is_roughplastic);
+    }
     *pdf = p;
     return f;
+}
+
+/* bsdf_eval_mode for camera paths (radiance). */
+MC_INLINE vec3v bsdf_eval(const material_v *m, vec3v wi, vec3v wo, floatv *pdf) {
+    return bsdf_eval_mode(m, wi, wo, pdf, TRANSPORT_RADIANCE);
 }
 
 typedef struct {
@@ -97,7 +122,7 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
     s.weight = v3s(0.0f);
     s.pdf = (floatv)(0.0f);
     s.eta = (floatv)(1.0f);
-    s.delta = (m->kind == MAT_CONDUCTOR) | (m->kind == MAT_DIELECTRIC);
+    s.delta = (m->kind == MAT_CONDUCTOR) | (m->kind == MAT_DIELECTRIC) | (m->kind == MAT_THINDIELECTRIC);
     intv back = bsdf_mirrored(m, wi);
     wi.z = lane_select(wi.z, -wi.z, back);
     intv is_diffuse = m->kind == MAT_DIFFUSE;
@@ -147,6 +172,35 @@ MC_INLINE bsdf_sample_v bsdf_sample(const material_v *m, vec3v wi, floatv u_lobe
         s.weight = v3_select(s.weight, w, is_plastic);
         s.pdf = lane_select(s.pdf, p, is_plastic);
         s.delta = lane_select(s.delta, dl, is_plastic);
+    }
+    intv is_roughdielectric = m->kind == MAT_ROUGHDIELECTRIC;
+    if (lane_any(is_roughdielectric)) {
+        vec3v wo;
+        floatv p, e;
+        vec3v w = roughdielectric_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);
+        s.wo = v3_select(s.wo, wo, is_roughdielectric);
+        s.weight = v3_select(s.weight, w, is_roughdielectric);
+        s.pdf = lane_select(s.pdf, p, is_roughdielectric);
+        s.eta = lane_select(s.eta, e, is_roughdielectric);
+    }
+    intv is_thindielectric = m->kind == MAT_THINDIELECTRIC;
+    if (lane_any(is_thindielectric)) {
+        vec3v wo;
+        floatv p, e;
+        vec3v w = thindielectric_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);
+        s.wo = v3_select(s.wo, wo, is_thindielectric);
+        s.weight = v3_select(s.weight, w, is_thindielectric);
+        s.pdf = lane_select(s.pdf, p, is_thindielectric);
+        s.eta = lane_select(s.eta, e, is_thindielectric);
+    }
+    intv is_roughplastic = m->kind == MAT_ROUGHPLASTIC;
+    if (lane_any(is_roughplastic)) {
+        vec3v wo;
+        floatv p, e;
+        vec3v w = roughplastic_bsdf_sample(m, wi, u_lobe, u1, u2, &wo, &p, &e, mode);
+        s.wo = v3_select(s.wo, wo, is_roughplastic);
+        s.weight = v3_select(s.weight, w, is_roughplastic);
+        s.pdf = lane_select(s.pdf, p, is_roughplastic);
     }
     s.wo.z = lane_select(s.wo.z, -s.wo.z, back);
     return s;

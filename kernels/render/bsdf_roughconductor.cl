@@ -2,7 +2,10 @@
  * (Walter et al. 2007) with a constant Fresnel factor F (the material's
  * specular reflectance), one-sided, isotropic roughness alpha; or, for the
  * lanes whose material has MAT_FLAG_BECKMANN, the Beckmann distribution
- * (below the GGX functions).
+ * (below the GGX functions).  Lanes with MAT_FLAG_ANISOTROPIC use the
+ * anisotropic distributions of render/microfacet_aniso.cl (alpha along the
+ * first tangent, alpha_second along the second); lanes with MAT_FLAG_COMPLEX_IOR
+ * multiply F by the conductor Fresnel term at i.m (render/fresnel_conductor.cl).
  *
  *   D(m)      = 1 / (pi a^2 (((m_x^2 + m_y^2) / a^2 + m_z^2)^2))          (Walter eq. 33)
  *   G1(v)     = 2 / (1 + lane_sqrt(1 + a^2 tan^2 theta_v))                       (Walter eq. 34)
@@ -18,6 +21,8 @@
 #define MCOCL_BSDF_ROUGHCONDUCTOR_CL
 
 #include "render/material.cl"
+#include "render/microfacet_aniso.cl"
+#include "render/fresnel_conductor.cl"
 
 /* Roughness below this is clamped: D would overflow float. */
 #define GGX_MIN_ALPHA 1e-4f
@@ -34,26 +39,9 @@ MC_INLINE floatv ggx_g1(vec3v v, vec3v m, floatv a2) {
     return lane_select((floatv)(0.0f), g, (v3_dot(v, m) * v.z) > 0.0f);
 }
 
-/* Heitz 2018, listing 1: a visible normal for view direction wi (wi.z > 0). */
+/* Heitz 2018, listing 1: a visible normal for view direction wi (wi.z > 0) (render/microfacet_aniso.cl). */
 MC_INLINE vec3v ggx_sample_visible_normal(vec3v wi, floatv alpha, floatv u1, floatv u2) {
-    /* stretch the view direction to the hemisphere configuration (§3.2) */
-    vec3v vh = v3_normalize(v3(alpha * wi.x, alpha * wi.y, wi.z));
-    /* orthonormal basis around vh (§4.1), with its degenerate case */
-    floatv lensq = vh.x * vh.x + vh.y * vh.y;
-    intv flat = lensq > 0.0f;
-    floatv il = lane_rsqrt(lane_select((floatv)(1.0f), lensq, flat));
-    vec3v t1v = v3(lane_select((floatv)(1.0f), -vh.y * il, flat), lane_select((floatv)(0.0f), vh.x * il, flat), (floatv)(0.0f));
-    vec3v t2v = v3_cross(vh, t1v);
-    /* a point of the projected area: a disk whose lower half is squashed (§4.2) */
-    floatv r = lane_sqrt(u1);
-    floatv c;
-    floatv s = lane_sincos_2pi(u2, &c);
-    floatv t1 = r * c, t2 = r * s;
-    floatv h = 0.5f * (1.0f + vh.z);
-    t2 = (1.0f - h) * lane_sqrt(lane_max(1.0f - t1 * t1, 0.0f)) + h * t2;
-    /* reproject onto the hemisphere (§4.3) and unstretch (§3.4) */
-    vec3v nh = v3_madd(v3_madd(v3_scale(t1v, t1), t2, t2v), safe_sqrt(1.0f - t1 * t1 - t2 * t2), vh);
-    return v3_normalize(v3(alpha * nh.x, alpha * nh.y, lane_max(nh.z, 0.0f)));
+    return ggx_sample_visible_normal_aniso(wi, alpha, alpha, u1, u2);
 }
 
 /* ---- Beckmann (Walter et al. 2007, §5.1) ----
@@ -103,9 +91,20 @@ MC_INLINE floatv beckmann_sample(vec3v wi, floatv alpha, floatv u1, floatv u2, v
     return beckmann_g1(wi, m, alpha) * beckmann_g1(o, m, alpha) * dm / (wi.z * cm);
 }
 
+/* The lanes' Fresnel factor at i.m: the specular reflectance, times the conductor term where complex_ior. */
+MC_INLINE vec3v roughconductor_fresnel(const material_v *mat, floatv cos_im) {
+    vec3v spec = mat->color;
+    intv cplx = (mat->flags & MAT_FLAG_COMPLEX_IOR) != 0;
+    if (lane_any(cplx)) {
+        vec3v eta, k;
+        material_conductor_ior(mat, &eta, &k);
+        spec = v3_select(spec, v3_mul(spec, fresnel_conductor(cos_im, eta, k)), cplx);
+    }
+    return spec;
+}
+
 /* mat->color is the Fresnel factor F, mat->alpha the roughness. */
 MC_INLINE vec3v roughconductor_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, floatv *pdf) {
-    vec3v spec = mat->color;
     floatv alpha = lane_max(mat->alpha, GGX_MIN_ALPHA);
     floatv a2 = alpha * alpha;
     intv ok = (wi.z > 0.0f) & (wo.z > 0.0f);
@@ -121,14 +120,22 @@ MC_INLINE vec3v roughconductor_bsdf_eval(const material_v *mat, vec3v wi, vec3v 
         p = lane_select(p, pb, beck);
         fc = lane_select(fc, fb, beck);
     }
+    intv aniso = (mat->flags & MAT_FLAG_ANISOTROPIC) != 0;
+    if (lane_any(aniso)) {
+        floatv av = lane_max(material_alpha_second(mat), GGX_MIN_ALPHA);
+        floatv da = aniso_d(m, alpha, av, beck);
+        floatv fa = da * aniso_g1(wi, m, alpha, av, beck) * aniso_g1(wo, m, alpha, av, beck) / (4.0f * wi.z);
+        floatv pa = aniso_normal_pdf(wi, m, alpha, av, beck) / (4.0f * lane_abs(v3_dot(wo, m)));
+        p = lane_select(p, pa, aniso);
+        fc = lane_select(fc, fa, aniso);
+    }
     *pdf = lane_select((floatv)(0.0f), p, ok);
-    return v3_scale(spec, lane_select((floatv)(0.0f), fc, ok));
+    return v3_scale(roughconductor_fresnel(mat, v3_dot(wi, m)), lane_select((floatv)(0.0f), fc, ok));
 }
 
 /* u_lobe unused (one lobe), eta 1. */
 MC_INLINE vec3v roughconductor_bsdf_sample(const material_v *mat, vec3v wi, floatv u_lobe, floatv u1, floatv u2,
                                            vec3v *wo, floatv *pdf, floatv *eta, int mode) {
-    vec3v spec = mat->color;
     floatv alpha = lane_max(mat->alpha, GGX_MIN_ALPHA);
     *eta = (floatv)(1.0f);
     floatv a2 = alpha * alpha;
@@ -153,8 +160,28 @@ MC_INLINE vec3v roughconductor_bsdf_sample(const material_v *mat, vec3v wi, floa
         p = lane_select(p, pb, beck);
         w = lane_select(w, wb, beck);
     }
+    intv aniso = (mat->flags & MAT_FLAG_ANISOTROPIC) != 0;
+    intv cplx = (mat->flags & MAT_FLAG_COMPLEX_IOR) != 0;
+    if (lane_any(aniso | cplx)) {
+        /* the lanes' microfacet normal, for the Fresnel term (Beckmann's is its half vector) */
+        vec3v mb = v3_normalize(v3_add(wiv, *wo));
+        m = v3_select(m, mb, beck);
+    }
+    if (lane_any(aniso)) {
+        floatv av = lane_max(material_alpha_second(mat), GGX_MIN_ALPHA);
+        vec3v ma = aniso_sample_normal(wiv, alpha, av, u1, u2, beck);
+        floatv da = v3_dot(wiv, ma);
+        vec3v oa = v3_sub(v3_scale(ma, 2.0f * da), wiv);
+        floatv pm = aniso_normal_pdf(wiv, ma, alpha, av, beck);
+        floatv dga = aniso_d(ma, alpha, av, beck) * aniso_g1(wiv, ma, alpha, av, beck) * aniso_g1(oa, ma, alpha, av, beck);
+        *wo = v3_select(*wo, oa, aniso);
+        m = v3_select(m, ma, aniso);
+        ok = lane_select(ok, front & (da > 0.0f) & (oa.z > 0.0f) & (pm > 0.0f), aniso);
+        p = lane_select(p, pm / (4.0f * da), aniso);
+        w = lane_select(w, dga * da / (wiv.z * pm), aniso);
+    }
     *pdf = lane_select((floatv)(0.0f), p, ok);
-    return v3_scale(spec, lane_select((floatv)(0.0f), w, ok));
+    return v3_scale(roughconductor_fresnel(mat, v3_dot(wiv, m)), lane_select((floatv)(0.0f), w, ok));
 }
 
 #endif

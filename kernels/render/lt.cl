@@ -276,7 +276,7 @@ kernel void lt_trace(
             sampler_next_2d(&smp, ul);
             camera_connection_v k = camera_connect(camera, p, ul[0], ul[1], width, height);
             floatv bpdf;
-            vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, k.wo), &bpdf);
+            vec3v f = bsdf_eval_mode(&m, wi, frame_to_local(fr, k.wo), &bpdf, TRANSPORT_IMPORTANCE);
             vec3v c = v3_scale(v3_mul(beta, f), pixels * k.film.importance / k.pdf_solid_angle);
 #ifdef SHADING_NORMALS
             c = v3_scale(c, shading_adjoint(n, ns, v3_neg(d), k.wo));

@@ -29,7 +29,8 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   Degenerate triangles (zero area) are left out of the BVH: no ray hits them.
 - ``shape_material``: uint32 (num_shapes,); ``shape_emitter``: int32
   (num_shapes,), index into ``emitter_radiance`` or −1.
-- ``materials``: float32 (M, 8), one :data:`mcocl.layouts.MATERIAL_RECORD` per row:
+- ``materials``: float32 (M + T, 16), one :data:`mcocl.layouts.MATERIAL_RECORD` per row, then T rows of
+  the materials' tables (roughplastic: mcocl/render/roughplastic_tables.py):
   ``[kind, r, g, b, alpha, int_ior, ext_ior, 0]`` with kind a
   :class:`mcocl.layouts.MaterialKind` code (:data:`MATERIAL_CODES` by name);
   (r, g, b) = albedo (diffuse) or specular reflectance (conductors; 1 for dielectrics).
@@ -89,6 +90,7 @@ from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
 from .emitter_choice import LUMINANCE, environment_choice, light_choice
 from .pixel_filter import BOX, PixelFilter
+from .roughplastic_tables import append_tables
 from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
 from .shading_normals import vertex_normal_table
@@ -310,6 +312,8 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         for name in RECORD_FIELDS:  # the fields a BSDF registration packs into (mcocl/bsdf_registry.py)
             mats[i][name] = getattr(m, name)
     mats = mats.view(np.float32).reshape(len(scene.materials), MATERIAL_RECORD.itemsize // 4)
+    # the materials' tables after the records (roughplastic; the record's `table` field points at them)
+    mats = append_tables(scene.materials, mats, MATERIAL_RECORD.dtype().fields["table"][1] // 4)
     shape_material = np.array([sh.material for sh in scene.shapes], np.uint32)
     shape_emitter = np.full(len(scene.shapes), -1, np.int32)
     radiance = []

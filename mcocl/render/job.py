@@ -34,8 +34,9 @@ import numpy as np
 import pyopencl as cl
 
 from .. import runtime
+from ..bsdf_registry import BSDFS
 from ..errors import InputError
-from ..layouts import Integrator, LightSampler
+from ..layouts import MATERIAL_RECORD, Integrator, LightSampler
 from .device_scene import (
     LIGHT_BVH_ABSENT,
     light_records,
@@ -78,6 +79,18 @@ def require_no_clip(near_clip: float, integrator: str) -> None:
     if near_clip > 0.0:
         raise InputError(f"camera.near_clip works with the path integrators (path, nee, mis), not {integrator!r}: "
                          "leave it out (0) or use mis")
+
+
+def has_smooth_transmission(materials: np.ndarray) -> bool:
+    """Whether a materials table holds a BSDF that refracts through a non-delta lobe (roughdielectric).
+
+    Column 0 of the records is the kind; the rows of tables after them
+    (roughplastic's, mcocl/render/roughplastic_tables.py) hold numbers in [0, 1] there,
+    below every such kind's code (asserted)."""
+    codes = [s.code for s in BSDFS.values() if s.transmissive and not s.delta]
+    assert min(codes) > 1
+    kinds = np.asarray(materials, np.float32).reshape(-1)[::MATERIAL_RECORD.itemsize // 4]
+    return bool(np.isin(kinds, codes).any())
 
 
 def default_spp_per_block(width: int, height: int) -> int:
@@ -154,6 +167,8 @@ class RenderJob:
         opts = [f"-DLANES={lanes}", f"-DINTEGRATOR={INTEGRATOR_CODES[self.integrator]}"]
         if "light_bvh" in self.tables:
             opts.append(f"-DLIGHT_SAMPLER={LIGHT_SAMPLER_CODES['bvh']}")
+        if has_smooth_transmission(self.tables["materials"]):
+            opts.append("-DSMOOTH_TRANSMISSION")
         if self.sampler == "sobol":
             opts += sobol_render_defines(self.spp_per_block)
         if self.integrator == "bdpt":

@@ -99,6 +99,9 @@ class Material:
     int_ior: float = 1.0
     ext_ior: float = 1.0
     flags: int = 0  # bits of mcocl.bsdf_registry.FLAG_BITS (twosided)
+    alpha_second: float = 0.0  # anisotropic roughness along the second tangent (the key alpha_v)
+    eta_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))  # a conductor's complex IOR
+    k_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
 @dataclass
@@ -413,22 +416,27 @@ def _materials(c: _Checker, v: Any, key: str) -> tuple[list[Material], dict[str,
 
 def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec) -> Material:
     """One material of a registered BSDF: its keys validated as the registration declares them."""
-    required = tuple(p.key for p in spec.params if p.default is None)
-    o = c.obj(m, key, ("type", *required), tuple(p.key for p in spec.params if p.default is not None))
+    required = tuple(p.key for p in spec.params if p.default is None and not p.optional)
+    o = c.obj(m, key, ("type", *required), tuple(p.key for p in spec.params if p.default is not None or p.optional))
     given: dict[str, object] = {}
     for p in spec.params:
+        if p.optional and p.key not in o:
+            continue
         raw, pk = o.get(p.key, p.default), f"{key}.{p.key}"
-        if p.kind in ("flag", "choice"):
+        if p.kind in ("flag", "choice", "name"):
             given[p.key] = c.boolean(raw, pk) if p.kind == "flag" else c.string(raw, pk, p.choices)
             continue
-        given[p.field] = c.rgb(raw, pk) if p.kind == "rgb" else \
+        given[p.key if p.derived else p.field] = c.rgb(raw, pk) if p.kind == "rgb" else \
             c.number(raw, pk, p.lo, p.hi, lo_open=p.lo_open, hi_open=p.hi_open)
     values = record_values(spec, given)
-    bad = spec.check(values)
+    bad = spec.derive(values) or spec.check(values)
     if bad is not None:
         c.fail(f"{key}.{bad[0]}", bad[1])
     return Material(name, spec.name, np.array(values["rgb"], np.float64).reshape(3), alpha=float(values["alpha"]),
-                    int_ior=float(values["int_ior"]), ext_ior=float(values["ext_ior"]), flags=int(values["flags"]))
+                    int_ior=float(values["int_ior"]), ext_ior=float(values["ext_ior"]), flags=int(values["flags"]),
+                    alpha_second=float(values["alpha_second"]),  # type: ignore[arg-type]
+                    eta_rgb=np.array(values["eta_rgb"], np.float64).reshape(3),
+                    k_rgb=np.array(values["k_rgb"], np.float64).reshape(3))
 
 
 def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:

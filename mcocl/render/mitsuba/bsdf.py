@@ -1,11 +1,15 @@
 """Mitsuba BSDF plugins → mcocl materials (scenes/README.md, "Mitsuba XML", table of BSDFs).
 
-Supported exactly: ``diffuse``; ``conductor`` with ``material="none"`` (a
-perfect mirror times ``specular_reflectance``); ``roughconductor`` with
-``material="none"``, ``distribution`` ``"ggx"`` or ``"beckmann"`` (the default) and an isotropic ``alpha``;
-``dielectric`` with numeric or named ``int_ior``/``ext_ior`` (Mitsuba's
-defaults: BK7 1.5046 inside, air 1.000277 outside); ``plastic`` (linear, a
-specular reflectance of 1; polypropylene 1.49 inside, air outside);
+Supported exactly: ``diffuse``; ``conductor`` and ``roughconductor`` with a
+``material`` preset (Mitsuba 3's default ``"none"``: a perfect mirror times
+``specular_reflectance``; the presets' RGB eta/k in mcocl/conductor_iors.py) or
+``eta``/``k``, the rough one with ``distribution`` ``"ggx"`` or ``"beckmann"``
+(the default) and ``alpha`` or ``alpha_u``/``alpha_v``;
+``dielectric``, ``thindielectric`` and ``roughdielectric`` (roughness as
+``roughconductor``) with numeric or named ``int_ior``/``ext_ior`` (Mitsuba's
+defaults: BK7 1.5046 inside, air 1.000277 outside); ``plastic`` and
+``roughplastic`` (linear, a specular reflectance of 1; polypropylene 1.49
+inside, air outside; roughness as ``roughconductor``, isotropic);
 ``twosided`` around one BSDF that has mcocl's ``twosided`` key (diffuse,
 conductors, plastic) sets that key; around a dielectric it changes nothing
 (glass is two-sided already).  Any other BSDF registered
@@ -21,22 +25,20 @@ from typing import Any
 import numpy as np
 
 from ...bsdf_registry import BSDFS
+from ...conductor_iors import CONDUCTOR_IORS
 from .properties import split_children
 from .report import Reporter, nearest
 from .spectra import named_ior, nearest_ior_names
 from .xml_source import Node
 
-# Every registered BSDF (mcocl/bsdf_registry.py).  The five below have their own
+# Every registered BSDF (mcocl/bsdf_registry.py).  The ones below have their own
 # translators (Mitsuba's properties differ from mcocl's keys); any other is read
 # by :func:`_registered`, property name = scene-file key.
 SUPPORTED = tuple(BSDFS)
 
 # Unsupported BSDF plugin → (nearest supported alternative, lenient substitute).
 SUBSTITUTES = {
-    "roughplastic": ("plastic", "a smooth plastic with the same diffuse_reflectance and iors"),
     "principled": ("diffuse", "a diffuse BSDF with its base_color (default 0.5)"),
-    "roughdielectric": ("dielectric", "a smooth dielectric with the same int_ior/ext_ior"),
-    "thindielectric": ("dielectric", "a smooth (thick) dielectric with the same int_ior/ext_ior"),
     "twosided": ("one nested BSDF, the same on both sides", "its first nested BSDF on both sides"),
     "mask": ("its nested BSDF", "its nested BSDF (opacity ignored)"),
     "bumpmap": ("its nested BSDF", "its nested BSDF (bumps ignored)"),
@@ -112,21 +114,18 @@ def translate_bsdf(node: Node, rep: Reporter, resolve) -> dict:
         mat = {"type": "dielectric", "int_ior": ni, "ext_ior": ne}
         rep.leftover(node, props.unread(), ("int_ior", "ext_ior", "specular_reflectance",
                                             "specular_transmittance"), comments)
-    elif kind == "plastic":
-        mat = _plastic(node, props, rep, comments)
+    elif kind in ("plastic", "roughplastic"):
+        mat = _plastic(node, props, rep, comments, kind=kind)
+    elif kind == "roughdielectric":
+        mat = _rough_dielectric(node, props, rep, comments)
+    elif kind == "thindielectric":
+        mat = _thin_dielectric(node, props, rep, comments)
     elif kind in BSDFS:
         mat = _registered(node, kind, props, rep, comments)
     elif kind in SUBSTITUTES:
         alt, sub = SUBSTITUTES[kind]
         rep.unsupported(node, f"the {kind!r} BSDF", alt, sub, comments)
-        if alt == "plastic":
-            mat = _plastic(node, props, rep, comments, check_leftovers=False)
-        elif alt == "diffuse":
-            key = "base_color" if kind == "principled" else "diffuse_reflectance"
-            mat = {"type": "diffuse", "reflectance": rgb_json(props.colour(key, 0.5))}
-        else:
-            mat = {"type": "dielectric", "int_ior": _ior(props, "int_ior", "bk7", comments),
-                   "ext_ior": _ior(props, "ext_ior", "air", comments)}
+        mat = {"type": "diffuse", "reflectance": rgb_json(props.colour("base_color", 0.5))}  # principled
     else:
         rep.unsupported(node, f"the BSDF plugin {kind!r}", nearest(kind, SUPPORTED), "a diffuse BSDF of reflectance 0.5",
                         comments)
@@ -145,8 +144,8 @@ def _twosided(node: Node, objects: list[Node], rep: Reporter, resolve, comments:
         rep.unsupported(node, "a twosided BSDF with different front and back BSDFs",
                         "one nested BSDF, the same on both sides", "its first nested BSDF on both sides", comments)
     mat = translate_bsdf(inner[0], rep, resolve)
-    if mat["type"] == "dielectric":
-        comments.append("twosided: a dielectric is two-sided already")
+    if mat["type"] in ("dielectric", "roughdielectric", "thindielectric"):
+        comments.append(f"twosided: a {mat['type']} is two-sided already")
     elif any(p.key == "twosided" for p in BSDFS[mat["type"]].params):
         mat["twosided"] = True
     else:
@@ -157,11 +156,12 @@ def _twosided(node: Node, objects: list[Node], rep: Reporter, resolve, comments:
     return mat
 
 
-def _plastic(node: Node, props, rep: Reporter, comments: list[str], check_leftovers: bool = True) -> dict:
-    """Mitsuba's ``plastic`` (kernels/render/bsdf_plastic.cl): linear, with a specular reflectance of 1."""
+def _plastic(node: Node, props, rep: Reporter, comments: list[str], kind: str = "plastic") -> dict:
+    """Mitsuba's ``plastic`` or ``roughplastic`` (kernels/render/bsdf_plastic.cl, bsdf_roughplastic.cl): linear,
+    with a specular reflectance of 1; the rough one's roughness as ``roughconductor``'s."""
     if "diffuse_reflectance" not in props:
         comments.append("diffuse_reflectance: Mitsuba's default 0.5")
-    mat = {"type": "plastic", "diffuse_reflectance": rgb_json(props.colour("diffuse_reflectance", 0.5)),
+    mat = {"type": kind, "diffuse_reflectance": rgb_json(props.colour("diffuse_reflectance", 0.5)),
            "int_ior": _ior(props, "int_ior", "polypropylene", comments),
            "ext_ior": _ior(props, "ext_ior", "air", comments)}
     v = props.colour("specular_reflectance", 1.0)
@@ -171,9 +171,13 @@ def _plastic(node: Node, props, rep: Reporter, comments: list[str], check_leftov
     if props.get("nonlinear", ("boolean",), False):
         rep.unsupported(props.node("nonlinear"), "the nonlinear plastic model", "nonlinear=false",
                         "the linear model", comments)
-    if check_leftovers:
-        rep.leftover(node, props.unread(), ("diffuse_reflectance", "int_ior", "ext_ior", "specular_reflectance",
-                                            "nonlinear"), comments)
+    supported: tuple[str, ...] = ("diffuse_reflectance", "int_ior", "ext_ior", "specular_reflectance", "nonlinear")
+    if kind == "roughplastic":
+        _roughness(node, kind, props, rep, comments, mat)
+        if "alpha_u" in mat:
+            props.node("alpha_u").fail("roughplastic is isotropic in Mitsuba too: give alpha")
+        supported += ROUGHNESS_PROPS
+    rep.leftover(node, props.unread(), supported, comments)
     return mat
 
 
@@ -182,10 +186,16 @@ def _registered(node: Node, kind: str, props, rep: Reporter, comments: list[str]
     mat: dict[str, Any] = {"type": kind}
     spec = BSDFS[kind]
     for p in spec.params:
+        if p.optional and p.key not in props:
+            continue
         if p.kind == "rgb":
             v = props.colour(p.key, p.default)
             if v is not None:
                 mat[p.key] = rgb_json(v)
+        elif p.kind in ("flag", "choice", "name"):
+            v = props.get(p.key, ("boolean",) if p.kind == "flag" else ("string",), p.default)
+            if v is not None:
+                mat[p.key] = v
         else:
             v = props.get(p.key, ("float",), p.default)
             if v is not None:
@@ -196,51 +206,93 @@ def _registered(node: Node, kind: str, props, rep: Reporter, comments: list[str]
     return mat
 
 
+def _roughness(node: Node, kind: str, props, rep: Reporter, comments: list[str], mat: dict[str, Any]) -> None:
+    """``distribution``, ``alpha`` or ``alpha_u``/``alpha_v`` (Mitsuba's rules) into ``mat``."""
+    dist = props.get("distribution", ("string",), None)
+    if dist is None:
+        comments.append("distribution: Mitsuba's default 'beckmann'")
+        dist = "beckmann"
+    elif dist not in ("ggx", "beckmann"):
+        rep.unsupported(props.node("distribution"), f"the microfacet distribution {dist!r}",
+                        'distribution="ggx" or "beckmann"', "GGX with the same alpha", comments)
+        dist = "ggx"
+    if dist == "beckmann":  # mcocl's JSON default is GGX
+        mat["distribution"] = "beckmann"
+    alpha = props.get("alpha", ("float",), None)
+    au, av = props.get("alpha_u", ("float",), None), props.get("alpha_v", ("float",), None)
+    if au is not None or av is not None:
+        if au is None or av is None:
+            node.fail(f"a {kind!r} needs both alpha_u and alpha_v (Mitsuba's rule)")
+        if alpha is not None:
+            node.fail(f"a {kind!r} takes either alpha or alpha_u/alpha_v, not both (Mitsuba's rule)")
+        if au == av:
+            mat["alpha"] = au
+        else:
+            mat["alpha_u"], mat["alpha_v"] = au, av
+        return
+    if alpha is None:
+        comments.append("alpha: Mitsuba's default 0.1")
+        alpha = 0.1
+    mat["alpha"] = alpha
+    if props.get("sample_visible", ("boolean",), True) is False:
+        comments.append("sample_visible=false ignored: mcocl samples GGX by visible normals, Beckmann by D(m) cos "
+                        "(same expectation)")
+
+
+ROUGHNESS_PROPS = ("distribution", "alpha", "alpha_u", "alpha_v", "sample_visible")
+
+
 def _conductor(node: Node, kind: str, props, rep: Reporter, comments: list[str]) -> dict:
-    material = props.get("material", ("string",), None)
-    if material is None:
-        material = "Cu"
-        comments.append("material: Mitsuba's default is 'Cu' (copper)")
-    if material.lower() != "none" or "eta" in props or "k" in props:
-        at = props.node("material") if "material" in props else node
-        what = f"the conductor material {material!r}" if material.lower() != "none" else "eta/k"
-        rep.unsupported(at, what + " (spectral complex IOR)",
-                        f'{kind} with material="none" (a perfect mirror) and a specular_reflectance of the metal\'s colour',
-                        'material="none" with its specular_reflectance', comments)
-        props.read.update({"eta", "k"})
+    """Mitsuba 3's ``conductor``/``roughconductor``: ``material`` (default "none", a perfect mirror) or ``eta``/``k``."""
     mat: dict[str, Any] = {"type": kind, "specular_reflectance": rgb_json(props.colour("specular_reflectance", 1.0))}
-    supported = ("material", "specular_reflectance")
+    material = props.get("material", ("string",), None)
+    has_ior = "eta" in props or "k" in props
+    if material is not None and material != "none" and has_ior:
+        props.node("material").fail("give either material or eta/k, not both (Mitsuba's rule)")
+    if material is not None and material != "none":
+        if material not in CONDUCTOR_IORS:
+            props.node("material").fail(f"unknown conductor material {material!r} (closest: "
+                                        f"{nearest(material, tuple(CONDUCTOR_IORS))})")
+        mat["material"] = material
+        comments.append(f"material: {material!r}, RGB eta/k of Mitsuba's table (mcocl/conductor_iors.py)")
+    elif has_ior:
+        if "eta" in props:
+            mat["eta"] = rgb_json(props.colour("eta", 0.0))
+        if "k" in props:
+            mat["k"] = rgb_json(props.colour("k", 1.0))
+    supported = ("material", "eta", "k", "specular_reflectance")
     if kind == "roughconductor":
-        dist = props.get("distribution", ("string",), None)
-        if dist is None:
-            comments.append("distribution: Mitsuba's default 'beckmann'")
-            dist = "beckmann"
-        elif dist not in ("ggx", "beckmann"):
-            rep.unsupported(props.node("distribution"), f"the microfacet distribution {dist!r}",
-                            'distribution="ggx" or "beckmann"', "GGX with the same alpha", comments)
-            dist = "ggx"
-        if dist == "beckmann":  # mcocl's JSON default is GGX
-            mat["distribution"] = "beckmann"
-        alpha = props.get("alpha", ("float",), None)
-        au, av = props.get("alpha_u", ("float",), None), props.get("alpha_v", ("float",), None)
-        if au is not None or av is not None:
-            au = alpha if au is None else au
-            av = alpha if av is None else av
-            if au is None or av is None:
-                node.fail("give both alpha_u and alpha_v (or alpha)")
-            if au != av:
-                rep.unsupported(props.node("alpha_u" if "alpha_u" in props else "alpha_v"),
-                                "anisotropic roughness (alpha_u != alpha_v)", "an isotropic alpha",
-                                f"alpha = sqrt(alpha_u * alpha_v) = {np.sqrt(au * av):.6g}", comments)
-            alpha = float(np.sqrt(au * av)) if au != av else au
-        if alpha is None:
-            comments.append("alpha: Mitsuba's default 0.1")
-            alpha = 0.1
-        mat["alpha"] = alpha
-        if props.get("sample_visible", ("boolean",), True) is False:
-            comments.append("sample_visible=false ignored: mcocl samples GGX by visible normals, Beckmann by D(m) cos (same expectation)")
-        supported += ("distribution", "alpha", "alpha_u", "alpha_v", "sample_visible")
+        _roughness(node, kind, props, rep, comments, mat)
+        supported += ROUGHNESS_PROPS
     rep.leftover(node, props.unread(), supported, comments)
+    return mat
+
+
+def _dielectric_iors(node: Node, kind: str, props, rep: Reporter, comments: list[str]) -> dict:
+    """The iors of a (rough, thin) dielectric; a specular reflectance/transmittance other than 1 is unsupported."""
+    mat = {"type": kind, "int_ior": _ior(props, "int_ior", "bk7", comments),
+           "ext_ior": _ior(props, "ext_ior", "air", comments)}
+    for k in ("specular_reflectance", "specular_transmittance"):
+        v = props.colour(k, 1.0)
+        if np.any(v != 1.0):
+            rep.unsupported(props.node(k), f"{k} other than 1", "1 (leave it out)", "1", comments)
+    return mat
+
+
+def _rough_dielectric(node: Node, props, rep: Reporter, comments: list[str]) -> dict:
+    """Mitsuba 3's ``roughdielectric`` (kernels/render/bsdf_roughdielectric.cl)."""
+    mat = _dielectric_iors(node, "roughdielectric", props, rep, comments)
+    _roughness(node, "roughdielectric", props, rep, comments, mat)
+    rep.leftover(node, props.unread(), ("int_ior", "ext_ior", "specular_reflectance", "specular_transmittance",
+                                        *ROUGHNESS_PROPS), comments)
+    return mat
+
+
+def _thin_dielectric(node: Node, props, rep: Reporter, comments: list[str]) -> dict:
+    """Mitsuba 3's ``thindielectric`` (kernels/render/bsdf_thindielectric.cl)."""
+    mat = _dielectric_iors(node, "thindielectric", props, rep, comments)
+    rep.leftover(node, props.unread(), ("int_ior", "ext_ior", "specular_reflectance", "specular_transmittance"),
+                 comments)
     return mat
 
 
