@@ -162,8 +162,8 @@ MC_INLINE int bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *pa
             pdf_geo = 0.0f;
         } else if (n >= 2) {
             float pdf_back;
-            vertex_eval(sc, prev, prev->wi, v3_neg(v->wi), &pdf_geo);
-            vertex_eval(sc, prev, v3_neg(v->wi), prev->wi, &pdf_back);
+            vertex_eval(sc, prev, prev->wi, v3_neg(v->wi), &pdf_geo, mode);
+            vertex_eval(sc, prev, v3_neg(v->wi), prev->wi, &pdf_back, mode);
             path[n - 2].pdf_rev = to_area(pdf_back, prev->p, path[n - 2].p, path[n - 2].n);
         } else if (mode == TRANSPORT_IMPORTANCE) {
             pdf_geo = emitter_pdf_solid_angle(prev->n, v3_neg(v->wi));
