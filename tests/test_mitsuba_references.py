@@ -1,0 +1,85 @@
+"""mcocl against Mitsuba 3 reference images (tests/data/mitsuba/, made as tests/data/README.md says).
+
+- Every scene of tests/data/mitsuba/ is one Mitsuba XML file that both renderers read: Mitsuba 3
+  (scalar_rgb, many independent batches) made the stored mean and standard errors; mcocl renders the
+  same file here (``mis``, a fixed seed) and every 8 x 8 block and channel must agree within the
+  Šidák-corrected z bound of the whole family (tests/mitsuba_reference.py).
+- Every XML file has its reference, made from the file as it is now, with the manifest saying how.
+- The comparison can fail: a reflectance changed by 3 % in one block-sized region is caught.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+import pytest
+from mitsuba_reference import (
+    block_means,
+    block_z,
+    describe_worst,
+    load_reference,
+    reference_names,
+    render_like_reference,
+    z_bound,
+)
+
+# scene name (tests/data/mitsuba/<name>.xml) -> mcocl's samples per pixel (a second or two each on PoCL)
+SCENES = {
+    "box_diffuse": 1024,
+    "conductors": 1024,
+    "emitters_direct": 1024,
+    "glass": 1024,
+    "plastic_twosided": 1024,
+    "shapes": 512,
+}
+SEED = 20261201
+
+
+@functools.cache
+def _render(name: str):
+    """mcocl's render of a reference scene (once per session: two tests use box_diffuse's)."""
+    return render_like_reference(load_reference(name), SCENES[name], SEED)
+
+
+def _family_size() -> int:
+    return sum(load_reference(name).blocks() for name in SCENES)
+
+
+def test_every_scene_file_is_tested_and_has_its_reference() -> None:
+    assert sorted(SCENES) == reference_names(), "list every tests/data/mitsuba/*.xml in SCENES"
+    for name in SCENES:
+        ref = load_reference(name)  # fails when the XML changed after its reference was made
+        assert ref.made["renderer"] == "Mitsuba 3" and ref.made["variant"] == "scalar_rgb"
+        assert ref.made["batches"] >= 16 and ref.made["spp_per_batch"] * ref.made["batches"] >= 4096
+        assert ref.mean.shape == ref.stderr.shape == (ref.made["height"], ref.made["width"], 3)
+        assert np.all(np.isfinite(ref.mean)) and np.all(ref.stderr >= 0)
+        # blocks of independent pixels (box filter): the block stderr from the batch spread matches the pixels'
+        pixel_based = np.sqrt(block_means(ref.stderr**2) / 64)
+        noisy = pixel_based > 0
+        ratio = ref.block_stderr[noisy] / pixel_based[noisy]
+        assert 0.6 < np.median(ratio) < 1.4, (name, np.median(ratio))
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_mcocl_agrees_with_mitsuba(name: str) -> None:
+    ref = load_reference(name)
+    r = _render(name)
+    assert r.nonfinite == 0
+    z = block_z(r, ref)
+    bound = z_bound(_family_size())
+    assert np.all(np.isfinite(z)) and np.abs(z).max() < bound, (
+        f"{name}: largest |z| {np.abs(z).max():.2f} over the bound {bound:.2f} of {_family_size()} block tests\n"
+        + describe_worst(z, r, ref))
+
+
+def test_a_small_change_is_caught() -> None:
+    """The comparison has power: the reference with one 8 x 8 block darkened by 3 % fails it."""
+    ref = load_reference("box_diffuse")
+    r = _render("box_diffuse")
+    assert np.abs(block_z(r, ref)).max() < z_bound(_family_size())
+    darker = ref.mean.copy()
+    darker[16:24, 8:16] *= 0.97
+    z = block_z(r, dataclasses.replace(ref, mean=darker))
+    assert np.abs(z[2, 1]).max() > z_bound(_family_size())
