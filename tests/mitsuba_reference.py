@@ -10,7 +10,7 @@ The comparison: for every 8 x 8 block and channel, the difference of the
 block means of mcocl's render and the reference, divided by the standard
 error of that difference (mcocl's: its pixels are independent, so the block
 mean's variance is the sum of the pixels' variances of the mean / 64²; the
-reference's: its block standard error; a floor of 1e-6 of the value for
+reference's: its block standard error; a floor of 1e-5 of the value for
 float32 rounding where both are exact), is a z-score.  A scene passes when
 no block is beyond the two-sided Šidák level of the family (every block and
 channel of every scene of the test file) at family-wise level
@@ -34,8 +34,9 @@ DATA = Path(__file__).resolve().parent / "data" / "mitsuba"
 BLOCK = 8
 # The family-wise level of the suite's 8 x 8-block z-tests (tests/test_render_sobol.py and others).
 FAMILY_ALPHA = 1e-3
-# Relative standard-error floor of a block: float32 images (both renderers' films) round at 6e-8; a few ulps.
-ROUNDING = 1e-6
+# Relative standard-error floor of a block: the float32 films of the two renderers differ by up to ~2e-6
+# (relative) on a constant sky seen directly, where neither has any noise.
+ROUNDING = 1e-5
 
 
 @dataclass(frozen=True)
