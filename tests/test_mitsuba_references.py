@@ -28,6 +28,7 @@ from mitsuba_reference import (
 # scene name (tests/data/mitsuba/<name>.xml) -> mcocl's samples per pixel (a second or two each on PoCL)
 SCENES = {
     "box_diffuse": 2048,
+    "camera_dialect": 2048,
     "conductors": 4096,
     "emitters_direct": 4096,
     "glass": 4096,
