@@ -4,6 +4,7 @@
   (scalar_rgb, many independent batches) made the stored mean and standard errors; mcocl renders the
   same file here (``mis``, a fixed seed) and every 8 x 8 block and channel must agree within the
   Šidák-corrected z bound of the whole family (tests/mitsuba_reference.py).
+- Light tracing and BDPT agree with the same reference of an all-diffuse, area-lit scene.
 - Every XML file has its reference, made from the file as it is now, with the manifest saying how.
 - The comparison can fail: one 8 x 8 block of the reference darkened by 2 % is caught (z about 6.6 against a bound of 4.6).
 """
@@ -35,6 +36,9 @@ SCENES = {
     "plastic_twosided": 4096,
     "shapes": 2048,
 }
+# (integrator, scene, spp): the other integrators on scenes they can render (light tracing and BDPT: area
+# lights, no delta surface seen directly), against the same references
+OTHER_INTEGRATORS = [("lt", "box_diffuse", 1024), ("bdpt", "box_diffuse", 128)]
 SEED = 20261201
 
 
@@ -45,7 +49,8 @@ def _render(name: str):
 
 
 def _family_size() -> int:
-    return sum(load_reference(name).blocks() for name in SCENES)
+    """Block tests of the whole file: every scene with mis, and the OTHER_INTEGRATORS runs."""
+    return sum(load_reference(name).blocks() for name in [*SCENES, *(s for _, s, _ in OTHER_INTEGRATORS)])
 
 
 def test_every_scene_file_is_tested_and_has_its_reference() -> None:
@@ -72,6 +77,18 @@ def test_mcocl_agrees_with_mitsuba(name: str) -> None:
     bound = z_bound(_family_size())
     assert np.all(np.isfinite(z)) and np.abs(z).max() < bound, (
         f"{name}: largest |z| {np.abs(z).max():.2f} over the bound {bound:.2f} of {_family_size()} block tests\n"
+        + describe_worst(z, r, ref))
+
+
+@pytest.mark.parametrize(("integrator", "name", "spp"), OTHER_INTEGRATORS)
+def test_other_integrators_agree_with_mitsuba(integrator: str, name: str, spp: int) -> None:
+    ref = load_reference(name)
+    r = render_like_reference(ref, spp, SEED + 1, integrator=integrator)
+    assert r.nonfinite == 0 and r.integrator == integrator
+    z = block_z(r, ref)
+    bound = z_bound(_family_size())
+    assert np.all(np.isfinite(z)) and np.abs(z).max() < bound, (
+        f"{name} ({integrator}): largest |z| {np.abs(z).max():.2f} over the bound {bound:.2f}\n"
         + describe_worst(z, r, ref))
 
 
