@@ -5,6 +5,7 @@
   same file here (``mis``, a fixed seed) and every 8 x 8 block and channel must agree within the
   Šidák-corrected z bound of the whole family (tests/mitsuba_reference.py).
 - Light tracing and BDPT agree with the same reference of an all-diffuse, area-lit scene.
+- A known difference (KNOWN_DIFFERENCES) is an expected failure that fails loudly once it is fixed.
 - Every XML file has its reference, made from the file as it is now, with the manifest saying how.
 - The comparison can fail: one 8 x 8 block of the reference darkened by 2 % is caught (z about 6.6 against a bound of 4.6).
 """
@@ -36,6 +37,12 @@ SCENES = {
     "plastic_twosided": 4096,
     "shapes": 2048,
 }
+# scene name -> (spp, why): references mcocl is known not to match yet; strict xfail, so that the fix
+# shows (move the scene to SCENES then)
+KNOWN_DIFFERENCES = {
+    "spectra": (1024, "one-number <spectrum> radiance and sampled <spectrum> reflectances are converted to "
+                      "RGB differently from Mitsuba 3's RGB variants (tests/data/README.md)"),
+}
 # (integrator, scene, spp): the other integrators on scenes they can render (light tracing and BDPT: area
 # lights, no delta surface seen directly), against the same references
 OTHER_INTEGRATORS = [("lt", "box_diffuse", 1024), ("bdpt", "box_diffuse", 128)]
@@ -54,8 +61,8 @@ def _family_size() -> int:
 
 
 def test_every_scene_file_is_tested_and_has_its_reference() -> None:
-    assert sorted(SCENES) == reference_names(), "list every tests/data/mitsuba/*.xml in SCENES"
-    for name in SCENES:
+    assert sorted([*SCENES, *KNOWN_DIFFERENCES]) == reference_names(), "list every tests/data/mitsuba/*.xml in SCENES"
+    for name in [*SCENES, *KNOWN_DIFFERENCES]:
         ref = load_reference(name)  # fails when the XML changed after its reference was made
         assert ref.made["renderer"] == "Mitsuba 3" and ref.made["variant"] == "scalar_rgb"
         assert ref.made["batches"] >= 16 and ref.made["spp_per_batch"] * ref.made["batches"] >= 4096
@@ -78,6 +85,16 @@ def test_mcocl_agrees_with_mitsuba(name: str) -> None:
     assert np.all(np.isfinite(z)) and np.abs(z).max() < bound, (
         f"{name}: largest |z| {np.abs(z).max():.2f} over the bound {bound:.2f} of {_family_size()} block tests\n"
         + describe_worst(z, r, ref))
+
+
+@pytest.mark.parametrize("name", list(KNOWN_DIFFERENCES))
+def test_known_differences_still_differ(name: str) -> None:
+    spp, why = KNOWN_DIFFERENCES[name]
+    ref = load_reference(name)
+    z = block_z(render_like_reference(ref, spp, SEED), ref)
+    if np.abs(z).max() < z_bound(_family_size()):
+        pytest.fail(f"{name} now agrees with Mitsuba: move it from KNOWN_DIFFERENCES to SCENES ({why})")
+    pytest.xfail(why)
 
 
 @pytest.mark.parametrize(("integrator", "name", "spp"), OTHER_INTEGRATORS)
