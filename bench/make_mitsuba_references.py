@@ -5,6 +5,7 @@ Run with the Python of a separate virtual environment that has ``mitsuba``
 
     /work/mitsuba-venv/bin/python bench/make_mitsuba_references.py              # every scene
     /work/mitsuba-venv/bin/python bench/make_mitsuba_references.py shapes glass # only these
+    /work/mitsuba-venv/bin/python bench/make_mitsuba_references.py --stale      # new or changed XML only
 
 For each scene ``tests/data/mitsuba/<name>.xml`` (the same file mcocl reads in
 tests/test_mitsuba_references.py) it renders ``--batches`` independent images
@@ -63,6 +64,14 @@ def render_batches(mi, xml: Path, spp: int, batches: int, seed: int) -> np.ndarr
     return np.stack(out)
 
 
+def stale(data: Path, name: str, manifest: dict) -> bool:
+    """Whether ``<name>.xml`` has no reference, or changed since its reference was made."""
+    xml, npz = data / f"{name}.xml", data / f"{name}.npz"
+    if name not in manifest or not npz.exists():
+        return True
+    return hashlib.sha256(xml.read_bytes()).hexdigest() != manifest[name].get("xml_sha256")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("scenes", nargs="*", help="scene names (XML files in tests/data/mitsuba/); default: all")
@@ -71,16 +80,21 @@ def main() -> None:
     ap.add_argument("--batches", type=int, default=64, help="independent batches (the standard error's spread)")
     ap.add_argument("--seed", type=int, default=1000, help="seed of the first batch (then seed + 1, ...)")
     ap.add_argument("--data", type=Path, default=DATA, help="the folder of the XML files and references")
+    ap.add_argument("--stale", action="store_true",
+                    help="only the scenes without a reference or whose XML changed since theirs was made")
     args = ap.parse_args()
     if args.batches < 2:
         raise SystemExit("--batches must be at least 2 (the standard error is their spread)")
+    names = args.scenes or sorted(p.stem for p in args.data.glob("*.xml"))
+    manifest_path = args.data / "manifest.json"
+    manifest = json.loads(manifest_path.read_text()) if manifest_path.exists() else {}
+    if args.stale:
+        names = [n for n in names if stale(args.data, n, manifest)]
+        print("stale:", " ".join(names) or "none", flush=True)
 
     import mitsuba as mi
 
     mi.set_variant(args.variant)
-    names = args.scenes or sorted(p.stem for p in args.data.glob("*.xml"))
-    manifest_path = args.data / "manifest.json"
-    manifest = json.loads(manifest_path.read_text()) if manifest_path.exists() else {}
     command = "python " + " ".join(shlex.quote(a) for a in [Path(sys.argv[0]).as_posix()] + sys.argv[1:])
     for name in names:
         xml = args.data / f"{name}.xml"
