@@ -39,7 +39,7 @@ MC_INLINE float path_weight_sum(const bdpt_scene *sc, const bdpt_vertex *x, int 
         if (i == 1) {
             pdf = camera_importance(sc->camera, x[0].p, unit_to(x[0].p, x[1].p), sc->width, sc->height).pdf_solid_angle;
         } else if (!x[i - 1].delta) {
-            vertex_eval(sc, &x[i - 1], unit_to(x[i - 1].p, x[i - 2].p), unit_to(x[i - 1].p, x[i].p), &pdf);
+            vertex_eval(sc, &x[i - 1], unit_to(x[i - 1].p, x[i - 2].p), unit_to(x[i - 1].p, x[i].p), &pdf, TRANSPORT_RADIANCE);
         }
         pc[i] = to_area(pdf, x[i - 1].p, x[i].p, x[i].n);
     }
@@ -48,7 +48,7 @@ MC_INLINE float path_weight_sum(const bdpt_scene *sc, const bdpt_vertex *x, int 
         if (i == k - 1) {
             pdf = emitter_pdf_solid_angle(x[k].n, unit_to(x[k].p, x[i].p));
         } else if (!x[i + 1].delta) {
-            vertex_eval(sc, &x[i + 1], unit_to(x[i + 1].p, x[i + 2].p), unit_to(x[i + 1].p, x[i].p), &pdf);
+            vertex_eval(sc, &x[i + 1], unit_to(x[i + 1].p, x[i + 2].p), unit_to(x[i + 1].p, x[i].p), &pdf, TRANSPORT_IMPORTANCE);
         }
         pl[i] = to_area(pdf, x[i + 1].p, x[i].p, x[i].n);
     }
