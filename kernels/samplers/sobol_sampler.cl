@@ -161,7 +161,10 @@ MC_INLINE uintv laine_karras(uintv x, uintv s) {
     return x;
 }
 
-MC_INLINE floatv owen_uniform(uintv x, uintv s) { return u01(reverse_bits(laine_karras(x, s))); }
+/* The scrambled coordinate's 32 bits (in order): u01 or u01d maps them to the grid. */
+MC_INLINE uintv owen_bits(uintv x, uintv s) { return reverse_bits(laine_karras(x, s)); }
+
+MC_INLINE floatv owen_uniform(uintv x, uintv s) { return u01(owen_bits(x, s)); }
 
 /* Dimensions j >= SOBOL_TABLE_DIMS, drawn only by consumers of unbounded
  * depth (render paths deeper than the table; the integration host never
@@ -180,13 +183,9 @@ MC_INLINE uintv sobol_padded_reversed(uintv p, uintv s) {
     return reverse_bits(laine_karras(reverse_bits(p), h));
 }
 
-MC_INLINE uintv philox_word(philox_ctr c, uintv w) {
-    return lane_select(lane_select(c.v0, c.v1, w == 1u), lane_select(c.v2, c.v3, w == 3u), w >= 2u);
-}
-
-/* The uniform of dimensions d (per lane) with scrambling seeds `seed`: from
- * the table, or padded past it. */
-MC_INLINE floatv sobol_uniform_lanes(const mc_sampler_t *s, uintv d, uintv seed) {
+/* The scrambled bits of dimensions d (per lane) with scrambling seeds `seed`:
+ * from the table, or padded past it. */
+MC_INLINE uintv sobol_bits_lanes(const mc_sampler_t *s, uintv d, uintv seed) {
     const intv past = d >= (uintv)(SOBOL_TABLE_DIMS);
     uintv x;
     if (lane_any(past)) {
@@ -195,7 +194,12 @@ MC_INLINE floatv sobol_uniform_lanes(const mc_sampler_t *s, uintv d, uintv seed)
     } else {
         x = sobol_reversed_lanes(s->point, d);
     }
-    return owen_uniform(x, seed);
+    return owen_bits(x, seed);
+}
+
+/* The uniform of dimensions d (per lane) with scrambling seeds `seed`. */
+MC_INLINE floatv sobol_uniform_lanes(const mc_sampler_t *s, uintv d, uintv seed) {
+    return u01(sobol_bits_lanes(s, d, seed));
 }
 
 MC_INLINE floatv sampler_next_1d(mc_sampler_t *s) {
@@ -234,6 +238,29 @@ MC_INLINE void sampler_next_nd(mc_sampler_t *s, int n, floatv *u) {
         if (j + 1 < n) u[j + 1] = owen_uniform(sobol_reversed_packet(s, d0 + (uint)j + 1u), c.v1);
         if (j + 2 < n) u[j + 2] = owen_uniform(sobol_reversed_packet(s, d0 + (uint)j + 2u), c.v2);
         if (j + 3 < n) u[j + 3] = owen_uniform(sobol_reversed_packet(s, d0 + (uint)j + 3u), c.v3);
+    }
+    s->dim += (uint)n;
+}
+
+/* sampler_next_nd in double (u01d: all 32 scrambled bits), for
+ * precision="double" integration: the same points and scramblings, the same
+ * two paths (the packet shortcut where sampler_next_nd takes it). */
+MC_INLINE void sampler_next_nd_d(mc_sampler_t *s, int n, doublev *u) {
+    const uint d0 = SOBOL_LANE0(s->dim);
+    if (lane_any(s->dim != (uintv)(d0)) || (d0 & 3u) != 0u || d0 + (uint)n > (uint)SOBOL_TABLE_DIMS) {
+        for (int j = 0; j < n; ++j) {
+            const uintv d = s->dim + (uint)j;
+            u[j] = u01d(sobol_bits_lanes(s, d, philox_word(rng_block(s->replicate, d >> 2), d & 3u)));
+        }
+        s->dim += (uint)n;
+        return;
+    }
+    for (int j = 0; j < n; j += 4) {
+        const philox_ctr c = rng_block(s->replicate, (uintv)((d0 + (uint)j) >> 2));
+        u[j] = u01d(owen_bits(sobol_reversed_packet(s, d0 + (uint)j), c.v0));
+        if (j + 1 < n) u[j + 1] = u01d(owen_bits(sobol_reversed_packet(s, d0 + (uint)j + 1u), c.v1));
+        if (j + 2 < n) u[j + 2] = u01d(owen_bits(sobol_reversed_packet(s, d0 + (uint)j + 2u), c.v2));
+        if (j + 3 < n) u[j + 3] = u01d(owen_bits(sobol_reversed_packet(s, d0 + (uint)j + 3u), c.v3));
     }
     s->dim += (uint)n;
 }
