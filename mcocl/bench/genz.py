@@ -104,7 +104,7 @@ def corner_peak(a: Sequence[float]) -> GenzIntegrand:
     total = Fraction(0)
     for k in range(d + 1):
         for s in itertools.combinations([Fraction(float(ai)) for ai in a], k):
-            total += (-1) ** k / (1 + sum(s))
+            total += Fraction((-1) ** k) / (1 + sum(s))  # Fraction: 1 / 1 would be a float
     exact = float(total / (math.factorial(d) * math.prod(Fraction(float(ai)) for ai in a)))
     return GenzIntegrand("corner peak", opencl, f"(1.0 + {lin_p}) ** {py_float(-(d + 1))}", exact)
 
