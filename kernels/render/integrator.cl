@@ -5,7 +5,9 @@
  * The estimator is the random walk of the lecture ("Path Tracing – náhodná
  * procházka"): L = sum over vertices of the path throughput times the
  * emitted radiance, with the variants chosen at build time by -DINTEGRATOR:
- *   INTEGRATOR_PATH  BSDF sampling only; an emitter hit adds its radiance;
+ *   INTEGRATOR_PATH  BSDF sampling only; an emitter hit adds its radiance
+ *                    (point, spot and directional lights, which no ray can
+ *                    hit, are invisible to it: render/delta_lights.cl);
  *   INTEGRATOR_NEE   next-event estimation ("NEE pro Path Tracing"): a light
  *                    sample at every non-delta vertex, BSDF sampling only to
  *                    continue; an emitter hit counts only after a delta
@@ -312,7 +314,8 @@ kernel void render_blocks(
                 floatv bpdf;
                 vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, ls.wo), &bpdf);
 #if INTEGRATOR == INTEGRATOR_MIS
-                floatv w = power_heuristic(ls.pdf, bpdf);
+                /* a delta light (render/delta_lights.cl) has no BSDF-sampling strategy: weight 1 */
+                floatv w = lane_select(power_heuristic(ls.pdf, bpdf), (floatv)(1.0f), ls.delta);
 #else
                 floatv w = (floatv)(1.0f);
 #endif

@@ -216,7 +216,7 @@ kernel void lt_trace(
             sampler_next_nd(&fs, 8, ue);
             smp = sampler_select(smp, fs, fresh);
             emitter_ray_v er = sample_emitter_ray(&lt, bsphere, ue, fresh);
-            intv area = er.valid & !er.env;
+            intv area = er.valid & !er.env & !er.delta; /* no camera connection sees a delta light */
             if (lane_any(area)) {
                 /* the light vertex itself: L_e(y_0 -> camera) cos_y W_e / (pdf_area pdf_camera) */
                 camera_connection_v k = camera_connect(camera, er.pos, ue[6], ue[7], width, height);

@@ -28,6 +28,7 @@ from ..datafile import decode_utf8
 from ..errors import InputError
 from ..layouts import Integrator, MaterialKind
 from . import transform as tf
+from .delta_lights import DeltaLight, parse_lights
 from .shape_registry import GEOMETRY_LIMIT, SHAPES
 
 # The names a scene file uses: the codes of mcocl/layouts.py, lower case.
@@ -137,6 +138,7 @@ class Scene:
     spp: int = DEFAULT_SPP
     light_sampler: str = DEFAULT_LIGHT_SAMPLER
     sampler: str = DEFAULT_RENDER_SAMPLER
+    lights: list[DeltaLight] = field(default_factory=list)  # point, spot, directional (delta_lights.py)
 
 
 class _Checker:
@@ -304,7 +306,7 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
     """
     p = Path(path)
     c = _Checker(str(p))
-    top = c.obj(data, "", ("camera",), ("integrator", "materials", "shapes", "environment"))
+    top = c.obj(data, "", ("camera",), ("integrator", "materials", "shapes", "environment", "lights"))
     camera = _camera(c, top["camera"], "camera")
     integ = _integrator(c, top.get("integrator", {}), "integrator")
     materials, index = _materials(c, top.get("materials", {}), "materials")
@@ -318,7 +320,8 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
         e = c.obj(top["environment"], "environment", ("type", "radiance"))
         c.string(e["type"], "environment.type", ("constant",))
         env = c.rgb(e["radiance"], "environment.radiance")
-    return Scene(p, camera, materials, shape_list, env, **integ)
+    lights = parse_lights(c, top["lights"], "lights", GEOMETRY_LIMIT) if "lights" in top else []
+    return Scene(p, camera, materials, shape_list, env, **integ, lights=lights)
 
 
 def _camera(c: _Checker, v: Any, key: str) -> Camera:
