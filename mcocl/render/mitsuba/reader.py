@@ -17,6 +17,7 @@ from typing import Any
 from ...errors import InputError
 from ..scene import parse_scene
 from .bsdf import translate_bsdf
+from .delta_emitter import DELTA_EMITTERS, translate_delta_light
 from .report import Reporter, nearest
 from .sensor import translate_integrator, translate_sensor
 from .shape import ShapeTranslator, translate_radiance
@@ -138,6 +139,10 @@ class _SceneBuilder:
                 shape_list.append(s)
         out["shapes"] = shape_list
         for e in envs:
+            if e.attrib.get("type", "") in DELTA_EMITTERS:
+                self.elements[f"lights[{len(out.setdefault('lights', []))}]"] = e
+                out["lights"].append(translate_delta_light(e, self.rep))
+                continue
             env = self._environment(e, comments)
             if env is not None:
                 if "environment" in out:
@@ -155,9 +160,9 @@ class _SceneBuilder:
             return env
         if kind == "area":
             node.fail("an area emitter belongs inside a <shape>")
-        alt = {"envmap": "constant (its mean radiance)", "point": "a small sphere with an area emitter",
-               "spot": "a small sphere with an area emitter", "directional": "a distant sphere with an area emitter"}
-        self.rep.unsupported(node, f"the emitter {kind!r}", alt.get(kind, "constant, or area inside a shape"),
+        alt = {"envmap": "constant (its mean radiance)"}
+        self.rep.unsupported(node, f"the emitter {kind!r}",
+                             alt.get(kind, "constant, point, spot, directional, or area inside a shape"),
                              "nothing (the emitter is left out)", comments)
         return None
 
