@@ -158,6 +158,7 @@ kernel void render_blocks(
     global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance,
     global const float4 *light_rec, global const float *light_cdf,
     global const float4 *light_bvh, global const uint *light_trail,
+    global const float4 *env_map, global const uint *env_cdf,
     global film_t *out)
 {
     const ulong first_block = params.first_block, seed = params.seed;
@@ -185,7 +186,8 @@ kernel void render_blocks(
 
     SCENE_GEOM_MAKE(geom);
     const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
-    const light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, light_bvh, light_trail);
+    light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, light_bvh, light_trail);
+    light_tables_bind_envmap(&lt, &params, env_map, env_cdf);
     const bool has_env = env_radiance.x > 0.0f || env_radiance.y > 0.0f || env_radiance.z > 0.0f;
     const vec3v env_le = v3((floatv)(env_radiance.x), (floatv)(env_radiance.y), (floatv)(env_radiance.z));
     const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;
@@ -257,8 +259,16 @@ kernel void render_blocks(
 
         /* ---- the environment, seen by a ray that escaped ---- */
         if (has_env && max_depth != 0 && lane_any(miss)) {
-            floatv w = emission_weight(unsampled, prev_pdf, (floatv)(env_pmf * RT_INV_4PI));
-            L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, env_le), w)), miss);
+            if (lt.has_env_map) {
+                /* an environment map (render/envmap.cl): its radiance and light-sampling density along d */
+                floatv lp = env_pmf * envmap_pdf(&lt.env_map, d, miss);
+                floatv w = emission_weight(unsampled, prev_pdf, lp);
+                vec3v le = envmap_radiance(&lt.env_map, d, miss);
+                L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, le), w)), miss);
+            } else {
+                floatv w = emission_weight(unsampled, prev_pdf, (floatv)(env_pmf * RT_INV_4PI));
+                L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, env_le), w)), miss);
+            }
         }
 
         surface_v sf = surface_at(&pt, h.prim, h.t, o, d, hit);

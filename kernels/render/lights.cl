@@ -23,7 +23,8 @@
  *              pbrt-v4 §6.2.4), uniform area sampling otherwise (a point
  *              inside, or a sphere whose normals point inward).
  * Area emitters are one-sided: a sample on the back of the emitter carries
- * no radiance.  The environment is sampled uniformly over the sphere.
+ * no radiance.  The constant environment is sampled uniformly over the
+ * sphere, an environment map by its tabulated density (render/envmap.cl).
  * Point, spot and directional lights (render/delta_lights.cl) share the
  * choice table with the area lights; their sample has pdf = the choice
  * probability (a discrete density, flagged `delta`), so its MIS weight is 1.
@@ -34,6 +35,7 @@
 #include "render/prims.cl"
 #include "render/light_bvh.cl"
 #include "render/delta_lights.cl"
+#include "render/envmap.cl"
 #include "sampling/gather.cl"
 
 #ifndef LIGHT_SAMPLER
@@ -55,7 +57,9 @@ typedef struct {
     uint nlights, light_top;               /* light_top: largest power of two <= nlights (0 if none) */
     float env_threshold;                   /* the environment is chosen when u < env_threshold */
     float env_pmf;                         /* ... which happens with this exact probability */
-    float4 env_radiance;
+    float4 env_radiance;                   /* w > 0: an environment map, env_map (render/envmap.cl) */
+    envmap_t env_map;                      /* bound by light_tables_bind_envmap; unbound otherwise */
+    int has_env_map;
 } light_tables;
 
 /* The light tables of a render launch: its buffers, and the light count and
@@ -75,7 +79,19 @@ MC_INLINE light_tables light_tables_of(const render_params *p, global const floa
     lt.env_threshold = p->env_threshold;
     lt.env_pmf = p->env_pmf;
     lt.env_radiance = p->env_radiance;
+    lt.env_map = envmap_of(0, 0);
+    lt.has_env_map = 0;
     return lt;
+}
+
+/* Bind the environment map tables of a launch (mcocl/render/envmap.py); a
+ * scene without one (env_radiance.w == 0) leaves the constant environment. */
+MC_INLINE void light_tables_bind_envmap(light_tables *lt, const render_params *p, global const float4 *env_map,
+                                        global const uint *env_cdf) {
+    if (p->env_radiance.w > 0.0f) {
+        lt->env_map = envmap_of(env_map, env_cdf);
+        lt->has_env_map = 1;
+    }
 }
 
 /* Radiance of emitter e (lanes with e < 0 get black). */
@@ -241,7 +257,15 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
         s.valid = s.valid | ok;
     }
     intv envl = active & env_chosen;
-    if (lt->env_pmf > 0.0f && lane_any(envl)) {
+    if (lt->env_pmf > 0.0f && lt->has_env_map && lane_any(envl)) {
+        floatv pe;
+        vec3v de = envmap_sample(&lt->env_map, u1, u2, &pe);
+        intv ok = envl & (pe > 0.0f) & lane_finite(pe);
+        s.wo = v3_select(s.wo, de, envl);
+        s.pdf = lane_select(s.pdf, lt->env_pmf * pe, ok);
+        s.radiance = v3_select(s.radiance, envmap_radiance(&lt->env_map, de, ok), envl);
+        s.valid = s.valid | ok;
+    } else if (lt->env_pmf > 0.0f && lane_any(envl)) {
         s.wo = v3_select(s.wo, square_to_uniform_sphere(u1, u2), envl);
         s.pdf = lane_select(s.pdf, (floatv)(lt->env_pmf * RT_INV_4PI), envl);
         s.radiance = v3_select(s.radiance, v3((floatv)(lt->env_radiance.x), (floatv)(lt->env_radiance.y),

@@ -18,7 +18,9 @@
  * bounding sphere on the side the light comes from (pdf_area = choice /
  * (pi R^2), the disk's normal being d).  Every ray of direction d that meets
  * the scene crosses that disk, so the pair samples all light the environment
- * sends into the scene (pbrt-v4's UniformInfiniteLight::SampleLe).
+ * sends into the scene (pbrt-v4's UniformInfiniteLight::SampleLe).  An
+ * environment map (render/envmap.cl) draws d from its own density instead
+ * (d = minus the direction the light comes from; pdf_solid_angle that density).
  *
  * Delta lights (render/delta_lights.cl; `delta` set): a point or spot light
  * starts at its position (pdf_area = choice, a probability) with a uniform
@@ -144,6 +146,14 @@ MC_INLINE emitter_ray_v sample_emitter_ray(const light_tables *lt, float4 bspher
     }
     if (lt->env_pmf > 0.0f && lane_any(r.env)) {
         vec3v d = square_to_uniform_sphere(u[2], u[3]);
+        floatv pdf_d = (floatv)(RT_INV_4PI);
+        vec3v le = v3((floatv)(lt->env_radiance.x), (floatv)(lt->env_radiance.y), (floatv)(lt->env_radiance.z));
+        if (lt->has_env_map) {
+            /* the map's density picks where the light comes from; it travels the other way */
+            vec3v from = envmap_sample(&lt->env_map, u[2], u[3], &pdf_d);
+            d = v3_neg(from);
+            le = envmap_radiance(&lt->env_map, from, r.env);
+        }
         frame3v fr = frame_from_normal(d);
         floatv rad = bsphere.w;
         /* uniform point of the disk: polar map r = R sqrt(u4), phi = 2 pi u5 */
@@ -158,10 +168,9 @@ MC_INLINE emitter_ray_v sample_emitter_ray(const light_tables *lt, float4 bspher
         r.d = v3_select(r.d, d, r.env);
         r.cos_theta = lane_select(r.cos_theta, (floatv)(1.0f), r.env);
         r.pdf_area = lane_select(r.pdf_area, (floatv)(lt->env_pmf / (RT_PI * rad * rad)), r.env);
-        r.pdf_solid_angle = lane_select(r.pdf_solid_angle, (floatv)(RT_INV_4PI), r.env);
-        r.radiance = v3_select(r.radiance, v3((floatv)(lt->env_radiance.x), (floatv)(lt->env_radiance.y),
-                                              (floatv)(lt->env_radiance.z)), r.env);
-        r.valid = r.valid | r.env;
+        r.pdf_solid_angle = lane_select(r.pdf_solid_angle, pdf_d, r.env);
+        r.radiance = v3_select(r.radiance, le, r.env);
+        r.valid = r.valid | (r.env & (pdf_d > 0.0f) & lane_finite(pdf_d));
     }
     return r;
 }

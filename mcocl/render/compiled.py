@@ -65,7 +65,9 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   sampling). (extension of the contract)
 - ``light_area``: float32 (L,): surface area of each light primitive.
 - ``env_radiance``: float32 (4,): RGB of the constant environment, 0 (all
-  zero = no environment).
+  zero = no environment); (1, 1, 1, 1) with an environment map.
+- ``env_map``: the :class:`~mcocl.render.envmap.EnvMap` or None; its device
+  tables come from :func:`mcocl.render.envmap.envmap_tables`.
 - ``integrator`` (str), ``max_depth``, ``rr_depth``, ``spp`` (int): Mitsuba 3
   conventions (max_depth −1 unbounded, 1 emitters seen directly, 2 direct
   light only).
@@ -94,6 +96,7 @@ from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
 from .delta_lights import delta_power
 from .emitter_choice import LUMINANCE, bounding_sphere, environment_choice, light_choice
+from .envmap import EnvMap
 from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
 from .shape_registry import SHAPES
@@ -138,6 +141,7 @@ class CompiledScene:
     light_sampler: str = "power"
     delta_lights: list = field(default_factory=list)
     delta_power: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    env_map: EnvMap | None = None
     sampler: str = "independent"  # integrator.sampler (mcocl/render/sobol_film.py)
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
@@ -173,12 +177,14 @@ class CompiledScene:
     @property
     def env_threshold(self) -> float:
         """Light sampling chooses the environment when a uniform is below this (see ``env_pmf``)."""
-        return environment_choice(self.env_radiance, self.num_choices > 0, self.integrator, self.env_share)[0]
+        return environment_choice(self.env_radiance, self.num_choices > 0, self.integrator, self.env_share,
+                                  self.env_map is not None)[0]
 
     @property
     def env_pmf(self) -> float:
         """The exact probability that light sampling chooses the environment (:mod:`.emitter_choice`)."""
-        return environment_choice(self.env_radiance, self.num_choices > 0, self.integrator, self.env_share)[1]
+        return environment_choice(self.env_radiance, self.num_choices > 0, self.integrator, self.env_share,
+                                  self.env_map is not None)[1]
 
     def with_settings(self, integrator: str | None = None, max_depth: int | None = None,
                       rr_depth: int | None = None, spp: int | None = None,
@@ -347,6 +353,8 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
 
     env = np.zeros(4, np.float32)
     env[:3] = scene.env_radiance
+    if scene.env_map is not None:
+        env[:] = 1.0  # the map's radiance (kernels/render/envmap.cl); w > 0 marks a map
     cam = scene.camera
     cs = CompiledScene(
         width=cam.width, height=cam.height,
@@ -359,7 +367,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         emitter_radiance=emitter_radiance, light_prims=light_prims, light_cdf=cdf, light_pmf=pmf,
         prim_light=prim_light, light_area=light_area, env_radiance=env,
         light_power=power.astype(np.float64), light_sampler=scene.light_sampler, sampler=scene.sampler,
-        delta_lights=list(scene.lights) if len(dpower) else [], delta_power=dpower,
+        delta_lights=list(scene.lights) if len(dpower) else [], delta_power=dpower, env_map=scene.env_map,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path,
         shape_names=[sh.name or sh.key for sh in scene.shapes],

@@ -26,6 +26,7 @@ from ..layouts import LIGHT_RECORD, PRIM_RECORD, RENDER_PARAMS, LightShape
 from .bvh_leaves import device_nodes
 from .compiled import CompiledScene
 from .delta_lights import delta_records
+from .envmap import envmap_tables
 from .light_bvh import build_light_bvh
 
 # What the render kernel reads for the light BVH in builds that do not use it (OpenCL has no empty buffers).
@@ -143,11 +144,15 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         "light_rec": light_records(cs, lt["prim_pmf"]),
         "light_cdf": nonempty(cs.light_cdf, np.float32),
         "prim_pmf": nonempty(lt["prim_pmf"], np.float32),
-        "env": np.array([*cs.env_radiance[:3], 0.0], np.float32),
+        "env": np.array(cs.env_radiance[:4], np.float32),
         "light_scalars": np.array([cs.num_choices, lt["light_top"]], np.uint32),
         "env_choice": np.array([lt["env_threshold"], lt["env_pmf"]], np.float32),
         "geometry_counts": np.array([cs.num_triangles, cs.num_spheres], np.uint32),
     }
+    if cs.env_map is not None:
+        tables["env_map"], tables["env_cdf"] = envmap_tables(cs.env_map)
+    else:
+        tables["env_map"], tables["env_cdf"] = np.zeros((1, 4), np.float32), np.zeros(1, np.uint32)
     if cs.light_sampler == "bvh":
         tree = build_light_bvh(cs)
         tables["light_bvh"], tables["light_trail"] = tree.nodes, tree.trail
