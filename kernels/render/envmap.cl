@@ -63,9 +63,10 @@ MC_INLINE void envmap_uv(const envmap_t *m, vec3v d, floatv *u, floatv *v, float
     floatv uu = atan2(l.x, -l.z) * RT_INV_2PI;
     uu = lane_select(uu, uu + 1.0f, uu < 0.0f);
     *u = lane_select(uu, (floatv)(0.0f), uu >= 1.0f);
-    floatv cy = lane_clamp(l.y, -1.0f, 1.0f);
-    *v = acos(cy) * RT_INV_PI;
-    *sin_t = safe_sqrt(1.0f - cy * cy);
+    /* sin(theta) from the other two components: accurate near the poles, where 1 - y^2 is not */
+    floatv st = lane_sqrt(l.x * l.x + l.z * l.z);
+    *v = atan2(st, l.y) * RT_INV_PI;
+    *sin_t = st;
 }
 
 /* The radiance arriving from world direction d (bilinear, scaled). */

@@ -6,8 +6,9 @@ behaviour), so that a Mitsuba scene renders the same:
 - Direction ↔ image.  In the map's local frame (world → local by the inverse
   of ``to_world``, a rotation), the direction d = (x, y, z) has
   ``u = atan2(x, −z) / 2π`` (wrapped into [0, 1)) and ``v = acos(y) / π``:
-  +y is up (the image's top row), and the image's centre column looks
-  along −z.  Conversely (θ, φ) = (π v, 2π u) gives
+  +y is up (the image's top row), the image's centre column looks along
+  +z, a quarter of the way across along +x, and the left and right edges
+  (the seam) along −z.  Conversely (θ, φ) = (π v, 2π u) gives
   d = (sin θ sin φ, cos θ, −sin θ cos φ).
 - Lookup.  The W × H image gets its first column repeated after the last
   (W + 1 columns, so the seam interpolates), and the radiance at (u, v) is

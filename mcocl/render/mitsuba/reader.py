@@ -18,6 +18,7 @@ from ...errors import InputError
 from ..scene import parse_scene
 from .bsdf import translate_bsdf
 from .delta_emitter import DELTA_EMITTERS, translate_delta_light
+from .properties import split_children
 from .report import Reporter, nearest
 from .sensor import translate_integrator, translate_sensor
 from .shape import ShapeTranslator, translate_radiance
@@ -158,13 +159,43 @@ class _SceneBuilder:
             if ecomments:
                 env["comment"] = ecomments
             return env
+        if kind == "envmap":
+            return self._envmap(node)
         if kind == "area":
             node.fail("an area emitter belongs inside a <shape>")
-        alt = {"envmap": "constant (its mean radiance)"}
+        alt: dict[str, str] = {}
         self.rep.unsupported(node, f"the emitter {kind!r}",
                              alt.get(kind, "constant, point, spot, directional, or area inside a shape"),
                              "nothing (the emitter is left out)", comments)
         return None
+
+
+    def _envmap(self, node: Node) -> dict:
+        """An ``envmap`` emitter: ``filename`` (EXR, relative to its file, inside the scene's folder),
+        ``scale`` (default 1), ``to_world`` (a rotation)."""
+        props, objects = split_children(node)
+        comments: list[str] = []
+        for o in objects:
+            self.rep.unsupported(o, f"<{o.tag}> inside an envmap", "filename", None)
+        if "filename" not in props:
+            node.fail('an envmap needs <string name="filename" value="..."/>')
+        rel = props.get("filename", ("string",))
+        path = (node.file.parent / rel).resolve()
+        if not path.is_relative_to(self.path.resolve().parent):
+            props.node("filename").fail(f"the image {rel!r} lies outside the scene's folder")
+        if not path.is_file():
+            props.node("filename").fail(f"image file {rel!r} not found (looked for {path})")
+        env: dict[str, Any] = {"type": "envmap", "filename": path.relative_to(self.path.resolve().parent).as_posix()}
+        scale = props.get("scale", ("float",), None)
+        if scale is not None:
+            env["scale"] = scale
+        t = props.get("to_world", ("transform",), None)
+        if t is not None:
+            env["transform"] = t.ops
+        self.rep.leftover(node, props.unread(), ("filename", "scale", "to_world"), comments)
+        if comments:
+            env["comment"] = comments
+        return env
 
 
 def read_mitsuba(path: str | os.PathLike[str], params: dict[str, Any] | None = None,
