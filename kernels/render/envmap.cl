@@ -7,7 +7,10 @@
  * column repeated), scaled.  Local direction (x, y, z) <-> (u, v):
  * u = atan2(x, -z) / 2 pi, v = acos(y) / pi, and back
  * (sin t sin p, cos t, -sin t cos p) with (t, p) = (pi v, 2 pi u).
- * Radiance: bilinear at texel position (u W, v (H - 1)).
+ * Radiance: bilinear at texel position (x, y) = (u W - 1/2 wrapped into
+ * [0, W), v (H - 1)): texel columns are centred at (i + 1/2) / W, rows at
+ * j / (H - 1), as Mitsuba 3 looks its maps up (measured against it:
+ * tests/test_render_envmap.py).  The density's second axis is s = x / W.
  *
  * env_cdf (uint): the piecewise-constant density of the W x (H - 1) cells
  * between texel centres as sampling/piecewise.cl's 2-D table (marginal over
@@ -55,12 +58,13 @@ MC_INLINE envmap_t envmap_of(global const float4 *texels, global const uint *cdf
     return m;
 }
 
-/* (u, v) of the world direction d, and sin(theta). */
+/* (s, v) of the world direction d (s = x / W: the texel column position, see the header), and sin(theta). */
 MC_INLINE void envmap_uv(const envmap_t *m, vec3v d, floatv *u, floatv *v, floatv *sin_t) {
     vec3v l = v3_normalize(v3(d.x * m->r0.x + d.y * m->r0.y + d.z * m->r0.z,
                               d.x * m->r1.x + d.y * m->r1.y + d.z * m->r1.z,
                               d.x * m->r2.x + d.y * m->r2.y + d.z * m->r2.z));
-    floatv uu = atan2(l.x, -l.z) * RT_INV_2PI;
+    floatv uu = atan2(l.x, -l.z) * RT_INV_2PI - 0.5f / (float)m->w;
+    uu = lane_select(uu, uu + 1.0f, uu < 0.0f);
     uu = lane_select(uu, uu + 1.0f, uu < 0.0f);
     *u = lane_select(uu, (floatv)(0.0f), uu >= 1.0f);
     /* sin(theta) from the other two components: accurate near the poles, where 1 - y^2 is not */
@@ -101,7 +105,7 @@ MC_INLINE vec3v envmap_sample(const envmap_t *m, floatv u1, floatv u2, floatv *p
     floatv v, u, puv;
     pc2_warp(m->cdf, m->cdf + m->h, m->h - 1u, m->top_a, m->w, m->top_b, u1, u2, &v, &u, &puv);
     floatv cp;
-    floatv sp = lane_sincos_2pi(u, &cp);
+    floatv sp = lane_sincos_2pi(u + 0.5f / (float)m->w, &cp);
     floatv ct = cos(RT_PI * v), st = sin(RT_PI * v);
     vec3v l = v3(st * sp, ct, -st * cp);
     /* local -> world: the transpose of the world -> local rows */

@@ -12,8 +12,10 @@ behaviour), so that a Mitsuba scene renders the same:
   d = (sin θ sin φ, cos θ, −sin θ cos φ).
 - Lookup.  The W × H image gets its first column repeated after the last
   (W + 1 columns, so the seam interpolates), and the radiance at (u, v) is
-  the bilinear interpolation at texel position (u W, v (H − 1)): texel (i, j)
-  sits at u = i / W, v = j / (H − 1).  ``scale`` multiplies it.
+  the bilinear interpolation at texel position (x, y) = (u W − ½ wrapped
+  into [0, W), v (H − 1)): texel (i, j) sits at u = (i + ½) / W,
+  v = j / (H − 1), which is how Mitsuba 3 looks its maps up (measured
+  against its ``envmap`` plugin to 1e-5).  ``scale`` multiplies it.
 - Importance sampling (kernels/render/envmap.cl).  The W × (H − 1) cells
   between texel centres get the piecewise-constant density of
   :class:`mcocl.integration.proposals.Tabulated2D` (the integration
@@ -21,7 +23,8 @@ behaviour), so that a Mitsuba scene renders the same:
   their marginal, then the column), with cell weight = the mean luminance of
   its four corners times ∫ sin θ dθ over the cell.  A cell whose corners are
   all black gets no mass, any other cell some.  The density in (u, v) becomes
-  one in solid angle by dω = 2π² sin θ du dv.
+  one in solid angle by dω = 2π² sin θ du dv.  The table's column axis is
+  s = x / W, so its cells are exactly the bilinear patches.
 
 The image file: OpenEXR (R, G, B channels), read by
 :func:`mcocl.render.image_io.read_exr`.  Radiance HDR files are not read
@@ -126,7 +129,7 @@ def envmap_pdf_np(env: EnvMap, d: np.ndarray) -> np.ndarray:
     cond = cdf[na + 1:].astype(np.int64).reshape(na, nb + 1)
     local = d @ np.asarray(env.matrix, np.float64)[:3, :3]  # R^T d for a rotation R
     local /= np.linalg.norm(local, axis=1, keepdims=True)
-    u = np.mod(np.arctan2(local[:, 0], -local[:, 2]) / (2 * math.pi), 1.0)
+    u = np.mod(np.arctan2(local[:, 0], -local[:, 2]) / (2 * math.pi) - 0.5 / env.image.shape[1], 1.0)
     theta = np.arccos(np.clip(local[:, 1], -1, 1))
     v = theta / math.pi
     i = np.minimum((v * na).astype(np.int64), na - 1)
@@ -144,7 +147,7 @@ def envmap_radiance_np(env: EnvMap, d: np.ndarray) -> np.ndarray:
     local /= np.linalg.norm(local, axis=1, keepdims=True)
     u = np.mod(np.arctan2(local[:, 0], -local[:, 2]) / (2 * math.pi), 1.0)
     v = np.arccos(np.clip(local[:, 1], -1, 1)) / math.pi
-    x, y = u * w, v * (h - 1)
+    x, y = np.mod(u * w - 0.5, w), v * (h - 1)
     x0 = np.minimum(np.floor(x).astype(np.int64), w - 1)
     y0 = np.minimum(np.floor(y).astype(np.int64), h - 2)
     fx, fy = (x - x0)[:, None], (y - y0)[:, None]
