@@ -5,8 +5,9 @@
   I cos / d^2 (times the spot's falloff) plus E cos, averaged over the pixel's
   footprint by quadrature.  nee, mis and lt must match it per pixel and per
   8 x 8 block (Sidak-corrected z-tests); path sees nothing.
-- Agreement: nee, mis and lt on a Cornell box lit by its area light plus a
-  point and a spot light, in 8 x 8 blocks.
+- Agreement: nee, mis, lt and bdpt on a Cornell box lit by its area light
+  plus a point and a spot light, in 8 x 8 blocks; bdpt against the closed
+  form with a point and a spot light.
 - Emitter rays of the delta lights: the spot's directions are uniform in its
   cone (chi-square), the point light's uniform on the sphere; densities,
   positions and radiance against their closed forms; the choice probability
@@ -137,6 +138,15 @@ def test_plane_closed_form_lt(plane) -> None:
     assert_matches(r, want, "lt")
 
 
+def test_plane_closed_form_bdpt() -> None:
+    """bdpt with a point and a spot light (y_0 at the light; no s = 0 or (1, 1) strategy)."""
+    cs = compile_scene(parse_scene(plane_scene(16, [POINT, SPOT])))
+    want = closed_form_image(cs, [POINT, SPOT])
+    r = render(cs, spp=256, integrator="bdpt", seed=7, spp_per_block=4)
+    assert r.nonfinite == 0
+    assert_matches(r, want, "bdpt")
+
+
 def test_path_cannot_see_delta_lights(plane) -> None:
     cs, _ = plane
     r = render(cs, spp=8, integrator="path", seed=1)
@@ -162,7 +172,8 @@ def test_nee_mis_lt_agree_on_cornell_with_point_and_spot() -> None:
     a = render(cs, spp=256, integrator="mis", seed=1, max_depth=4)
     b = render(cs, spp=256, integrator="nee", seed=2, max_depth=4)
     c = render(cs, spp=512, integrator="lt", seed=3, max_depth=4, spp_per_block=8)
-    for x, y, what in ((a, b, "mis-nee"), (a, c, "mis-lt")):
+    d = render(cs, spp=128, integrator="bdpt", seed=4, max_depth=4, spp_per_block=4)
+    for x, y, what in ((a, b, "mis-nee"), (a, c, "mis-lt"), (a, d, "mis-bdpt")):
         z = (x.mean - y.mean).astype(np.float64).reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
         v = (x.variance + y.variance).astype(np.float64).reshape(4, 8, 4, 8, 3).sum(axis=(1, 3)) / 64**2
         zz = np.abs(z / np.sqrt(v))
@@ -260,7 +271,7 @@ def test_bad_lights_are_rejected(light: dict, message: str) -> None:
 
 def test_bdpt_and_light_bvh_refuse_delta_lights(plane) -> None:
     cs, _ = plane
-    with pytest.raises(InputError, match="bdpt handles area emitters only"):
+    with pytest.raises(InputError, match=r"directional light \(lights\[2\]\); bdpt handles area, point and spot"):
         render(cs, spp=1, integrator="bdpt")
     s = plane_scene(8)
     s["integrator"]["light_sampler"] = "bvh"

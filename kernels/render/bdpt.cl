@@ -17,6 +17,13 @@
  * Connections need non-delta endpoints (bsdf_is_smooth): a mirror, glass or a
  * delta-sampled plastic coat is only passed through by sampling.
  *
+ * Point and spot lights (render/delta_lights.cl): y_0 is the light's
+ * position, with pdf_fwd its choice probability (the same for the s = 1
+ * point); no camera subpath can hit it and no camera connection can see it,
+ * so (0, t) and (1, 1) are no strategies for such a path (pbrt-v3's
+ * IsDeltaLight in MISWeight).  Directional lights and environments, whose y_0
+ * lies at infinity, are refused by the host (mcocl/render/bdpt_settings.py).
+ *
  * MIS weights (Veach's thesis eq. 10.9 with the ratios of §10.2.1; the
  * pdf ratio walk of pbrt-v3's MISWeight): every vertex stores pdf_fwd, the
  * area density with which its own subpath generated it, and pdf_rev, the area
@@ -83,6 +90,7 @@ typedef struct {
     int emitter;          /* emitter index, -1 if none */
     uint mat;             /* material index */
     int delta;            /* the vertex scattered through a delta lobe */
+    int delta_light;      /* y_0 of a point or spot light (no camera subpath reaches it) */
 } bdpt_vertex;
 
 /* The scene a sample sees: geometry, primitives, lights, camera and the image. */
@@ -149,6 +157,7 @@ MC_INLINE int bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *pa
         v->light_pdf_area = sf.emitter >= 0 ? sf.pmf * (1.0f - sc->lt->env_pmf) / sf.area : 0.0f;
         v->mat = sf.mat;
         v->delta = 0;
+        v->delta_light = 0;
         ++n;
         if (n >= maxv) break;
         material_v m = material_load(sc->materials, sf.mat);
@@ -212,7 +221,7 @@ MC_INLINE float bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *cam
     for (int i = s - 1; i >= 0; --i) {
         if (s + t - i > nc_cap) break;
         r *= mis_ratio(light[i].pdf_rev, light[i].pdf_fwd);
-        int delta_before = i > 0 ? light[i - 1].delta : 0;
+        int delta_before = i > 0 ? light[i - 1].delta : light[0].delta_light;
         if (!light[i].delta && !delta_before) sum += r;
     }
     return 1.0f / (1.0f + sum);
@@ -243,18 +252,31 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         float d2 = v3_len2(dv);
         vec3v wz = v3_scale(dv, 1.0f / sqrt(d2));
         float cos_y = -v3_dot(er.n, wz);
-        if (!(cos_y > 0.0f) || !(d2 > 0.0f)) return zero;
         float pz;
-        vec3v fz = vertex_eval(sc, pt, pt->wi, wz, &pz);
-        c = v3_scale(v3_mul(v3_mul(pt->beta, fz), er.radiance), cos_y / (d2 * er.pdf_area));
+        vec3v fz;
+        if (er.delta) {
+            /* the same light, seen from z_{t-1} (lights.cl): intensity times falloff / d^2, probability
+             * er.pdf_area; the density of the direction toward z_{t-1} is the light's emission density
+             * (uniform on the sphere or the cone: er's, whatever direction it drew) */
+            light_sample_v ls = sample_light(sc->lt, sc->pt, pt->p, ue[0], ue[1], ue[2], ue[3], 1);
+            if (!ls.valid || !(d2 > 0.0f)) return zero;
+            fz = vertex_eval(sc, pt, pt->wi, wz, &pz);
+            c = v3_scale(v3_mul(v3_mul(pt->beta, fz), ls.radiance), 1.0f / er.pdf_area);
+            cos_y = 1.0f;
+        } else {
+            if (!(cos_y > 0.0f) || !(d2 > 0.0f)) return zero;
+            fz = vertex_eval(sc, pt, pt->wi, wz, &pz);
+            c = v3_scale(v3_mul(v3_mul(pt->beta, fz), er.radiance), cos_y / (d2 * er.pdf_area));
+        }
         if (!(v3_maxc(c) > 0.0f) || !segment_clear(sc, pt->p, pt->n, er.pos)) return zero;
         bdpt_vertex y0 = light[0];
         light[0].p = er.pos;
         light[0].n = er.n;
         light[0].delta = 0;
+        light[0].delta_light = er.delta;
         light[0].pdf_fwd = er.pdf_area;
         light[0].pdf_rev = to_area(pz, pt->p, er.pos, er.n);
-        pt->pdf_rev = to_area(cos_y * RT_INV_PI, er.pos, pt->p, pt->n);
+        pt->pdf_rev = to_area(er.delta ? er.pdf_solid_angle : cos_y * RT_INV_PI, er.pos, pt->p, pt->n);
         float pr;
         vertex_eval(sc, pt, wz, pt->wi, &pr);
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
@@ -297,6 +319,7 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
     *w = 0.0f;
     bdpt_vertex *qs = &light[s - 1];
     if (s > 1 && !vertex_connectible(sc, qs)) return zero;
+    if (s == 1 && qs->delta_light) return zero; /* a point or spot light is invisible */
     camera_connection_v k = camera_connect(sc->camera, qs->p, ul1, ul2, sc->width, sc->height);
     if (!k.valid) return zero;
     vec3v f;
@@ -413,6 +436,7 @@ kernel void bdpt_trace(
         cam[0].emitter = -1;
         cam[0].mat = 0u;
         cam[0].delta = 0;
+        cam[0].delta_light = 0;
         int nc = bdpt_walk(&sc, &cs, cam, 1, nc_cap, co, cd, v3s(1.0f), cdir.pdf_solid_angle, TRANSPORT_RADIANCE,
                            rr_depth, 1.0f);
 
@@ -435,6 +459,7 @@ kernel void bdpt_trace(
                 light[0].emitter = -1;
                 light[0].mat = 0u;
                 light[0].delta = 0;
+                light[0].delta_light = er.delta;
                 vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
                 nl = 1;
                 if (v3_maxc(b1) > 0.0f)
