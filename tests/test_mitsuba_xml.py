@@ -366,7 +366,7 @@ def test_lenient_substitutes_with_a_warning(tmp_path):
             '<float name="alpha" value="0.2"/></bsdf>'
             '<bsdf type="conductor" id="gold"><string name="material" value="Au"/></bsdf>'
             '<bsdf type="mask" id="t"><bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>'
-            '<shape type="serialized"/><emitter type="envmap"/>')
+            '<shape type="serialized"/><emitter type="sunsky"/>')
     p = write(tmp_path, body)
     with pytest.raises(InputError, match=r"'roughplastic' BSDF is not supported \(nearest supported: plastic\)"):
         read_mitsuba(p)

@@ -24,6 +24,7 @@ from chi2 import Chi2Family
 from scipy import stats
 
 from mcocl import runtime
+from mcocl.cli import main
 from mcocl.errors import InputError
 from mcocl.render import transform as tf
 from mcocl.render.api import render
@@ -290,3 +291,16 @@ def test_agrees_with_a_mitsuba_reference() -> None:
     assert 2 * stats.norm.sf(z.max()) > 1 - (1 - 1e-3) ** (1 / z.size), z.max()
     zb = np.abs(d.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3)) / np.sqrt(v.reshape(4, 8, 4, 8, 3).sum(axis=(1, 3)) / 64**2))
     assert 2 * stats.norm.sf(zb.max()) > 1 - (1 - 1e-3) ** (1 / zb.size), zb.max()
+
+
+def test_convert_rewrites_the_image_path(tmp_path: Path) -> None:
+    write_exr(tmp_path / "sky.exr", sky_image())
+    (tmp_path / "s.xml").write_text(XML)
+    (tmp_path / "out").mkdir()
+    assert main(["convert", str(tmp_path / "s.xml"), "-o", str(tmp_path / "out" / "s.json")]) == 0
+    data = json.loads((tmp_path / "out" / "s.json").read_text())
+    assert data["environment"]["filename"] == "../sky.exr"
+    converted = compile_scene(load_scene(tmp_path / "out" / "s.json", mesh_folder=tmp_path))
+    direct = compile_scene(load_scene(tmp_path / "s.xml"))
+    for a, b in zip(envmap_tables(converted.env_map), envmap_tables(direct.env_map)):
+        np.testing.assert_array_equal(a, b)
