@@ -6,9 +6,10 @@
   density integrating to 1 over the sphere, the bilinear lookup against the
   host's, and Mitsuba's orientation (+y up, the centre column along +z).
 - Furnace-like: a uniform map renders like the constant environment.
-- Agreement: path, nee, mis and lt on a small scene under a map with a
-  bright sun, in 8 x 8-pixel blocks.
-- Scene files and Mitsuba XML: the envmap keys, errors, and bdpt's refusal.
+- Agreement: path, nee, mis, lt and bdpt on a small scene under a map with
+  a bright sun, and under a uniform map and the constant environment, in
+  8 x 8-pixel blocks.
+- Scene files and Mitsuba XML: the envmap keys and errors.
 """
 
 from __future__ import annotations
@@ -191,6 +192,9 @@ def test_uniform_map_renders_like_the_constant_environment(tmp_path: Path) -> No
     for integ, spp in (("path", 256), ("mis", 256), ("nee", 256)):
         _blocks_agree(ref, render(emap, spp=spp, integrator=integ, seed=2), integ)
     _blocks_agree(ref, render(emap, spp=512, integrator="lt", seed=3, spp_per_block=8), "lt")
+    # bdpt under both: escaped camera rays end at infinity, light paths start on the disk
+    _blocks_agree(ref, render(const, spp=128, integrator="bdpt", seed=4, spp_per_block=4), "bdpt constant")
+    _blocks_agree(ref, render(emap, spp=128, integrator="bdpt", seed=5, spp_per_block=4), "bdpt map")
 
 
 def test_integrators_agree_under_a_sky_with_a_sun(tmp_path: Path) -> None:
@@ -204,6 +208,7 @@ def test_integrators_agree_under_a_sky_with_a_sun(tmp_path: Path) -> None:
     for integ, spp in (("path", 1024), ("nee", 256)):
         _blocks_agree(ref, render(cs, spp=spp, integrator=integ, seed=2), integ)
     _blocks_agree(ref, render(cs, spp=1024, integrator="lt", seed=3, spp_per_block=16), "lt")
+    _blocks_agree(ref, render(cs, spp=256, integrator="bdpt", seed=4, spp_per_block=4), "bdpt")
 
 
 def test_envmap_share_with_other_lights(tmp_path: Path) -> None:
@@ -245,11 +250,6 @@ def test_bad_pixels_are_rejected(tmp_path: Path) -> None:
         parse_scene(_scene(tmp_path, {"type": "envmap", "filename": "nan.exr"}), tmp_path / "s.json")
 
 
-def test_bdpt_refuses_an_envmap(tmp_path: Path) -> None:
-    write_exr(tmp_path / "sky.exr", sky_image(4, 8))
-    cs = compile_scene(parse_scene(_scene(tmp_path, {"type": "envmap", "filename": "sky.exr"}), tmp_path / "s.json"))
-    with pytest.raises(InputError, match="bdpt"):
-        render(cs, spp=1, integrator="bdpt")
 
 
 XML = """<scene version="3.0.0">

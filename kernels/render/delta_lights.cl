@@ -4,7 +4,7 @@
  * They take part only where a vertex is *connected* to a light: next-event
  * estimation (render/lights.cl, with MIS weight 1 since BSDF sampling can
  * never find them, Veach's thesis §9.2.2) and the start of light paths
- * (render/lights_emit.cl).  A path tracer without light sampling never sees
+ * (render/lights_emit.cl; bdpt.cl).  A path tracer without light sampling never sees
  * them.  The light records (LIGHT_RECORD of layouts.cl, shape POINT, SPOT or
  * DIRECTIONAL) hold:
  *   POINT        base = position, radiance = intensity I (W/sr);

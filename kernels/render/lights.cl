@@ -275,6 +275,20 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
     return s;
 }
 
+/* The environment's radiance arriving from direction d (constant or map). */
+MC_INLINE vec3v environment_radiance(const light_tables *lt, vec3v d, intv active) {
+    if (lt->has_env_map) return envmap_radiance(&lt->env_map, d, active);
+    return v3_select(v3s(0.0f), v3((floatv)(lt->env_radiance.x), (floatv)(lt->env_radiance.y),
+                                   (floatv)(lt->env_radiance.z)), active);
+}
+
+/* The solid-angle density with which light sampling picks direction d when it chooses the
+ * environment (the choice env_pmf not included). */
+MC_INLINE floatv environment_pdf(const light_tables *lt, vec3v d, intv active) {
+    if (lt->has_env_map) return envmap_pdf(&lt->env_map, d, active);
+    return lane_select((floatv)(0.0f), (floatv)(RT_INV_4PI), active);
+}
+
 /* Light sampling at p, whatever its orientation (sample_light_at with n = 0). */
 MC_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables *pt, vec3v p, floatv u_env,
                                       floatv u_sel, floatv u1, floatv u2, intv active) {

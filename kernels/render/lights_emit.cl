@@ -51,6 +51,7 @@ typedef struct {
     floatv cos_theta;        /* cosine between n and d */
     intv env;                /* the environment was chosen */
     intv delta;              /* a point, spot or directional light was chosen (never seen directly) */
+    intv infinite;           /* the environment or a directional light: the ray comes from infinitely far */
     intv valid;
 } emitter_ray_v;
 
@@ -87,6 +88,7 @@ MC_INLINE void emitter_ray_delta(emitter_ray_v *r, vec3v base, floatv shape, vec
     r->radiance = v3_select(r->radiance, v3_select(v3s(0.0f), l, ok), dl);
     r->valid = (r->valid & !dl) | ok;
     r->delta = r->delta | dl;
+    r->infinite = r->infinite | (dl & dir);
 }
 
 /* Sample a light ray from the uniforms u[0..5]: environment or area, which
@@ -96,6 +98,7 @@ MC_INLINE emitter_ray_v sample_emitter_ray(const light_tables *lt, float4 bspher
     emitter_ray_v r;
     r.env = active & (u[0] < lt->env_threshold);
     r.delta = active & (intv)(0);
+    r.infinite = r.env;
     r.valid = active & (intv)(0);
     r.pos = v3s(0.0f);
     r.n = v3(0.0f, 0.0f, 1.0f);

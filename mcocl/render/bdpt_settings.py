@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from ..errors import InputError
 from .compiled import CompiledScene
 from .job import MIS_BETAS
@@ -19,9 +17,7 @@ def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, u
 
     Raises:
         InputError: an unknown heuristic, a malformed strategy, ``unweighted``
-            without a strategy, one of them for another integrator, or a scene
-            bdpt cannot render (a constant environment, an environment map or a
-            directional light: bdpt.cl's light subpaths start at finite points only).
+            without a strategy, or one of them for another integrator.
     """
     if cs.integrator != "bdpt":
         if mis != "power" or strategy is not None or unweighted:
@@ -29,14 +25,6 @@ def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, u
         return {}
     if mis not in MIS_BETAS:
         raise InputError(f"mis: unknown heuristic {mis!r}; choose one of {', '.join(MIS_BETAS)}")
-    if np.any(np.asarray(cs.env_radiance)[:3] > 0):
-        raise InputError("integrator bdpt: the scene has an environment emitter; bdpt handles area, point and "
-                         "spot lights only, not lights at infinity (render it with mis or lt)")
-    directional = [li for li in cs.delta_lights if li.kind == "directional"]
-    if directional:
-        raise InputError(f"integrator bdpt: the scene has a directional light ({directional[0].key}); bdpt "
-                         f"handles area, point and spot lights only, not lights at infinity (render it with "
-                         f"mis, nee or lt)")
     if strategy is not None:
         try:
             s, t = (int(x) for x in strategy)

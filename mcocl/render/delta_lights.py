@@ -3,8 +3,8 @@
 These emitters have no surface (kernels/render/delta_lights.cl): no ray hits
 them, so only the integrators that connect vertices to lights see them —
 ``nee``, ``mis`` (with MIS weight 1: BSDF sampling cannot find them) and
-``lt``; ``path`` renders them black, and ``bdpt`` refuses them
-(:mod:`mcocl.render.bdpt_settings`).  Conventions are Mitsuba 3's:
+``lt`` and ``bdpt`` (kernels/render/bdpt.cl); ``path`` renders them black,
+and the light BVH refuses them.  Conventions are Mitsuba 3's:
 
 - ``point``: ``intensity`` I in W/sr (per RGB channel) at ``position``;
   irradiance I cos / d² on a surface at distance d.
