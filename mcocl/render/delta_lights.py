@@ -24,15 +24,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from ..layouts import LIGHT_RECORD, LightShape
 from .emitter_choice import LUMINANCE
-
-if TYPE_CHECKING:
-    from .scene import _Checker
 
 DELTA_KINDS = ("point", "spot", "directional")
 DEFAULT_CUTOFF_ANGLE = 20.0  # degrees, Mitsuba 3's spot default
@@ -57,22 +54,19 @@ class DeltaLight:
     beam_width: float = DEFAULT_CUTOFF_ANGLE * BEAM_FRACTION
 
 
-def _unit(c: _Checker, v: np.ndarray, key: str) -> np.ndarray:
+def _unit(c: Any, v: np.ndarray, key: str) -> np.ndarray:
     n = float(np.linalg.norm(v))
     if not n > 0.0:
         c.fail(key, "a direction must not be the zero vector")
     return v / n
 
 
-def parse_lights(c: _Checker, value: Any, key: str, limit: float) -> list[DeltaLight]:
-    """The scene file's ``lights`` list (scenes/README.md, "Lights"), validated.
+def parse_lights(c: Any, value: list, key: str, limit: float) -> list[DeltaLight]:
+    """The scene file's ``lights`` list (scenes/README.md, "lights"), validated.
 
+    ``c``: the scene file's checker (mcocl.render.scene's, which raises InputError naming file and key);
     ``limit``: the largest coordinate magnitude allowed (the scene's geometry limit).
     """
-    from .scene import _kind
-
-    if not isinstance(value, list):
-        c.fail(key, f"expected a list of lights, got {_kind(value)}")
     out = []
     for i, v in enumerate(value):
         k = f"{key}[{i}]"

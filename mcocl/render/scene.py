@@ -327,6 +327,8 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
             env = c.rgb(e["radiance"], "environment.radiance")
         else:
             env_map = _envmap(c, e, "environment", roots)
+    if not isinstance(top.get("lights", []), list):
+        c.fail("lights", f"expected a list of lights, got {_kind(top['lights'])}")
     lights = parse_lights(c, top["lights"], "lights", GEOMETRY_LIMIT) if "lights" in top else []
     return Scene(p, camera, materials, shape_list, env, **integ, lights=lights, env_map=env_map)
 
