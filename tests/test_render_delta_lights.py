@@ -13,7 +13,8 @@
   positions and radiance against their closed forms; the choice probability
   follows the powers.
 - The scene file and Mitsuba XML: validation errors, the XML twin compiles
-  to the same light records, the light BVH refuses delta lights.
+  to the same light records; the light BVH takes point and spot lights
+  (closed form) and refuses directional ones.
 """
 
 from __future__ import annotations
@@ -268,11 +269,23 @@ def test_bad_lights_are_rejected(light: dict, message: str) -> None:
         parse_scene(plane_scene(8, [light]))
 
 
-def test_light_bvh_refuses_delta_lights() -> None:
+def test_light_bvh_refuses_directional_lights() -> None:
     s = plane_scene(8)
     s["integrator"]["light_sampler"] = "bvh"
-    with pytest.raises(InputError, match="light BVH holds area lights only"):
+    with pytest.raises(InputError, match=r"directional light \(lights\[2\]\); the light BVH holds lights at finite"):
         compile_scene(parse_scene(s))
+
+
+@pytest.mark.parametrize("integrator", ["nee", "mis"])
+def test_light_bvh_with_point_and_spot_lights(integrator: str) -> None:
+    """Point and spot lights are leaves of the light BVH (a point box; a spot's cone is its cutoff)."""
+    lights = [POINT, SPOT, dict(POINT, position=[-1.0, 1.0, 0.5], intensity=0.3)]
+    s = plane_scene(16, lights)
+    s["integrator"]["light_sampler"] = "bvh"
+    cs = compile_scene(parse_scene(s))
+    r = render(cs, spp=256, integrator=integrator, seed=8)
+    assert r.nonfinite == 0
+    assert_matches(r, closed_form_image(cs, lights), f"bvh {integrator}")
 
 
 XML = """<scene version="3.0.0">

@@ -207,10 +207,10 @@ class CompiledScene:
         )
         self.integrator, self.max_depth, self.rr_depth, self.spp = (
             s["integrator"], s["max_depth"], s["rr_depth"], s["spp"])
-        if s["light_sampler"] == "bvh" and self.num_delta:
-            raise InputError(f"light_sampler 'bvh': the scene has point, spot or directional lights "
-                             f"({self.delta_lights[0].key}); the light BVH holds area lights only (use 'power' "
-                             f"or 'uniform')")
+        directional = [li for li in self.delta_lights if li.kind == "directional"]
+        if s["light_sampler"] == "bvh" and directional:
+            raise InputError(f"light_sampler 'bvh': the scene has a directional light ({directional[0].key}); "
+                             f"the light BVH holds lights at finite positions only (use 'power' or 'uniform')")
         if s["light_sampler"] != self.light_sampler:
             self.light_sampler = s["light_sampler"]
             if self.num_choices:

@@ -4,7 +4,8 @@ These emitters have no surface (kernels/render/delta_lights.cl): no ray hits
 them, so only the integrators that connect vertices to lights see them —
 ``nee``, ``mis`` (with MIS weight 1: BSDF sampling cannot find them) and
 ``lt`` and ``bdpt`` (kernels/render/bdpt.cl); ``path`` renders them black,
-and the light BVH refuses them.  Conventions are Mitsuba 3's:
+and the light BVH takes point and spot lights as leaves but refuses
+directional ones.  Conventions are Mitsuba 3's:
 
 - ``point``: ``intensity`` I in W/sr (per RGB channel) at ``position``;
   irradiance I cos / d² on a surface at distance d.
