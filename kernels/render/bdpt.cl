@@ -17,6 +17,24 @@
  * Connections need non-delta endpoints (bsdf_is_smooth): a mirror, glass or a
  * delta-sampled plastic coat is only passed through by sampling.
  *
+ * Point and spot lights (render/delta_lights.cl): y_0 is the light's
+ * position, with pdf_fwd its choice probability (the same for the s = 1
+ * point); no camera subpath can hit it and no camera connection can see it,
+ * so (0, t) and (1, 1) are no strategies for such a path (pbrt-v3's
+ * IsDeltaLight in MISWeight).
+ *
+ * Lights at infinity (the environment, constant or a map, and directional
+ * lights; pbrt-v3's infinite-light vertices): y_0 is a direction, with
+ * pdf_fwd its solid-angle density as light sampling draws it (env_pmf times
+ * the map's density; a directional light's choice probability), and y_1 gets
+ * the area density cos / (pi R^2) of the disk the light ray starts on
+ * (lights_emit.cl).  A camera subpath that escapes ends in such a vertex
+ * (pdf_fwd: the BSDF's solid-angle density), where (0, t) adds the
+ * environment's radiance; its reverse densities are env_pmf times the
+ * environment's density and cos / (pi R^2) at the vertex before.  A light at
+ * infinity is not connected to the camera as y_0, so (1, 1) is no strategy
+ * there (lt.cl's direct view of the environment is left to (0, 2)).
+ *
  * MIS weights (Veach's thesis eq. 10.9 with the ratios of §10.2.1; the
  * pdf ratio walk of pbrt-v3's MISWeight): every vertex stores pdf_fwd, the
  * area density with which its own subpath generated it, and pdf_rev, the area
@@ -83,6 +101,8 @@ typedef struct {
     int emitter;          /* emitter index, -1 if none */
     uint mat;             /* material index */
     int delta;            /* the vertex scattered through a delta lobe */
+    int delta_light;      /* y_0 of a point, spot or directional light (no camera subpath reaches it) */
+    int infinite;         /* a direction at infinity: y_0 of a light at infinity, or an escaped camera ray */
 } bdpt_vertex;
 
 /* The scene a sample sees: geometry, primitives, lights, camera and the image. */
@@ -95,7 +115,13 @@ typedef struct {
     float4 bsphere;
     uint width, height;
     float pixels;
+    int has_env;      /* an environment: escaped camera rays end in a vertex at infinity */
 } bdpt_scene;
+
+/* The area density at q (normal nq) of a light ray from infinity along d: the disk's 1 / (pi R^2), projected. */
+MC_INLINE float infinite_to_area(const bdpt_scene *sc, vec3v d, vec3v nq) {
+    return fabs(v3_dot(d, nq)) / (RT_PI * sc->bsphere.w * sc->bsphere.w);
+}
 
 /* The area density at point q (normal nq) of a direction of solid-angle density pdf_dir sampled at p. */
 MC_INLINE float to_area(float pdf_dir, vec3v p, vec3v q, vec3v nq) {
@@ -146,7 +172,31 @@ MC_INLINE int bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *pa
     float eta = 1.0f;
     while (n < maxv) {
         hitv h = trace_closest_v(sc->geom, o, d, 1);
-        if (!h.hit) break;
+        if (!h.hit) {
+            if (mode == TRANSPORT_RADIANCE && sc->has_env) {
+                /* the camera ray escapes: a vertex at infinity in direction d */
+                bdpt_vertex *v = &path[n];
+                if (n >= 2 && !path[n - 1].delta) { /* as for a surface vertex below: prev's reverse density */
+                    float pdf_back;
+                    vertex_eval(sc, &path[n - 1], d, path[n - 1].wi, &pdf_back, mode);
+                    path[n - 2].pdf_rev = to_area(pdf_back, path[n - 1].p, path[n - 2].p, path[n - 2].n);
+                }
+                v->p = v3_add(path[n - 1].p, d);
+                v->n = v3_neg(d);
+                v->wi = v3_neg(d);
+                v->beta = beta;
+                v->pdf_fwd = pdf_dir;
+                v->pdf_rev = 0.0f;
+                v->light_pdf_area = 0.0f;
+                v->emitter = -1;
+                v->mat = 0u;
+                v->delta = 0;
+                v->delta_light = 0;
+                v->infinite = 1;
+                ++n;
+            }
+            break;
+        }
         surface_v sf = surface_at(sc->pt, h.prim, h.t, o, d, 1);
         bdpt_vertex *v = &path[n];
         bdpt_vertex *prev = &path[n - 1];
@@ -156,24 +206,29 @@ MC_INLINE int bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *pa
         v->wi = v3_len2(back) > 0.0f ? v3_normalize(back) : v3_neg(d);
         v->beta = beta;
         /* prev's density of the direction toward v: the camera's rays leave the lens point itself (pdf_dir),
-         * an emitter's by its cosine, a surface's by its BSDF given its own geometric wi */
+         * an area emitter's by its cosine, a surface's by its BSDF given its own geometric wi; a point or
+         * spot light's ray leaves the light's position itself (pdf_dir), an infinite light's a disk
+         * (infinite_to_area) */
         float pdf_geo = pdf_dir;
         if (n >= 2 && prev->delta) {
             pdf_geo = 0.0f;
         } else if (n >= 2) {
             float pdf_back;
+            bdpt_vertex *pp = &path[n - 2];
             vertex_eval(sc, prev, prev->wi, v3_neg(v->wi), &pdf_geo, mode);
             vertex_eval(sc, prev, v3_neg(v->wi), prev->wi, &pdf_back, mode);
-            path[n - 2].pdf_rev = to_area(pdf_back, prev->p, path[n - 2].p, path[n - 2].n);
-        } else if (mode == TRANSPORT_IMPORTANCE) {
+            pp->pdf_rev = pp->infinite ? pdf_back : to_area(pdf_back, prev->p, pp->p, pp->n);
+        } else if (mode == TRANSPORT_IMPORTANCE && !prev->delta_light && !prev->infinite) {
             pdf_geo = emitter_pdf_solid_angle(prev->n, v3_neg(v->wi));
         }
-        v->pdf_fwd = to_area(pdf_geo, prev->p, sf.p, sf.n);
+        v->pdf_fwd = prev->infinite ? infinite_to_area(sc, d, sf.n) : to_area(pdf_geo, prev->p, sf.p, sf.n);
         v->pdf_rev = 0.0f;
         v->emitter = sf.emitter;
         v->light_pdf_area = sf.emitter >= 0 ? sf.pmf * (1.0f - sc->lt->env_pmf) / sf.area : 0.0f;
         v->mat = sf.mat;
         v->delta = 0;
+        v->delta_light = 0;
+        v->infinite = 0;
         ++n;
         if (n >= maxv) break;
         material_v m = material_load(sc->materials, sf.mat);
@@ -187,6 +242,8 @@ MC_INLINE int bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *pa
         if (bs.delta) v->delta = 1;
         beta = v3_mul(beta, bs.weight);
         eta *= bs.eta;
+        /* the solid-angle density of d, for a vertex at infinity should the ray escape */
+        pdf_dir = bs.delta ? 0.0f : bs.pdf;
         vec3v wo = frame_to_world(fr, bs.wo);
         o = offset_origin(sf.p, sf.n, wo);
         d = wo;
@@ -218,18 +275,20 @@ MC_INLINE float mis_ratio(float rev, float fwd) {
 MC_INLINE float bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *cam, int s, int t, int nl_cap,
                                 int nc_cap) {
     float sum = 0.0f, r = 1.0f;
+    /* (1, 1) is no strategy for a light at infinity */
+    const int no_11 = s + t == 2 && (s > 0 ? light[0].infinite : cam[t - 1].infinite);
     /* strategies (s + t - i, i): the camera vertex z_i is taken by the light subpath instead */
     for (int i = t - 1; i > 0; --i) {
         if (s + t - i > nl_cap) break;
         r *= mis_ratio(cam[i].pdf_rev, cam[i].pdf_fwd);
-        if (!cam[i].delta && !cam[i - 1].delta) sum += r;
+        if (!cam[i].delta && !cam[i - 1].delta && !(i == 1 && no_11)) sum += r;
     }
     r = 1.0f;
     /* strategies (i, s + t - i): the light vertex y_i is taken by the camera subpath instead */
     for (int i = s - 1; i >= 0; --i) {
         if (s + t - i > nc_cap) break;
         r *= mis_ratio(light[i].pdf_rev, light[i].pdf_fwd);
-        int delta_before = i > 0 ? light[i - 1].delta : 0;
+        int delta_before = i > 0 ? light[i - 1].delta : light[0].delta_light;
         if (!light[i].delta && !delta_before) sum += r;
     }
     return 1.0f / (1.0f + sum);
@@ -258,7 +317,14 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
     bdpt_vertex *pt = &cam[t - 1], *ptm = &cam[t - 2];
     float save_pt = pt->pdf_rev, save_ptm = ptm->pdf_rev;
     vec3v c = zero;
-    if (s == 0) {
+    if (s == 0 && pt->infinite) {
+        /* an escaped camera ray: the environment along it */
+        vec3v dir = v3_neg(pt->wi);
+        c = v3_mul(pt->beta, environment_radiance(sc->lt, dir, 1));
+        pt->pdf_rev = sc->lt->env_pmf * environment_pdf(sc->lt, dir, 1);
+        ptm->pdf_rev = infinite_to_area(sc, dir, ptm->n);
+        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
+    } else if (s == 0) {
         if (pt->emitter < 0 || !(v3_dot(pt->n, pt->wi) > 0.0f)) return zero;
         c = v3_mul(pt->beta, emitter_radiance_of(sc->lt, pt->emitter));
         pt->pdf_rev = pt->light_pdf_area;
@@ -268,23 +334,64 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         if (!vertex_connectible(sc, pt)) return zero;
         float u6[6] = {ue[0], ue[1], ue[2], ue[3], 0.5f, 0.5f};
         emitter_ray_v er = sample_emitter_ray(sc->lt, sc->bsphere, u6, 1);
+        if (er.infinite) {
+            /* a light at infinity seen from z_{t-1} (lights.cl: the same choice and direction) */
+            light_sample_v ls = sample_light(sc->lt, sc->pt, pt->p, ue[0], ue[1], ue[2], ue[3], 1);
+            if (!ls.valid) return zero;
+            float pz;
+            vec3v fz = vertex_eval(sc, pt, pt->wi, ls.wo, &pz, TRANSPORT_RADIANCE);
+            c = v3_scale(v3_mul(v3_mul(pt->beta, fz), ls.radiance), 1.0f / ls.pdf);
+            if (!(v3_maxc(c) > 0.0f)) return zero;
+            if (trace_any_v(sc->geom, offset_origin(pt->p, pt->n, ls.wo), ls.wo, (floatv)(INFINITY), 1)) return zero;
+            bdpt_vertex y0 = light[0];
+            light[0].p = v3_add(pt->p, ls.wo);
+            light[0].n = v3_neg(ls.wo);
+            light[0].delta = 0;
+            light[0].delta_light = ls.delta;
+            light[0].infinite = 1;
+            light[0].pdf_fwd = ls.pdf;
+            light[0].pdf_rev = pz;
+            pt->pdf_rev = infinite_to_area(sc, ls.wo, pt->n);
+            float pr;
+            vertex_eval(sc, pt, ls.wo, pt->wi, &pr, TRANSPORT_RADIANCE);
+            ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
+            *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
+            light[0] = y0;
+            pt->pdf_rev = save_pt;
+            ptm->pdf_rev = save_ptm;
+            return c;
+        }
         if (!er.valid || er.env) return zero;
         vec3v dv = v3_sub(er.pos, pt->p);
         float d2 = v3_len2(dv);
         vec3v wz = v3_scale(dv, 1.0f / sqrt(d2));
         float cos_y = -v3_dot(er.n, wz);
-        if (!(cos_y > 0.0f) || !(d2 > 0.0f)) return zero;
         float pz;
-        vec3v fz = vertex_eval(sc, pt, pt->wi, wz, &pz, TRANSPORT_RADIANCE);
-        c = v3_scale(v3_mul(v3_mul(pt->beta, fz), er.radiance), cos_y / (d2 * er.pdf_area));
+        vec3v fz;
+        if (er.delta) {
+            /* the same light, seen from z_{t-1} (lights.cl): intensity times falloff / d^2, probability
+             * er.pdf_area; the density of the direction toward z_{t-1} is the light's emission density
+             * (uniform on the sphere or the cone: er's, whatever direction it drew) */
+            light_sample_v ls = sample_light(sc->lt, sc->pt, pt->p, ue[0], ue[1], ue[2], ue[3], 1);
+            if (!ls.valid || !(d2 > 0.0f)) return zero;
+            fz = vertex_eval(sc, pt, pt->wi, wz, &pz, TRANSPORT_RADIANCE);
+            c = v3_scale(v3_mul(v3_mul(pt->beta, fz), ls.radiance), 1.0f / er.pdf_area);
+            cos_y = 1.0f;
+        } else {
+            if (!(cos_y > 0.0f) || !(d2 > 0.0f)) return zero;
+            fz = vertex_eval(sc, pt, pt->wi, wz, &pz, TRANSPORT_RADIANCE);
+            c = v3_scale(v3_mul(v3_mul(pt->beta, fz), er.radiance), cos_y / (d2 * er.pdf_area));
+        }
         if (!(v3_maxc(c) > 0.0f) || !segment_clear(sc, pt->p, pt->n, er.pos)) return zero;
         bdpt_vertex y0 = light[0];
         light[0].p = er.pos;
         light[0].n = er.n;
         light[0].delta = 0;
+        light[0].delta_light = er.delta;
+        light[0].infinite = 0;
         light[0].pdf_fwd = er.pdf_area;
         light[0].pdf_rev = to_area(pz, pt->p, er.pos, er.n);
-        pt->pdf_rev = to_area(cos_y * RT_INV_PI, er.pos, pt->p, pt->n);
+        pt->pdf_rev = to_area(er.delta ? er.pdf_solid_angle : cos_y * RT_INV_PI, er.pos, pt->p, pt->n);
         float pr;
         vertex_eval(sc, pt, wz, pt->wi, &pr, TRANSPORT_RADIANCE);
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
@@ -309,7 +416,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         vertex_eval(sc, pt, v3_neg(wy), pt->wi, &pr, TRANSPORT_RADIANCE);
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
         vertex_eval(sc, qs, wy, qs->wi, &pr, TRANSPORT_IMPORTANCE);
-        qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
+        qsm->pdf_rev = qsm->infinite ? pr : to_area(pr, qs->p, qsm->p, qsm->n);
         *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
         qs->pdf_rev = save_qs;
         qsm->pdf_rev = save_qsm;
@@ -327,6 +434,7 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
     *w = 0.0f;
     bdpt_vertex *qs = &light[s - 1];
     if (s > 1 && !vertex_connectible(sc, qs)) return zero;
+    if (s == 1 && (qs->delta_light || qs->infinite)) return zero; /* invisible, or left to (0, 2) */
     camera_connection_v k = camera_connect(sc->camera, qs->p, ul1, ul2, sc->width, sc->height);
     if (!k.valid) return zero;
     vec3v f;
@@ -346,7 +454,7 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
         bdpt_vertex *qsm = &light[s - 2];
         float save_qsm = qsm->pdf_rev, pr;
         vertex_eval(sc, qs, k.wo, qs->wi, &pr, TRANSPORT_IMPORTANCE);
-        qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
+        qsm->pdf_rev = qsm->infinite ? pr : to_area(pr, qs->p, qsm->p, qsm->n);
         *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
         qsm->pdf_rev = save_qsm;
     } else {
@@ -392,8 +500,10 @@ kernel void bdpt_trace(
     SCENE_GEOM_MAKE(geom);
     const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
     /* light paths start at emitters chosen by power: no light BVH is bound */
-    const light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
+    light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
+    light_tables_bind_envmap(&lt, &params, env_map, env_cdf);
     bdpt_scene sc;
+    sc.has_env = params.env_radiance.x > 0.0f || params.env_radiance.y > 0.0f || params.env_radiance.z > 0.0f;
     sc.geom = &geom;
     sc.pt = &pt;
     sc.lt = &lt;
@@ -443,6 +553,8 @@ kernel void bdpt_trace(
         cam[0].emitter = -1;
         cam[0].mat = 0u;
         cam[0].delta = 0;
+        cam[0].delta_light = 0;
+        cam[0].infinite = 0;
         int nc = bdpt_walk(&sc, &cs, cam, 1, nc_cap, co, cd, v3s(1.0f), cdir.pdf_solid_angle, TRANSPORT_RADIANCE,
                            rr_depth, 1.0f);
 
@@ -454,7 +566,7 @@ kernel void bdpt_trace(
         int nl = 0;
         if (nl_cap > 0) {
             emitter_ray_v er = sample_emitter_ray(&lt, bsphere, ue, 1);
-            if (er.valid && !er.env) {
+            if (er.valid) {
                 light[0].p = er.pos;
                 light[0].n = er.n;
                 light[0].wi = er.n;
@@ -465,6 +577,14 @@ kernel void bdpt_trace(
                 light[0].emitter = -1;
                 light[0].mat = 0u;
                 light[0].delta = 0;
+                light[0].delta_light = er.delta;
+                light[0].infinite = er.infinite;
+                if (er.infinite) {
+                    /* a direction: its density as light sampling draws it (the disk's area density
+                     * pi R^2 taken out of pdf_area; a directional light's pdf_solid_angle is 1) */
+                    light[0].p = v3_sub(er.pos, er.d);
+                    light[0].pdf_fwd = er.pdf_area * RT_PI * bsphere.w * bsphere.w * er.pdf_solid_angle;
+                }
                 vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
                 nl = 1;
                 if (v3_maxc(b1) > 0.0f)
@@ -478,6 +598,7 @@ kernel void bdpt_trace(
         for (int t = 1; t <= nc; ++t) {
             for (int s = 0; s <= (t >= 2 ? max(nl, 1) : nl); ++s) {
                 if (s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth) || !strategy_on(s, t)) continue;
+                if (s > 0 && cam[t - 1].infinite) continue; /* only (0, t) ends at infinity */
                 float w;
                 if (t == 1) {
                     float ul[2] = {ue[6], ue[7]};
