@@ -275,7 +275,7 @@ def _parse_faces(b, start, tag, end, lines, counts: list[np.ndarray], kinds: tup
         if len(bad):
             k = bad[0]
             n = int(np.repeat(count, per_face)[k])
-            raise InputError(f"{label}:{line_of(k)}: {what} index {idx[k]} is outside 0..{n - 1}: corner "
+            raise InputError(f"{label}:{line_of(k)}: {what} index {idx[k]} is outside 0..{n - 1} (0-based): corner "
                              f"{_token(blob, corner[k])!r} counts back past the first of the {n} {called} before it")
         if has is not None:
             idx[~has] = -1

@@ -72,7 +72,7 @@ def _check_range(chunks: list[Chunk], tri: np.ndarray, count: int, kind: int, la
     t = int(np.flatnonzero((tri >= count).any(axis=1))[0])
     what, called = KINDS[kind]
     raise InputError(f"{label}:{_line_of_triangle(chunks, t)}: {what} index {tri[t].max()} is outside "
-                     f"0..{count - 1}: the file has {count} {called}")
+                     f"0..{count - 1} (0-based): the file has {count} {called}")
 
 
 def _unique_inverse(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
