@@ -122,7 +122,7 @@ def test_files_without_used_attributes_read_as_before(tmp_path):
         np.testing.assert_array_equal(mesh.faces, plain.faces)
         assert mesh.normals is None and mesh.uvs is None
     # normals given without texture coordinates records: the texture parts are not read
-    mesh = read(tmp_path, TRI + "vn 0 0 1\nf 1/7/1 2/8/1 3/9/1\n")
+    mesh = read(tmp_path, TRI + "vn 0 0 1\nf 1/7/1 2/8/1 3/-9/1\n")
     assert mesh.uvs is None and len(mesh.vertices) == 3
     np.testing.assert_array_equal(mesh.normals, [[0, 0, 1]] * 3)
 

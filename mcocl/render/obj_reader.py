@@ -1,24 +1,32 @@
 """Wavefront OBJ parsing with whole-buffer NumPy operations (no Python loop over lines or faces).
 
-Only ``v`` and ``f`` records matter here (positions and polygons); every
-other record (``vt``, ``vn``, ``g``, ``usemtl``, ...) is skipped.  The file
-is handled as one byte array:
+Read: ``v`` (x y z), ``vt`` (u [v [w]]: v defaults to 0, w is dropped),
+``vn`` (x y z) and ``f`` records; every other record (``g``, ``usemtl``,
+``vp``, ...) is skipped.  The file is handled as one byte array:
 
 1. line breaks are normalised (``\\r\\n`` and ``\\r`` become ``\\n``, as
    :meth:`str.splitlines` reads them), other whitespace becomes a space and
    ``#`` comments are blanked;
 2. each line's first token is read at its start (after any indentation),
-   which classifies the line as a vertex, a face or something else;
-3. the vertex lines, and the face lines, are gathered into two buffers;
-   token boundaries found by byte comparisons give how many numbers each
-   line holds; the vertices' numbers are parsed by one ``np.fromstring``
-   call, the faces' vertex indices by digit arithmetic at the start of each
-   corner (a loop over digit positions).
+   which classifies the line as a position, texture coordinate, normal, face
+   or something else;
+3. the lines of each kind are gathered into one buffer; token boundaries
+   found by byte comparisons give how many numbers each line holds; the
+   records' numbers are parsed by one ``np.fromstring`` call per kind, the
+   faces' indices by digit arithmetic at the start of each corner
+   (:mod:`mcocl.render.obj_corners`).
 
-Faces may be ``i``, ``i/t``, ``i//n`` or ``i/t/n``: only the number before
-a corner's first slash is read.  Negative indices count back from the last vertex
-read before the face's line; polygons become fans ``(0, k, k + 1)``.
-Malformed records raise :class:`~mcocl.errors.InputError` naming the line.
+Faces may be ``i``, ``i/t``, ``i//n`` or ``i/t/n``.  In a file with ``vt``
+or ``vn`` records the whole corner is read (and must have one of these
+forms); its texture (normal) index is used only when the file has ``vt``
+(``vn``) records.  A file of ``v`` and ``f`` records reads only the number
+before each corner's first slash, exactly as before texture coordinates and
+normals were read.  A negative
+index counts back from the last record of its kind before the face's line;
+polygons become fans ``(0, k, k + 1)``.  :mod:`mcocl.render.obj_vertices`
+turns the corners' (v, vt, vn) triples into the mesh's vertices, normals and
+UVs.  Malformed records, an index of 0 and indices past their records raise
+:class:`~mcocl.errors.InputError` naming the line.
 """
 
 from __future__ import annotations
@@ -184,8 +192,8 @@ def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, before: 
     normals = records(is_vn, 3, 3, "a normal needs three numbers", 2)
     fl = np.flatnonzero(is_f)
     counts = [before[0] + np.cumsum(is_v)[fl]]
-    if any(kinds):
-        counts += [before[1] + np.cumsum(is_vt)[fl], before[2] + np.cumsum(is_vn)[fl]]
+    counts += [before[k] + np.cumsum(mask)[fl] if used else None for k, mask, used in ((1, is_vt, kinds[0]),
+                                                                                      (2, is_vn, kinds[1]))]
     faces = _parse_faces(b, start[fl], tag[fl], line_end[fl], number[fl], counts, kinds, label)
     return Chunk(vertices, uvs, normals, *faces, kinds), len(line_end)
 
@@ -238,22 +246,25 @@ def _first_bad_line(blob: np.ndarray, blob_nl: np.ndarray) -> int:
 def _parse_faces(b, start, tag, end, lines, counts: list[np.ndarray], kinds: tuple[bool, bool], label: str):
     """Fan triangles of the ``f`` lines: vertex (T, 3), texture and normal (T, 3) or None, face lines, corners per face.
 
-    ``counts`` are the v (and, with ``kinds``, vt and vn) records before each
-    face line, for negative indices.  Indices become 0-based; a corner that
-    gives no texture (normal) index gets -1.
+    ``counts`` are the v, vt and vn records before each face line (for
+    negative indices).  With either of ``kinds`` the corners are read whole
+    (:func:`~mcocl.render.obj_corners.corner_indices`), and the texture
+    (normal) indices are kept where ``kinds`` says so: 0-based, -1 where a
+    corner gives none.  Without, only the vertex indices are read, as before
+    texture coordinates and normals were read.
     """
     if not len(start):
-        none = None if not any(kinds) else np.zeros((0, 3), np.int64)
-        return np.zeros((0, 3), np.int64), none, none, lines, np.zeros(0, np.int64)
+        none = np.zeros((0, 3), np.int64)
+        return none, none if kinds[0] else None, none if kinds[1] else None, lines, np.zeros(0, np.int64)
     blob = _select_lines(b, start, end, tag)
     blob_nl = np.cumsum(end + 1 - start) - 1
     corner = _token_starts(blob)
     if any(kinds):
         c = corner_indices(blob, corner)
-        columns, ok = [(c.v, None), (c.t, c.has_t), (c.n, c.has_n)], c.ok
+        columns, ok = [(c.v, None), (c.t, c.has_t) if kinds[0] else None, (c.n, c.has_n) if kinds[1] else None], c.ok
     else:
         idx, ok = vertex_indices(blob, corner)
-        columns = [(idx, None)]
+        columns = [(idx, None), None, None]
 
     def line_of(k: int) -> int:
         return int(lines[np.searchsorted(blob_nl, corner[k])])
@@ -266,7 +277,11 @@ def _parse_faces(b, start, tag, end, lines, counts: list[np.ndarray], kinds: tup
     if len(few):
         raise InputError(f"{label}:{lines[few[0]]}: a face needs at least three corners")
     out = []
-    for (idx, has), count, (what, called) in zip(columns, counts, KINDS):
+    for column, count, (what, called) in zip(columns, counts, KINDS):
+        if column is None:
+            out.append(None)
+            continue
+        idx, has = column
         zero = np.flatnonzero(idx == 0 if has is None else has & (idx == 0))
         if len(zero):
             raise InputError(f"{label}:{line_of(zero[0])}: OBJ indices start at 1, got 0")
@@ -280,9 +295,7 @@ def _parse_faces(b, start, tag, end, lines, counts: list[np.ndarray], kinds: tup
         if has is not None:
             idx[~has] = -1
         out.append(fan_triangles(idx, per_face))
-    if any(kinds):
-        return out[0], out[1], out[2], lines, per_face
-    return out[0], None, None, lines, per_face
+    return out[0], out[1], out[2], lines, per_face
 
 
 def fan_triangles(idx: np.ndarray, per_face: np.ndarray) -> np.ndarray:
