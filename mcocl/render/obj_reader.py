@@ -184,8 +184,7 @@ def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, before: 
 
     def records(mask: np.ndarray, width: int, need: int, message: str, tag_len: int) -> np.ndarray:
         k = np.flatnonzero(mask)
-        return _parse_records(b, start[k], tag[k], line_end[k], number[k], width, need, f"{label}:{{}}: {message}",
-                              tag_len)
+        return _parse_records(b, start[k], tag[k], line_end[k], number[k], width, need, tag_len, label, message)
 
     vertices = records(is_v, 3, 3, "a vertex needs three numbers", 1)
     uvs = records(is_vt, 2, 1, "a texture coordinate needs one to three numbers (u [v [w]])", 2)
@@ -198,8 +197,13 @@ def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, before: 
     return Chunk(vertices, uvs, normals, *faces, kinds), len(line_end)
 
 
-def _parse_records(b, start, tag, end, lines, width: int, need: int, message: str, tag_len: int) -> np.ndarray:
-    """The first ``width`` numbers of each chosen line, float64 (N, width); lines with fewer (but ``need``) get zeros."""
+def _parse_records(b, start, tag, end, lines, width: int, need: int, tag_len: int, label: str,
+                   message: str) -> np.ndarray:
+    """The first ``width`` numbers of each chosen line, float64 (N, width); lines with fewer (but ``need``) get zeros.
+
+    A line with fewer than ``need`` numbers, or a token that is not a number,
+    raises ``InputError("{label}:{line}: {message}")``.
+    """
     if not len(start):
         return np.zeros((0, width))
     blob = _select_lines(b, start, end, tag, tag_len)
@@ -208,10 +212,10 @@ def _parse_records(b, start, tag, end, lines, width: int, need: int, message: st
     per_line = _per_line(ts, blob_nl)
     short = np.flatnonzero(per_line < need)
     if len(short):
-        raise InputError(message.format(lines[short[0]]))
+        raise InputError(f"{label}:{lines[short[0]]}: {message}")
     nums = parse_numbers(blob)
     if nums is None or len(nums) != len(ts):
-        raise InputError(message.format(lines[_first_bad_line(blob, blob_nl)]))
+        raise InputError(f"{label}:{lines[_first_bad_line(blob, blob_nl)]}: {message}")
     if np.all(per_line == width):
         return nums.reshape(-1, width)
     at = (np.cumsum(per_line) - per_line)[:, None] + np.arange(width)
