@@ -52,6 +52,11 @@ def random_obj(rng: np.random.Generator, kinds: str, interleave: bool) -> tuple[
               "vn": np.round(rng.normal(size=(150, 3)), 6)}
     written = {k: 0 for k in sizes}
     lines, tris = [], []
+
+    def ref(i: int, k: str) -> str:
+        """Record i of kind k as a 1-based index or one counting back from the last written."""
+        return str(i + 1) if rng.uniform() < 0.5 else str(i - written[k])
+
     for portion in range(4 if interleave else 1):
         for k, a in arrays.items():
             stop = sizes[k] * (portion + 1) // (4 if interleave else 1)
@@ -62,10 +67,6 @@ def random_obj(rng: np.random.Generator, kinds: str, interleave: bool) -> tuple[
             triples = [[int(rng.integers(0, written["v"])),
                         int(rng.integers(0, written["vt"])) if "t" in kinds else -1,
                         int(rng.integers(0, written["vn"])) if "n" in kinds else -1] for _ in range(m)]
-
-            def ref(i: int, k: str) -> str:
-                return str(i + 1) if rng.uniform() < 0.5 else str(i - written[k])
-
             lines.append("f " + " ".join(ref(v, "v") + ("/" + ref(t, "vt") if t >= 0 else "/" if n >= 0 else "")
                                          + ("/" + ref(n, "vn") if n >= 0 else "") for v, t, n in triples))
             tris += [[triples[0], triples[k], triples[k + 1]] for k in range(1, m - 1)]
