@@ -64,8 +64,33 @@ def merge_small_subtrees(ref: np.ndarray, cnt: np.ndarray, max_prims: int) -> tu
     return np.where(small, first[m], ref), np.where(small, count[m], cnt).astype(np.uint32)
 
 
+def _wide_slots(nodes: np.ndarray, ref: np.ndarray, inner: np.ndarray, area: np.ndarray) -> np.ndarray:
+    """The binary child slots (q = 2j + c, -1: empty) of the wide nodes made from binary nodes ``nodes``, (n, WIDTH).
+
+    A binary node's children are replaced by their own children where they
+    are internal; then, while a slot is empty, the internal child of largest
+    surface area gives way to its two children (Wald et al. 2008's greedy
+    collapse; fewer, fuller wide nodes).
+    """
+    q = 2 * nodes[:, None] + np.arange(2)  # (n, 2)
+    kids = 2 * ref[q, None] + np.arange(2)  # (n, 2, 2)
+    slots = np.full((len(nodes), WIDTH), -1, np.int64)
+    slots[:, :4] = np.where(inner[q][..., None], kids, np.stack([q, np.full_like(q, -1)], 2)).reshape(-1, 4)
+    for _ in range(WIDTH - 2):
+        is_inner = (slots >= 0) & inner[np.maximum(slots, 0)]
+        empty = slots < 0
+        rows = np.flatnonzero(empty.any(1) & is_inner.any(1))
+        if not len(rows):
+            break
+        a = np.where(is_inner[rows], area[np.maximum(slots[rows], 0)], -1.0)
+        pick, hole = a.argmax(1), empty[rows].argmax(1)
+        child = ref[slots[rows, pick]]
+        slots[rows, pick], slots[rows, hole] = 2 * child, 2 * child + 1
+    return slots
+
+
 def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
-    """The 4-wide nodes of a flattened binary BVH (``nodes`` of :class:`mcocl.render.bvh.BVH`), float32 (8W, 4).
+    """The 8-wide nodes of a flattened binary BVH (``nodes`` of :class:`mcocl.render.bvh.BVH`), float32 (16W, 4).
 
     Subtrees of at most ``max_leaf`` primitives become leaves (:func:`merge_small_subtrees`).
     """
@@ -81,37 +106,26 @@ def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
     ext = (hi - lo).astype(np.float64)
     area = ext[:, 0] * ext[:, 1] + ext[:, 1] * ext[:, 2] + ext[:, 2] * ext[:, 0]
     inner = cnt == 0
-    # Wide slots of binary node j (-1: empty): the children of its child c when c is internal, else c itself.
-    q = np.arange(2 * k).reshape(k, 2)
-    kids = 2 * ref[q, None] + np.arange(2)  # (K, 2, 2)
-    slots = np.full((k, WIDTH), -1, np.int64)
-    slots[:, :4] = np.where(inner[q][..., None], kids, np.stack([q, np.full_like(q, -1)], 2)).reshape(k, 4)
-    # Fill empty slots: the internal child of largest surface area gives way to its two children
-    # (Wald et al. 2008's greedy collapse; fewer, fuller wide nodes).
-    for _ in range(WIDTH - 2):
-        is_inner = (slots >= 0) & inner[np.maximum(slots, 0)]
-        empty = slots < 0
-        rows = np.flatnonzero(empty.any(1) & is_inner.any(1))
-        if not len(rows):
-            break
-        a = np.where(is_inner[rows], area[np.maximum(slots[rows], 0)], -1.0)
-        pick, hole = a.argmax(1), empty[rows].argmax(1)
-        child = ref[slots[rows, pick]]
-        slots[rows, pick], slots[rows, hole] = 2 * child, 2 * child + 1
+    # Only the binary nodes that become wide nodes get slots: the root, then level by level every
+    # internal slot of a wide node (a third to a fifth of the binary nodes).
+    nodes_of, slots_of, frontier = [], [], np.zeros(1, np.int64)
+    while len(frontier):
+        slots = _wide_slots(frontier, ref, inner, area)
+        s_inner = (slots >= 0) & inner[np.maximum(slots, 0)]
+        nodes_of.append(frontier)
+        slots_of.append(slots)
+        frontier = ref[slots[s_inner]]
+    # Listed in the binary tree's depth-first order: a wide node's first internal child follows it and
+    # every subtree is one run of memory.
+    order = np.concatenate(nodes_of)
+    perm = np.argsort(order, kind="stable")
+    order, slots = order[perm], np.concatenate(slots_of)[perm]
     valid = slots >= 0
     sq = np.maximum(slots, 0)
     s_inner = valid & inner[sq]
-    # The binary nodes that become wide nodes: the root, then every internal slot of a wide node.
-    order, frontier = [], np.zeros(1, np.int64)
-    while len(frontier):
-        order.append(frontier)
-        frontier = ref[sq[frontier]][s_inner[frontier]]
-    # Listed in the binary tree's depth-first order: a wide node's first internal child follows it and
-    # every subtree is one run of memory.
-    order = np.sort(np.concatenate(order))
     index = np.full(k, -1, np.int64)
     index[order] = np.arange(len(order))
-    oq, ov, oi = sq[order], valid[order], s_inner[order]
+    oq, ov, oi = sq, valid, s_inner
     rec = np.zeros(len(order), BVH_WIDE_NODE.dtype())
     fields = {f"{name}_{comp}": np.where(ov, corner[oq][..., axis], 0.0)
               for corner, name in ((lo, "lo"), (hi, "hi")) for axis, comp in enumerate("xyz")}
