@@ -127,8 +127,11 @@ def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
     index[order] = np.arange(len(order))
     oq, ov, oi = sq, valid, s_inner
     rec = np.zeros(len(order), BVH_WIDE_NODE.dtype())
-    fields = {f"{name}_{comp}": np.where(ov, corner[oq][..., axis], 0.0)
-              for corner, name in ((lo, "lo"), (hi, "hi")) for axis, comp in enumerate("xyz")}
+    fields = {}
+    for corner, name in ((lo, "lo"), (hi, "hi")):
+        box = corner[oq]  # (W, WIDTH, 3), gathered once per corner
+        for axis, comp in enumerate("xyz"):
+            fields[f"{name}_{comp}"] = np.where(ov, box[..., axis], np.float32(0.0))
     fields["ref"] = np.where(oi, index[np.where(oi, ref[oq], 0)], ref[oq]).astype(np.uint32)
     fields["cnt"] = np.where(ov, cnt[oq], EMPTY_SLOT)
     for name, value in fields.items():  # children 0-3 in field name_0, 4-7 in name_4
