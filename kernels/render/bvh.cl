@@ -144,6 +144,34 @@ MC_INLINE uint bvh_wide_children(global const float4 *n, float8 ox, float8 oy, f
     return w2.x + w2.y;
 }
 
+/* The children hit (bits of bvh_wide_children) sorted by entry distance into
+ * st/sr/sc by insertion (ties keep slot order): nearest first, or farthest
+ * first with `farthest` (a compile-time constant at each call); prefetches
+ * each.  Returns how many. */
+MC_INLINE uint bvh_sort_children(const scene_geom *g, uint bits, const float *ct, const uint *cr, const uint *cc,
+                                 const int farthest, float *st, uint *sr, uint *sc)
+{
+    uint m = 0;
+    while (bits) {
+        uint j = bvh_lowest_bit(bits);
+        bits &= bits - 1u;
+        float t = ct[j];
+        uint r = cr[j], c = cc[j];
+        bvh_prefetch_child(g, r, c);
+        uint k = m++;
+        while (k > 0u && (farthest ? st[k - 1u] < t : st[k - 1u] > t)) {
+            st[k] = st[k - 1u];
+            sr[k] = sr[k - 1u];
+            sc[k] = sc[k - 1u];
+            --k;
+        }
+        st[k] = t;
+        sr[k] = r;
+        sc[k] = c;
+    }
+    return m;
+}
+
 /* The closest hit with 0 < t < tmax; fills *h and returns true, or returns false (h untouched).
  * Walks the 8-wide tree: the children hit are sorted nearest first (insertion
  * sort; ties keep slot order); leaves are intersected in that order unless
@@ -166,24 +194,7 @@ bool trace_closest(const scene_geom *g, float3 o, float3 d, float tmax, hit_info
         float ct[8], st[8];
         uint cr[8], cc[8], sr[8], sc[8];
         uint bits = bvh_wide_children(g->wide + BVH_WIDE_NODE_QUADS * node, ox, oy, oz, ix, iy, iz, tbest, ct, cr, cc);
-        uint m = 0;
-        while (bits) {
-            uint j = bvh_lowest_bit(bits);
-            bits &= bits - 1u;
-            float t = ct[j];
-            uint r = cr[j], c = cc[j];
-            bvh_prefetch_child(g, r, c);
-            uint k = m++;
-            while (k > 0u && st[k - 1u] > t) {
-                st[k] = st[k - 1u];
-                sr[k] = sr[k - 1u];
-                sc[k] = sc[k - 1u];
-                --k;
-            }
-            st[k] = t;
-            sr[k] = r;
-            sc[k] = c;
-        }
+        uint m = bvh_sort_children(g, bits, ct, cr, cc, 0, st, sr, sc);
         for (uint k = 0; k < m; ++k)
             if (sc[k] && st[k] <= tbest * BVH_TFAR_SCALE) hit |= bvh_leaf_closest(g, sr[k], sc[k], o, d, &tbest, h);
         uint next = BVH_EMPTY_SLOT;
@@ -213,9 +224,12 @@ bool trace_closest(const scene_geom *g, float3 o, float3 d, float tmax, hit_info
 }
 
 /* True when anything is hit with 0 < t < tmax (shadow rays; d need not be normalised).
- * The same walk, returning at the first hit, with the children in slot order:
- * any hit ends the walk, and skipping the sort measured 7-15 % faster
- * (bench/trace_bench.py, shadow rays, on the 4-wide tree). */
+ * The same walk, returning at the first hit, with the children taken
+ * farthest first: a shadow ray leaves a surface, and the subtrees it enters
+ * first hold that surface, which cannot occlude it.  Measured on the shadow
+ * rays of bench/trace_bench.py (M rays per CPU-second, 8-wide tree): slot
+ * order 0.55 / 0.59 (soup / terrain), nearest first 0.36 / 0.65, farthest
+ * first 0.71 / 0.59. */
 bool trace_any(const scene_geom *g, float3 o, float3 d, float tmax)
 {
     if (as_uint(g->nodes[0].x) == 0u) return false;
@@ -226,20 +240,18 @@ bool trace_any(const scene_geom *g, float3 o, float3 d, float tmax)
     uint sp = 0;
     uint node = 0;
     for (;;) {
-        float ct[8];
-        uint cr[8], cc[8];
+        float ct[8], st[8];
+        uint cr[8], cc[8], sr[8], sc[8];
         uint bits = bvh_wide_children(g->wide + BVH_WIDE_NODE_QUADS * node, ox, oy, oz, ix, iy, iz, tmax, ct, cr, cc);
-        for (uint b = bits; b; b &= b - 1u) bvh_prefetch_child(g, cr[bvh_lowest_bit(b)], cc[bvh_lowest_bit(b)]);
+        uint m = bvh_sort_children(g, bits, ct, cr, cc, 1, st, sr, sc);
+        for (uint k = 0; k < m; ++k)
+            if (sc[k] && bvh_leaf_any(g, sr[k], sc[k], o, d, tmax)) return true;
+        /* internal children nearest first onto the stack, so that the farthest is visited next */
         uint next = BVH_EMPTY_SLOT;
-        while (bits) {
-            uint j = bvh_lowest_bit(bits);
-            bits &= bits - 1u;
-            if (cc[j]) {
-                if (bvh_leaf_any(g, cr[j], cc[j], o, d, tmax)) return true;
-            } else {
-                if (next != BVH_EMPTY_SLOT && sp < BVH_WIDE_STACK) stack[sp++] = next;
-                next = cr[j];
-            }
+        for (uint k = m; k-- > 0u;) {
+            if (sc[k]) continue;
+            if (next != BVH_EMPTY_SLOT && sp < BVH_WIDE_STACK) stack[sp++] = next;
+            next = sr[k];
         }
         if (next != BVH_EMPTY_SLOT) {
             node = next;
