@@ -424,7 +424,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         delta_lights=list(scene.lights) if len(dpower) else [], delta_power=dpower, env_map=scene.env_map,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
-        vertex_normals=vertex_normal_table(scene.shapes, tri64), near_clip=cam.near_clip,
+        vertex_normals=vertex_normal_table(scene.shapes, tri_vertices[:, :, :3]), near_clip=cam.near_clip,
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
                    "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},
