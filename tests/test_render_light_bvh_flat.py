@@ -6,7 +6,8 @@ tree's contract: the frequencies of the chosen lights fit the probabilities
 light_bvh_pmf reports (chi-square, shared harness), the walk's probability
 equals light_bvh_pmf's bit for bit, all 2^23 uniforms of the grid land on
 each light in exactly that share, and every light whose front faces the
-point has a positive one.
+point has a positive one.  The default light sampler, "auto", takes the
+BVH exactly where it is flat.
 """
 
 from __future__ import annotations
@@ -17,10 +18,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 from chi2 import Chi2Family
-from test_render_light_bvh import CELL, POINTS, BVHKernels, N, _cloud_scene, _facing
+from test_render_light_bvh import CELL, POINTS, SCENES, BVHKernels, N, _cloud_scene, _facing
 
 from mcocl.layouts import LIGHT_BVH_NODE
+from mcocl.render.compiled import compile_scene
+from mcocl.render.emitter_choice import resolve_light_sampler
 from mcocl.render.light_bvh import FLAT_FLAG, FLAT_LIGHTS
+from mcocl.render.scene import parse_scene
+from mcocl.render.scene_file import load_scene
 
 KERNEL = Path(__file__).resolve().parent.parent / "kernels" / "render" / "light_bvh.cl"
 FAMILY = Chi2Family("flat light BVH choice", len(POINTS))
@@ -79,3 +84,16 @@ def test_flat_pmf_is_the_share_of_grid_uniforms_each_light_gets(few: BVHKernels,
     assert table.astype(np.float64).sum() == 1.0  # a flat choice always finds a light when one is lit
     share = np.bincount(k[k >= 0], minlength=len(table)) * CELL
     np.testing.assert_array_equal(share.astype(np.float32), table)
+
+
+def test_auto_takes_the_bvh_where_its_tree_is_flat() -> None:
+    """The default light sampler: bvh for 2..FLAT_LIGHTS area lights and no point light, else power."""
+    assert parse_scene(_cloud_scene(ntri=4) | {"integrator": {}}).light_sampler == "auto"
+    assert compile_scene(load_scene(SCENES / "veach_mis.json")).light_sampler == "bvh"
+    assert compile_scene(load_scene(SCENES / "many_lights.json")).light_sampler == "power"
+    assert resolve_light_sampler("auto", FLAT_LIGHTS, 0) == "bvh"
+    assert resolve_light_sampler("auto", FLAT_LIGHTS + 1, 0) == "power"
+    assert resolve_light_sampler("auto", 1, 0) == resolve_light_sampler("auto", 3, 1) == "power"
+    assert resolve_light_sampler("uniform", 3, 0) == "uniform"
+    cs = compile_scene(load_scene(SCENES / "many_lights.json")).with_settings(light_sampler="bvh")
+    assert cs.with_settings(light_sampler="auto").light_sampler == "power"

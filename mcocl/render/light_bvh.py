@@ -73,10 +73,10 @@ from ..errors import InputError
 from ..layouts import LIGHT_BVH_NODE
 from ..rng import GRID_CELLS
 from .compiled import CompiledScene
+from .emitter_choice import FLAT_LIGHTS  # LIGHT_BVH_FLAT_MAX of kernels/render/light_bvh.cl
 
 CONE_MARGIN = 1e-4  # radians added to a merged cone's theta_o (float32 rounding of axis and cosine)
 MAX_DEPTH = 32  # the trail is a uint32
-FLAT_LIGHTS = 16  # at most this many area lights: a flat tree (LIGHT_BVH_FLAT_MAX of kernels/render/light_bvh.cl)
 FLAT_FLAG = 1 << 31  # in the root's count: the tree is flat (LIGHT_BVH_FLAT_FLAG of the kernel)
 
 
