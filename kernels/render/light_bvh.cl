@@ -34,6 +34,13 @@
  * walks the same nodes by the light's trail with the same arithmetic (one
  * function, light_bvh_walk), so it reproduces the sampling probability bit
  * for bit.
+ *
+ * Flat trees.  A tree of 2..16 area lights is a root (its count carrying
+ * LIGHT_BVH_FLAT_FLAG) and the leaves 1..L in light order, the trail of a
+ * light its index (mcocl/render/light_bvh.py).  light_bvh_flat weighs every
+ * leaf at once: the records are the same for all lanes (read once, no
+ * gathers, no lanes waiting for the deepest walk), and the cells are dealt
+ * out in proportion to the leaf importances with the same exactness.
  */
 #ifndef MCOCL_RENDER_LIGHT_BVH_CL
 #define MCOCL_RENDER_LIGHT_BVH_CL
