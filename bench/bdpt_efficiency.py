@@ -17,6 +17,12 @@ cannot see a mirror or glass seen directly through a pinhole
 reference does not leave exactly black where the ``bdpt`` reference is not
 (the other integrators' MSE over all pixels, and over those pixels too).
 
+Reading the ratios: in a pixel that sees a caustic through glass or in a
+mirror (a specular-diffuse-specular path), only the camera subpath hitting
+the emitter (s = 0) samples the path, as in ``mis``, so there ``bdpt`` is
+``mis`` at a higher cost per path; those pixels bound its whole-image
+ratio on ``caustic`` and ``cornell_spheres``.
+
     PYTHONPATH=. python bench/bdpt_efficiency.py --scenes caustic cornell cornell_spheres \\
         --budget 10 --ref-budget 120
 """
