@@ -158,6 +158,21 @@ def test_thin_lens_bdpt_agrees_with_mis() -> None:
     assert_pixels_agree(a, b)
 
 
+@pytest.mark.parametrize("scene", ["cornell.json", "caustic.json"])
+def test_lane_builds_agree_with_the_scalar_build(scene: str) -> None:
+    """Every sample draws the same numbers in every lane width (kernels/render/bdpt.cl, "Lanes"), so a
+    packet build differs from the scalar one only in the order of its float additions: a lane that
+    leaked into another's strategies, or a masked lane that splatted, would differ by far more."""
+    sc = load_scene(SCENES / scene)
+    sc.camera.width, sc.camera.height = 24, 16
+    cs = compile_scene(sc)
+    scalar = render(cs, spp=16, integrator="bdpt", seed=5, lanes=1).mean.astype(np.float64)
+    assert scalar.max() > 0
+    for lanes in (4, 16):
+        packed = render(cs, spp=16, integrator="bdpt", seed=5, lanes=lanes).mean.astype(np.float64)
+        assert np.abs(packed - scalar).max() <= 1e-5 * scalar.max(), lanes
+
+
 # Launch splits, sub-devices and resume: tests/test_render_lt.py runs them for bdpt too (SPLATTING).
 
 
