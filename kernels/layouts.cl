@@ -28,6 +28,9 @@
 #define LIGHT_TRIANGLE 0
 #define LIGHT_SPHERE 1
 #define LIGHT_SPHERE_INWARD 2
+#define LIGHT_POINT 3
+#define LIGHT_SPOT 4
+#define LIGHT_DIRECTIONAL 5
 
 /* LightSampler: The render kernel's ``-DLIGHT_SAMPLER``: how an area light is chosen (kernels/render/lights.cl).
 

@@ -72,6 +72,10 @@ class LightShape(enum.IntEnum):
     TRIANGLE = 0
     SPHERE = 1
     SPHERE_INWARD = 2  # a sphere whose normals point inwards: area sampling only
+    # Delta lights (mcocl/render/delta_lights.py; kernels/render/delta_lights.cl): no primitive, never hit.
+    POINT = 3  # base: position; radiance: intensity (W/sr per RGB channel)
+    SPOT = 4  # as POINT, edge1: unit axis; edge2: cos cutoff, cos beam, cutoff (rad); area: 1 / transition width
+    DIRECTIONAL = 5  # base: unit direction of travel; radiance: irradiance
 
 
 class LightSampler(enum.IntEnum):

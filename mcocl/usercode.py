@@ -23,6 +23,11 @@ from dataclasses import dataclass
 from .errors import InputError, KernelBuildError
 
 _RETURN = re.compile(r"\breturn\b")
+# A decimal floating literal with an f suffix (1.5f, .5f, 2e-3f, 1.f); not hex
+# literals (0x1p-3f, 0x1fu) nor identifiers: what precision="double" widens.
+_FLOAT_LITERAL = re.compile(r"(?<![\w.])((?:\d+\.\d*|\.\d+)(?:[eE][+-]?\d+)?|\d+[eE][+-]?\d+)[fF]\b")
+# The snippet types of each precision (scalar, lane vector).
+REAL_TYPES = {"float": ("float", "floatv"), "double": ("double", "doublev")}
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 # clang prints "file:line:col: error: msg"; PoCL's log "error: file:line:col: msg".
 _DIAG = (
@@ -45,18 +50,26 @@ class UserFunction:
         func: the C function name it becomes.
         params: ``(name, length)`` pairs; a parameter of length n > 0 is an
             array ``float name[n]`` (``x[dim]``), of length 0 a single ``float``.
+        real: ``"float"`` (the default) or ``"double"``: the type the word
+            ``float`` means in the snippet, of its parameters and of its value.
+            In ``"double"`` the snippet's float literals (``0.3f``) are
+            compiled without their suffix, as double constants: otherwise
+            ``0.3f`` would carry float's rounding into a double evaluation.
     """
 
     label: str
     code: str
     func: str
     params: tuple[tuple[str, int], ...]
+    real: str = "float"
 
     def __post_init__(self) -> None:
         if not isinstance(self.code, str) or not self.code.strip():
             raise InputError(f"{self.label}: expected OpenCL C code (an expression or a body that returns), got {self.code!r}")
         if not _IDENT.match(self.func):
             raise ValueError(f"bad function name {self.func!r}")
+        if self.real not in REAL_TYPES:
+            raise ValueError(f"bad snippet type {self.real!r}")
         self._check_constant_indices()
 
     def _check_constant_indices(self) -> None:
@@ -84,17 +97,20 @@ class UserFunction:
 
         The scalar function is named ``func`` + ``_s``, the lane one ``func``
         + ``_v``; in the lane form the word ``float`` inside the snippet means
-        ``floatv``.
+        ``floatv`` (``real="double"``: ``double`` and ``doublev``).
         """
         name = self.func + ("_v" if vector else "_s")
-        ftype = "floatv" if vector else "float"
+        ftype = REAL_TYPES[self.real][1 if vector else 0]
         args = ", ".join(
             f"const {ftype} *{p}" if n else f"const {ftype} {p}" for p, n in self.params
         )
         code = self.code.rstrip()
+        if self.real == "double":
+            code = _FLOAT_LITERAL.sub(r"\1", code)
         lines = [f"MC_INLINE {ftype} {name}({args}) {{"]
-        if vector:
-            lines.append("#define float floatv")
+        redefine = vector or self.real != "float"
+        if redefine:
+            lines.append(f"#define float {ftype}")
         if self.is_body:
             lines.append(f'#line 1 "{self.label}"')
             lines.append(code)
@@ -104,7 +120,7 @@ class UserFunction:
             lines.append(code)
             lines.append(f'#line 1 "{self.label}(end)"')
             lines.append(");")
-        if vector:
+        if redefine:
             lines.append("#undef float")
         lines.append("}")
         return "\n".join(lines) + "\n"
@@ -171,30 +187,35 @@ def probe_source(users: tuple[UserFunction, ...]) -> str:
         "    const uint p0 = get_global_id(0) * LANES;",
     ]
     for k, u in enumerate(users):
-        # lane form
+        # lane form; a double snippet gets the float points widened and its value rounded to float
+        wide = u.real != "float"
+        scalar, lane = REAL_TYPES[u.real]
         lines.append("    {")
         arg_names = []
         row = 0
         for name, n in u.params:
             cnt = max(n, 1)
-            lines.append(f"        floatv v_{name}[{cnt}];")
+            lines.append(f"        {lane} v_{name}[{cnt}];")
             for j in range(cnt):
-                lines.append(f"        v_{name}[{j}] = MC_CAT(vload, LANE_SUFFIX)(0, pts + {row} * np + p0);")
+                load = f"MC_CAT(vload, LANE_SUFFIX)(0, pts + {row} * np + p0)"
+                lines.append(f"        v_{name}[{j}] = {f'to_doublev({load})' if wide else load};")
                 row += 1
             arg_names.append(f"v_{name}" if n else f"v_{name}[0]")
-        lines.append(f"        MC_CAT(vstore, LANE_SUFFIX)({u.func}_v({', '.join(arg_names)}), 0, out_v + {k} * np + p0);")
+        value = f"{u.func}_v({', '.join(arg_names)})"
+        lines.append(f"        MC_CAT(vstore, LANE_SUFFIX)({f'to_floatv({value})' if wide else value}, 0, out_v + {k} * np + p0);")
         # scalar form, lane by lane
         lines.append("        for (uint l = 0; l < LANES; ++l) {")
         arg_names = []
         row = 0
         for name, n in u.params:
             cnt = max(n, 1)
-            lines.append(f"            float s_{name}[{cnt}];")
+            lines.append(f"            {scalar} s_{name}[{cnt}];")
             for j in range(cnt):
                 lines.append(f"            s_{name}[{j}] = pts[{row} * np + p0 + l];")
                 row += 1
             arg_names.append(f"s_{name}" if n else f"s_{name}[0]")
-        lines.append(f"            out_s[{k} * np + p0 + l] = {u.func}_s({', '.join(arg_names)});")
+        lines.append(f"            out_s[{k} * np + p0 + l] = (float){u.func}_s({', '.join(arg_names)});"
+                     if wide else f"            out_s[{k} * np + p0 + l] = {u.func}_s({', '.join(arg_names)});")
         lines.append("        }")
         lines.append("    }")
     lines.append("}")

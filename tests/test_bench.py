@@ -271,6 +271,27 @@ def test_genz_exact_integrals_against_quadrature(g, d):
     assert _quad(f, d, points) == pytest.approx(g.exact, rel=1e-7, abs=1e-10)
 
 
+def test_genz_singular_twin_and_integral():
+    """The corner singularity: the twin is the formula, and each factor integrates to 1."""
+    from scipy.integrate import quad
+
+    g = genz.singular([0.3, 0.4], [0, 1])
+    f = compile_numpy(g.numpy, 2)
+    assert f(np.array([[0.2], [0.7]]))[0] == pytest.approx(0.7 * 0.6 * 0.2**-0.3 * 0.3**-0.4, rel=1e-12)
+    assert g.exact == 1.0
+    f1 = compile_numpy(genz.singular([0.45], [1]).numpy, 1)
+    assert quad(lambda t: f1(np.array([[t]]))[0], 0, 1, limit=200)[0] == pytest.approx(1.0, rel=1e-8)
+
+
+def test_genz_corner_peak_exact_in_ten_dimensions():
+    """The rational inclusion-exclusion sum against the 1-D formula applied once per coordinate (d = 1)
+    and against a symmetric case whose sum has a closed form: all a_i = a, sum_k (-1)^k C(d,k) / (1 + k a)."""
+    assert genz.corner_peak([0.7]).exact == pytest.approx((1 - 1 / 1.7) / 0.7, rel=1e-15)
+    a, d = 0.185, 10
+    total = math.fsum((-1) ** k * math.comb(d, k) / (1 + k * a) for k in range(d + 1))
+    assert genz.corner_peak([a] * d).exact == pytest.approx(total / (math.factorial(d) * a**d), rel=1e-9)
+
+
 def test_builtin_exact_values_against_quadrature():
     probs = {p.name: p for p in builtin_problems()}
     p = probs["two-peak-2d"]

@@ -9,7 +9,7 @@ fewer than 2 % of the pixels may lie beyond 4 standard errors.  The same
 render with a box filter (the negative control) must fail that per-pixel
 check: the filter is seen.
 
-The second (tests/data/new_materials.xml) holds the materials of issue 13
+The second (tests/data/mitsuba/new_materials.xml) holds the materials of issue 13
 part 4: roughdielectric, thindielectric, named-metal conductors, anisotropic
 roughconductor, twosided.  Every 8x8 block of each channel must agree in a
 z-test at a 1e-3 family-wise level (Sidak correction over the blocks).
@@ -74,8 +74,8 @@ def _blocks(x: np.ndarray, b: int = 8) -> np.ndarray:
 
 
 def test_new_materials_match_mitsuba() -> None:
-    ref = np.load(DATA.parent / "new_materials_mitsuba.npz")
-    r = render(str(DATA.parent / "new_materials.xml"), spp=4096, seed=13)
+    ref = np.load(DATA / "new_materials_mitsuba.npz")
+    r = render(str(DATA / "new_materials.xml"), spp=4096, seed=13)
     assert r.nonfinite == 0
     m1, m2 = _blocks(r.mean.astype(np.float64)), _blocks(ref["mean"].astype(np.float64))
     v = _blocks(r.variance.astype(np.float64)) + _blocks(ref["stderr"].astype(np.float64) ** 2)
@@ -93,7 +93,7 @@ def test_convert_keeps_the_new_materials(tmp_path) -> None:
     from mcocl.render.compiled import compile_scene
 
     xml = tmp_path / "s.xml"
-    text = (DATA.parent / "new_materials.xml").read_text()
+    text = (DATA / "new_materials.xml").read_text()
     xml.write_text(text.replace('<bsdf type="thindielectric" id="pane"/>',
                                 '<bsdf type="thindielectric" id="pane"/><bsdf type="roughplastic" id="coat">'
                                 '<float name="alpha" value="0.2"/></bsdf>'))

@@ -22,6 +22,9 @@
  *   [2] sum (v - shift)        [3] sum (v - shift)^2   [4] 0     (independent, nrooks)
  *                              [3] sum (v1 - v2)^2     [4] pairs (stratified)
  *   [5] sum |v| (the scale of float rounding in v, see job.py)
+ * REAL_DOUBLE=1 (precision="double", independent and sobol only): the
+ * uniforms come from sampler_next_nd_d (the 2^-32 grid), unit_value and the
+ * user's snippets take and return doublev, and the partial sums are double.
  * Sums run in double on 16 *virtual* lanes (unit offset mod 16), whatever the
  * build's LANES, and the virtual lanes are added in order at the end: the
  * numbers of a block depend on its index alone, not on the device's vector
@@ -45,6 +48,31 @@
 #define SAMPLER_NROOKS 2
 #define SAMPLER_SOBOL 3 /* as independent; the uniforms come from the Sobol' back end */
 
+#ifndef REAL_DOUBLE
+#define REAL_DOUBLE 0
+#endif
+#if REAL_DOUBLE
+#if SAMPLER != SAMPLER_INDEPENDENT && SAMPLER != SAMPLER_SOBOL
+#error "REAL_DOUBLE: only the independent and sobol samplers evaluate in double"
+#endif
+/* the value type of a unit; a doublev select takes a longv mask */
+typedef doublev realv;
+#define REAL_MASK(m) to_longv(m)
+#define REAL_ABS(v) fabs(v)
+#define SAMPLER_NEXT_ND sampler_next_nd_d
+#define REFINE_FIRST_CELLS refine_first_cells_d
+MC_INLINE intv real_finite(doublev x) {
+    return to_intv((lane_as_long(x) & 0x7ff0000000000000L) != 0x7ff0000000000000L);
+}
+#else
+typedef floatv realv;
+#define REAL_MASK(m) (m)
+#define REAL_ABS(v) lane_abs(v)
+#define SAMPLER_NEXT_ND sampler_next_nd
+#define REFINE_FIRST_CELLS refine_first_cells
+#define real_finite lane_finite
+#endif
+
 #define NCOORD (POINTS * DIM)
 #define STATS 6
 #define VLANES 16
@@ -58,12 +86,11 @@ MC_INLINE double vlane_sum(const doublev *acc) {
 }
 
 /* Uniform coordinates (dimensions 0 .. NCOORD-1) of the packet of samples
- * base + stride * lane, with full float resolution near 0
- * (samplers/refine_zero.cl). */
-MC_INLINE void sample_uniforms(ulong base, uint stride, ulong seed, floatv *u) {
+* base + stride * lane, with full resolution near 0 (samplers/refine_zero.cl). */
+MC_INLINE void sample_uniforms(ulong base, uint stride, ulong seed, realv *u) {
     mc_sampler_t s = sampler_start_at(seed, base, stride * LANE_IOTA, RNG_STREAM_SAMPLE);
-    sampler_next_nd(&s, NCOORD, u);
-    refine_first_cells(u, NCOORD, rng_init_offset(base, stride * LANE_IOTA, seed, RNG_STREAM_REFINE));
+    SAMPLER_NEXT_ND(&s, NCOORD, u);
+    REFINE_FIRST_CELLS(u, NCOORD, rng_init_offset(base, stride * LANE_IOTA, seed, RNG_STREAM_REFINE));
 }
 
 /* Float partial sums are flushed into the double accumulators every FLUSH
@@ -101,13 +128,13 @@ MC_INLINE void unit_values(uint k, uint nunits, ulong unit0, ulong design_base, 
 #if SAMPLER == SAMPLER_VEGAS
                            global const float *vegas_grid, uintv vbin[UNIT_SAMPLES][DIM],
 #endif
-                           floatv *v, intv *ok, uintv *bad) {
+                           realv *v, intv *ok, uintv *bad) {
 #if SAMPLER != SAMPLER_INDEPENDENT
     const uintv in_design = (uintv)((uint)(unit0 + k)) + LANE_IOTA;
 #endif
     const intv valid = (uintv)(k) + LANE_IOTA < (uintv)(nunits);
     const ulong ubase = design_base + unit0 + k;
-    floatv tau[NCOORD];
+    realv tau[NCOORD];
 #if SAMPLER == SAMPLER_STRATIFIED || VEGAS_STRATIFIED
     /* two samples (indices 2 unit, 2 unit + 1) in stratum `in_design` */
     doublev cell[DIM];
@@ -141,12 +168,12 @@ MC_INLINE void unit_values(uint k, uint nunits, ulong unit0, ulong design_base, 
     const floatv vjac = vegas_warp(tau, vegas_grid, vbin[0]);
     const floatv u = unit_value(tau, tables) * vjac;
 #else
-    const floatv u = unit_value(tau, tables);
+    const realv u = unit_value(tau, tables);
 #endif
-    const intv fin = lane_finite(u);
+    const intv fin = real_finite(u);
     *ok = valid & fin;
     *bad = to_uintv(mask_bit(valid & !fin));
-    v[0] = lane_select((floatv)(0.0f), u, *ok);
+    v[0] = lane_select((realv)(0.0f), u, REAL_MASK(*ok));
 #endif
 }
 
@@ -176,11 +203,13 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
     const uint nunits = (uint)min((ulong)UNITS_PER_BLOCK, limit > unit0 ? limit - unit0 : 0ul);
     const ulong design_base = design * (ulong)DESIGN_UNITS;
 
+    /* partial sums f* in the value type (float, or double under REAL_DOUBLE) */
     doublev s1[NACC], s2[NACC], npairs[NACC], sabs[NACC];
-    floatv f1[NACC], f2[NACC], fpairs[NACC], fabsv[NACC];
+    realv f1[NACC], f2[NACC], fabsv[NACC];
+    floatv fpairs[NACC];
     for (int a = 0; a < NACC; ++a) {
         s1[a] = (doublev)(0.0); s2[a] = (doublev)(0.0); npairs[a] = (doublev)(0.0); sabs[a] = (doublev)(0.0);
-        f1[a] = (floatv)(0.0f); f2[a] = (floatv)(0.0f); fpairs[a] = (floatv)(0.0f); fabsv[a] = (floatv)(0.0f);
+        f1[a] = (realv)(0.0f); f2[a] = (realv)(0.0f); fpairs[a] = (floatv)(0.0f); fabsv[a] = (realv)(0.0f);
     }
     uintv nvalid = (uintv)(0u), nbad = (uintv)(0u);
     const float fshift = (float)shift; /* the host rounds the shift to float */
@@ -204,7 +233,7 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
         for (int acc = 0; acc < NACC; ++acc) {
             const uint k = k0 + (uint)acc * LANES;
             if (k >= nunits) break;
-            floatv v[UNIT_SAMPLES];
+            realv v[UNIT_SAMPLES];
             intv ok;
             uintv bad;
 #if SAMPLER == SAMPLER_VEGAS
@@ -223,10 +252,10 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             vegas_train_add_pair(train_row, vbin[0], v[0], vbin[1], v[1]);
 #endif
 #else
-            const floatv d = lane_select((floatv)(0.0f), v[0] - fshift, ok);
+            const realv d = lane_select((realv)(0.0f), v[0] - fshift, REAL_MASK(ok));
             f1[acc] += d;
             f2[acc] += d * d;
-            fabsv[acc] += lane_abs(v[0]);
+            fabsv[acc] += REAL_ABS(v[0]);
             nvalid += to_uintv(mask_bit(ok));
 #if SAMPLER == SAMPLER_VEGAS
             vegas_train_add(train_row, vbin[0], v[0]);
@@ -237,7 +266,7 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             for (int a = 0; a < NACC; ++a) {
                 s1[a] += to_doublev(f1[a]); s2[a] += to_doublev(f2[a]);
                 npairs[a] += to_doublev(fpairs[a]); sabs[a] += to_doublev(fabsv[a]);
-                f1[a] = (floatv)(0.0f); f2[a] = (floatv)(0.0f); fpairs[a] = (floatv)(0.0f); fabsv[a] = (floatv)(0.0f);
+                f1[a] = (realv)(0.0f); f2[a] = (realv)(0.0f); fpairs[a] = (floatv)(0.0f); fabsv[a] = (realv)(0.0f);
             }
         }
     }
@@ -253,7 +282,7 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
             for (int acc = 0; acc < NACC; ++acc) {
                 const uint k = k0 + (uint)acc * LANES;
                 if (k >= nunits) break;
-                floatv v[UNIT_SAMPLES];
+                realv v[UNIT_SAMPLES];
                 intv ok;
                 uintv bad;
 #if SAMPLER == SAMPLER_VEGAS

@@ -17,6 +17,24 @@
  * Connections need non-delta endpoints (bsdf_is_smooth): a mirror, glass or a
  * delta-sampled plastic coat is only passed through by sampling.
  *
+ * Point and spot lights (render/delta_lights.cl): y_0 is the light's
+ * position, with pdf_fwd its choice probability (the same for the s = 1
+ * point); no camera subpath can hit it and no camera connection can see it,
+ * so (0, t) and (1, 1) are no strategies for such a path (pbrt-v3's
+ * IsDeltaLight in MISWeight).
+ *
+ * Lights at infinity (the environment, constant or a map, and directional
+ * lights; pbrt-v3's infinite-light vertices): y_0 is a direction, with
+ * pdf_fwd its solid-angle density as light sampling draws it (env_pmf times
+ * the map's density; a directional light's choice probability), and y_1 gets
+ * the area density cos / (pi R^2) of the disk the light ray starts on
+ * (lights_emit.cl).  A camera subpath that escapes ends in such a vertex
+ * (pdf_fwd: the BSDF's solid-angle density), where (0, t) adds the
+ * environment's radiance; its reverse densities are env_pmf times the
+ * environment's density and cos / (pi R^2) at the vertex before.  A light at
+ * infinity is not connected to the camera as y_0, so (1, 1) is no strategy
+ * there (lt.cl's direct view of the environment is left to (0, 2)).
+ *
  * MIS weights (Veach's thesis eq. 10.9 with the ratios of §10.2.1; the
  * pdf ratio walk of pbrt-v3's MISWeight): every vertex stores pdf_fwd, the
  * area density with which its own subpath generated it, and pdf_rev, the area
@@ -93,6 +111,8 @@ typedef struct {
     intv emitter;         /* emitter index, -1 if none */
     uintv mat;            /* material index (always a valid one, also in masked lanes) */
     intv delta;           /* the vertex scattered through a delta lobe (a lane mask) */
+    intv delta_light;     /* y_0 of a point, spot or directional light (no camera subpath reaches it) */
+    intv infinite;        /* a direction at infinity: y_0 of a light at infinity, or an escaped camera ray */
 } bdpt_vertex;
 
 /* The scene a sample sees: geometry, primitives, lights, camera and the image. */
@@ -105,7 +125,13 @@ typedef struct {
     float4 bsphere;
     uint width, height;
     float pixels;
+    int has_env;      /* an environment: escaped camera rays end in a vertex at infinity */
 } bdpt_scene;
+
+/* The area density at q (normal nq) of a light ray from infinity along d: the disk's 1 / (pi R^2), projected. */
+MC_INLINE floatv infinite_to_area(const bdpt_scene *sc, vec3v d, vec3v nq) {
+    return lane_abs(v3_dot(d, nq)) / (RT_PI * sc->bsphere.w * sc->bsphere.w);
+}
 
 /* The area density at point q (normal nq) of a direction of solid-angle density pdf_dir sampled at p. */
 MC_INLINE floatv to_area(floatv pdf_dir, vec3v p, vec3v q, vec3v nq) {
@@ -171,35 +197,54 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
     for (int n = 1; n < maxv && lane_any(alive); ) {
         hitv h = trace_closest_v(sc->geom, o, d, alive);
         intv hit = alive & h.hit;
+        /* a camera ray that escapes into an environment: a vertex at infinity in direction d */
+        const intv esc = mode == TRANSPORT_RADIANCE && sc->has_env ? alive & !h.hit : (intv)(0);
         surface_v sf = surface_at(sc->pt, h.prim, h.t, o, d, hit);
         bdpt_vertex *v = &path[n];
         bdpt_vertex *prev = &path[n - 1];
         v->p = sf.p;
         v->n = sf.n;
         vec3v back = v3_sub(prev->p, sf.p);
-        v->wi = v3_select(v3_neg(d), v3_normalize(back), v3_len2(back) > 0.0f);
+        v->wi = v3_select(v3_neg(d), v3_normalize(back), hit & (v3_len2(back) > 0.0f));
         v->beta = beta;
         /* prev's density of the direction toward v: the camera's rays leave the lens point itself (pdf_dir),
-         * an emitter's by its cosine, a surface's by its BSDF given its own geometric wi */
+         * an area emitter's by its cosine, a surface's by its BSDF given its own geometric wi; a point or
+         * spot light's ray leaves the light's position itself (pdf_dir), an infinite light's a disk
+         * (infinite_to_area) */
         floatv pdf_geo = pdf_dir;
         if (n >= 2) {
             floatv pdf_back;
             vertex_eval(&pb, v3_neg(v->wi), &pdf_geo, &pdf_back, mode);
             pdf_geo = lane_select(pdf_geo, (floatv)(0.0f), prev->delta);
             bdpt_vertex *pprev = &path[n - 2];
-            pprev->pdf_rev = lane_select(pprev->pdf_rev, to_area(pdf_back, prev->p, pprev->p, pprev->n),
-                                         hit & !prev->delta);
+            /* y_0 at infinity keeps a solid-angle density */
+            floatv rev = lane_select(to_area(pdf_back, prev->p, pprev->p, pprev->n), pdf_back, pprev->infinite);
+            pprev->pdf_rev = lane_select(pprev->pdf_rev, rev, (hit | esc) & !prev->delta);
         } else if (mode == TRANSPORT_IMPORTANCE) {
-            pdf_geo = emitter_pdf_solid_angle(prev->n, v3_neg(v->wi));
+            pdf_geo = lane_select(emitter_pdf_solid_angle(prev->n, v3_neg(v->wi)), pdf_dir,
+                                  prev->delta_light | prev->infinite);
         }
         v->pdf_fwd = to_area(pdf_geo, prev->p, sf.p, sf.n);
+        if (n == 1 && mode == TRANSPORT_IMPORTANCE)
+            v->pdf_fwd = lane_select(v->pdf_fwd, infinite_to_area(sc, d, sf.n), prev->infinite);
         v->pdf_rev = (floatv)(0.0f);
         v->emitter = sf.emitter;
         v->light_pdf_area = lane_select((floatv)(0.0f), sf.pmf * (1.0f - sc->lt->env_pmf) / sf.area, sf.emitter >= 0);
         v->mat = sf.mat;
         v->delta = (intv)(0);
+        v->delta_light = (intv)(0);
+        v->infinite = esc;
+        if (lane_any(esc)) {
+            /* pdf_dir: the solid-angle density of d from prev (its BSDF sample, or the camera's) */
+            v->p = v3_select(v->p, v3_add(prev->p, d), esc);
+            v->n = v3_select(v->n, v3_neg(d), esc);
+            v->pdf_fwd = lane_select(v->pdf_fwd, pdf_dir, esc);
+            v->light_pdf_area = lane_select(v->light_pdf_area, (floatv)(0.0f), esc);
+            v->emitter = lane_select(v->emitter, (intv)(-1), esc);
+            v->mat = lane_select(v->mat, (uintv)(0u), esc);
+        }
         ++n;
-        *count = lane_select(*count, (intv)(n), hit);
+        *count = lane_select(*count, (intv)(n), hit | esc);
         alive = hit;
         if (n >= maxv || !lane_any(alive)) break;
         pb = vertex_bsdf_of(sc, v);
@@ -212,6 +257,8 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
         v->delta = ok & bs.delta;
         beta = v3_mul(beta, bs.weight);
         eta *= bs.eta;
+        /* the solid-angle density of d, for a vertex at infinity should the ray escape */
+        pdf_dir = lane_select(bs.pdf, (floatv)(0.0f), bs.delta);
         vec3v wo = frame_to_world(pb.fr, bs.wo);
         o = offset_origin(sf.p, sf.n, wo);
         d = wo;
@@ -243,18 +290,20 @@ MC_INLINE floatv mis_ratio(floatv rev, floatv fwd) {
 MC_INLINE floatv bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *cam, int s, int t, int nl_cap,
                                  int nc_cap) {
     floatv sum = (floatv)(0.0f), r = (floatv)(1.0f);
+    /* (1, 1) is no strategy for a light at infinity */
+    const intv no_11 = s + t == 2 ? (s > 0 ? light[0].infinite : cam[t - 1].infinite) : (intv)(0);
     /* strategies (s + t - i, i): the camera vertex z_i is taken by the light subpath instead */
     for (int i = t - 1; i > 0; --i) {
         if (s + t - i > nl_cap) break;
         r *= mis_ratio(cam[i].pdf_rev, cam[i].pdf_fwd);
-        sum += lane_select(r, (floatv)(0.0f), cam[i].delta | cam[i - 1].delta);
+        sum += lane_select(r, (floatv)(0.0f), cam[i].delta | cam[i - 1].delta | (i == 1 ? no_11 : (intv)(0)));
     }
     r = (floatv)(1.0f);
     /* strategies (i, s + t - i): the light vertex y_i is taken by the camera subpath instead */
     for (int i = s - 1; i >= 0; --i) {
         if (s + t - i > nc_cap) break;
         r *= mis_ratio(light[i].pdf_rev, light[i].pdf_fwd);
-        intv delta_before = i > 0 ? light[i - 1].delta : (intv)(0);
+        intv delta_before = i > 0 ? light[i - 1].delta : light[0].delta_light;
         sum += lane_select(r, (floatv)(0.0f), light[i].delta | delta_before);
     }
     return 1.0f / (1.0f + sum);
@@ -288,37 +337,85 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
     vec3v c;
     intv ok;
     if (s == 0) {
-        ok = active & (pt->emitter >= 0) & (v3_dot(pt->n, pt->wi) > 0.0f);
-        if (!lane_any(ok)) return zero;
+        /* z_{t-1} on an area emitter, or at infinity (an escaped camera ray: the environment along it) */
+        const intv inf = active & pt->infinite;
+        ok = active & !pt->infinite & (pt->emitter >= 0) & (v3_dot(pt->n, pt->wi) > 0.0f);
+        if (!lane_any(ok | inf)) return zero;
         c = v3_mul(pt->beta, emitter_radiance_of(sc->lt, lane_select((intv)(-1), pt->emitter, ok)));
         pt->pdf_rev = pt->light_pdf_area;
         ptm->pdf_rev = to_area(emitter_pdf_solid_angle(pt->n, pt->wi), pt->p, ptm->p, ptm->n);
+        if (lane_any(inf)) {
+            vec3v dir = v3_neg(pt->wi);
+            c = v3_select(c, v3_mul(pt->beta, environment_radiance(sc->lt, dir, inf)), inf);
+            pt->pdf_rev = lane_select(pt->pdf_rev, sc->lt->env_pmf * environment_pdf(sc->lt, dir, inf), inf);
+            ptm->pdf_rev = lane_select(ptm->pdf_rev, infinite_to_area(sc, dir, ptm->n), inf);
+            ok = ok | inf;
+        }
         *w = lane_select((floatv)(0.0f), bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap), ok);
     } else if (s == 1) {
         ok = active & bsdf_is_smooth(&zb->m);
         if (!lane_any(ok)) return zero;
         floatv u6[6] = {ue[0], ue[1], ue[2], ue[3], (floatv)(0.5f), (floatv)(0.5f)};
         emitter_ray_v er = sample_emitter_ray(sc->lt, sc->bsphere, u6, ok);
-        ok = ok & er.valid & !er.env;
+        /* lanes that chose a light at infinity (env, directional) or a point or spot light see it as
+         * light sampling does (lights.cl: the same choice and direction) */
+        intv inf = ok & er.infinite, point = ok & er.valid & er.delta & !er.infinite;
+        light_sample_v ls;
+        if (lane_any(inf | point)) {
+            ls = sample_light(sc->lt, sc->pt, pt->p, ue[0], ue[1], ue[2], ue[3], inf | point);
+            inf = inf & ls.valid;
+            point = point & ls.valid;
+        }
+        ok = ok & er.valid & !er.infinite;
         vec3v dv = v3_sub(er.pos, pt->p);
         floatv d2 = v3_len2(dv);
         vec3v wz = v3_scale(dv, lane_rsqrt(d2));
         floatv cos_y = -v3_dot(er.n, wz);
-        ok = ok & (cos_y > 0.0f) & (d2 > 0.0f);
+        ok = (ok & !er.delta & (cos_y > 0.0f) & (d2 > 0.0f)) | (point & (d2 > 0.0f));
+        const int special = lane_any(inf | point);
         floatv pz, pr;
-        vec3v fz = vertex_eval(zb, wz, &pz, &pr, TRANSPORT_RADIANCE);
+        vec3v fz = vertex_eval(zb, special ? v3_select(wz, ls.wo, inf) : wz, &pz, &pr, TRANSPORT_RADIANCE);
         c = v3_scale(v3_mul(v3_mul(pt->beta, fz), er.radiance), cos_y / (d2 * er.pdf_area));
+        if (special) {
+            /* a point or spot light: intensity times falloff / d^2, probability er.pdf_area; at infinity:
+             * radiance over the solid-angle pdf (a directional light's: its choice probability) */
+            vec3v fl = v3_mul(v3_mul(pt->beta, fz), ls.radiance);
+            c = v3_select(c, v3_scale(fl, 1.0f / er.pdf_area), point);
+            c = v3_select(c, v3_scale(fl, 1.0f / ls.pdf), inf);
+            ok = ok | inf;
+        }
         ok = ok & (v3_maxc(c) > 0.0f);
         if (!lane_any(ok)) return zero;
-        ok = segment_clear(sc, pt->p, pt->n, er.pos, ok);
+        if (special) {
+            const intv at_inf = ok & inf;
+            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok & !inf);
+            if (lane_any(at_inf))
+                ok = ok | (at_inf & !trace_any_v(sc->geom, offset_origin(pt->p, pt->n, ls.wo), ls.wo,
+                                                 (floatv)(INFINITY), at_inf));
+        } else {
+            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok);
+        }
         if (!lane_any(ok)) return zero;
         bdpt_vertex y0 = light[0];
         light[0].p = er.pos;
         light[0].n = er.n;
         light[0].delta = (intv)(0);
+        light[0].delta_light = er.delta;
+        light[0].infinite = (intv)(0);
         light[0].pdf_fwd = er.pdf_area;
         light[0].pdf_rev = to_area(pz, pt->p, er.pos, er.n);
-        pt->pdf_rev = to_area(cos_y * RT_INV_PI, er.pos, pt->p, pt->n);
+        /* the density of the direction toward z_{t-1}: an area light's cosine, a point or spot light's
+         * emission density (uniform on the sphere or the cone: er's, whatever direction it drew) */
+        pt->pdf_rev = to_area(lane_select(cos_y * RT_INV_PI, er.pdf_solid_angle, er.delta), er.pos, pt->p, pt->n);
+        if (special) {
+            light[0].p = v3_select(light[0].p, v3_add(pt->p, ls.wo), inf);
+            light[0].n = v3_select(light[0].n, v3_neg(ls.wo), inf);
+            light[0].delta_light = lane_select(light[0].delta_light, ls.delta, inf);
+            light[0].infinite = inf;
+            light[0].pdf_fwd = lane_select(light[0].pdf_fwd, ls.pdf, inf);
+            light[0].pdf_rev = lane_select(light[0].pdf_rev, pz, inf);
+            pt->pdf_rev = lane_select(pt->pdf_rev, infinite_to_area(sc, ls.wo, pt->n), inf);
+        }
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
         *w = lane_select((floatv)(0.0f), bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap), ok);
         light[0] = y0;
@@ -345,7 +442,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         pt->pdf_rev = to_area(py, qs->p, pt->p, pt->n);
         qs->pdf_rev = to_area(pz, pt->p, qs->p, qs->n);
         ptm->pdf_rev = to_area(prz, pt->p, ptm->p, ptm->n);
-        qsm->pdf_rev = to_area(pry, qs->p, qsm->p, qsm->n);
+        qsm->pdf_rev = lane_select(to_area(pry, qs->p, qsm->p, qsm->n), pry, qsm->infinite);
         *w = lane_select((floatv)(0.0f), bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap), ok);
         qs->pdf_rev = save_qs;
         qsm->pdf_rev = save_qsm;
@@ -365,7 +462,10 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
     bdpt_vertex *qs = &light[s - 1];
     vertex_bsdf yb;
     intv ok = active;
-    if (s > 1) {
+    if (s == 1) {
+        ok = ok & !(qs->delta_light | qs->infinite); /* invisible, or left to (0, 2) */
+        if (!lane_any(ok)) return zero;
+    } else {
         yb = vertex_bsdf_of(sc, qs);
         ok = ok & bsdf_is_smooth(&yb.m);
         if (!lane_any(ok)) return zero;
@@ -393,7 +493,7 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
     if (s > 1) {
         bdpt_vertex *qsm = &light[s - 2];
         floatv save_qsm = qsm->pdf_rev;
-        qsm->pdf_rev = to_area(pr, qs->p, qsm->p, qsm->n);
+        qsm->pdf_rev = lane_select(to_area(pr, qs->p, qsm->p, qsm->n), pr, qsm->infinite);
         *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
         qsm->pdf_rev = save_qsm;
     } else {
@@ -441,8 +541,10 @@ kernel void bdpt_trace(
     SCENE_GEOM_MAKE(geom);
     const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
     /* light paths start at emitters chosen by power: no light BVH is bound */
-    const light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
+    light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
+    light_tables_bind_envmap(&lt, &params, env_map, env_cdf);
     bdpt_scene sc;
+    sc.has_env = params.env_radiance.x > 0.0f || params.env_radiance.y > 0.0f || params.env_radiance.z > 0.0f;
     sc.geom = &geom;
     sc.pt = &pt;
     sc.lt = &lt;
@@ -494,6 +596,8 @@ kernel void bdpt_trace(
         cam[0].emitter = (intv)(-1);
         cam[0].mat = (uintv)(0u);
         cam[0].delta = (intv)(0);
+        cam[0].delta_light = (intv)(0);
+        cam[0].infinite = (intv)(0);
         intv nc = lane_select((intv)(0), (intv)(1), active);
         bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, co, cd, v3s(1.0f), cdir.pdf_solid_angle, TRANSPORT_RADIANCE,
                   rr_depth, (floatv)(1.0f));
@@ -506,7 +610,7 @@ kernel void bdpt_trace(
         intv nl = (intv)(0);
         if (nl_cap > 0) {
             emitter_ray_v er = sample_emitter_ray(&lt, bsphere, ue, active);
-            intv area = er.valid & !er.env;
+            const intv started = er.valid;
             light[0].p = er.pos;
             light[0].n = er.n;
             light[0].wi = er.n;
@@ -517,9 +621,19 @@ kernel void bdpt_trace(
             light[0].emitter = (intv)(-1);
             light[0].mat = (uintv)(0u);
             light[0].delta = (intv)(0);
+            light[0].delta_light = er.delta;
+            light[0].infinite = er.infinite;
+            if (lane_any(er.infinite)) {
+                /* a direction: its density as light sampling draws it (the disk's area density
+                 * pi R^2 taken out of pdf_area; a directional light's pdf_solid_angle is 1) */
+                light[0].p = v3_select(light[0].p, v3_sub(er.pos, er.d), er.infinite);
+                light[0].pdf_fwd = lane_select(light[0].pdf_fwd,
+                                               er.pdf_area * RT_PI * bsphere.w * bsphere.w * er.pdf_solid_angle,
+                                               er.infinite);
+            }
             vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
-            nl = lane_select(nl, (intv)(1), area);
-            bdpt_walk(&sc, &ls, light, &nl, area & (v3_maxc(b1) > 0.0f), nl_cap, offset_origin(er.pos, er.n, er.d),
+            nl = lane_select(nl, (intv)(1), started);
+            bdpt_walk(&sc, &ls, light, &nl, started & (v3_maxc(b1) > 0.0f), nl_cap, offset_origin(er.pos, er.n, er.d),
                       er.d, b1, er.pdf_solid_angle, TRANSPORT_IMPORTANCE, rr_depth, v3_maxc(b1));
         }
 
@@ -533,7 +647,8 @@ kernel void bdpt_trace(
             if (t >= 2) zb = vertex_bsdf_of(&sc, &cam[t - 1]);
             for (int s = 0; lane_any(has_t & (ns >= s)); ++s) {
                 if (s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth) || !strategy_on(s, t)) continue;
-                const intv run = has_t & (ns >= s);
+                /* only (0, t) ends at infinity */
+                const intv run = has_t & (ns >= s) & (s > 0 ? !cam[t - 1].infinite : has_t);
                 floatv w;
                 if (t == 1) {
                     floatv ul[2] = {ue[6], ue[7]};

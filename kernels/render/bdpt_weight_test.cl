@@ -33,12 +33,13 @@
 MC_INLINE vec3v unit_to(vec3v a, vec3v b) { return v3_normalize(v3_sub(b, a)); }
 
 /* The density with which surface vertex v samples world direction w_out, light arriving along w_in
- * (both pointing away from v): vertex_eval of the render, given v's material and frame. */
-MC_INLINE floatv pdf_at(const bdpt_scene *sc, const bdpt_vertex *v, vec3v w_in, vec3v w_out) {
+ * (both pointing away from v): vertex_eval of the render, given v's material and frame, in the
+ * transport mode of the subpath that would sample it. */
+MC_INLINE floatv pdf_at(const bdpt_scene *sc, const bdpt_vertex *v, vec3v w_in, vec3v w_out, int mode) {
     vertex_bsdf b = vertex_bsdf_of(sc, v);
     b.wi_local = frame_to_local(b.fr, w_in);
     floatv pdf;
-    vertex_eval(&b, w_out, &pdf, 0, TRANSPORT_RADIANCE);
+    vertex_eval(&b, w_out, &pdf, 0, mode);
     return pdf;
 }
 
@@ -54,7 +55,7 @@ MC_INLINE floatv path_weight_sum(const bdpt_scene *sc, const bdpt_vertex *x, int
         if (i == 1) {
             pdf = camera_importance(sc->camera, x[0].p, unit_to(x[0].p, x[1].p), sc->width, sc->height).pdf_solid_angle;
         } else {
-            pdf = pdf_at(sc, &x[i - 1], unit_to(x[i - 1].p, x[i - 2].p), unit_to(x[i - 1].p, x[i].p));
+            pdf = pdf_at(sc, &x[i - 1], unit_to(x[i - 1].p, x[i - 2].p), unit_to(x[i - 1].p, x[i].p), TRANSPORT_RADIANCE);
             pdf = lane_select(pdf, (floatv)(0.0f), x[i - 1].delta);
         }
         pc[i] = to_area(pdf, x[i - 1].p, x[i].p, x[i].n);
@@ -64,7 +65,7 @@ MC_INLINE floatv path_weight_sum(const bdpt_scene *sc, const bdpt_vertex *x, int
         if (i == k - 1) {
             pdf = emitter_pdf_solid_angle(x[k].n, unit_to(x[k].p, x[i].p));
         } else {
-            pdf = pdf_at(sc, &x[i + 1], unit_to(x[i + 1].p, x[i + 2].p), unit_to(x[i + 1].p, x[i].p));
+            pdf = pdf_at(sc, &x[i + 1], unit_to(x[i + 1].p, x[i + 2].p), unit_to(x[i + 1].p, x[i].p), TRANSPORT_IMPORTANCE);
             pdf = lane_select(pdf, (floatv)(0.0f), x[i + 1].delta);
         }
         pl[i] = to_area(pdf, x[i + 1].p, x[i].p, x[i].n);

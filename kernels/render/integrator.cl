@@ -5,7 +5,9 @@
  * The estimator is the random walk of the lecture ("Path Tracing – náhodná
  * procházka"): L = sum over vertices of the path throughput times the
  * emitted radiance, with the variants chosen at build time by -DINTEGRATOR:
- *   INTEGRATOR_PATH  BSDF sampling only; an emitter hit adds its radiance;
+ *   INTEGRATOR_PATH  BSDF sampling only; an emitter hit adds its radiance
+ *                    (point, spot and directional lights, which no ray can
+ *                    hit, are invisible to it: render/delta_lights.cl);
  *   INTEGRATOR_NEE   next-event estimation ("NEE pro Path Tracing"): a light
  *                    sample at every non-delta vertex, BSDF sampling only to
  *                    continue; an emitter hit counts only after a delta
@@ -160,6 +162,7 @@ kernel void render_blocks(
     global const float4 *light_rec, global const float *light_cdf,
     global const float4 *light_bvh, global const uint *light_trail,
     global const float4 *vertex_normals,
+    global const float4 *env_map, global const uint *env_cdf,
     global film_t *out)
 {
     const ulong first_block = params.first_block, seed = params.seed;
@@ -187,7 +190,8 @@ kernel void render_blocks(
 
     SCENE_GEOM_MAKE(geom);
     const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
-    const light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, light_bvh, light_trail);
+    light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, light_bvh, light_trail);
+    light_tables_bind_envmap(&lt, &params, env_map, env_cdf);
     const bool has_env = env_radiance.x > 0.0f || env_radiance.y > 0.0f || env_radiance.z > 0.0f;
     const vec3v env_le = v3((floatv)(env_radiance.x), (floatv)(env_radiance.y), (floatv)(env_radiance.z));
     const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;
@@ -261,8 +265,16 @@ kernel void render_blocks(
 
         /* ---- the environment, seen by a ray that escaped ---- */
         if (has_env && max_depth != 0 && lane_any(miss)) {
-            floatv w = emission_weight(unsampled, prev_pdf, (floatv)(env_pmf * RT_INV_4PI));
-            L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, env_le), w)), miss);
+            if (lt.has_env_map) {
+                /* an environment map (render/envmap.cl): its radiance and light-sampling density along d */
+                floatv lp = env_pmf * envmap_pdf(&lt.env_map, d, miss);
+                floatv w = emission_weight(unsampled, prev_pdf, lp);
+                vec3v le = envmap_radiance(&lt.env_map, d, miss);
+                L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, le), w)), miss);
+            } else {
+                floatv w = emission_weight(unsampled, prev_pdf, (floatv)(env_pmf * RT_INV_4PI));
+                L = v3_select(L, v3_add(L, v3_scale(v3_mul(thr, env_le), w)), miss);
+            }
         }
 
         surface_v sf = surface_at(&pt, h.prim, h.t, o, d, hit);
@@ -324,7 +336,8 @@ kernel void render_blocks(
                 floatv bpdf;
                 vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, ls.wo), &bpdf);
 #if INTEGRATOR == INTEGRATOR_MIS
-                floatv w = power_heuristic(ls.pdf, bpdf);
+                /* a delta light (render/delta_lights.cl) has no BSDF-sampling strategy: weight 1 */
+                floatv w = lane_select(power_heuristic(ls.pdf, bpdf), (floatv)(1.0f), ls.delta);
 #else
                 floatv w = (floatv)(1.0f);
 #endif

@@ -23,13 +23,19 @@
  *              pbrt-v4 §6.2.4), uniform area sampling otherwise (a point
  *              inside, or a sphere whose normals point inward).
  * Area emitters are one-sided: a sample on the back of the emitter carries
- * no radiance.  The environment is sampled uniformly over the sphere.
+ * no radiance.  The constant environment is sampled uniformly over the
+ * sphere, an environment map by its tabulated density (render/envmap.cl).
+ * Point, spot and directional lights (render/delta_lights.cl) share the
+ * choice table with the area lights; their sample has pdf = the choice
+ * probability (a discrete density, flagged `delta`), so its MIS weight is 1.
  */
 #ifndef MCOCL_RENDER_LIGHTS_CL
 #define MCOCL_RENDER_LIGHTS_CL
 
 #include "render/prims.cl"
 #include "render/light_bvh.cl"
+#include "render/delta_lights.cl"
+#include "render/envmap.cl"
 #include "sampling/gather.cl"
 
 #ifndef LIGHT_SAMPLER
@@ -51,7 +57,9 @@ typedef struct {
     uint nlights, light_top;               /* light_top: largest power of two <= nlights (0 if none) */
     float env_threshold;                   /* the environment is chosen when u < env_threshold */
     float env_pmf;                         /* ... which happens with this exact probability */
-    float4 env_radiance;
+    float4 env_radiance;                   /* w > 0: an environment map, env_map (render/envmap.cl) */
+    envmap_t env_map;                      /* bound by light_tables_bind_envmap; unbound otherwise */
+    int has_env_map;
 } light_tables;
 
 /* The light tables of a render launch: its buffers, and the light count and
@@ -71,7 +79,19 @@ MC_INLINE light_tables light_tables_of(const render_params *p, global const floa
     lt.env_threshold = p->env_threshold;
     lt.env_pmf = p->env_pmf;
     lt.env_radiance = p->env_radiance;
+    lt.env_map = envmap_of(0, 0);
+    lt.has_env_map = 0;
     return lt;
+}
+
+/* Bind the environment map tables of a launch (mcocl/render/envmap.py); a
+ * scene without one (env_radiance.w == 0) leaves the constant environment. */
+MC_INLINE void light_tables_bind_envmap(light_tables *lt, const render_params *p, global const float4 *env_map,
+                                        global const uint *env_cdf) {
+    if (p->env_radiance.w > 0.0f) {
+        lt->env_map = envmap_of(env_map, env_cdf);
+        lt->has_env_map = 1;
+    }
 }
 
 /* Radiance of emitter e (lanes with e < 0 get black). */
@@ -113,7 +133,8 @@ typedef struct {
     vec3v n;         /* its front normal */
     floatv pdf;      /* solid-angle pdf at the shading point, emitter choice included */
     vec3v radiance;  /* emitted radiance towards the shading point (0 from behind) */
-    intv env;        /* the environment was sampled (the shadow ray is unbounded) */
+    intv env;        /* the environment or a directional light was sampled (the shadow ray is unbounded) */
+    intv delta;      /* a point, spot or directional light: pdf is a probability, no BSDF sample finds it */
     uintv prim;      /* the emitting primitive chosen (area lights) */
     intv valid;
 } light_sample_v;
@@ -133,14 +154,16 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
                                          floatv u_env, floatv u_sel, floatv u1, floatv u2, intv active) {
     light_sample_v s;
     s.valid = active & (intv)(0);
-    s.env = u_env < lt->env_threshold;
+    const intv env_chosen = u_env < lt->env_threshold;
+    s.env = env_chosen;
+    s.delta = (intv)(0);
     s.pdf = (floatv)(0.0f);
     s.radiance = v3s(0.0f);
     s.wo = v3(0.0f, 0.0f, 1.0f);
     s.pos = p;
     s.n = s.wo;
     s.prim = (uintv)(0u);
-    intv area = active & !s.env;
+    intv area = active & !env_chosen;
     if (lt->nlights > 0u && lane_any(area)) {
 #if LIGHT_SAMPLER == LIGHT_SAMPLER_BVH
         floatv choice;
@@ -172,7 +195,7 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
             ny = v3_select(ny, nt, tri_l);
             pdf = lane_select(pdf, pmf * d2 / (area_l * cosl), tri_l);
         }
-        intv sph_l = area & (shape != (float)LIGHT_TRIANGLE);
+        intv sph_l = area & ((shape == (float)LIGHT_SPHERE) | (shape == (float)LIGHT_SPHERE_INWARD));
         if (lane_any(sph_l)) {
             vec3v c = base;
             floatv r = REC_FIELD(q, LIGHT_RECORD_EDGE1); /* the radius */
@@ -206,6 +229,19 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
             ny = v3_select(ny, nf, sph_l);
             pdf = lane_select(pdf, pmf * lane_select(pdf_area, pdf_cone, cone), sph_l);
         }
+        intv delta_l = area & light_shape_is_delta(shape);
+        floatv delta_scale = (floatv)(0.0f);
+        if (lane_any(delta_l)) {
+            vec3v wd, yd;
+            intv unbounded;
+            delta_scale = delta_light_toward(base, shape, REC_VEC3(q, LIGHT_RECORD_EDGE1),
+                                             REC_VEC3(q, LIGHT_RECORD_EDGE2), area_l, p, &wd, &yd, &unbounded);
+            y = v3_select(y, yd, delta_l);
+            ny = v3_select(ny, v3_neg(wd), delta_l); /* faces p: a delta light has no back */
+            pdf = lane_select(pdf, pmf, delta_l);
+            s.env = s.env | (delta_l & unbounded);
+            s.delta = s.delta | delta_l;
+        }
         vec3v dv = v3_sub(y, p);
         floatv dist = lane_sqrt(v3_len2(dv));
         vec3v wo = v3_scale(dv, 1.0f / dist);
@@ -216,11 +252,20 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
         s.pos = v3_select(s.pos, y, area);
         s.n = v3_select(s.n, ny, area);
         s.pdf = lane_select(s.pdf, pdf, ok);
-        s.radiance = v3_select(s.radiance, REC_VEC3(q, LIGHT_RECORD_RADIANCE), ok);
+        vec3v rad = REC_VEC3(q, LIGHT_RECORD_RADIANCE);
+        s.radiance = v3_select(s.radiance, v3_select(rad, v3_scale(rad, delta_scale), delta_l), ok);
         s.valid = s.valid | ok;
     }
-    intv envl = active & s.env;
-    if (lt->env_pmf > 0.0f && lane_any(envl)) {
+    intv envl = active & env_chosen;
+    if (lt->env_pmf > 0.0f && lt->has_env_map && lane_any(envl)) {
+        floatv pe;
+        vec3v de = envmap_sample(&lt->env_map, u1, u2, &pe);
+        intv ok = envl & (pe > 0.0f) & lane_finite(pe);
+        s.wo = v3_select(s.wo, de, envl);
+        s.pdf = lane_select(s.pdf, lt->env_pmf * pe, ok);
+        s.radiance = v3_select(s.radiance, envmap_radiance(&lt->env_map, de, ok), envl);
+        s.valid = s.valid | ok;
+    } else if (lt->env_pmf > 0.0f && lane_any(envl)) {
         s.wo = v3_select(s.wo, square_to_uniform_sphere(u1, u2), envl);
         s.pdf = lane_select(s.pdf, (floatv)(lt->env_pmf * RT_INV_4PI), envl);
         s.radiance = v3_select(s.radiance, v3((floatv)(lt->env_radiance.x), (floatv)(lt->env_radiance.y),
@@ -228,6 +273,20 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
         s.valid = s.valid | envl;
     }
     return s;
+}
+
+/* The environment's radiance arriving from direction d (constant or map). */
+MC_INLINE vec3v environment_radiance(const light_tables *lt, vec3v d, intv active) {
+    if (lt->has_env_map) return envmap_radiance(&lt->env_map, d, active);
+    return v3_select(v3s(0.0f), v3((floatv)(lt->env_radiance.x), (floatv)(lt->env_radiance.y),
+                                   (floatv)(lt->env_radiance.z)), active);
+}
+
+/* The solid-angle density with which light sampling picks direction d when it chooses the
+ * environment (the choice env_pmf not included). */
+MC_INLINE floatv environment_pdf(const light_tables *lt, vec3v d, intv active) {
+    if (lt->has_env_map) return envmap_pdf(&lt->env_map, d, active);
+    return lane_select((floatv)(0.0f), (floatv)(RT_INV_4PI), active);
 }
 
 /* Light sampling at p, whatever its orientation (sample_light_at with n = 0). */

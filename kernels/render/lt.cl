@@ -112,7 +112,7 @@ MC_INLINE void splat(global film_t *img, uintv pixel, vec3v c, intv ok) {
     const render_params params, global const float4 *camera, SCENE_GEOM_BUFFERS,                            \
     global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance, \
     global const float4 *light_rec, global const float *light_cdf, global const float4 *vertex_normals,      \
-    const float4 bsphere, global film_t *scratch
+    global const float4 *env_map, global const uint *env_cdf, const float4 bsphere, global film_t *scratch
 
 /* The light paths of one path group.  Work-item gid of a launch is group
  * gid % ntiles of block first_block + gid / ntiles; the block's paths are
@@ -193,7 +193,8 @@ kernel void lt_trace(
     SCENE_GEOM_MAKE(geom);
     const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
     /* light paths start at emitters chosen by power: no light BVH is bound */
-    const light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
+    light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
+    light_tables_bind_envmap(&lt, &params, env_map, env_cdf);
     const float pixels = (float)npix;
     const float lens_area = camera_lens_area(camera);
     const uint depth_limit = max_depth >= 0 ? min((uint)max_depth, (uint)DEPTH_GUARD) : (uint)DEPTH_GUARD;
@@ -218,7 +219,7 @@ kernel void lt_trace(
             sampler_next_nd(&fs, 8, ue);
             smp = sampler_select(smp, fs, fresh);
             emitter_ray_v er = sample_emitter_ray(&lt, bsphere, ue, fresh);
-            intv area = er.valid & !er.env;
+            intv area = er.valid & !er.env & !er.delta; /* no camera connection sees a delta light */
             if (lane_any(area)) {
                 /* the light vertex itself: L_e(y_0 -> camera) cos_y W_e / (pdf_area pdf_camera) */
                 camera_connection_v k = camera_connect(camera, er.pos, ue[6], ue[7], width, height);
@@ -231,11 +232,11 @@ kernel void lt_trace(
             intv env = er.valid & er.env;
             if (lane_any(env)) {
                 /* the environment seen directly: the camera looks along -d from a lens point
-                 * uniform on the lens (density 1 / A_lens) */
+                 * uniform on the lens (density 1 / A_lens); d had density env_pmf pdf_solid_angle */
                 vec3v look = v3_neg(er.d);
                 vec3v xl = camera_lens_point(camera, ue[6], ue[7]);
                 camera_direction_v c = camera_importance(camera, xl, look, width, height);
-                floatv w = pixels * lens_area * c.importance * c.cos_theta / (lt.env_pmf * RT_INV_4PI);
+                floatv w = pixels * lens_area * c.importance * c.cos_theta / (lt.env_pmf * er.pdf_solid_angle);
                 intv ok = env & c.valid;
                 ok = ok & !trace_any_v(&geom, xl, look, (floatv)(INFINITY), ok);
                 if (lane_any(ok)) splat(img, c.pixel, v3_scale(er.radiance, w), ok);

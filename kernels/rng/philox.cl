@@ -65,4 +65,17 @@ MC_INLINE philox_ctr philox4x32_10(philox_ctr c, uint k0, uint k1) {
     return r;
 }
 
+/* The same function on one counter, in scalar registers: for words every
+ * lane shares (a Sobol' replicate's scrambling seeds), one call instead of
+ * LANES.  Gives the words of philox4x32_10 bit for bit. */
+MC_INLINE uint4 philox4x32_10_1(uint4 c, uint k0, uint k1) {
+    for (int r = 0; r < 10; ++r) {
+        const ulong p0 = (ulong)c.x * (ulong)PHILOX_M0, p1 = (ulong)c.z * (ulong)PHILOX_M1;
+        c = (uint4)((uint)(p1 >> 32) ^ c.y ^ k0, (uint)p1, (uint)(p0 >> 32) ^ c.w ^ k1, (uint)p0);
+        k0 += PHILOX_W0;
+        k1 += PHILOX_W1;
+    }
+    return c;
+}
+
 #endif

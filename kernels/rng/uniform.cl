@@ -73,9 +73,21 @@ MC_INLINE philox_ctr rng_block(rng_t r, uintv block) {
     return philox4x32_10(c, r.k0, r.k1);
 }
 
+/* Word w (0..3, per lane) of a Philox block. */
+MC_INLINE uintv philox_word(philox_ctr c, uintv w) {
+    return lane_select(lane_select(c.v0, c.v1, w == 1u), lane_select(c.v2, c.v3, w == 3u), w >= 2u);
+}
+
 /* 32 random bits -> cell centre in (0, 1); see the header for why. */
 MC_INLINE floatv u01(uintv bits) {
     return (to_floatv(bits >> (32 - UNIFORM_GRID_BITS)) + 0.5f) * UNIFORM_CELL_WIDTH;
 }
+
+/* 32 random bits -> cell centre of the 2^-32 grid, in double: the uniforms
+ * of precision="double" integration (sampler_next_nd_d).  All 32 bits count
+ * (a double holds b + 1/2 exactly), so the extremes are 2^-33 and 1 - 2^-33
+ * and E[u] = 1/2 exactly, as for u01. */
+#define UNIFORM_CELL_WIDTH_D 0x1p-32
+MC_INLINE doublev u01d(uintv bits) { return (to_doublev(bits) + 0.5) * UNIFORM_CELL_WIDTH_D; }
 
 #endif

@@ -58,6 +58,28 @@ MC_INLINE void sampler_next_nd(mc_sampler_t *s, int n, floatv *u) {
     s->dim += (uint)n;
 }
 
+/* sampler_next_nd in double (u01d: all 32 bits of each word), for
+ * precision="double" integration; the words are those of sampler_next_nd. */
+MC_INLINE void sampler_next_nd_d(mc_sampler_t *s, int n, doublev *u) {
+    if (lane_any((s->dim & 3u) != 0u)) {
+        for (int j = 0; j < n; ++j) {
+            const uintv d = s->dim + (uint)j;
+            u[j] = u01d(philox_word(rng_block(s->rng, d >> 2), d & 3u));
+        }
+        s->dim += (uint)n;
+        return;
+    }
+    const uintv block = s->dim >> 2;
+    for (int j = 0; j < n; j += 4) {
+        const philox_ctr c = rng_block(s->rng, block + (uint)(j >> 2));
+        u[j] = u01d(c.v0);
+        if (j + 1 < n) u[j + 1] = u01d(c.v1);
+        if (j + 2 < n) u[j + 2] = u01d(c.v2);
+        if (j + 3 < n) u[j + 3] = u01d(c.v3);
+    }
+    s->dim += (uint)n;
+}
+
 /* Two consecutive dimensions: one Philox call when the counter is even in
  * every lane (the pair is words 0-1 or 2-3 of one block). */
 MC_INLINE void sampler_next_2d(mc_sampler_t *s, floatv *u) {

@@ -53,4 +53,26 @@ MC_INLINE void refine_first_cells(floatv *u, int n, rng_t r) {
     for (int j = 0; j < n; ++j) u[j] = refine_first_cell(u[j], r, (uint)j);
 }
 
+/* The same for precision="double" uniforms (u01d: the 2^-32 grid, first
+ * centre 2^-33): four nested levels of 32 bits each, down to 2^-160. */
+MC_INLINE doublev refine_level_d(uintv word, double parent_width, doublev deeper) {
+    return lane_select(deeper, u01d(word) * parent_width, to_longv(word != 0u));
+}
+
+MC_INLINE doublev refine_first_cell_d(doublev u, rng_t r, uint coord) {
+    const longv first = u == (doublev)(0x1p-33);
+    if (!lane_any(to_intv(first))) return u;
+    r.stream = RNG_STREAM_REFINE;
+    const philox_ctr c = rng_block(r, (uintv)(coord));
+    doublev fine = u01d(c.v3) * 0x1p-96;
+    fine = refine_level_d(c.v2, 0x1p-64, fine);
+    fine = refine_level_d(c.v1, 0x1p-32, fine);
+    fine = refine_level_d(c.v0, 1.0, fine);
+    return lane_select(u, fine * 0x1p-32, first);
+}
+
+MC_INLINE void refine_first_cells_d(doublev *u, int n, rng_t r) {
+    for (int j = 0; j < n; ++j) u[j] = refine_first_cell_d(u[j], r, (uint)j);
+}
+
 #endif

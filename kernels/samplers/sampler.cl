@@ -17,6 +17,9 @@
  *   floatv sampler_next_1d(mc_sampler_t *s)
  *   void   sampler_next_2d(mc_sampler_t *s, floatv *u)      u[0], u[1]
  *   void   sampler_next_nd(mc_sampler_t *s, int n, floatv *u)  u[0 .. n-1]
+ *   void   sampler_next_nd_d(mc_sampler_t *s, int n, doublev *u)  the same
+ *                                     dimensions in double, on the 2^-32 grid
+ *                                     (rng/uniform.cl, u01d): precision="double"
  *   mc_sampler_t sampler_select(mc_sampler_t a, mc_sampler_t b, intv m)  m ? b : a per lane
  *
  * Every uniform lies on the grid of rng/uniform.cl (cell centres in (0, 1)).

@@ -20,8 +20,8 @@ Convert SCENE (a Mitsuba 3 or 0.6 XML file) to mcocl's JSON scene format
 (scenes/README.md).  Each object of the output carries "comment" strings that
 say which Mitsuba default was taken, how a value was converted (fov axis,
 spectra, named IORs, sampler) and what --lenient substituted.  The JSON
-renders the same image as the XML.  OBJ paths are rewritten relative to the
-output file.
+renders the same image as the XML.  Mesh and environment-map paths are
+rewritten relative to the output file.
 """
 
 EXAMPLES = """\
@@ -107,10 +107,16 @@ def run(args: argparse.Namespace) -> int:
                     shape[kind] = Path(os.path.relpath(mesh, out_dir)).as_posix()
                     if shape[kind].startswith("../"):
                         outside.add(str(mesh.parent))
+        env = data.get("environment", {})
+        if env.get("type") == "envmap":  # the map's image, like the meshes
+            image = src.resolve().parent / env["filename"]
+            env["filename"] = Path(os.path.relpath(image, out_dir)).as_posix()
+            if env["filename"].startswith("../"):
+                outside.add(str(image.parent))
         Path(args.out).write_text(format_json(data) + "\n")
         for folder in sorted(outside):
             # a scene file reads meshes only from its own folder unless told otherwise (scene_file.load_scene)
-            print(f"note: {args.out} reads meshes from {folder}, outside its folder: "
+            print(f"note: {args.out} reads meshes or images from {folder}, outside its folder: "
                   f"render it with --mesh-folder {folder}", file=sys.stderr)
         print(f"wrote {args.out} ({len(data.get('shapes', []))} shapes, {len(data.get('materials', {}))} materials)",
               file=sys.stderr)

@@ -10,6 +10,7 @@ import warnings
 from ..datafile import loads_json
 from ..engine.contract import DeviceFailureWarning
 from ..integration import NonFiniteWarning, integrate
+from ..integration.api import PRECISIONS
 from ..integration.codegen import HEURISTICS
 from ..integration.samplers import SAMPLER_SPECS
 from .common import (
@@ -42,6 +43,11 @@ Samplers (how the uniform points are placed):
                samples are rounded down to R x 2^m and the standard error
                comes from the spread of the R replicate means
 
+Precision: --precision double (independent and sobol, no proposals nor
+roulette) evaluates in double: 32-bit uniforms, `float` in the snippet
+means double and literals such as 0.3f are read as double constants; the
+default float32 evaluation floors the relative error near 1e-8.
+
 Estimators (combine with any sampler):
   --proposal SPEC          importance sampling, x = P^-1(u), f(x)/p(x)
   --proposals SPEC SPEC..  combined estimator, --heuristic average|max|balance|power
@@ -59,6 +65,7 @@ examples:
   mcocl integrate "exp(-x[0]*x[0])" --dim 1 --samples 1e6 --sampler nrooks --seed 7
   mcocl integrate "exp(-x[0]*x[0])" --samples 1e6 --json
   mcocl integrate "exp(-(x[0]+x[1]))*cos(x[2])" --dim 3 --sampler sobol --samples 1e8 --replicates 32
+  mcocl integrate "1/(0.01 + (x[0]-0.3)*(x[0]-0.3))" --sampler sobol --samples 1e8 --precision double
   mcocl integrate "exp(-3*x[0])" --proposal exponential:rate=3
   mcocl integrate "1/sqrt(x[0])" --proposal power:a=-0.5
   mcocl integrate "exp(-x[0])" --control "1 - x[0]" --control-integral 0.5
@@ -103,6 +110,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per stratified / N-rooks design / Sobol' replicate")
     p.add_argument("--replicates", type=count, default=None,
                    help="independent scramblings of --sampler sobol (default 16)")
+    p.add_argument("--precision", choices=PRECISIONS, default="single",
+                   help="evaluate in float32 (single, default) or double (independent and sobol)")
     p.add_argument("--iterations", type=int, default=None, help="--sampler vegas: iterations (default 10)")
     p.add_argument("--vegas-bins", type=int, default=None,
                    help="--sampler vegas: grid bins per dimension, a power of two (default 256)")
@@ -128,7 +137,8 @@ def run(args: argparse.Namespace) -> int:
             proposal=proposal, proposals=proposals, shares=args.shares, heuristic=args.heuristic, beta=args.beta,
             control=args.control, control_integral=args.control_integral, roulette=args.roulette,
             design_samples=args.design_samples, replicates=args.replicates,
-            vegas_iterations=args.iterations, vegas_bins=args.vegas_bins, alpha=args.alpha, **shared,
+            vegas_iterations=args.iterations, vegas_bins=args.vegas_bins, alpha=args.alpha,
+            precision=args.precision, **shared,
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteWarning, DeviceFailureWarning)):

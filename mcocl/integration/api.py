@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from collections.abc import Callable, Sequence
@@ -32,6 +33,8 @@ SAMPLERS = tuple(SAMPLER_SPECS)
 # Sample counts travel as 64-bit unsigned integers in the kernels; 2^62 leaves room for rounding up.
 MAX_SAMPLES = 1 << 62
 FLOAT32_MAX = float(np.finfo(np.float32).max)
+# precision= values: float32 evaluation (the default) or double (Design.double).
+PRECISIONS = ("single", "double")
 
 
 @dataclass
@@ -118,9 +121,12 @@ class _Request:
     control: str | None
     control_integral: float
     roulette: float | None
+    precision: str = "single"
 
     def meta(self) -> dict[str, Any]:
-        return {
+        # precision only when not the default, so checkpoints written before it still resume
+        extra = {"precision": self.precision} if self.precision != "single" else {}
+        return {**extra,
             "kind": "integrate",
             "integrand": self.integrand,
             "dim": self.dim,
@@ -135,7 +141,7 @@ class _Request:
         }
 
     def describe(self) -> str:
-        parts = [f"{self.sampler.name} sampling"]
+        parts = [f"{self.sampler.name} sampling" + (", evaluated in double" if self.precision == "double" else "")]
         if len(self.proposals) == 1:
             parts.append("importance sampling (" + ", ".join(f["type"] for f in self.proposals[0].spec()) + ")")
         elif self.proposals:
@@ -209,6 +215,30 @@ def _validate(
                     control, float(control_integral or 0.0), roulette)
 
 
+def _check_precision(precision: Any, req: _Request) -> str:
+    """``precision=`` checked against what the request uses (InputError naming the conflict)."""
+    if precision not in PRECISIONS:
+        raise InputError(f"precision: unknown precision {precision!r}; choose one of {', '.join(PRECISIONS)}")
+    if precision == "double":
+        if precision not in req.sampler.precisions:
+            ok = [n for n, s in SAMPLER_SPECS.items() if "double" in s.precisions]
+            raise InputError(f"precision='double' is built for sampler {' and '.join(repr(n) for n in ok)}, "
+                             f"not {req.sampler.name!r}")
+        if req.proposals or req.roulette is not None:
+            raise InputError("precision='double' evaluates the plain estimator (and a control variate); "
+                             "it does not take proposal=, proposals= nor roulette=")
+    return precision
+
+
+def require_fp64(device: Any) -> None:
+    """Refuse ``precision="double"`` on a device without double-precision arithmetic (cl_khr_fp64)."""
+    extensions = str(getattr(device, "extensions", "")).split()
+    if "cl_khr_fp64" not in extensions:
+        name = str(getattr(device, "name", "the device")).strip()
+        raise InputError(f"precision='double': device {name!r} has no double-precision arithmetic "
+                         "(cl_khr_fp64); use precision='single' or another device")
+
+
 def integrate(
     integrand: str,
     dim: int = 1,
@@ -240,6 +270,7 @@ def integrate(
     vegas_iterations: int | None = None,
     vegas_bins: int | None = None,
     alpha: float | None = None,
+    precision: str = "single",
 ) -> IntegrationResult:
     """Estimate the integral of ``integrand`` over the unit cube [0, 1]^dim.
 
@@ -280,6 +311,15 @@ def integrate(
             (default 10), grid bins per dimension (a power of two, default 256)
             and the damping exponent of the grid refinement (default 1.5); see
             :class:`mcocl.integration.samplers.Vegas` for how the budget is split.
+        precision: ``"single"`` (default): the integrand is evaluated in
+            float32, which floors the relative error near 1e-8
+            (``rounding_floor``).  ``"double"`` (samplers ``independent`` and
+            ``sobol``, no proposals nor roulette; the device needs
+            cl_khr_fp64): the uniforms have 32 bits (cell centres of the 2^-32
+            grid), the snippets are compiled with ``float`` meaning
+            ``double`` and their ``f``-suffixed literals as double constants,
+            and the sums are double.  Slower per sample (by the device's
+            double rate), for results below float's floor.
 
     The shared options (seed, time_budget, target_error, placement, lanes,
     checkpoint, resume, progress) are checked by :class:`mcocl.run_options.RunOptions`.
@@ -296,6 +336,8 @@ def integrate(
                       split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)
     req = _validate(integrand, dim, sampler, opts.seed, proposal, proposals, shares, heuristic, beta,
                     control, control_integral, roulette)
+    req.precision = _check_precision(precision, req)
+    real = "double" if req.precision == "double" else "float"
     if samples is not None:
         samples = whole_number("samples", samples, 1, MAX_SAMPLES)
     opts.require_stop("samples", samples)
@@ -304,9 +346,10 @@ def integrate(
     if replicates is not None:
         replicates = whole_number("replicates", replicates, 1, 1 << 20)
 
-    users = UserFunction("integrand", req.integrand, "integrand", (("x", req.dim),))
-    control_fn = UserFunction("control", req.control, "control", (("x", req.dim),)) if req.control else None
-    code = generate(users, req.dim, req.proposals, req.shares, req.heuristic, req.beta, control_fn, req.roulette)
+    users = UserFunction("integrand", req.integrand, "integrand", (("x", req.dim),), real)
+    control_fn = UserFunction("control", req.control, "control", (("x", req.dim),), real) if req.control else None
+    code = generate(users, req.dim, req.proposals, req.shares, req.heuristic, req.beta, control_fn, req.roulette,
+                    req.precision)
     check_user_densities(req.proposals, code.includes, opts.device)  # a wrong analytic pdf is refused, not used
 
     meta = req.meta()
@@ -328,6 +371,8 @@ def integrate(
         acc.check_shape((ROW,), opts.resume)
     else:
         design = req.sampler.plan_replicated(req.dim, code.points, samples, design_samples, replicates)
+        if req.precision == "double":
+            design = dataclasses.replace(design, double=1)
         shift = None
     spec = spec_of(design)
     max_blocks, unit_limit = spec.granules(design, samples)
@@ -340,6 +385,8 @@ def integrate(
         )
 
     ctx = runtime.device_context(opts.device)
+    if design.double:
+        require_fp64(ctx.device)
     job = IntegrationJob(code, req.dim, design, req.seed, unit_limit, opts.lanes)
     runner = job.runner(ctx)
     if shift is None:
@@ -367,9 +414,10 @@ def integrate(
 
     notes += list(getattr(report, "notes", []) or [])
     est, var, n = estimate_from_totals(acc.totals, design, shift)
-    floor = rounding_floor(acc.totals)
+    floor = rounding_floor(acc.totals, design)
     if math.isfinite(var) and floor * floor > 0.5 * var:
-        notes.append("the standard error is mostly the float32 rounding floor (see rounding_floor)")
+        notes.append(f"the standard error is mostly the {'double' if design.double else 'float32'} "
+                     "rounding floor (see rounding_floor)")
     if req.control:
         est += req.control_integral
     samples_used = spec.samples_used(design, acc.blocks_done, unit_limit)

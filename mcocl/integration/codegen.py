@@ -70,8 +70,17 @@ def generate(
     beta: float,
     control: UserFunction | None,
     roulette: float | None,
+    precision: str = "single",
 ) -> EstimatorCode:
-    """The estimator code for one request (see the module docstring)."""
+    """The estimator code for one request (see the module docstring).
+
+    ``precision="double"`` (the plain estimator and a control variate only;
+    mcocl/integration/api.py refuses the rest) writes ``unit_value`` over
+    ``doublev``, the value type of integrate.cl's REAL_DOUBLE build.
+    """
+    if precision == "double" and (proposals or roulette is not None):
+        raise ValueError("precision='double' generates the plain estimator only")
+    realv = "doublev" if precision == "double" else "floatv"
     users: list[UserFunction] = [integrand]
     if control is not None:
         users.append(control)
@@ -91,7 +100,7 @@ def generate(
         funcs.append(_proposal_functions(t, prop, f"proposal{t}", offsets))
 
     g = "integrand(x)" if control is None else "(integrand(x) - control(x))"
-    body = ["MC_INLINE floatv unit_value(floatv *tau, global const uint *tables) {"]
+    body = [f"MC_INLINE {realv} unit_value({realv} *tau, global const uint *tables) {{"]
     if roulette is not None:
         body += [
             "    const floatv rr_u = tau[0];",
@@ -100,7 +109,7 @@ def generate(
         ]
     if not proposals:
         points = 1
-        body += ["    const floatv *x = tau;", f"    floatv v = {g};"]
+        body += [f"    const {realv} *x = tau;", f"    {realv} v = {g};"]
     elif len(proposals) == 1:
         points = 1
         body += [

@@ -39,6 +39,8 @@ class Design:
         replicates: designs a sample budget runs (sobol: its R independent
             scramblings), else 0 (the budget decides, see ``granules``).
         bins: bins per dimension of the VEGAS grid (vegas), else 0.
+        double: 1 when the integrand is evaluated and its sums kept in double
+            (``precision="double"``), else 0 (float32, the default).
     """
 
     sampler: str
@@ -48,6 +50,7 @@ class Design:
     granule_blocks: int
     replicates: int = 0
     bins: int = 0
+    double: int = 0
 
     def to_dict(self) -> dict:
         """JSON form (saved in checkpoints)."""
@@ -78,6 +81,6 @@ def design_from_checkpoint(d: object, where: object, samplers: Collection[str]) 
     if not (1 <= d["units"] <= UNBOUNDED_UNITS and 1 <= d["samples_per_unit"] <= 1 << 20
             and 0 <= d["strata_m"] <= MAX_AXIS_CELLS and 1 <= d["granule_blocks"] <= UNBOUNDED_UNITS):
         raise InputError(f"checkpoint {where}: its design is out of range ({d!r})")
-    if any(not 0 <= d.get(k, 0) <= UNBOUNDED_UNITS for k in optional):
+    if any(not 0 <= d.get(k, 0) <= UNBOUNDED_UNITS for k in optional) or d.get("double", 0) not in (0, 1):
         raise InputError(f"checkpoint {where}: its design is out of range ({d!r})")
     return Design(**d)

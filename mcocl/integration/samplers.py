@@ -35,6 +35,8 @@ class SamplerSpec:
         units_per_block: units one kernel work-item computes.
         min_designs: designs a sample budget is rounded up to at least.
         variance_method: how the reported standard error is obtained.
+        precisions: the ``precision=`` values the sampler's kernel branch
+            builds (``double``: integrate.cl's REAL_DOUBLE, independent units only).
     """
 
     name: ClassVar[str]
@@ -42,6 +44,7 @@ class SamplerSpec:
     units_per_block: ClassVar[int]
     min_designs: ClassVar[int] = 1
     variance_method: ClassVar[str]
+    precisions: ClassVar[tuple[str, ...]] = ("single",)
 
     def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
         """The design of a run of at most ``samples`` (``None``: unbounded) evaluations."""
@@ -67,6 +70,7 @@ class SamplerSpec:
             f"-DUNITS_PER_BLOCK={self.units_per_block}",
             f"-DBLOCKS_PER_DESIGN={self.blocks_per_design(design)}ul",
             f"-DSTRATA_M={max(design.strata_m, 1)}",
+            *(["-DREAL_DOUBLE=1"] if design.double else []),
             *self.extra_defines(design),
         ]
 
@@ -179,6 +183,7 @@ class Independent(SamplerSpec):
     kernel_code = 0
     units_per_block = 4096
     variance_method = "sample variance of the primary estimates / N"
+    precisions = ("single", "double")
 
     def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
         """One unbounded design of point tuples."""
@@ -392,6 +397,7 @@ class Sobol(DesignSpread):
     units_per_block = 4096
     min_designs = 2
     variance_method = "spread of the means of independent Owen-scrambled Sobol' replicates"
+    precisions = ("single", "double")
     REPLICATES = 16
     MAX_LOG2_POINTS = 30
     UNBOUNDED_LOG2_POINTS = 18
@@ -486,6 +492,7 @@ class Vegas(Independent):
 
     name = "vegas"
     kernel_code = 4
+    precisions = ("single",)
     variance_method = ("inverse-variance weighted mean of the iterations after the warm-up, each: "
                        "stratum pairs (stratified iterations) or sample variance / n of f J")
 

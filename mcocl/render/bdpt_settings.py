@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from ..errors import InputError
 from .compiled import CompiledScene
 from .job import MIS_BETAS
@@ -19,9 +17,7 @@ def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, u
 
     Raises:
         InputError: an unknown heuristic, a malformed strategy, ``unweighted``
-            without a strategy, one of them for another integrator, or a scene
-            bdpt cannot render (a constant environment: bdpt.cl's subpaths end
-            on area emitters only).
+            without a strategy, or one of them for another integrator.
     """
     if cs.integrator != "bdpt":
         if mis != "power" or strategy is not None or unweighted:
@@ -29,9 +25,6 @@ def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, u
         return {}
     if mis not in MIS_BETAS:
         raise InputError(f"mis: unknown heuristic {mis!r}; choose one of {', '.join(MIS_BETAS)}")
-    if np.any(np.asarray(cs.env_radiance)[:3] > 0):
-        raise InputError("integrator bdpt: the scene has an environment emitter; bdpt handles area emitters only "
-                         "(render it with mis or lt)")
     if strategy is not None:
         try:
             s, t = (int(x) for x in strategy)

@@ -43,6 +43,11 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   ``light_cdf[0] = 0``, ``light_cdf[L] = 1``.  With no light
   (or only black ones) L = 0 and ``light_cdf = [0]``.
 - ``light_power``: float64 (L,): the power of each light primitive.
+- ``delta_lights``: the scene's point, spot and directional lights
+  (:mod:`mcocl.render.delta_lights`), D of them; ``delta_power`` float64
+  (D,) their choice powers.  With D > 0, ``light_cdf`` and ``light_pmf``
+  run over the L light primitives and then the D delta lights (L + D
+  entries; the kernel's light records follow the same order).
 - ``light_sampler``: ``"power"``, ``"uniform"`` or ``"bvh"``
   (:mod:`mcocl.render.emitter_choice`; the BVH's tables come from
   :mod:`mcocl.render.light_bvh`).
@@ -61,7 +66,9 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   sampling). (extension of the contract)
 - ``light_area``: float32 (L,): surface area of each light primitive.
 - ``env_radiance``: float32 (4,): RGB of the constant environment, 0 (all
-  zero = no environment).
+  zero = no environment); (1, 1, 1, 1) with an environment map.
+- ``env_map``: the :class:`~mcocl.render.envmap.EnvMap` or None; its device
+  tables come from :func:`mcocl.render.envmap.envmap_tables`.
 - ``integrator`` (str), ``max_depth``, ``rr_depth``, ``spp`` (int): Mitsuba 3
   conventions (max_depth −1 unbounded, 1 emitters seen directly, 2 direct
   light only).
@@ -88,7 +95,9 @@ from ..errors import InputError
 from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
-from .emitter_choice import LUMINANCE, environment_choice, light_choice
+from .delta_lights import delta_power
+from .emitter_choice import LUMINANCE, bounding_sphere, environment_choice, light_choice
+from .envmap import EnvMap
 from .pixel_filter import BOX, PixelFilter
 from .roughplastic_tables import append_tables
 from .scene import Scene, check_integrator_settings
@@ -134,6 +143,9 @@ class CompiledScene:
     env_share: float | None = None
     light_power: np.ndarray = field(default_factory=lambda: np.zeros(0))
     light_sampler: str = "power"
+    delta_lights: list = field(default_factory=list)
+    delta_power: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    env_map: EnvMap | None = None
     sampler: str = "independent"  # integrator.sampler (mcocl/render/sobol_film.py)
     pixel_filter: PixelFilter = BOX  # the camera's reconstruction filter (mcocl/render/pixel_filter.py)
     # (T, 3, 4) corner normals of the triangles that shade smoothly, None if none does (render/shading_normals.py)
@@ -161,14 +173,26 @@ class CompiledScene:
         return int(self.light_prims.shape[0])
 
     @property
+    def num_delta(self) -> int:
+        """D, the number of point, spot and directional lights."""
+        return len(self.delta_lights)
+
+    @property
+    def num_choices(self) -> int:
+        """L + D, the entries of the light-choice table (the kernel's light records)."""
+        return self.num_lights + self.num_delta
+
+    @property
     def env_threshold(self) -> float:
         """Light sampling chooses the environment when a uniform is below this (see ``env_pmf``)."""
-        return environment_choice(self.env_radiance, self.num_lights > 0, self.integrator, self.env_share)[0]
+        return environment_choice(self.env_radiance, self.num_choices > 0, self.integrator, self.env_share,
+                                  self.env_map is not None)[0]
 
     @property
     def env_pmf(self) -> float:
         """The exact probability that light sampling chooses the environment (:mod:`.emitter_choice`)."""
-        return environment_choice(self.env_radiance, self.num_lights > 0, self.integrator, self.env_share)[1]
+        return environment_choice(self.env_radiance, self.num_choices > 0, self.integrator, self.env_share,
+                                  self.env_map is not None)[1]
 
     def with_settings(self, integrator: str | None = None, max_depth: int | None = None,
                       rr_depth: int | None = None, spp: int | None = None,
@@ -191,10 +215,15 @@ class CompiledScene:
         )
         self.integrator, self.max_depth, self.rr_depth, self.spp = (
             s["integrator"], s["max_depth"], s["rr_depth"], s["spp"])
+        directional = [li for li in self.delta_lights if li.kind == "directional"]
+        if s["light_sampler"] == "bvh" and directional:
+            raise InputError(f"light_sampler 'bvh': the scene has a directional light ({directional[0].key}); "
+                             f"the light BVH holds lights at finite positions only (use 'power' or 'uniform')")
         if s["light_sampler"] != self.light_sampler:
             self.light_sampler = s["light_sampler"]
-            if self.num_lights:
-                self.light_cdf, self.light_pmf = light_choice(self.light_power, self.light_sampler)
+            if self.num_choices:
+                self.light_cdf, self.light_pmf = light_choice(np.concatenate([self.light_power, self.delta_power]),
+                                                              self.light_sampler)
             with self.buffer_lock:
                 self.buffer_cache.clear()
         return self
@@ -330,18 +359,23 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     light_prims = np.flatnonzero(is_light).astype(np.uint32)
     lum = emitter_radiance[:, :3].astype(np.float64) @ LUMINANCE if len(radiance) else np.zeros(0)
     power = lum[prim_emitter[light_prims]] * prim_area[light_prims] * math.pi if len(light_prims) else np.zeros(0)
-    cdf, pmf = light_choice(power, scene.light_sampler)
+    bounds = np.ascontiguousarray(bvh.bounds if len(ids) else np.zeros((2, 3)), np.float32)
+    # Point, spot and directional lights follow the light primitives in the choice table.
+    dpower = delta_power(scene.lights, bounding_sphere(bounds)[1])
+    cdf, pmf = light_choice(np.concatenate([power, dpower]), scene.light_sampler)
     if len(pmf) == 0:
         light_prims = np.zeros(0, np.uint32)
         power = np.zeros(0)
+        dpower = np.zeros(0)
     prim_light = np.full(ntri + nsph, -1, np.int32)
     prim_light[light_prims] = np.arange(len(light_prims), dtype=np.int32)
     light_area = prim_area[light_prims].astype(np.float32)
 
     env = np.zeros(4, np.float32)
     env[:3] = scene.env_radiance
+    if scene.env_map is not None:
+        env[:] = 1.0  # the map's radiance (kernels/render/envmap.cl); w > 0 marks a map
     cam = scene.camera
-    bounds = np.ascontiguousarray(bvh.bounds if len(ids) else np.zeros((2, 3)), np.float32)
     cs = CompiledScene(
         width=cam.crop[2] if cam.crop else cam.width, height=cam.crop[3] if cam.crop else cam.height,
         camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height,
@@ -353,6 +387,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         emitter_radiance=emitter_radiance, light_prims=light_prims, light_cdf=cdf, light_pmf=pmf,
         prim_light=prim_light, light_area=light_area, env_radiance=env,
         light_power=power.astype(np.float64), light_sampler=scene.light_sampler, sampler=scene.sampler,
+        delta_lights=list(scene.lights) if len(dpower) else [], delta_power=dpower, env_map=scene.env_map,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
         vertex_normals=vertex_normal_table(scene.shapes, tri64), near_clip=cam.near_clip,

@@ -25,6 +25,8 @@ import numpy as np
 from ..layouts import LIGHT_RECORD, PRIM_RECORD, RENDER_PARAMS, LightShape
 from .bvh_leaves import device_nodes
 from .compiled import CompiledScene
+from .delta_lights import delta_records
+from .envmap import envmap_tables
 from .light_bvh import build_light_bvh
 
 # What the render kernel reads for the light BVH in builds that do not use it (OpenCL has no empty buffers).
@@ -43,13 +45,15 @@ def light_tables(cs: CompiledScene) -> dict[str, np.ndarray | float | int]:
     ``light_pmf`` scattered onto primitive ids (0 for primitives that do not
     emit); ``env_threshold``/``env_pmf``: the environment's choice;
     ``light_top``: the largest power of two <= the number of lights (the
-    first step of the kernel's binary search; 0 with no light).
+    first step of the kernel's binary search over the L light primitives and
+    D delta lights; 0 with no light).
     """
     nl = cs.num_lights
     prim_pmf = np.zeros(max(cs.num_triangles + cs.num_spheres, 1), np.float32)
     if nl:
-        prim_pmf[cs.light_prims] = cs.light_pmf
-    top = 1 << (nl.bit_length() - 1) if nl else 0
+        prim_pmf[cs.light_prims] = cs.light_pmf[:nl]
+    nc = cs.num_choices
+    top = 1 << (nc.bit_length() - 1) if nc else 0
     return {"prim_pmf": prim_pmf, "env_threshold": float(cs.env_threshold), "env_pmf": float(cs.env_pmf),
             "light_top": top}
 
@@ -77,9 +81,12 @@ def prim_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
 
 
 def light_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
-    """One :data:`~mcocl.layouts.LIGHT_RECORD` per light primitive for light sampling, as float32 (4 L, 4)."""
+    """One :data:`~mcocl.layouts.LIGHT_RECORD` per light primitive for light sampling, then one per
+    point, spot and directional light (:mod:`mcocl.render.delta_lights`), as float32 (4 (L + D), 4)."""
     nl, nt = cs.num_lights, cs.num_triangles
-    rec = np.zeros(max(nl, 1), LIGHT_RECORD.dtype())
+    rec = np.zeros(max(nl + cs.num_delta, 1), LIGHT_RECORD.dtype())
+    if cs.num_delta:
+        rec[nl:] = delta_records(cs.delta_lights, cs.light_pmf[nl:])
     if nl:
         lr = rec[:nl]
         prims = np.asarray(cs.light_prims, np.int64)
@@ -137,13 +144,17 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         "light_rec": light_records(cs, lt["prim_pmf"]),
         "light_cdf": nonempty(cs.light_cdf, np.float32),
         "prim_pmf": nonempty(lt["prim_pmf"], np.float32),
-        "env": np.array([*cs.env_radiance[:3], 0.0], np.float32),
-        "light_scalars": np.array([cs.num_lights, lt["light_top"]], np.uint32),
+        "env": np.array(cs.env_radiance[:4], np.float32),
+        "light_scalars": np.array([cs.num_choices, lt["light_top"]], np.uint32),
         "env_choice": np.array([lt["env_threshold"], lt["env_pmf"]], np.float32),
         "geometry_counts": np.array([cs.num_triangles, cs.num_spheres], np.uint32),
     }
     if getattr(cs, "vertex_normals", None) is not None:  # only then: other scenes keep their tables digest
         tables["vertex_normals"] = np.ascontiguousarray(cs.vertex_normals, np.float32).reshape(-1, 4)
+    if cs.env_map is not None:
+        tables["env_map"], tables["env_cdf"] = envmap_tables(cs.env_map)
+    else:
+        tables["env_map"], tables["env_cdf"] = np.zeros((1, 4), np.float32), np.zeros(1, np.uint32)
     if cs.light_sampler == "bvh":
         tree = build_light_bvh(cs)
         tables["light_bvh"], tables["light_trail"] = tree.nodes, tree.trail

@@ -117,12 +117,15 @@ def light_choice(power: np.ndarray, sampler: str = "power") -> tuple[np.ndarray,
 
 
 def environment_choice(env_rgb: np.ndarray, has_area_lights: bool, integrator: str = "mis",
-                       share: float | None = None) -> tuple[float, float]:
+                       share: float | None = None, env_map: bool = False) -> tuple[float, float]:
     """``(env_threshold, env_pmf)``: the environment is chosen when u < threshold, with exact probability env_pmf.
 
     The share follows the integrator (see the module docstring for why and
     the measurements): 0 for ``mis``; for ``nee`` and ``path``
     :data:`ENV_SHARE` with area lights, 1 without; 0 without an environment.
+    An environment *map* (``env_map``; mcocl/render/envmap.py) is importance
+    sampled, so under ``mis`` too it gets :data:`ENV_SHARE` with other lights
+    (point, spot and directional lights count), 1 without.
     ``share`` overrides the rule (for measurements).
     """
     has_env = bool(np.any(np.asarray(env_rgb, np.float32)[:3] > 0))
@@ -130,7 +133,7 @@ def environment_choice(env_rgb: np.ndarray, has_area_lights: bool, integrator: s
         threshold = np.float32(0.0)
     elif share is not None:
         threshold = np.float32(share)
-    elif integrator == "mis":
+    elif integrator == "mis" and not env_map:
         threshold = np.float32(0.0)
     else:
         threshold = np.float32(ENV_SHARE if has_area_lights else 1.0)

@@ -65,7 +65,7 @@ TILE_PIXELS = 64
 # The scene arrays the render kernel takes after its render_params, in its argument order.
 KERNEL_BUFFERS = ("camera", "bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
                   "materials", "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail",
-                  "vertex_normals")
+                  "vertex_normals", "env_map", "env_cdf")
 # The integrators on the splatting film (mcocl/render/splat_film.py).
 SPLAT_INTEGRATORS = ("lt", "bdpt")
 # bdpt's MIS heuristics: the exponent beta of Veach's power heuristic (1: the balance heuristic).

@@ -8,7 +8,10 @@ within theta_e of its normal).  From a shading point the kernel
 (kernels/render/light_bvh.cl) estimates an *importance* of both children of
 a node — power / distance², times a bound of the cosine at the emitter and
 at the receiver — and descends into one of them with probability in
-proportion; a leaf is one light.
+proportion; a leaf is one light.  Point and spot lights
+(mcocl/render/delta_lights.py) are leaves too, after the primitives: a
+point box, every direction for a point light, the cutoff cone about its
+axis for a spot (directional lights are refused: they lie at infinity).
 
 A node record (:data:`~mcocl.layouts.LIGHT_BVH_NODE`, three float4) holds
 the bounding sphere of its box rather than the box: the importance needs
@@ -93,7 +96,19 @@ def _light_geometry(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray, np.ndarr
     s = cs.spheres[prims[~tri] - nt].astype(np.float64)
     lo[~tri] = np.nextafter((s[:, :3] - s[:, 3:]).astype(np.float32), np.float32(-np.inf))
     hi[~tri] = np.nextafter((s[:, :3] + s[:, 3:]).astype(np.float32), np.float32(np.inf))
-    return lo, hi, axis, cos_o, np.zeros(nl)
+    cos_e = np.zeros(nl)
+    if cs.num_delta:
+        # point and spot lights (mcocl/render/delta_lights.py; with_settings refuses directional ones):
+        # a point box; a point light shines every way (like a sphere), a spot within its cutoff of its axis
+        d = cs.delta_lights
+        pos = np.array([li.position for li in d], np.float32)
+        spot = np.array([li.kind == "spot" for li in d])
+        lo = np.concatenate([lo, np.nextafter(pos, np.float32(-np.inf)).astype(np.float64)])
+        hi = np.concatenate([hi, np.nextafter(pos, np.float32(np.inf)).astype(np.float64)])
+        axis = np.concatenate([axis, np.array([li.direction for li in d], np.float64)])
+        cos_o = np.concatenate([cos_o, np.where(spot, 1.0, -1.0)])
+        cos_e = np.concatenate([cos_e, np.where(spot, [math.cos(math.radians(li.cutoff_angle)) for li in d], 0.0)])
+    return lo, hi, axis, cos_o, cos_e
 
 
 def _segment_scan(x: np.ndarray, seg: np.ndarray, op: np.ufunc) -> np.ndarray:
@@ -194,7 +209,7 @@ def build_light_bvh(cs: CompiledScene) -> LightBVH:
     A scene without lights gets a single zero-power leaf (never used: the
     kernel chooses no area light when there are none).
     """
-    nl = cs.num_lights
+    nl = cs.num_choices  # the light primitives, then the point and spot lights
     rec_dtype = LIGHT_BVH_NODE.dtype()
     trail_out = np.zeros(max(cs.num_triangles + cs.num_spheres, 1), np.uint32)
     if nl == 0:
@@ -202,7 +217,7 @@ def build_light_bvh(cs: CompiledScene) -> LightBVH:
         rec["count"] = 1
         return LightBVH(rec.view(np.float32).reshape(-1, 4), trail_out, 0)
     lo, hi, axis, cos_o, cos_e = _light_geometry(cs)
-    power = np.asarray(cs.light_power, np.float64)
+    power = np.concatenate([np.asarray(cs.light_power, np.float64), np.asarray(cs.delta_power, np.float64)])
     perm, starts, ends = _split_levels(lo, hi, power)
     if len(starts) - 1 > MAX_DEPTH or nl > GRID_CELLS:
         raise InputError(f"{cs.source}: {nl} emitting primitives: the light BVH takes at most {GRID_CELLS}")
@@ -255,7 +270,8 @@ def build_light_bvh(cs: CompiledScene) -> LightBVH:
     inexact = (n_th > 0) & (n_th < math.pi)
     rec["cos_o"] = np.where(inexact, np.nextafter(cos_stored, np.float32(-1)), np.where(n_th == 0, 1.0, -1.0))
     rec["cos_e"] = n_cos_e
-    trail_out[np.asarray(cs.light_prims, np.int64)[ref[leaf]]] = trail[leaf].astype(np.uint32)
+    prim_leaf = ref[leaf] < cs.num_lights  # delta lights have no primitive: no BSDF sample finds them
+    trail_out[np.asarray(cs.light_prims, np.int64)[ref[leaf][prim_leaf]]] = trail[leaf][prim_leaf].astype(np.uint32)
     return LightBVH(np.ascontiguousarray(rec).view(np.float32).reshape(-1, 4), trail_out, int(depth.max()))
 
 

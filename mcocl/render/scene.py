@@ -28,6 +28,8 @@ from ..datafile import decode_utf8
 from ..errors import InputError
 from ..layouts import Integrator, MaterialKind
 from . import transform as tf
+from .delta_lights import DeltaLight, parse_lights
+from .envmap import EnvMap, check_rotation, load_envmap_image
 from .pixel_filter import BOX, PixelFilter, parse_filter
 from .shape_registry import GEOMETRY_LIMIT, SHAPES
 
@@ -144,6 +146,8 @@ class Scene:
     spp: int = DEFAULT_SPP
     light_sampler: str = DEFAULT_LIGHT_SAMPLER
     sampler: str = DEFAULT_RENDER_SAMPLER
+    lights: list[DeltaLight] = field(default_factory=list)  # point, spot, directional (delta_lights.py)
+    env_map: EnvMap | None = None  # an environment map (envmap.py); env_radiance is then 0
 
 
 class _Checker:
@@ -311,7 +315,7 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
     """
     p = Path(path)
     c = _Checker(str(p))
-    top = c.obj(data, "", ("camera",), ("integrator", "materials", "shapes", "environment"))
+    top = c.obj(data, "", ("camera",), ("integrator", "materials", "shapes", "environment", "lights"))
     camera = _camera(c, top["camera"], "camera")
     integ = _integrator(c, top.get("integrator", {}), "integrator")
     materials, index = _materials(c, top.get("materials", {}), "materials")
@@ -320,12 +324,33 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
         c.fail("shapes", f"expected a list of shapes, got {_kind(raw_shapes)}")
     roots = [p.parent] + ([Path(mesh_folder)] if mesh_folder is not None else [])
     shape_list = [_shape(c, s, f"shapes[{i}]", index, roots) for i, s in enumerate(raw_shapes)]
-    env = np.zeros(3)
+    env, env_map = np.zeros(3), None
     if "environment" in top:
-        e = c.obj(top["environment"], "environment", ("type", "radiance"))
-        c.string(e["type"], "environment.type", ("constant",))
-        env = c.rgb(e["radiance"], "environment.radiance")
-    return Scene(p, camera, materials, shape_list, env, **integ)
+        e = top["environment"]
+        if not isinstance(e, dict) or "type" not in e:
+            c.obj(e, "environment", ("type",))
+        if c.string(e["type"], "environment.type", ("constant", "envmap")) == "constant":
+            e = c.obj(e, "environment", ("type", "radiance"))
+            env = c.rgb(e["radiance"], "environment.radiance")
+        else:
+            env_map = _envmap(c, e, "environment", roots)
+    if not isinstance(top.get("lights", []), list):
+        c.fail("lights", f"expected a list of lights, got {_kind(top['lights'])}")
+    lights = parse_lights(c, top["lights"], "lights", GEOMETRY_LIMIT) if "lights" in top else []
+    return Scene(p, camera, materials, shape_list, env, **integ, lights=lights, env_map=env_map)
+
+
+def _envmap(c: _Checker, v: dict, key: str, roots: list[Path]) -> EnvMap | None:
+    """An ``{"type": "envmap", "filename", "scale", "transform"}`` environment (None when it is all black)."""
+    o = c.obj(v, key, ("type", "filename"), ("scale", "transform"))
+    path = c.mesh_file(c.string(o["filename"], f"{key}.filename"), f"{key}.filename", roots, text=False)
+    if not path.is_file():
+        c.fail(f"{key}.filename", f"{o['filename']!r} not found (looked for {path})")
+    scale = c.number(o.get("scale", 1.0), f"{key}.scale", 0.0, RGB_LIMIT)
+    m = _transform(c, o.get("transform", []), f"{key}.transform")
+    check_rotation(m, f"{c.file}: {key}.transform")
+    env = EnvMap(load_envmap_image(path, f"{c.file}: {key}.filename"), scale, m, str(o["filename"]))
+    return None if env.black else env
 
 
 def _camera(c: _Checker, v: Any, key: str) -> Camera:

@@ -17,6 +17,8 @@ from typing import Any
 from ...errors import InputError
 from ..scene import parse_scene
 from .bsdf import translate_bsdf
+from .delta_emitter import DELTA_EMITTERS, translate_delta_light
+from .properties import split_children
 from .report import Reporter, nearest
 from .sensor import translate_integrator, translate_sensor
 from .shape import ShapeTranslator, translate_radiance
@@ -138,6 +140,10 @@ class _SceneBuilder:
                 shape_list.append(s)
         out["shapes"] = shape_list
         for e in envs:
+            if e.attrib.get("type", "") in DELTA_EMITTERS:
+                self.elements[f"lights[{len(out.setdefault('lights', []))}]"] = e
+                out["lights"].append(translate_delta_light(e, self.rep))
+                continue
             env = self._environment(e, comments)
             if env is not None:
                 if "environment" in out:
@@ -153,13 +159,43 @@ class _SceneBuilder:
             if ecomments:
                 env["comment"] = ecomments
             return env
+        if kind == "envmap":
+            return self._envmap(node)
         if kind == "area":
             node.fail("an area emitter belongs inside a <shape>")
-        alt = {"envmap": "constant (its mean radiance)", "point": "a small sphere with an area emitter",
-               "spot": "a small sphere with an area emitter", "directional": "a distant sphere with an area emitter"}
-        self.rep.unsupported(node, f"the emitter {kind!r}", alt.get(kind, "constant, or area inside a shape"),
+        alt: dict[str, str] = {}
+        self.rep.unsupported(node, f"the emitter {kind!r}",
+                             alt.get(kind, "constant, point, spot, directional, or area inside a shape"),
                              "nothing (the emitter is left out)", comments)
         return None
+
+
+    def _envmap(self, node: Node) -> dict:
+        """An ``envmap`` emitter: ``filename`` (EXR, relative to its file, inside the scene's folder),
+        ``scale`` (default 1), ``to_world`` (a rotation)."""
+        props, objects = split_children(node)
+        comments: list[str] = []
+        for o in objects:
+            self.rep.unsupported(o, f"<{o.tag}> inside an envmap", "filename", None)
+        if "filename" not in props:
+            node.fail('an envmap needs <string name="filename" value="..."/>')
+        rel = props.get("filename", ("string",))
+        path = (node.file.parent / rel).resolve()
+        if not path.is_relative_to(self.path.resolve().parent):
+            props.node("filename").fail(f"the image {rel!r} lies outside the scene's folder")
+        if not path.is_file():
+            props.node("filename").fail(f"image file {rel!r} not found (looked for {path})")
+        env: dict[str, Any] = {"type": "envmap", "filename": path.relative_to(self.path.resolve().parent).as_posix()}
+        scale = props.get("scale", ("float",), None)
+        if scale is not None:
+            env["scale"] = scale
+        t = props.get("to_world", ("transform",), None)
+        if t is not None:
+            env["transform"] = t.ops
+        self.rep.leftover(node, props.unread(), ("filename", "scale", "to_world"), comments)
+        if comments:
+            env["comment"] = comments
+        return env
 
 
 def read_mitsuba(path: str | os.PathLike[str], params: dict[str, Any] | None = None,
