@@ -55,3 +55,68 @@ def test_sigterm_stops_like_ctrl_c_and_keeps_the_result(tmp_path) -> None:
     out, err = p.communicate(timeout=60)
     assert p.returncode == 130, (out, err)
     assert "estimate" in out and "interrupt" in (out + err) and "Traceback" not in err
+
+
+def _fake_child(tmp_path, monkeypatch, build_seconds: float):
+    """Make the supervisor's child a script that starts a build, runs ``build_seconds``, then dies of
+    SIGSEGV (what clang did on an 18,000-term expression); each start is counted in ``runs``."""
+    from mcocl.cli import supervise
+
+    runs = tmp_path / "runs"
+    script = tmp_path / "child.sh"
+    script.write_text(f"#!{sys.executable}\nimport os, signal, time\nopen({str(runs)!r}, 'a').write('run\\n')\n"
+                      "os.write(int(os.environ['MCOCL_HEARTBEAT_FD']), b'build\\n')\n"
+                      f"time.sleep({build_seconds})\nos.kill(os.getpid(), signal.SIGSEGV)\n")
+    script.chmod(0o755)
+    monkeypatch.setattr(supervise.sys, "executable", str(script))
+    return supervise, runs
+
+
+def test_a_compiler_crash_is_named_and_not_rerun(tmp_path, monkeypatch, capsys) -> None:
+    supervise, runs = _fake_child(tmp_path, monkeypatch, 0.6)
+    monkeypatch.setattr(supervise, "CACHE_LOAD_SECONDS", 0.3)  # the build ran past a cache lookup
+    t0 = time.monotonic()
+    assert supervise.run(["integrate", "x[0]"], "integrate", None) == 2
+    err = capsys.readouterr().err
+    assert "the compiler crashed while building the integrand (SIGSEGV)" in err and err.count("\n") == 1
+    assert runs.read_text().count("run") == 1  # not rerun: a second compile would only crash again
+    assert time.monotonic() - t0 < 0.6 + 5
+
+
+def test_a_quick_crash_in_a_build_is_rerun_once_with_a_fresh_cache(tmp_path, monkeypatch, capsys) -> None:
+    supervise, runs = _fake_child(tmp_path, monkeypatch, 0.0)  # as quick as a cache lookup: maybe a bad entry
+    assert supervise.run(["integrate", "x[0]"], "integrate", None) == 2
+    err = capsys.readouterr().err
+    assert runs.read_text().count("run") == 2
+    assert "the compiler crashed while building the integrand (SIGSEGV)" in err and "kernel cache" in err
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="prctl(PR_SET_PDEATHSIG) is Linux's")
+def test_the_child_dies_with_a_killed_supervisor() -> None:
+    """kill -9 of mcocl used to leave its child (in its own session) looping for ever."""
+    from pathlib import Path
+
+    p = _mcocl("integrate", "float s = 0; for (;;) { s += 1; } return s;", "--samples", "1e6")
+    children: list[int] = []
+    deadline = time.monotonic() + 60
+    while not children and time.monotonic() < deadline:
+        time.sleep(0.2)
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == p.pid:  # field 4 of stat: the parent's pid
+                children.append(int(stat.parent.name))
+    assert children, "the supervised child never started"
+    p.kill()
+    p.communicate(timeout=30)
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and Path(f"/proc/{children[0]}").exists() \
+            and Path(f"/proc/{children[0]}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z":
+        time.sleep(0.1)
+    gone = not Path(f"/proc/{children[0]}").exists() or \
+        Path(f"/proc/{children[0]}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    if not gone:
+        os.kill(children[0], signal.SIGKILL)
+    assert gone, "the child outlived its killed supervisor"

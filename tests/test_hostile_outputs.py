@@ -122,3 +122,15 @@ def test_api_checkpoint_is_checked_before_work(tmp_path):
     with pytest.raises(InputError, match="checkpoint.*is a folder"):
         mcocl.render(SCENE, spp=100000, checkpoint=str(tmp_path))
     assert time.perf_counter() - t0 < 5.0
+
+
+def test_convert_never_overwrites_its_scene(tmp_path, capsys):
+    xml = tmp_path / "s.xml"
+    xml.write_bytes((SCENE.parent / "xml" / "cornell.xml").read_bytes())
+    before = xml.read_bytes()
+    assert main(["convert", str(xml), "-o", str(xml)]) == 2
+    assert "is the scene, an input" in capsys.readouterr().err
+    assert xml.read_bytes() == before
+    assert main(["convert", str(xml), "-o", str(tmp_path / "missing" / "o.json")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.xml"]

@@ -22,7 +22,10 @@ environment) and supervises it from here:
 - a child that crashes after it began to compile is run once more with a
   fresh temporary PoCL kernel cache (a damaged cache entry makes PoCL abort
   or crash every run of that program); when that run succeeds, the message
-  names the cache folder as the cause.
+  names the cache folder as the cause.  A crash during a build that had run
+  longer than ``CACHE_LOAD_SECONDS`` is the compiler's own (a cache lookup is
+  quick; a long build compiles from source): it is reported as such at once,
+  since a rerun would only crash again after as long.
 
 The child runs in its own session, so a terminal's Ctrl-C reaches only this
 process, which forwards it exactly once.  ``MCOCL_SUPERVISE=0`` turns the
@@ -31,6 +34,7 @@ supervision off (the command then runs in this process, as the API does).
 
 from __future__ import annotations
 
+import ctypes
 import os
 import select
 import signal
@@ -38,7 +42,8 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 from ..heartbeat import ENV as HEARTBEAT_ENV
 from ..pocl_cache import cache_folder
@@ -51,6 +56,9 @@ GRACE = 3.0
 STOP_WAIT = 10.0
 # Exit status of a run stopped by the supervisor (as for any engine error).
 EXIT_ERROR = 2
+# A build that crashed after running this long was compiling from source, not
+# loading PoCL's cache (a cache hit takes well under a second).
+CACHE_LOAD_SECONDS = 5.0
 
 
 def wanted(argv: Sequence[str] | None, command: str | None) -> bool:
@@ -71,13 +79,54 @@ def _signal_name(num: int) -> str:
         return f"signal {num}"
 
 
-def _crash_message(command: str, signum: int) -> str:
-    what = {"integrate": "the integrand", "solve": "the kernel or source", "render": "the renderer",
+def _what(command: str) -> str:
+    return {"integrate": "the integrand", "solve": "the kernel or source", "render": "the renderer",
             "bench": "a benchmarked snippet"}.get(command, "the device code")
+
+
+@dataclass(frozen=True)
+class _Crash:
+    """A child killed by ``signum``; ``in_build``: while a build had been running ``build_seconds``."""
+
+    signum: int
+    in_build: bool
+    build_seconds: float
+
+
+def _crash_message(command: str, crash: _Crash) -> str:
+    if crash.in_build:
+        return (
+            f"mcocl {command}: error: the compiler crashed while building {_what(command)} "
+            f"({_signal_name(crash.signum)}); code this long or this deeply nested is beyond the OpenCL "
+            "compiler: shorten it or split it into several statements. If the same code compiled before, "
+            f"PoCL's kernel cache {str(cache_folder())!r} may hold a corrupt entry: delete it and run again"
+        )
     return (
-        f"mcocl {command}: error: {what} crashed the device process ({_signal_name(signum)}); "
+        f"mcocl {command}: error: {_what(command)} crashed the device process ({_signal_name(crash.signum)}); "
         "checkpoints written before the crash are kept (--checkpoint), nothing else was saved"
     )
+
+
+def _die_with_parent(parent: int) -> Callable[[], None] | None:
+    """What the child runs before exec so that it dies with this process, even one killed by SIGKILL.
+
+    The child lives in its own session, so a ``kill -9`` of this process or of
+    its process group would leave it running: with an endless loop in the
+    user's code, for ever (issue 10).  Linux's ``prctl(PR_SET_PDEATHSIG)``
+    has the kernel send it SIGKILL when this process ends; elsewhere nothing is done.
+    """
+    if not sys.platform.startswith("linux"):
+        return None
+
+    def arm() -> None:
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1 = PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            return
+        if os.getppid() != parent:  # the parent died before the request was made
+            os._exit(1)
+
+    return arm
 
 
 class _Child:
@@ -93,6 +142,7 @@ class _Child:
             env=env,
             pass_fds=(write_fd,),
             start_new_session=True,
+            preexec_fn=_die_with_parent(os.getpid()),
         )
         os.close(write_fd)
         self.pipe = read_fd
@@ -115,6 +165,9 @@ class _Child:
         if not data:  # the child closed its end (it is exiting)
             time.sleep(min(timeout, 0.05))
             return
+        self._count(data)
+
+    def _count(self, data: bytes) -> None:
         now = time.monotonic()
         for line in data.decode(errors="replace").split():
             if line == "build":
@@ -126,6 +179,17 @@ class _Child:
                 self.compiling -= 1
                 if self.compiling == 0:
                     self.compile_seconds += now - self.compile_since
+
+    def drain(self) -> None:
+        """Read the beats the child wrote before it ended (its pipe is at its end once it has)."""
+        while select.select([self.pipe], [], [], 0)[0]:
+            try:
+                data = os.read(self.pipe, 4096)
+            except OSError:
+                return
+            if not data:
+                return
+            self._count(data)
 
     def running_seconds(self, now: float) -> float:
         """Seconds since launch, less the time spent compiling."""
@@ -152,13 +216,16 @@ def run(argv: Sequence[str], command: str, time_budget: float | None) -> int:
     code, crash = _run_once(argv, command, time_budget, None)
     if crash is None:
         return code
+    if crash.in_build and crash.build_seconds > CACHE_LOAD_SECONDS:  # the compiler's own crash: see the docstring
+        print(_crash_message(command, crash), file=sys.stderr)
+        return EXIT_ERROR
     with tempfile.TemporaryDirectory(prefix="mcocl-pocl-cache-") as fresh:
         code, again = _run_once(argv, command, time_budget, {"POCL_CACHE_DIR": fresh})
     if again is not None:
         print(_crash_message(command, again), file=sys.stderr)
     elif code == 0:
         folder = str(cache_folder())
-        print(f"mcocl {command}: warning: the first attempt crashed ({_signal_name(crash)}) while using PoCL's "
+        print(f"mcocl {command}: warning: the first attempt crashed ({_signal_name(crash.signum)}) while using PoCL's "
               f"kernel cache {folder!r}, which holds a corrupt entry; it was bypassed (the run was repeated with "
               f"a fresh temporary cache): delete {folder!r} to repair it", file=sys.stderr)
     return code
@@ -170,7 +237,7 @@ _CACHE_CRASHES = frozenset({signal.SIGABRT, signal.SIGBUS, signal.SIGSEGV, signa
 
 def _run_once(
     argv: Sequence[str], command: str, time_budget: float | None, env_changes: dict[str, str] | None
-) -> tuple[int, int | None]:
+) -> tuple[int, _Crash | None]:
     """Run the child once: its exit status, and the signal that crashed it after a build began, if any.
 
     Such a crash is left to the caller to report (it may retry); every other outcome is reported here.
@@ -208,6 +275,7 @@ def _run_once(
                     "(an endless loop in the user code?)"
                 )
         code = child.proc.wait()
+        child.drain()
     finally:
         for s, h in old.items():
             signal.signal(s, h)
@@ -219,8 +287,10 @@ def _run_once(
     if code < 0:
         if -code in (signal.SIGINT, signal.SIGTERM):
             return 128 - code, None
+        crash = _Crash(-code, child.compiling > 0,
+                       time.monotonic() - child.compile_since if child.compiling else 0.0)
         if -code in _CACHE_CRASHES and child.builds and not requests:
-            return EXIT_ERROR, -code
-        print(_crash_message(command, -code), file=sys.stderr)
+            return EXIT_ERROR, crash
+        print(_crash_message(command, crash), file=sys.stderr)
         return EXIT_ERROR, None
     return code, None
