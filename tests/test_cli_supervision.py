@@ -120,3 +120,12 @@ def test_the_child_dies_with_a_killed_supervisor() -> None:
     if not gone:
         os.kill(children[0], signal.SIGKILL)
     assert gone, "the child outlived its killed supervisor"
+
+
+def test_a_tiny_time_budget_still_gets_its_first_block() -> None:
+    """--time 1e-9 computes one block (the API's promise); the supervisor used to kill such a run when
+    Python's start-up on a busy machine used up budget + GRACE before that block was done."""
+    p = _mcocl("integrate", "exp(-x[0]*x[0])", "--samples", "1e12", "--time", "1e-9", "--json", "--quiet")
+    out, err = p.communicate(timeout=120)
+    assert p.returncode == 0, err
+    assert '"samples"' in out and "Traceback" not in err

@@ -153,6 +153,8 @@ class _Child:
         self.compile_seconds = 0.0
         self.stopping: float | None = None  # when the last stop was asked for
         self.killed_for = ""
+        self.started: float | None = None  # when sampling began (the child's first "start" beat)
+        self.compile_before_start = 0.0
 
     def read_beats(self, timeout: float) -> None:
         ready, _, _ = select.select([self.pipe], [], [], timeout)
@@ -175,6 +177,9 @@ class _Child:
                 if self.compiling == 0:
                     self.compile_since = now
                 self.compiling += 1
+            elif line == "start" and self.started is None:
+                self.started = now
+                self.compile_before_start = self.compile_seconds
             elif line == "built" and self.compiling > 0:
                 self.compiling -= 1
                 if self.compiling == 0:
@@ -192,9 +197,18 @@ class _Child:
             self._count(data)
 
     def running_seconds(self, now: float) -> float:
-        """Seconds since launch, less the time spent compiling."""
+        """The seconds --time is held against, less the time spent compiling: since sampling began
+        (the engine's own clock starts there), or since launch while the child is still setting up.
+
+        Counting from the start of sampling keeps Python's start-up and the setup of the run (both
+        slow on a busy machine) out of the budget, so a healthy run with a tiny --time still gets
+        its first block (issue 10: --time 1e-9 was killed before it, exit 2); an endless loop in
+        the probes that run the user's code before sampling is still caught from launch.
+        """
         compiling = now - self.compile_since if self.compiling else 0.0
-        return now - self.launched - self.compile_seconds - compiling
+        if self.started is None:
+            return now - self.launched - self.compile_seconds - compiling
+        return now - self.started - (self.compile_seconds - self.compile_before_start) - compiling
 
     def kill(self, why: str) -> None:
         self.killed_for = why
@@ -286,6 +300,10 @@ def _run_once(
         return (130 if requests else EXIT_ERROR), None
     if code < 0:
         if -code in (signal.SIGINT, signal.SIGTERM):
+            # killed outright, before it had a handler (still starting, or in a build): say so, as an
+            # interrupted run that saved its result would have
+            print(f"mcocl {command}: stopped by {_signal_name(-code)} before sampling; nothing was computed "
+                  "(checkpoints already written with --checkpoint are kept)", file=sys.stderr)
             return 128 - code, None
         crash = _Crash(-code, child.compiling > 0,
                        time.monotonic() - child.compile_since if child.compiling else 0.0)
