@@ -97,17 +97,7 @@ def test_the_child_dies_with_a_killed_supervisor() -> None:
     from pathlib import Path
 
     p = _mcocl("integrate", "float s = 0; for (;;) { s += 1; } return s;", "--samples", "1e6")
-    children: list[int] = []
-    deadline = time.monotonic() + 60
-    while not children and time.monotonic() < deadline:
-        time.sleep(0.2)
-        for stat in Path("/proc").glob("[0-9]*/stat"):
-            try:
-                fields = stat.read_text().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            if int(fields[1]) == p.pid:  # field 4 of stat: the parent's pid
-                children.append(int(stat.parent.name))
+    children = _children_of(p.pid)
     assert children, "the supervised child never started"
     p.kill()
     p.communicate(timeout=30)
@@ -129,3 +119,55 @@ def test_a_tiny_time_budget_still_gets_its_first_block() -> None:
     out, err = p.communicate(timeout=120)
     assert p.returncode == 0, err
     assert '"samples"' in out and "Traceback" not in err
+
+
+def _children_of(pid: int) -> list[int]:
+    """The pids whose parent is ``pid``, waiting up to a minute for one to appear (Linux /proc)."""
+    from pathlib import Path
+
+    children: list[int] = []
+    deadline = time.monotonic() + 60
+    while not children and time.monotonic() < deadline:
+        time.sleep(0.2)
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid:  # field 4 of stat: the parent's pid
+                children.append(int(stat.parent.name))
+    return children
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="finds the child through /proc")
+def test_a_second_ctrl_c_ends_a_stuck_run_soon() -> None:
+    """Two Ctrl-Cs on an endless loop waited STOP_WAIT (10 s) after the second; now URGENT_STOP_WAIT."""
+    from mcocl.cli.supervise import STOP_WAIT, URGENT_STOP_WAIT
+
+    p = _mcocl("integrate", "float s = 0; for (;;) { s += 1; } return s;", "--samples", "1e6")
+    assert _children_of(p.pid)
+    time.sleep(6.0)  # the child has imported and compiled, and is stuck in the loop
+    p.send_signal(signal.SIGINT)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    t0 = time.monotonic()
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert "Traceback" not in err
+    if "interrupted" not in err:  # not still setting up when asked: stuck in the loop, and killed
+        assert "did not stop within 5 s" in err
+    assert time.monotonic() - t0 < (URGENT_STOP_WAIT + STOP_WAIT) / 2 + 2.5
+
+
+def test_ctrl_c_twice_in_quick_succession_never_kills_the_supervisor() -> None:
+    """The child may end after the first Ctrl-C; the second then reached the supervisor with its
+    default handler back in place: exit -2 instead of 130."""
+    p = _mcocl("integrate", "exp(-x[0])", "--samples", "1e14")
+    assert _children_of(p.pid)
+    for _ in range(2):
+        p.send_signal(signal.SIGINT)
+        time.sleep(0.3)
+    out, err = p.communicate(timeout=60)
+    # -2: the second Ctrl-C came as the interpreter shut down, after the message; a shell shows 130 for both
+    assert p.returncode in (130, -signal.SIGINT), err
+    assert "Traceback" not in err and ("interrupted" in err or "stopped" in err or "estimate" in out), (out, err)

@@ -15,7 +15,8 @@ environment) and supervises it from here:
   stuck;
 - Ctrl-C and SIGTERM are passed on to the child, which stops and saves what it
   has (:class:`~mcocl.engine.contract.InterruptFlag`); a child that has not
-  ended ``STOP_WAIT`` seconds after the last request is killed;
+  ended ``STOP_WAIT`` seconds after the first request, or ``URGENT_STOP_WAIT``
+  seconds after the second, is killed;
 - a child killed by a signal (SIGSEGV, SIGBUS, SIGABRT, ...) is reported in
   one line with exit status 2, instead of the shell's bare "Segmentation
   fault";
@@ -54,6 +55,10 @@ SUPERVISED = frozenset({"integrate", "solve", "render", "bench"})
 GRACE = 3.0
 # Seconds a child may take to stop after Ctrl-C or SIGTERM before it is killed.
 STOP_WAIT = 10.0
+# After a second request the child only writes what it has folded: a child still
+# running this many seconds later is stuck in a kernel launch and is killed (issue 10:
+# two Ctrl-Cs on an endless loop waited the full STOP_WAIT again).
+URGENT_STOP_WAIT = 5.0
 # Exit status of a run stopped by the supervisor (as for any engine error).
 EXIT_ERROR = 2
 # A build that crashed after running this long was compiling from source, not
@@ -153,6 +158,7 @@ class _Child:
         self.compile_seconds = 0.0
         self.stopping: float | None = None  # when the last stop was asked for
         self.killed_for = ""
+        self.beats = 0  # events read: none while the child still imports (its first is its first build)
         self.started: float | None = None  # when sampling began (the child's first "start" beat)
         self.compile_before_start = 0.0
 
@@ -172,6 +178,7 @@ class _Child:
     def _count(self, data: bytes) -> None:
         now = time.monotonic()
         for line in data.decode(errors="replace").split():
+            self.beats += 1
             if line == "build":
                 self.builds += 1
                 if self.compiling == 0:
@@ -274,6 +281,10 @@ def _run_once(
                 child.stopping = now
                 if forwarded >= 3:
                     child.kill("interrupted three times")
+                elif not child.beats:
+                    # still importing Python modules, with nothing computed: a KeyboardInterrupt there
+                    # would print a traceback from the middle of an import
+                    child.kill("interrupted while it was starting; nothing was computed")
                 else:
                     try:
                         child.proc.send_signal(sig)
@@ -281,8 +292,9 @@ def _run_once(
                         pass
             if child.killed_for:
                 continue
-            if child.stopping is not None and now - child.stopping > STOP_WAIT:
-                child.kill(f"it did not stop within {STOP_WAIT:g} s of the request (a kernel launch is stuck)")
+            wait = STOP_WAIT if forwarded < 2 else URGENT_STOP_WAIT
+            if child.stopping is not None and now - child.stopping > wait:
+                child.kill(f"it did not stop within {wait:g} s of the request (a kernel launch is stuck)")
             elif time_budget is not None and child.running_seconds(now) > time_budget + GRACE:
                 child.kill(
                     f"it outlived --time {time_budget:g} by {GRACE:g} s: a kernel launch did not return "
@@ -292,7 +304,9 @@ def _run_once(
         child.drain()
     finally:
         for s, h in old.items():
-            signal.signal(s, h)
+            # once asked to stop, the process only reports and exits: a further Ctrl-C must not
+            # interrupt that with a KeyboardInterrupt (issue 10: two quick Ctrl-Cs gave exit -2)
+            signal.signal(s, forward if requests else h)
         os.close(child.pipe)
     if child.killed_for:
         print(f"mcocl {command}: error: stopped the run: {child.killed_for}; "
