@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         out_dir = Path(args.out).resolve().parent
         outside = set()
         for shape in data.get("shapes", []):
-            for kind in ("obj", "ply"):
+            for kind in ("obj", "ply", "serialized"):
                 if kind in shape:
                     mesh = src.resolve().parent / shape[kind]
                     shape[kind] = Path(os.path.relpath(mesh, out_dir)).as_posix()
