@@ -24,6 +24,10 @@ OBJ read 0.23-0.29 CPU-s (0.4-0.55 s wall); build 0.53-0.57 CPU-s
 build along the widest axis and 3.38-3.58 / 4.08-4.35 along all three; SAH
 cost ratio to those 0.925 / 1.014 and 1.154 / 1.034 (10^5: 1.028 / 1.034
 and 1.091 / 1.056); 123 bytes per triangle in the kernel's buffers.
+With ``--obj-attributes`` (a ``vt`` and a ``vn`` per vertex, corners
+``i/i/i``: 104 MB instead of 38) the OBJ read takes 0.79-0.97 CPU-s, the
+plain file 0.26-0.28 (0.28-0.30 before ``vt``/``vn`` were read); ``--obj-only``
+skips the BVH builds.
 
 With ``--trace`` it also times closest-hit traversal of random rays
 through the built tree on the default OpenCL device (rays/s, single run,
@@ -97,13 +101,25 @@ def timed(fn, repeat: int = 1):
     return out, first, best, best_cpu
 
 
-def write_obj(path: Path, v: np.ndarray, f: np.ndarray) -> None:
-    """A plain OBJ file: ``v x y z`` lines, then ``f a b c`` lines (1-based)."""
-    text = ("v %.6f %.6f %.6f\n" * len(v)) % tuple(v.ravel()) + ("f %d %d %d\n" * len(f)) % tuple((f + 1).ravel())
+def write_obj(path: Path, v: np.ndarray, f: np.ndarray, attributes: bool = False) -> None:
+    """A plain OBJ file: ``v x y z`` lines, then ``f a b c`` lines (1-based).
+
+    With ``attributes``, one ``vt`` (the x, z position mapped to [0, 1]²) and one
+    ``vn`` (the height field's up direction, tilted by the height) per vertex
+    follow the ``v`` lines, and the corners are ``i/i/i``.
+    """
+    text = ("v %.6f %.6f %.6f\n" * len(v)) % tuple(v.ravel())
+    if attributes:
+        uv = (v[:, [0, 2]] + 1.0) / 2.0
+        n = np.stack([-v[:, 1], np.ones(len(v)), v[:, 1]], 1) / np.sqrt(1.0 + 2.0 * v[:, 1:2] ** 2)
+        text += ("vt %.6f %.6f\n" * len(v)) % tuple(uv.ravel()) + ("vn %.6f %.6f %.6f\n" * len(v)) % tuple(n.ravel())
+        text += ("f %d/%d/%d %d/%d/%d %d/%d/%d\n" * len(f)) % tuple(np.repeat(f + 1, 3).ravel())
+    else:
+        text += ("f %d %d %d\n" * len(f)) % tuple((f + 1).ravel())
     path.write_text(text)
 
 
-def bench_obj(n: int, repeat: int) -> None:
+def bench_obj(n: int, repeat: int, attributes: bool = False) -> None:
     """OBJ reading, whole scene load and device bytes per triangle of the terrain of about ``n`` triangles."""
     from mcocl.render.compiled import load_compiled
     from mcocl.render.job import KERNEL_BUFFERS, scene_tables
@@ -112,18 +128,19 @@ def bench_obj(n: int, repeat: int) -> None:
     v, f = terrain_mesh(n)
     with tempfile.TemporaryDirectory() as tmp:
         obj = Path(tmp) / "terrain.obj"
-        write_obj(obj, v, f)
+        write_obj(obj, v, f, attributes)
         scene = {"camera": {"origin": [0, 2, 3], "target": [0, 0, 0], "fov": 40, "width": 64, "height": 64},
                  "materials": {"m": {"type": "diffuse", "reflectance": 0.5}},
                  "shapes": [{"type": "mesh", "material": "m", "obj": "terrain.obj"}]}
         (Path(tmp) / "scene.json").write_text(json.dumps(scene))
-        (_, tris), f_read, t_read, c_read = timed(lambda: read_obj(obj, "bench"), repeat)
+        mesh, f_read, t_read, c_read = timed(lambda: read_obj(obj, "bench"), repeat)
+        tris = mesh.faces
         cs, _, t_load, c_load = timed(lambda: load_compiled(Path(tmp) / "scene.json"), 1)
         size = obj.stat().st_size
     tables = scene_tables(cs)
     kernel_bytes = sum(tables[name].nbytes for name in KERNEL_BUFFERS if name in tables)
     all_bytes = sum(a.nbytes for a in tables.values())
-    print(f"obj      {len(tris):>9d} triangles ({size / 1e6:.1f} MB): read {t_read:5.2f} s wall (first run "
+    print(f"obj{'+vt/vn' if attributes else '':6s} {len(tris):>9d} triangles ({size / 1e6:.1f} MB): read {t_read:5.2f} s wall (first run "
           f"{f_read:5.2f}), {c_read:5.2f} s cpu; whole scene load {t_load:5.2f} s wall, {c_load:5.2f} s cpu")
     per = {name: tables[name].nbytes / len(tris) for name in KERNEL_BUFFERS
            if name in tables and tables[name].nbytes >= len(tris)}
@@ -160,11 +177,16 @@ def main() -> None:
     ap.add_argument("--compare", action="store_true", help="also build with the binned builders (slow)")
     ap.add_argument("--trace", action="store_true", help="also time kernel traversal of 10^6 random rays")
     ap.add_argument("--no-obj", action="store_true", help="skip the OBJ and device-size measurements")
+    ap.add_argument("--obj-attributes", action="store_true",
+                    help="the OBJ file also has a vt and a vn per vertex, corners i/i/i")
+    ap.add_argument("--obj-only", action="store_true", help="only the OBJ measurements (no BVH builds)")
     args = ap.parse_args()
     print(f"# numpy {np.__version__}, {os.cpu_count()} CPUs, loadavg {os.getloadavg()[0]:.2f}")
     for n in (int(float(x)) for x in args.n.split(",")):
         if not args.no_obj:
-            bench_obj(n, args.repeat)
+            bench_obj(n, args.repeat, args.obj_attributes)
+        if args.obj_only:
+            continue
         for name, make in (("terrain", terrain), ("soup", soup)):
             bench_build(name, make(n).astype(np.float32), args)
 

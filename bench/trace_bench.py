@@ -31,13 +31,24 @@ t by more than that (Embree's watertight test against our widened
 Möller–Trumbore at grazing distances); hit/miss agree.
 
 Measured (2 shared cores, load 2.4-4.8; 2^18 rays per set; M rays per CPU-second,
-Embree 4.4 through embreex, one thread; ranges over three runs), terrain / soup:
+Embree 4.4 through embreex, one thread; ranges over three runs), terrain / soup,
+with the 4-wide tree ("4-wide"):
 
-| set | mcocl before | mcocl now | Embree | Embree / now |
+| set | mcocl before | 4-wide | Embree | Embree / 4-wide |
 |---|---|---|---|---|
 | primary, closest | 1.61 / 0.75 | 4.2-4.5 / 1.7-1.8 | 9.3-9.5 / 3.6-3.7 | 2.1-2.2 / 2.0-2.2 |
 | diffuse, closest | 0.26 / 0.15 | 0.53-0.61 / 0.27-0.32 | 1.3-1.5 / 0.64-0.72 | 2.3-2.6 / 2.2-2.4 |
 | shadow, any hit | 0.32 / 0.17 | 0.76-0.96 / 0.43-0.54 | 1.4-1.7 / 1.3-2.1 | 1.8-2.0 / 3.0-4.0 |
+
+With the 8-wide tree (float8 node test) and farthest-first any-hit, two runs
+of ``--repeats 3`` at load 4.7 and 10 (absolute rates fall with the load, so
+only the ratio measured in the same run is compared), terrain / soup:
+
+| set | mcocl 8-wide | Embree | Embree / 8-wide | 4-wide, same session |
+|---|---|---|---|---|
+| primary, closest | 4.1-4.3 / 1.6-1.7 | 8.2-8.5 / 2.7-3.3 | 1.9-2.1 / 1.7-1.9 | 2.5 / 2.2 |
+| diffuse, closest | 0.47-0.58 / 0.23-0.29 | 0.98-1.04 / 0.45-0.53 | 1.8-2.1 / 1.8-2.0 | 2.7 / 2.4 |
+| shadow, any hit | 0.61-0.65 / 0.70-0.76 | 1.27-1.35 / 1.14-1.41 | 2.1 / 1.5-2.0 | 2.2 / 3.7 |
 
 "Before" is the binary-tree traversal with leaves gathered through
 ``bvh_prims`` (the same script with ``PYTHONPATH`` at that code).  Wall rays/s

@@ -257,7 +257,7 @@ CAMERA_RECORD = _quad_record(
 # BVH (host: mcocl/render/bvh.py; kernels: bvh.cl, trace_packet.cl): nodes[0] is the header,
 # internal node k the 4 float4 at 1 + 4k; the device table appends one LEAF_PRIM per slot of
 # prims (mcocl/render/bvh_leaves.py; the header's leaf_row says where they start) and after
-# them the 4-wide nodes of the single-ray traversal (mcocl/render/bvh_wide.py).
+# them the 8-wide nodes of the single-ray traversal (mcocl/render/bvh_wide.py).
 BVH_HEADER = _quad_record(
     "bvh_header", "nodes[0] of a BVH: primitive count, internal nodes, depth, row of the leaf primitives",
     ("nprims", "uint"), ("num_nodes", "uint"), ("depth", "uint"), ("leaf_row", "uint"),
@@ -269,11 +269,11 @@ BVH_NODE = _quad_record(
 )
 
 BVH_WIDE_NODE = _quad_record(
-    "bvh_wide_node", "4-wide BVH node (mcocl/render/bvh_wide.py): its children's boxes as structure of arrays; "
-    "cnt 0: child is wide node ref, 0xffffffff: no child, else a leaf of cnt leaf records from ref",
-    ("lo_x", "float", 4), ("lo_y", "float", 4), ("lo_z", "float", 4),
-    ("hi_x", "float", 4), ("hi_y", "float", 4), ("hi_z", "float", 4),
-    ("ref", "uint", 4), ("cnt", "uint", 4),
+    "bvh_wide_node", "8-wide BVH node (mcocl/render/bvh_wide.py): its children's boxes as structure of arrays; "
+    "cnt 0: child is wide node ref, 0xffffffff: no child, else a leaf of cnt leaf records from ref; "
+    "field f_0 holds children 0-3, f_4 children 4-7 (a float8 is two float4 rows)",
+    *((f"{f}_{half}", "uint" if f in ("ref", "cnt") else "float", 4)
+      for f in ("lo_x", "lo_y", "lo_z", "hi_x", "hi_y", "hi_z", "ref", "cnt") for half in (0, 4)),
 )
 LEAF_PRIM = _quad_record(
     "leaf_prim", "a BVH leaf slot's primitive in leaf order: triangle v0, e1 = v1-v0, e2 = v2-v0; sphere (e1, pad1) = centre, radius",

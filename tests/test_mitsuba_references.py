@@ -36,13 +36,11 @@ SCENES = {
     "glass": 4096,
     "plastic_twosided": 4096,
     "shapes": 2048,
+    "spectra": 1024,
 }
 # scene name -> (spp, why): references mcocl is known not to match yet; strict xfail, so that the fix
 # shows (move the scene to SCENES then)
-KNOWN_DIFFERENCES = {
-    "spectra": (1024, "one-number <spectrum> radiance and sampled <spectrum> reflectances are converted to "
-                      "RGB differently from Mitsuba 3's RGB variants (tests/data/README.md)"),
-}
+KNOWN_DIFFERENCES: dict[str, tuple[int, str]] = {}
 # (integrator, scene, spp): the other integrators on scenes they can render (light tracing and BDPT: area
 # lights, no delta surface seen directly), against the same references
 OTHER_INTEGRATORS = [("lt", "box_diffuse", 1024), ("bdpt", "box_diffuse", 128)]

@@ -191,6 +191,7 @@ def test_closed_mesh_is_watertight_along_shared_edges():
     d = (target - o).astype(np.float32)
     hits = cast_rays(cs, o.astype(np.float32), d)
     assert np.all(hits.prim != MISS)
+    assert np.all(cast_rays(cs, o.astype(np.float32), d, np.float32(2.0), closest=False).any)
 
 
 # the square's quadrants, the sphere's octants, the triangle's barycentric histogram
@@ -427,3 +428,7 @@ def test_closed_mesh_has_no_leaks_through_shared_vertices():
     d = np.tile(targets, (4, 1)) - o
     hits = cast_rays(cs, o.astype(np.float32), d.astype(np.float32))
     assert np.all(hits.prim != MISS)
+    # any-hit walks the wide tree in slot order, not nearest first: no leak there either
+    # (tmax 2: the aimed point lies at t = 1 and the far side of the sphere beyond it)
+    occluded = cast_rays(cs, o.astype(np.float32), d.astype(np.float32), np.float32(2.0), closest=False)
+    assert np.all(occluded.any)

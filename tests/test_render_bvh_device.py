@@ -8,7 +8,7 @@ import pytest
 from mcocl.layouts import BVH_HEADER, BVH_WIDE_NODE, LEAF_PRIM
 from mcocl.render.bvh import build_bvh
 from mcocl.render.bvh_leaves import device_nodes, leaf_records
-from mcocl.render.bvh_wide import EMPTY_SLOT, MERGED_LEAF, WIDE_ROWS, wide_nodes
+from mcocl.render.bvh_wide import EMPTY_SLOT, MERGED_LEAF, WIDE_ROWS, WIDTH, wide_nodes
 
 
 def binary_children(nodes: np.ndarray):
@@ -19,8 +19,11 @@ def binary_children(nodes: np.ndarray):
 
 
 def wide_children(w: np.ndarray):
-    """(lo, hi, ref, cnt) of every slot of the wide nodes, (W, 4, ...)."""
-    rec = w.reshape(-1, WIDE_ROWS * 4).view(BVH_WIDE_NODE.dtype())[:, 0]
+    """(lo, hi, ref, cnt) of every slot of the wide nodes, (W, WIDTH, ...)."""
+    raw = w.reshape(-1, WIDE_ROWS * 4).view(BVH_WIDE_NODE.dtype())[:, 0]
+    # each field is stored as two float4 rows: children 0-3 (f_0), then 4-7 (f_4)
+    rec = {f: np.concatenate([raw[f"{f}_0"], raw[f"{f}_4"]], 1)
+           for f in ("lo_x", "lo_y", "lo_z", "hi_x", "hi_y", "hi_z", "ref", "cnt")}
     lo = np.stack([rec["lo_x"], rec["lo_y"], rec["lo_z"]], -1)
     hi = np.stack([rec["hi_x"], rec["hi_y"], rec["hi_z"]], -1)
     return lo, hi, rec["ref"], rec["cnt"]
@@ -47,9 +50,9 @@ def test_wide_tree_holds_every_leaf_once_with_the_binary_boxes(n, max_leaf):
     key = {(r, c): (lo_, hi_) for r, c, lo_, hi_ in zip(bref[bcnt > 0], bcnt[bcnt > 0], blo[bcnt > 0], bhi[bcnt > 0])}
     for r, c, lo_, hi_ in zip(wref[leaf], wcnt[leaf], wlo[leaf], whi[leaf]):
         assert np.array_equal(key[(r, c)][0], lo_) and np.array_equal(key[(r, c)][1], hi_)
-    # every wide node has 2 to 4 children
-    per_node = ((wcnt != EMPTY_SLOT).reshape(nw, 4)).sum(1)
-    assert per_node.min() >= 2 and per_node.max() <= 4
+    # every wide node has 2 to WIDTH children
+    per_node = ((wcnt != EMPTY_SLOT).reshape(nw, WIDTH)).sum(1)
+    assert per_node.min() >= 2 and per_node.max() <= WIDTH
 
 
 @pytest.mark.parametrize("n,max_leaf", [(2, 4), (9, 1), (3000, 1), (3000, 4)])

@@ -15,7 +15,8 @@ SQUARE = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
 def read(tmp_path, text: str | bytes):
     p = tmp_path / "m.obj"
     p.write_bytes(text.encode() if isinstance(text, str) else text)
-    return read_obj(p, "shapes[0].obj")
+    mesh = read_obj(p, "shapes[0].obj")
+    return mesh.vertices, mesh.faces
 
 
 @pytest.mark.parametrize("text,faces", [

@@ -86,7 +86,8 @@ def test_ply_forms_equal_the_obj_twin(tmp_path, kind):
     (tmp_path / "m.ply").write_bytes(data)
     (tmp_path / "m.obj").write_text(obj_twin())
     mesh = read_ply(tmp_path / "m.ply", "shapes[0].ply")
-    v, f = read_obj(tmp_path / "m.obj", "shapes[0].obj")
+    obj = read_obj(tmp_path / "m.obj", "shapes[0].obj")
+    v, f = obj.vertices, obj.faces
     np.testing.assert_array_equal(mesh.vertices, v)
     np.testing.assert_array_equal(mesh.faces, f)
     np.testing.assert_array_equal(mesh.faces, FANS)

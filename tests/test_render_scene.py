@@ -156,7 +156,7 @@ def test_obj_mesh_relative_to_scene_file(tmp_path):
     np.testing.assert_array_equal(cs.tri_vertices[0, :, :3], [[0, 0, 1], [1, 0, 1], [1, 1, 1]])
     (tmp_path / "meshes" / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
     scene["shapes"][0]["obj"] = "meshes/bad.obj"
-    with pytest.raises(InputError, match=r"shapes\[0\]\.obj: .*bad.obj: face index 6 is outside"):
+    with pytest.raises(InputError, match=r"shapes\[0\]\.obj: .*bad.obj:3: face index 6 is outside"):
         compile_scene(write(tmp_path, scene))
     (tmp_path / "meshes" / "bad.obj").write_text("v 0 0 0\nv 1 0\n")
     with pytest.raises(InputError, match=r"bad.obj:2: a vertex needs three numbers"):

@@ -52,7 +52,7 @@ MC_INLINE float g_max(float a, float b) { return a > b ? a : b; }
 typedef struct {
     global const float4 *nodes;   /* BVH, layout of mcocl/render/bvh.py */
     global const float4 *leaves;  /* leaf_prim records in leaf order (mcocl/render/bvh_leaves.py) */
-    global const float4 *wide;    /* 4-wide nodes of the single-ray traversal (mcocl/render/bvh_wide.py) */
+    global const float4 *wide;    /* 8-wide nodes of the single-ray traversal (mcocl/render/bvh_wide.py) */
     global const uint *prims;     /* BVH leaf primitive ids */
     global const float4 *tris;    /* 3 float4 per triangle */
     global const float4 *spheres; /* centre, radius */

@@ -60,7 +60,7 @@ import numpy as np
 
 from .bvh_ploc import cluster, flatten_tree, join_clusters
 
-MAX_DEPTH = 48  # the traversal stacks (trace_packet.cl PACKET_STACK = 64, bvh.cl BVH_WIDE_STACK = 80) need it
+MAX_DEPTH = 48  # the traversal stacks (trace_packet.cl PACKET_STACK = 64, bvh.cl BVH_WIDE_STACK = 168) need it
 C_TRAV = 1.0  # cost of visiting a node (two box tests) relative to one primitive test
 PLOC_RADIUS = 8  # default neighbourhood of the clustering build
 TOP_CLUSTER = 32  # clustering stops at N / TOP_CLUSTER clusters; a binned all-axes build joins them

@@ -1,20 +1,23 @@
-"""A 4-wide BVH for single-ray traversal, collapsed from the binary tree of :mod:`mcocl.render.bvh`.
+"""An 8-wide BVH for single-ray traversal, collapsed from the binary tree of :mod:`mcocl.render.bvh`.
 
 Each wide node is a binary internal node with its children replaced by
 their own children where they are internal, and any slot left empty filled
 by splitting the internal child of largest surface area (Wald et al. 2008, "Getting rid
 of packets", and Dammertz et al. 2008, "Shallow bounding volume
 hierarchies": a multi-branching BVH whose node test uses the CPU's vector
-width); a leaf child stays a leaf.  So a wide node has 2 to 4 children and
-the tree is less than half as deep: one visit tests four boxes in float4 lanes
-(``render/bvh.cl``, ``trace_closest``/``trace_any``) where the binary tree
-needed two visits of two scalar tests.  The boxes are the builder's own
+width); a leaf child stays a leaf.  So a wide node has 2 to :data:`WIDTH` = 8
+children and the tree is about a third as deep: one visit tests eight boxes in
+float8 lanes (``render/bvh.cl``, ``trace_closest``/``trace_any``).  On the
+10^6-triangle meshes of ``bench/trace_bench.py`` 8 children beat 4 by 5-40 %
+(M rays per CPU-second): a node visit there is a cache miss, and a shallower
+tree has fewer of them one after another.  The boxes are the builder's own
 (no new rounding), so the box tests give the binary tree's distances.
 Subtrees of at most :data:`MERGED_LEAF` primitives become one leaf: on a big
 mesh a node visit is a cache miss while a leaf's records are one run.
 
-Record :data:`~mcocl.layouts.BVH_WIDE_NODE` (8 float4, structure of arrays:
-``lo_x`` .. ``hi_z`` of the four children, then their ``ref`` and ``cnt``):
+Record :data:`~mcocl.layouts.BVH_WIDE_NODE` (16 float4, structure of arrays:
+``lo_x`` .. ``hi_z`` of the eight children, then their ``ref`` and ``cnt``;
+each field is two float4 rows, ``f_0`` for children 0-3 and ``f_4`` for 4-7):
 ``cnt == 0``: wide node ``ref``; :data:`EMPTY_SLOT`: no child; otherwise a leaf
 of ``cnt`` primitives whose leaf records start at slot ``ref``
 (:mod:`mcocl.render.bvh_leaves`).  Wide node 0 is the root; nodes are listed
@@ -29,6 +32,7 @@ from ..layouts import BVH_WIDE_NODE
 
 EMPTY_SLOT = np.uint32(0xFFFFFFFF)
 WIDE_ROWS = BVH_WIDE_NODE.itemsize // 16  # float4 rows per wide node
+WIDTH = 8  # children per wide node: bvh.cl tests them in float8 lanes
 MERGED_LEAF = 4  # subtrees of at most this many primitives become one leaf (bench/trace_bench.py: 4 beat 1 and 8)
 
 
@@ -60,8 +64,33 @@ def merge_small_subtrees(ref: np.ndarray, cnt: np.ndarray, max_prims: int) -> tu
     return np.where(small, first[m], ref), np.where(small, count[m], cnt).astype(np.uint32)
 
 
+def _wide_slots(nodes: np.ndarray, ref: np.ndarray, inner: np.ndarray, area: np.ndarray) -> np.ndarray:
+    """The binary child slots (q = 2j + c, -1: empty) of the wide nodes made from binary nodes ``nodes``, (n, WIDTH).
+
+    A binary node's children are replaced by their own children where they
+    are internal; then, while a slot is empty, the internal child of largest
+    surface area gives way to its two children (Wald et al. 2008's greedy
+    collapse; fewer, fuller wide nodes).
+    """
+    q = 2 * nodes[:, None] + np.arange(2)  # (n, 2)
+    kids = 2 * ref[q, None] + np.arange(2)  # (n, 2, 2)
+    slots = np.full((len(nodes), WIDTH), -1, np.int64)
+    slots[:, :4] = np.where(inner[q][..., None], kids, np.stack([q, np.full_like(q, -1)], 2)).reshape(-1, 4)
+    for _ in range(WIDTH - 2):
+        is_inner = (slots >= 0) & inner[np.maximum(slots, 0)]
+        empty = slots < 0
+        rows = np.flatnonzero(empty.any(1) & is_inner.any(1))
+        if not len(rows):
+            break
+        a = np.where(is_inner[rows], area[np.maximum(slots[rows], 0)], -1.0)
+        pick, hole = a.argmax(1), empty[rows].argmax(1)
+        child = ref[slots[rows, pick]]
+        slots[rows, pick], slots[rows, hole] = 2 * child, 2 * child + 1
+    return slots
+
+
 def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
-    """The 4-wide nodes of a flattened binary BVH (``nodes`` of :class:`mcocl.render.bvh.BVH`), float32 (8W, 4).
+    """The 8-wide nodes of a flattened binary BVH (``nodes`` of :class:`mcocl.render.bvh.BVH`), float32 (16W, 4).
 
     Subtrees of at most ``max_leaf`` primitives become leaves (:func:`merge_small_subtrees`).
     """
@@ -77,44 +106,37 @@ def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
     ext = (hi - lo).astype(np.float64)
     area = ext[:, 0] * ext[:, 1] + ext[:, 1] * ext[:, 2] + ext[:, 2] * ext[:, 0]
     inner = cnt == 0
-    # Wide slots of binary node j (-1: empty): the children of its child c when c is internal, else c itself.
-    q = np.arange(2 * k).reshape(k, 2)
-    kids = 2 * ref[q, None] + np.arange(2)  # (K, 2, 2)
-    slots = np.where(inner[q][..., None], kids, np.stack([q, np.full_like(q, -1)], 2)).reshape(k, 4)
-    # Fill empty slots: the internal child of largest surface area gives way to its two children
-    # (Wald et al. 2008's greedy collapse; fewer, fuller wide nodes).
-    for _ in range(2):
-        is_inner = (slots >= 0) & inner[np.maximum(slots, 0)]
-        empty = slots < 0
-        rows = np.flatnonzero(empty.any(1) & is_inner.any(1))
-        if not len(rows):
-            break
-        a = np.where(is_inner[rows], area[np.maximum(slots[rows], 0)], -1.0)
-        pick, hole = a.argmax(1), empty[rows].argmax(1)
-        child = ref[slots[rows, pick]]
-        slots[rows, pick], slots[rows, hole] = 2 * child, 2 * child + 1
+    # Only the binary nodes that become wide nodes get slots: the root, then level by level every
+    # internal slot of a wide node (a third to a fifth of the binary nodes).
+    nodes_of, slots_of, frontier = [], [], np.zeros(1, np.int64)
+    while len(frontier):
+        slots = _wide_slots(frontier, ref, inner, area)
+        s_inner = (slots >= 0) & inner[np.maximum(slots, 0)]
+        nodes_of.append(frontier)
+        slots_of.append(slots)
+        frontier = ref[slots[s_inner]]
+    # Listed in the binary tree's depth-first order: a wide node's first internal child follows it and
+    # every subtree is one run of memory.
+    order = np.concatenate(nodes_of)
+    perm = np.argsort(order, kind="stable")
+    order, slots = order[perm], np.concatenate(slots_of)[perm]
     valid = slots >= 0
     sq = np.maximum(slots, 0)
     s_inner = valid & inner[sq]
-    # The binary nodes that become wide nodes: the root, then every internal slot of a wide node.
-    order, frontier = [], np.zeros(1, np.int64)
-    while len(frontier):
-        order.append(frontier)
-        frontier = ref[sq[frontier]][s_inner[frontier]]
-    # Listed in the binary tree's depth-first order: a wide node's first internal child follows it and
-    # every subtree is one run of memory.
-    order = np.sort(np.concatenate(order))
     index = np.full(k, -1, np.int64)
     index[order] = np.arange(len(order))
-    oq, ov, oi = sq[order], valid[order], s_inner[order]
+    oq, ov, oi = sq, valid, s_inner
     rec = np.zeros(len(order), BVH_WIDE_NODE.dtype())
+    fields = {}
     for corner, name in ((lo, "lo"), (hi, "hi")):
-        box = np.where(ov[..., None], corner[oq], 0.0)
+        box = corner[oq]  # (W, WIDTH, 3), gathered once per corner
         for axis, comp in enumerate("xyz"):
-            rec[f"{name}_{comp}"] = box[:, :, axis]
-    rec["ref"] = np.where(oi, index[np.where(oi, ref[oq], 0)], ref[oq]).astype(np.uint32)
-    rec["cnt"] = np.where(ov, cnt[oq], EMPTY_SLOT)
+            fields[f"{name}_{comp}"] = np.where(ov, box[..., axis], np.float32(0.0))
+    fields["ref"] = np.where(oi, index[np.where(oi, ref[oq], 0)], ref[oq]).astype(np.uint32)
+    fields["cnt"] = np.where(ov, cnt[oq], EMPTY_SLOT)
+    for name, value in fields.items():  # children 0-3 in field name_0, 4-7 in name_4
+        rec[f"{name}_0"], rec[f"{name}_4"] = value[:, :4], value[:, 4:]
     return rec.view(np.float32).reshape(-1, 4)
 
 
-__all__ = ["EMPTY_SLOT", "MERGED_LEAF", "WIDE_ROWS", "merge_small_subtrees", "wide_nodes"]
+__all__ = ["EMPTY_SLOT", "MERGED_LEAF", "WIDE_ROWS", "WIDTH", "merge_small_subtrees", "wide_nodes"]

@@ -1,24 +1,32 @@
 """Wavefront OBJ parsing with whole-buffer NumPy operations (no Python loop over lines or faces).
 
-Only ``v`` and ``f`` records matter here (positions and polygons); every
-other record (``vt``, ``vn``, ``g``, ``usemtl``, ...) is skipped.  The file
-is handled as one byte array:
+Read: ``v`` (x y z), ``vt`` (u [v [w]]: v defaults to 0, w is dropped),
+``vn`` (x y z) and ``f`` records; every other record (``g``, ``usemtl``,
+``vp``, ...) is skipped.  The file is handled as one byte array:
 
 1. line breaks are normalised (``\\r\\n`` and ``\\r`` become ``\\n``, as
    :meth:`str.splitlines` reads them), other whitespace becomes a space and
    ``#`` comments are blanked;
 2. each line's first token is read at its start (after any indentation),
-   which classifies the line as a vertex, a face or something else;
-3. the vertex lines, and the face lines, are gathered into two buffers;
-   token boundaries found by byte comparisons give how many numbers each
-   line holds; the vertices' numbers are parsed by one ``np.fromstring``
-   call, the faces' vertex indices by digit arithmetic at the start of each
-   corner (a loop over digit positions).
+   which classifies the line as a position, texture coordinate, normal, face
+   or something else;
+3. the lines of each kind are gathered into one buffer; token boundaries
+   found by byte comparisons give how many numbers each line holds; the
+   records' numbers are parsed by one ``np.fromstring`` call per kind, the
+   faces' indices by digit arithmetic at the start of each corner
+   (:mod:`mcocl.render.obj_corners`).
 
-Faces may be ``i``, ``i/t``, ``i//n`` or ``i/t/n``: only the number before
-a corner's first slash is read.  Negative indices count back from the last vertex
-read before the face's line; polygons become fans ``(0, k, k + 1)``.
-Malformed records raise :class:`~mcocl.errors.InputError` naming the line.
+Faces may be ``i``, ``i/t``, ``i//n`` or ``i/t/n``.  In a file with ``vt``
+or ``vn`` records the whole corner is read (and must have one of these
+forms); its texture (normal) index is used only when the file has ``vt``
+(``vn``) records.  A file of ``v`` and ``f`` records reads only the number
+before each corner's first slash, exactly as before texture coordinates and
+normals were read.  A negative
+index counts back from the last record of its kind before the face's line;
+polygons become fans ``(0, k, k + 1)``.  :mod:`mcocl.render.obj_vertices`
+turns the corners' (v, vt, vn) triples into the mesh's vertices, normals and
+UVs.  Malformed records, an index of 0 and indices past their records raise
+:class:`~mcocl.errors.InputError` naming the line.
 """
 
 from __future__ import annotations
@@ -28,10 +36,10 @@ import warnings
 import numpy as np
 
 from ..errors import InputError
+from .obj_corners import corner_indices, vertex_indices
+from .obj_vertices import KINDS, Chunk, ObjAttributeWarning, ObjMesh, assemble
 
-_SPACE, _NL = 32, 10
-_SLASH, _HASH = ord("/"), ord("#")
-_MAX_DIGITS = 18  # an index of more digits cannot be a vertex of a mesh that fits in memory
+_SPACE, _NL, _HASH = 32, 10, ord("#")
 _PAD = np.full(8, _SPACE, np.uint8)
 CHUNK_BYTES = 1 << 23  # text parsed at once (whole lines): see parse_obj
 
@@ -48,7 +56,8 @@ def _blank_comments(b: np.ndarray, line_end: np.ndarray) -> None:
     b[pos] = _SPACE
 
 
-def _select_lines(b: np.ndarray, start: np.ndarray, end: np.ndarray, tag: np.ndarray) -> np.ndarray:
+def _select_lines(b: np.ndarray, start: np.ndarray, end: np.ndarray, tag: np.ndarray,
+                  tag_len: int = 1) -> np.ndarray:
     """The chosen lines ``b[start[k]:end[k] + 1]`` (line breaks included), concatenated, tags blanked.
 
     Eight spaces follow, so that any eight bytes from a token's start can be read.
@@ -68,8 +77,9 @@ def _select_lines(b: np.ndarray, start: np.ndarray, end: np.ndarray, tag: np.nda
         mark[start] = 1
         mark[end + 1] -= 1
         blob = np.concatenate([b[np.cumsum(mark[:-1], dtype=np.int8).view(bool)], _PAD])
-    offset = np.cumsum(length) - length
-    blob[offset + (tag - start)] = _SPACE
+    at = np.cumsum(length) - length + (tag - start)
+    for k in range(tag_len):
+        blob[at + k] = _SPACE
     return blob
 
 
@@ -98,18 +108,20 @@ def _token(blob: np.ndarray, at: int) -> str:
     return blob[at:end].tobytes().decode("utf-8", "replace")
 
 
-def parse_obj(data: bytes, label: str) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (V, 3) float64 and triangles (T, 3) int64 (0-based, not range-checked) of OBJ text.
+def parse_obj(data: bytes, label: str) -> ObjMesh:
+    """The mesh of OBJ text: positions, triangles (0-based) and per-vertex normals and UVs where the faces give them.
 
     The text is handled in chunks of whole lines of about :data:`CHUNK_BYTES`
     (a loop over chunks, not lines): a chunk's temporaries are small enough
     for the allocator to reuse them, where whole-file temporaries would be
     fresh memory every time (10^7 triangles: 6 of 8.6 CPU-seconds were page
-    faults before).
+    faults before).  Whether the file has ``vt`` or ``vn`` records decides
+    how corners are read; a chunk's faces are read knowing the records of the
+    chunks so far and of their own chunk, and in the rare file whose first
+    ``vt`` or ``vn`` record comes a chunk after a face the chunks are read again.
 
     Raises:
-        InputError: a malformed ``v`` or ``f`` record; the message is
-            ``"{label}:{line}: ..."``.
+        InputError: a malformed record or index; the message is ``"{label}:{line}: ..."``.
     """
     if b"\r" in data:
         data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
@@ -117,22 +129,35 @@ def parse_obj(data: bytes, label: str) -> tuple[np.ndarray, np.ndarray]:
         data = data.translate(bytes.maketrans(b"\t\v\f", b"   "))
     if not data.endswith(b"\n"):
         data += b"\n"  # a final break ends the last line
-    vertices, faces = [np.zeros((0, 3))], [np.zeros((0, 3), np.int64)]
-    pos = lines = verts = 0
+    kinds = (False, False)
+    while True:
+        chunks = _parse_chunks(data, kinds, label)
+        found = (kinds[0] or any(len(c.uvs) for c in chunks), kinds[1] or any(len(c.normals) for c in chunks))
+        if all(c.kinds == found for c in chunks if len(c.per_face)):
+            return assemble(chunks, label)
+        kinds = found
+
+
+def _parse_chunks(data: bytes, kinds: tuple[bool, bool], label: str) -> list[Chunk]:
+    """Every chunk of ``data`` (see :func:`parse_obj`), ``vt``/``vn`` corner indices read where ``kinds`` say or records were seen."""
+    chunks = [Chunk(np.zeros((0, 3)), np.zeros((0, 2)), np.zeros((0, 3)), np.zeros((0, 3), np.int64), None, None,
+                    np.zeros(0, np.int64), np.zeros(0, np.int64), kinds)]
+    pos = lines = 0
+    before = np.zeros(3, np.int64)  # v, vt, vn records so far
     while pos < len(data):
         end = data.rfind(b"\n", pos, pos + CHUNK_BYTES)
         if end < 0:  # a line longer than a chunk
             end = data.find(b"\n", pos)
-        v, f, n = _parse_chunk(data, pos, end + 1, lines, verts, label)
-        vertices.append(v)
-        faces.append(f)
-        pos, lines, verts = end + 1, lines + n, verts + len(v)
-    return np.concatenate(vertices), np.concatenate(faces)
+        chunk, n = _parse_chunk(data, pos, end + 1, lines, before, chunks[-1].kinds, label)
+        chunks.append(chunk)
+        pos, lines = end + 1, lines + n
+        before += [len(chunk.vertices), len(chunk.uvs), len(chunk.normals)]
+    return chunks
 
 
-def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, verts_before: int,
-                 label: str) -> tuple[np.ndarray, np.ndarray, int]:
-    """Vertices, triangles and line count of the whole lines ``data[first:stop]`` (after the given counts)."""
+def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, before: np.ndarray,
+                 kinds: tuple[bool, bool], label: str) -> tuple[Chunk, int]:
+    """The records and faces of the whole lines ``data[first:stop]`` (after the given counts), and its line count."""
     b = np.frombuffer(data, np.uint8, count=stop - first, offset=first)
     line_end = np.flatnonzero(b == _NL)
     if data.find(b"#", first, stop) >= 0:
@@ -145,36 +170,59 @@ def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, verts_be
     while len(indented):
         tag[indented] += 1
         indented = indented[b[tag[indented]] == _SPACE]
-    after = b[tag + 1 - (b[tag] == _NL)]  # the byte after the tag (the break itself on an empty line)
+    head = b[tag]
+    after = b[tag + 1 - (head == _NL)]  # the byte after the tag (the break itself on an empty line)
     tag_alone = (after == _SPACE) | (after == _NL)
-    is_v = (b[tag] == ord("v")) & tag_alone
-    is_f = (b[tag] == ord("f")) & tag_alone
-    vl, fl = np.flatnonzero(is_v), np.flatnonzero(is_f)
-    vertices = _parse_vertices(b, start[vl], tag[vl], line_end[vl], lines_before + 1 + vl, label)
-    faces = _parse_faces(b, start[fl], tag[fl], line_end[fl], lines_before + 1 + fl,
-                         verts_before + np.cumsum(is_v)[fl], label)
-    return vertices, faces, len(line_end)
+    is_v = (head == ord("v")) & tag_alone
+    is_f = (head == ord("f")) & tag_alone
+    two = (head == ord("v")) & ((after == ord("t")) | (after == ord("n")))  # then tag + 2 is on the line
+    third = b[np.where(two, tag + 2, tag)]
+    two &= (third == _SPACE) | (third == _NL)
+    is_vt, is_vn = two & (after == ord("t")), two & (after == ord("n"))
+    kinds = (kinds[0] or bool(is_vt.any()), kinds[1] or bool(is_vn.any()))
+    number = lines_before + 1 + np.arange(len(line_end))
+
+    def records(mask: np.ndarray, width: int, need: int, message: str, tag_len: int) -> np.ndarray:
+        k = np.flatnonzero(mask)
+        return _parse_records(b, start[k], tag[k], line_end[k], number[k], width, need, tag_len, label, message)
+
+    vertices = records(is_v, 3, 3, "a vertex needs three numbers", 1)
+    uvs = records(is_vt, 2, 1, "a texture coordinate needs one to three numbers (u [v [w]])", 2)
+    normals = records(is_vn, 3, 3, "a normal needs three numbers", 2)
+    fl = np.flatnonzero(is_f)
+    counts = [before[0] + np.cumsum(is_v)[fl]]
+    counts += [before[k] + np.cumsum(mask)[fl] if used else None for k, mask, used in ((1, is_vt, kinds[0]),
+                                                                                      (2, is_vn, kinds[1]))]
+    faces = _parse_faces(b, start[fl], tag[fl], line_end[fl], number[fl], counts, kinds, label)
+    return Chunk(vertices, uvs, normals, *faces, kinds), len(line_end)
 
 
-def _parse_vertices(b, start, tag, end, lines, label) -> np.ndarray:
-    """The first three numbers of each ``v`` line, float64 (V, 3)."""
+def _parse_records(b, start, tag, end, lines, width: int, need: int, tag_len: int, label: str,
+                   message: str) -> np.ndarray:
+    """The first ``width`` numbers of each chosen line, float64 (N, width); lines with fewer (but ``need``) get zeros.
+
+    A line with fewer than ``need`` numbers, or a token that is not a number,
+    raises ``InputError("{label}:{line}: {message}")``.
+    """
     if not len(start):
-        return np.zeros((0, 3))
-    blob = _select_lines(b, start, end, tag)
+        return np.zeros((0, width))
+    blob = _select_lines(b, start, end, tag, tag_len)
     blob_nl = np.cumsum(end + 1 - start) - 1
     ts = _token_starts(blob)
     per_line = _per_line(ts, blob_nl)
-    short = np.flatnonzero(per_line < 3)
+    short = np.flatnonzero(per_line < need)
     if len(short):
-        raise InputError(f"{label}:{lines[short[0]]}: a vertex needs three numbers")
+        raise InputError(f"{label}:{lines[short[0]]}: {message}")
     nums = parse_numbers(blob)
     if nums is None or len(nums) != len(ts):
-        bad = _first_bad_line(blob, blob_nl)
-        raise InputError(f"{label}:{lines[bad]}: a vertex needs three numbers")
-    if np.all(per_line == 3):
-        return nums.reshape(-1, 3)
-    first_num = np.cumsum(per_line) - per_line
-    return nums[first_num[:, None] + np.arange(3)]
+        raise InputError(f"{label}:{lines[_first_bad_line(blob, blob_nl)]}: {message}")
+    if np.all(per_line == width):
+        return nums.reshape(-1, width)
+    at = (np.cumsum(per_line) - per_line)[:, None] + np.arange(width)
+    if need == width:
+        return nums[at]
+    given = np.arange(width) < per_line[:, None]
+    return np.where(given, nums[np.where(given, at, 0)], 0.0)
 
 
 def parse_numbers(blob: np.ndarray) -> np.ndarray | None:
@@ -199,27 +247,59 @@ def _first_bad_line(blob: np.ndarray, blob_nl: np.ndarray) -> int:
     return lo
 
 
-def _parse_faces(b, start, tag, end, lines, verts_before, label) -> np.ndarray:
-    """Fan triangles (T, 3) of the ``f`` lines, 0-based vertex indices."""
+def _parse_faces(b, start, tag, end, lines, counts: list[np.ndarray], kinds: tuple[bool, bool], label: str):
+    """Fan triangles of the ``f`` lines: vertex (T, 3), texture and normal (T, 3) or None, face lines, corners per face.
+
+    ``counts`` are the v, vt and vn records before each face line (for
+    negative indices).  With either of ``kinds`` the corners are read whole
+    (:func:`~mcocl.render.obj_corners.corner_indices`), and the texture
+    (normal) indices are kept where ``kinds`` says so: 0-based, -1 where a
+    corner gives none.  Without, only the vertex indices are read, as before
+    texture coordinates and normals were read.
+    """
     if not len(start):
-        return np.zeros((0, 3), np.int64)
+        none = np.zeros((0, 3), np.int64)
+        return none, none if kinds[0] else None, none if kinds[1] else None, lines, np.zeros(0, np.int64)
     blob = _select_lines(b, start, end, tag)
     blob_nl = np.cumsum(end + 1 - start) - 1
     corner = _token_starts(blob)
-    idx, ok = _parse_indices(blob, corner)
+    if any(kinds):
+        c = corner_indices(blob, corner)
+        columns, ok = [(c.v, None), (c.t, c.has_t) if kinds[0] else None, (c.n, c.has_n) if kinds[1] else None], c.ok
+    else:
+        idx, ok = vertex_indices(blob, corner)
+        columns = [(idx, None), None, None]
+
+    def line_of(k: int) -> int:
+        return int(lines[np.searchsorted(blob_nl, corner[k])])
+
     if not ok.all():
-        at = corner[np.argmin(ok)]
-        line = lines[np.searchsorted(blob_nl, at)]
-        raise InputError(f"{label}:{line}: bad face corner {_token(blob, at)!r}")
+        at = np.argmin(ok)
+        raise InputError(f"{label}:{line_of(at)}: bad face corner {_token(blob, corner[at])!r}")
     per_face = _per_line(corner, blob_nl)
     few = np.flatnonzero(per_face < 3)
     if len(few):
         raise InputError(f"{label}:{lines[few[0]]}: a face needs at least three corners")
-    zero = np.flatnonzero(idx == 0)
-    if len(zero):
-        raise InputError(f"{label}:{lines[np.searchsorted(blob_nl, corner[zero[0]])]}: OBJ indices start at 1, got 0")
-    idx = np.where(idx > 0, idx - 1, np.repeat(verts_before, per_face) + idx)
-    return fan_triangles(idx, per_face)
+    out = []
+    for column, count, (what, called) in zip(columns, counts, KINDS):
+        if column is None:
+            out.append(None)
+            continue
+        idx, has = column
+        zero = np.flatnonzero(idx == 0 if has is None else has & (idx == 0))
+        if len(zero):
+            raise InputError(f"{label}:{line_of(zero[0])}: OBJ indices start at 1, got 0")
+        idx = np.where(idx > 0, idx - 1, np.repeat(count, per_face) + idx)
+        bad = np.flatnonzero(idx < 0)  # (a corner without this index has 0: `count` here)
+        if len(bad):
+            k = bad[0]
+            n = int(np.repeat(count, per_face)[k])
+            raise InputError(f"{label}:{line_of(k)}: {what} index {idx[k]} is outside 0..{n - 1} (0-based): corner "
+                             f"{_token(blob, corner[k])!r} counts back past the first of the {n} {called} before it")
+        if has is not None:
+            idx[~has] = -1
+        out.append(fan_triangles(idx, per_face))
+    return out[0], out[1], out[2], lines, per_face
 
 
 def fan_triangles(idx: np.ndarray, per_face: np.ndarray) -> np.ndarray:
@@ -237,62 +317,4 @@ def fan_triangles(idx: np.ndarray, per_face: np.ndarray) -> np.ndarray:
     return np.stack([idx[c0], idx[c0 + k], idx[c0 + k + 1]], axis=1)
 
 
-_ASCII_ZEROS = np.uint64(0x3030303030303030)
-
-
-def _parse_indices(blob: np.ndarray, corner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The vertex index that begins each corner token (``[+-]digits``, then a slash or the token's end).
-
-    What follows a slash (texture and normal indices) is not read.  The
-    eight bytes at each number's start are read as one little-endian 64-bit
-    word and up to eight digits are converted at once (SWAR: digit pairs,
-    then quadruples, then octets, as in Lemire's fast integer parsing);
-    longer numbers continue digit by digit.  ``blob`` must end with at least
-    eight separator bytes.  Returns (indices, whether each corner is well formed).
-    """
-    c = blob[corner]
-    neg = c == ord("-")
-    pos = corner + (neg | (c == ord("+")))
-    window = np.lib.stride_tricks.as_strided(blob, shape=(len(blob) - 7, 8), strides=(1, 1), writeable=False)
-    chars = window[pos]  # (C, 8) uint8, contiguous
-    # Operations in place: on a fresh process every new large array costs page faults.
-    # Leading digits: below the lowest set byte of the "not a digit" mask; with w = that byte's
-    # bit, the popcount of w - 1 is 8 x its index (64 when no byte is set: eight digits).
-    other = np.subtract(chars, np.uint8(ord("0")))
-    np.greater_equal(other, 10, out=other.view(bool))
-    other = other.view("<u8").ravel()
-    low = np.invert(other)
-    low += np.uint64(1)
-    low &= other
-    low -= np.uint64(1)
-    ndig = (np.bitwise_count(low) >> 3).astype(np.int64)
-    del other, low
-    x = chars.view("<u8").ravel()
-    x -= _ASCII_ZEROS
-    x <<= (8 * (8 - np.maximum(ndig, 1))).astype(np.uint64)  # keep the digits, as the top of 8 with leading zeros
-    y = np.empty_like(x)
-    for shift, mul, mask in ((8, 10, 0x00FF00FF00FF00FF), (16, 100, 0x0000FFFF0000FFFF), (32, 10000, 0xFFFFFFFF)):
-        np.right_shift(x, np.uint64(shift), out=y)
-        x *= np.uint64(mul)
-        x += y
-        x &= np.uint64(mask)
-    del y
-    val = x.view(np.int64)
-    val[ndig == 0] = 0
-    pos += ndig
-    going = np.flatnonzero(ndig == 8)  # more than eight digits: rare
-    for _ in range(_MAX_DIGITS - 8 + 1):
-        d = blob[pos[going]] - np.uint8(ord("0"))
-        more = d < 10
-        going, d = going[more], d[more]
-        if not len(going):
-            break
-        val[going] = val[going] * 10 + d
-        ndig[going] += 1
-        pos[going] += 1
-    stop = blob[pos]
-    ok = (ndig > 0) & (ndig <= _MAX_DIGITS) & ((stop <= _SPACE) | (stop == _SLASH))
-    return np.where(neg, -val, val), ok
-
-
-__all__ = ["CHUNK_BYTES", "fan_triangles", "parse_numbers", "parse_obj"]
+__all__ = ["CHUNK_BYTES", "ObjAttributeWarning", "ObjMesh", "fan_triangles", "parse_numbers", "parse_obj"]

@@ -54,7 +54,7 @@ def vertex_normal_table(shapes: list, world_triangles: np.ndarray) -> np.ndarray
             if tf.is_orientation_reversing(sh.matrix) != sh.flip_normals:
                 faces = faces[:, [0, 2, 1]]  # as compiled.py's _shape_triangles
             corner = _world_normals(sh)[faces]  # (count, 3, 3)
-            tri = world_triangles[start:start + count]
+            tri = world_triangles[start:start + count].astype(np.float64)
             face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
             behind = np.einsum("ij,ij->i", corner.sum(axis=1), face_n) < 0.0
             corner[behind] *= -1.0

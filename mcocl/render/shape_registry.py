@@ -146,8 +146,8 @@ class Mesh(ShapeSpec):
     keys_doc = ("either `vertices` ([[x, y, z], ...]) and `faces` ([[i, j, k], ...], 0-based), or `obj` "
                 "(path of a Wavefront OBJ file), or `ply` (path of a PLY file, ASCII or binary; polygons become "
                 "triangle fans), or `serialized` (path of a Mitsuba serialized file, with `shape_index`, default 0, "
-                "choosing its mesh); a PLY or serialized file's vertex normals shade smoothly (interpolated across each "
-                "triangle) unless `face_normals` is true (default false; OBJ normals are not read); a file's path is relative to the scene file, it must lie in the scene file's folder "
+                "choosing its mesh); an OBJ, PLY or serialized file's vertex normals shade smoothly (interpolated across each "
+                "triangle) unless `face_normals` is true (default false); a file's path is relative to the scene file, it must lie in the scene file's folder "
                 "or below it — `mcocl render --mesh-folder DIR` / `render(mesh_folder=DIR)` allows one more folder — "
                 "and the file must hold at least one face")
 
@@ -178,20 +178,18 @@ class Mesh(ShapeSpec):
 
     @staticmethod
     def _file(c: Any, o: dict, key: str, shape: Any, roots: list[Path], kind: str) -> None:
-        """The mesh of the OBJ or PLY file ``o[kind]`` (its per-vertex normals and UVs too, for PLY)."""
+        """The mesh of the OBJ, PLY or serialized file ``o[kind]``, with its per-vertex normals and UVs."""
         rel = c.string(o[kind], f"{key}.{kind}")
         path = c.mesh_file(rel, f"{key}.{kind}", roots, text=kind == "obj")
         where = f"{c.file}: {key}.{kind}"
         try:
-            if kind == "obj":
-                shape.vertices, shape.faces = shape_lib.read_obj(path, where)
-            elif kind == "serialized":
+            if kind == "serialized":
                 index = c.integer(o.get("shape_index", 0), f"{key}.shape_index", 0, 2**31 - 1)
                 mesh = shape_lib.read_serialized(path, index, where)
                 shape.vertices, shape.faces, shape.uvs = mesh.vertices, mesh.faces, mesh.uvs
                 shape.normals = None if mesh.face_normals else mesh.normals
             else:
-                mesh = shape_lib.read_ply(path, where)
+                mesh = (shape_lib.read_obj if kind == "obj" else shape_lib.read_ply)(path, where)
                 shape.vertices, shape.faces, shape.normals, shape.uvs = mesh.vertices, mesh.faces, mesh.normals, mesh.uvs
         except (OverflowError, MemoryError, RecursionError) as e:  # numbers no mesh can hold
             c.fail(f"{key}.{kind}", f"{path}: a number out of range ({type(e).__name__}: {e})")

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..datafile import read_regular_file
 from ..errors import InputError
 from .obj_reader import parse_obj
 from .ply_reader import PlyMesh, parse_ply
@@ -102,27 +103,28 @@ def check_mesh(vertices: np.ndarray, faces: np.ndarray, where: str) -> None:
         raise InputError(f"{where}: face index {bad} is outside 0..{len(vertices) - 1}")
 
 
-def read_obj(path: Path, where: str) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices and triangles of a Wavefront OBJ file.
+def read_obj(path: Path, where: str) -> PlyMesh:
+    """Vertices, triangles and any per-vertex normals and UVs of a Wavefront OBJ file.
 
-    Reads ``v`` and ``f`` records (``f`` entries may be ``i``, ``i/t``,
-    ``i//n`` or ``i/t/n``, with negative indices counting back from the last
-    vertex read); polygons with more than three corners are split into a fan.
-    Texture coordinates, normals, groups and materials are ignored: shading
-    here uses geometric normals.  The parsing is vectorised
-    (:mod:`mcocl.render.obj_reader`): 10^6 triangles in well under a second.
+    Reads ``v``, ``vt``, ``vn`` and ``f`` records (``f`` corners ``i``,
+    ``i/t``, ``i//n`` or ``i/t/n``, negative indices counting back from the
+    last record of their kind); polygons become triangle fans.  Where the
+    faces give texture or normal indices, each distinct (v, vt, vn) triple
+    becomes a vertex (:mod:`mcocl.render.obj_vertices`); groups and materials
+    are ignored.  The parsing is vectorised (:mod:`mcocl.render.obj_reader`):
+    10^6 triangles in well under a second.
 
     Raises:
         InputError: the file is missing or malformed; the message names the
             scene key ``where`` and the OBJ line.
     """
     try:
-        data = path.read_bytes()
+        data = read_regular_file(path)
     except OSError as e:
         raise InputError(f"{where}: cannot read OBJ file {path}: {e.strerror or e}") from None
-    v, f = parse_obj(data, f"{where}: {path}")
-    check_mesh(v, f, f"{where}: {path}")
-    return v, f
+    mesh = PlyMesh(*parse_obj(data, f"{where}: {path}"))
+    _check_vertex_data(mesh, f"{where}: {path}")
+    return mesh
 
 
 def _check_vertex_data(mesh: PlyMesh, label: str) -> None:
@@ -144,7 +146,7 @@ def read_ply(path: Path, where: str) -> PlyMesh:
             scene key ``where`` and the file.
     """
     try:
-        data = path.read_bytes()
+        data = read_regular_file(path)
     except OSError as e:
         raise InputError(f"{where}: cannot read PLY file {path}: {e.strerror or e}") from None
     mesh = parse_ply(data, f"{where}: {path}")

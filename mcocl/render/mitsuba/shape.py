@@ -6,7 +6,7 @@ similarity ``to_world``), ``obj`` and ``ply`` (``filename`` relative to the
 file it is written in, confined to the scene's folder); ``to_world`` and
 ``serialized`` (with ``shape_index``: mcocl/render/serialized_reader.py);
 ``flip_normals`` on all of them, ``face_normals`` on ``obj``, ``ply`` and ``serialized``
-(PLY and serialized vertex normals shade smoothly unless it is set; OBJ normals are not read).  A shape without a BSDF
+(OBJ, PLY and serialized vertex normals shade smoothly unless it is set).  A shape without a BSDF
 gets Mitsuba's default, diffuse 0.5, or black when it emits.  Emitters:
 ``area`` inside a shape and a top-level ``constant``, each with ``radiance``
 (default 1).
@@ -44,7 +44,7 @@ def translate_radiance(node: Node, rep: Reporter, comments: list[str]) -> list[f
                         "the radiance property (default 1)", comments)
     if "radiance" not in props:
         comments.append("radiance: Mitsuba's default 1")
-    rgb = props.colour("radiance", 1.0)
+    rgb = props.colour("radiance", 1.0, "emitted")
     if np.any(rgb < 0):
         props.node("radiance").fail("radiance must be >= 0")
     rep.leftover(node, props.unread(), ("radiance",), comments)
