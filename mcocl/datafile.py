@@ -8,7 +8,9 @@ the line, so loaders need only handle the format itself.
 
 from __future__ import annotations
 
+import errno
 import json
+import stat
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -31,6 +33,20 @@ def decode_utf8(raw: bytes, where: str) -> str:
                          f"offset {e.start}); is it the right file?") from None
 
 
+def read_regular_file(path: str | Path) -> bytes:
+    """The bytes of ``path``, refusing a device, pipe or socket with an :class:`OSError`.
+
+    ``/dev/zero`` given as a scene would otherwise be read until memory runs
+    out, and a named pipe would block for ever; callers already turn an
+    ``OSError`` into an :class:`InputError` that quotes its ``strerror``.
+    """
+    p = Path(path)
+    mode = p.stat().st_mode
+    if not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):  # a folder fails in read_bytes, as before
+        raise OSError(errno.EINVAL, "not a regular file (a device, pipe or socket)", str(p))
+    return p.read_bytes()
+
+
 def read_utf8(path: str | Path, where: str) -> str:
     """The text of ``path``, which must be UTF-8 (``where`` names it in messages).
 
@@ -38,23 +54,33 @@ def read_utf8(path: str | Path, where: str) -> str:
         InputError: it cannot be read (the reason), or it is not UTF-8.
     """
     try:
-        raw = Path(path).read_bytes()
+        raw = read_regular_file(path)
     except OSError as e:
         raise InputError(f"{where}: cannot read it: {e.strerror or e}") from None
     return decode_utf8(raw, where)
 
 
 def loads_json(text: str, where: str, parse_constant: Callable[[str], Any] | None = None) -> Any:
-    """``json.loads(text)``, refusing nesting too deep for Python's recursive decoder.
+    """``json.loads(text)``, refusing nesting too deep for Python's recursive decoder and repeated keys.
 
     :class:`json.JSONDecodeError` and ``parse_constant``'s errors pass through
     (the callers word them); a :class:`RecursionError` becomes an
     :class:`InputError`.
     """
+    def unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        obj = dict(pairs)
+        if len(obj) != len(pairs):
+            seen: set[str] = set()
+            twice = next(k for k, _ in pairs if k in seen or seen.add(k))  # type: ignore[func-returns-value]
+            # json.loads would keep the last value and drop the first without a word
+            raise InputError(f"{where}: the key {twice!r} appears twice in one object; a data file must say "
+                             "each thing once")
+        return obj
+
     try:
-        return json.loads(text, parse_constant=parse_constant)
+        return json.loads(text, parse_constant=parse_constant, object_pairs_hook=unique_keys)
     except RecursionError:
         raise InputError(f"{where}: the JSON is nested too deeply to be a data file") from None
 
 
-__all__ = ["decode_utf8", "loads_json", "read_utf8"]
+__all__ = ["decode_utf8", "loads_json", "read_regular_file", "read_utf8"]

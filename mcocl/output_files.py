@@ -24,11 +24,23 @@ _UMASK = os.umask(0o022)
 os.umask(_UMASK)
 
 
-def check_output_file(path: str | os.PathLike[str], what: str) -> Path:
+# How each kind of output file begins.  An existing file is replaced only when
+# it is empty or an earlier output of the same kind (issue 10: ``--out
+# quad.obj`` replaced the scene's mesh; any other file of the user's could have
+# gone the same way).
+SIGNATURES = {
+    "exr": (b"v/1\x01", "an OpenEXR image"),  # OpenEXR's magic number
+    "png": (b"\x89PNG\r\n\x1a\n", "a PNG image"),  # PNG spec 5.2
+    "checkpoint": (b"PK\x03\x04", "an mcocl checkpoint"),  # a NumPy .npz archive is a zip file
+}
+
+
+def check_output_file(path: str | os.PathLike[str], what: str, kind: str | None = None) -> Path:
     """Refuse an output file that cannot be written, before any work is done.
 
     The file must not be a folder, its folder must exist and be writable, and
-    an existing file must be writable.
+    an existing file must be writable and, when ``kind`` (a key of
+    :data:`SIGNATURES`) is given, empty or a file of that kind.
 
     Raises:
         InputError: naming ``what`` (e.g. ``--out``) and the reason.
@@ -45,6 +57,16 @@ def check_output_file(path: str | os.PathLike[str], what: str) -> Path:
         raise InputError(f"{what} {str(p)!r}: the folder {str(parent)!r} is not writable")
     if p.exists() and not p.is_file():
         raise InputError(f"{what} {str(p)!r} exists and is not a regular file")
+    if kind is not None and p.is_file():
+        magic, name = SIGNATURES[kind]
+        try:
+            with open(p, "rb") as fh:
+                head = fh.read(len(magic))
+        except OSError:
+            head = magic  # unreadable: the write itself will say why
+        if head and not head.startswith(magic):
+            raise InputError(f"{what} {str(p)!r} exists and is not {name}; mcocl replaces only its own earlier "
+                             "outputs: remove the file or choose another name")
     return p
 
 
@@ -122,4 +144,4 @@ def write_atomically(path: str | os.PathLike[str], write: Callable[[Path], None]
         raise
 
 
-__all__ = ["check_distinct", "check_output_file", "check_output_folder", "write_atomically"]
+__all__ = ["SIGNATURES", "check_distinct", "check_output_file", "check_output_folder", "write_atomically"]

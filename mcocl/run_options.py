@@ -107,7 +107,7 @@ class RunOptions:
         put("lanes", check_lanes(self.lanes))
         put("checkpoint", file_path("checkpoint", self.checkpoint))
         if self.checkpoint is not None:  # before any work: a run must not end in "cannot write"
-            check_output_file(self.checkpoint, "checkpoint")
+            check_output_file(self.checkpoint, "checkpoint", "checkpoint")
         put("resume", file_path("resume", self.resume))
         if not (isinstance(self.progress, bool) or callable(self.progress)):
             raise InputError(f"progress must be True, False or a callable, got {self.progress!r}")

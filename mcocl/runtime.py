@@ -443,7 +443,7 @@ def build(
         warnings.simplefilter("ignore", cl.CompilerWarning)
         heartbeat.beat("build")  # a supervisor does not count compile time against --time
         try:
-            prg = cl.Program(ctx.context, source).build(options=list(opts))
+            prg = _compile_with_large_stack(ctx.context, source, list(opts))
         except cl.RuntimeError as e:
             problem = cache_problem(ctx.device.platform.name)
             if problem:  # every build fails then: not the user's code
@@ -464,6 +464,39 @@ def build(
     with _programs_lock:
         _programs[key] = prg
     return prg
+
+
+# Stack of the thread that compiles.  Clang recurses once per operand of a long
+# expression: an 18,000-term sum overflowed the 8 MiB stack of the main thread
+# and killed the process with SIGSEGV (issue 10); with this much it compiles.
+# Only address space is reserved; pages are touched as deep as the recursion goes.
+BUILD_STACK_BYTES = 1 << 30
+
+
+def _compile_with_large_stack(context: cl.Context, source: str, options: list[str]) -> cl.Program:
+    """``cl.Program(context, source).build(options)`` on a thread with BUILD_STACK_BYTES of stack."""
+    result: dict[str, object] = {}
+
+    def work() -> None:
+        try:
+            result["program"] = cl.Program(context, source).build(options=options)
+        except BaseException as e:  # noqa: BLE001 - re-raised in the calling thread
+            result["error"] = e
+
+    try:
+        old = threading.stack_size(BUILD_STACK_BYTES)
+    except (ValueError, RuntimeError):  # a platform without settable stacks: build in place
+        work()
+    else:
+        try:
+            thread = threading.Thread(target=work, name="mcocl-build", daemon=True)
+            thread.start()
+        finally:
+            threading.stack_size(old)
+        thread.join()
+    if "error" in result:
+        raise result["error"]  # type: ignore[misc]
+    return result["program"]  # type: ignore[return-value]
 
 
 # An option that changes PoCL's cache key and nothing else: a program whose

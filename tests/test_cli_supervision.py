@@ -55,3 +55,119 @@ def test_sigterm_stops_like_ctrl_c_and_keeps_the_result(tmp_path) -> None:
     out, err = p.communicate(timeout=60)
     assert p.returncode == 130, (out, err)
     assert "estimate" in out and "interrupt" in (out + err) and "Traceback" not in err
+
+
+def _fake_child(tmp_path, monkeypatch, build_seconds: float):
+    """Make the supervisor's child a script that starts a build, runs ``build_seconds``, then dies of
+    SIGSEGV (what clang did on an 18,000-term expression); each start is counted in ``runs``."""
+    from mcocl.cli import supervise
+
+    runs = tmp_path / "runs"
+    script = tmp_path / "child.sh"
+    script.write_text(f"#!{sys.executable}\nimport os, signal, time\nopen({str(runs)!r}, 'a').write('run\\n')\n"
+                      "os.write(int(os.environ['MCOCL_HEARTBEAT_FD']), b'build\\n')\n"
+                      f"time.sleep({build_seconds})\nos.kill(os.getpid(), signal.SIGSEGV)\n")
+    script.chmod(0o755)
+    monkeypatch.setattr(supervise.sys, "executable", str(script))
+    return supervise, runs
+
+
+def test_a_compiler_crash_is_named_and_not_rerun(tmp_path, monkeypatch, capsys) -> None:
+    supervise, runs = _fake_child(tmp_path, monkeypatch, 0.6)
+    monkeypatch.setattr(supervise, "CACHE_LOAD_SECONDS", 0.3)  # the build ran past a cache lookup
+    t0 = time.monotonic()
+    assert supervise.run(["integrate", "x[0]"], "integrate", None) == 2
+    err = capsys.readouterr().err
+    assert "the compiler crashed while building the integrand (SIGSEGV)" in err and err.count("\n") == 1
+    assert runs.read_text().count("run") == 1  # not rerun: a second compile would only crash again
+    assert time.monotonic() - t0 < 0.6 + 5
+
+
+def test_a_quick_crash_in_a_build_is_rerun_once_with_a_fresh_cache(tmp_path, monkeypatch, capsys) -> None:
+    supervise, runs = _fake_child(tmp_path, monkeypatch, 0.0)  # as quick as a cache lookup: maybe a bad entry
+    assert supervise.run(["integrate", "x[0]"], "integrate", None) == 2
+    err = capsys.readouterr().err
+    assert runs.read_text().count("run") == 2
+    assert "the compiler crashed while building the integrand (SIGSEGV)" in err and "kernel cache" in err
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="prctl(PR_SET_PDEATHSIG) is Linux's")
+def test_the_child_dies_with_a_killed_supervisor() -> None:
+    """kill -9 of mcocl used to leave its child (in its own session) looping for ever."""
+    from pathlib import Path
+
+    p = _mcocl("integrate", "float s = 0; for (;;) { s += 1; } return s;", "--samples", "1e6")
+    children = _children_of(p.pid)
+    assert children, "the supervised child never started"
+    p.kill()
+    p.communicate(timeout=30)
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and Path(f"/proc/{children[0]}").exists() \
+            and Path(f"/proc/{children[0]}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z":
+        time.sleep(0.1)
+    gone = not Path(f"/proc/{children[0]}").exists() or \
+        Path(f"/proc/{children[0]}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    if not gone:
+        os.kill(children[0], signal.SIGKILL)
+    assert gone, "the child outlived its killed supervisor"
+
+
+def test_a_tiny_time_budget_still_gets_its_first_block() -> None:
+    """--time 1e-9 computes one block (the API's promise); the supervisor used to kill such a run when
+    Python's start-up on a busy machine used up budget + GRACE before that block was done."""
+    p = _mcocl("integrate", "exp(-x[0]*x[0])", "--samples", "1e12", "--time", "1e-9", "--json", "--quiet")
+    out, err = p.communicate(timeout=120)
+    assert p.returncode == 0, err
+    assert '"samples"' in out and "Traceback" not in err
+
+
+def _children_of(pid: int) -> list[int]:
+    """The pids whose parent is ``pid``, waiting up to a minute for one to appear (Linux /proc)."""
+    from pathlib import Path
+
+    children: list[int] = []
+    deadline = time.monotonic() + 60
+    while not children and time.monotonic() < deadline:
+        time.sleep(0.2)
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid:  # field 4 of stat: the parent's pid
+                children.append(int(stat.parent.name))
+    return children
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="finds the child through /proc")
+def test_a_second_ctrl_c_ends_a_stuck_run_soon() -> None:
+    """Two Ctrl-Cs on an endless loop waited STOP_WAIT (10 s) after the second; now URGENT_STOP_WAIT."""
+    from mcocl.cli.supervise import STOP_WAIT, URGENT_STOP_WAIT
+
+    p = _mcocl("integrate", "float s = 0; for (;;) { s += 1; } return s;", "--samples", "1e6")
+    assert _children_of(p.pid)
+    time.sleep(6.0)  # the child has imported and compiled, and is stuck in the loop
+    p.send_signal(signal.SIGINT)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    t0 = time.monotonic()
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert "Traceback" not in err
+    if "interrupted" not in err:  # not still setting up when asked: stuck in the loop, and killed
+        assert "did not stop within 5 s" in err
+    assert time.monotonic() - t0 < (URGENT_STOP_WAIT + STOP_WAIT) / 2 + 2.5
+
+
+def test_ctrl_c_twice_in_quick_succession_never_kills_the_supervisor() -> None:
+    """The child may end after the first Ctrl-C; the second then reached the supervisor with its
+    default handler back in place: exit -2 instead of 130."""
+    p = _mcocl("integrate", "exp(-x[0])", "--samples", "1e14")
+    assert _children_of(p.pid)
+    for _ in range(2):
+        p.send_signal(signal.SIGINT)
+        time.sleep(0.3)
+    out, err = p.communicate(timeout=60)
+    # -2: the second Ctrl-C came as the interpreter shut down, after the message; a shell shows 130 for both
+    assert p.returncode in (130, -signal.SIGINT), err
+    assert "Traceback" not in err and ("interrupted" in err or "stopped" in err or "estimate" in out), (out, err)

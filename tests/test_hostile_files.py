@@ -115,3 +115,64 @@ def test_scene_mesh_that_is_not_a_mesh_is_refused(tmp_path):
     (tmp_path / "bin.obj").write_bytes(b"v 0 0 0\n\xff\xfe\x00binary")
     with pytest.raises(InputError, match=r"bin\.obj: not UTF-8 text \(byte 0xff at line 2"):
         load_scene(_scene(tmp_path, "bin.obj"))
+
+
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/null"])
+def test_a_device_given_as_a_data_file_is_refused(device, tmp_path):
+    """/dev/zero as a scene or mesh was read until memory ran out (4.5 GB and rising); a device,
+    pipe or socket is now refused as not a regular file."""
+    from mcocl.bench.problems import load_problem_file
+    from mcocl.render.scene_file import load_scene
+
+    with pytest.raises(InputError, match="not a regular file"):
+        load_scene(device)
+    with pytest.raises(InputError, match="not a regular file"):
+        load_problem_file(device)
+    (tmp_path / "m.obj").symlink_to(device)
+    with pytest.raises(InputError, match=r"shapes\[0\]\.obj: .*not a regular file"):
+        load_scene(_scene(tmp_path, "m.obj"), mesh_folder="/dev")
+
+
+def test_repeated_keys_in_a_data_file_are_refused(tmp_path):
+    """json.loads keeps the last of two equal keys and drops the first without a word."""
+    from mcocl.render.scene_file import load_scene
+
+    p = tmp_path / "s.json"
+    text = json.dumps(SCENE)
+    p.write_text(text[:-1] + ', "materials": {"w": {"type": "diffuse", "reflectance": 0.9}}}')
+    with pytest.raises(InputError, match=r"s\.json: the key 'materials' appears twice"):
+        load_scene(p)
+    f = tmp_path / "p.json"
+    f.write_text('{"problems": [{"name": "a", "name": "b", "expression": "x[0]", "dim": 1, "exact": 0.5}]}')
+    with pytest.raises(InputError, match="the key 'name' appears twice"):
+        load_problem_file(f)
+
+
+def test_a_missing_mesh_folder_is_refused(tmp_path):
+    from mcocl.render.scene_file import load_scene
+
+    with pytest.raises(InputError, match=r"mesh_folder \(--mesh-folder\): .*nothere is not a folder"):
+        load_scene(_scene(tmp_path, "quad.obj"), mesh_folder=tmp_path / "nothere")
+
+
+def test_an_absurdly_long_snippet_is_refused_before_compiling():
+    import time
+
+    import mcocl
+    from mcocl.usercode import MAX_SNIPPET_CHARS
+
+    t0 = time.perf_counter()
+    with pytest.raises(InputError, match=rf"integrand: the code is [\d,]+ characters long; the limit is "
+                                         rf"{MAX_SNIPPET_CHARS:,}"):
+        mcocl.integrate("+".join(["x[0]"] * 200_000), samples=1000)
+    assert time.perf_counter() - t0 < 5  # refused, not compiled
+
+
+def test_deeply_nested_xml_is_an_input_error(tmp_path):
+    """100,000 nested elements overflowed Python's recursion in the Mitsuba readers (a traceback)."""
+    from mcocl.render.scene_file import load_scene
+
+    p = tmp_path / "deep.xml"
+    p.write_text('<?xml version="1.0"?>\n<scene version="3.0.0">' + "<a>" * 100_000 + "</a>" * 100_000 + "</scene>")
+    with pytest.raises(InputError, match=r"deep\.xml:2: elements are nested more than 200 deep"):
+        load_scene(p)

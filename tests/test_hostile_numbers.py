@@ -181,3 +181,21 @@ def test_obj_face_index_past_int64_is_an_input_error(tmp_path):
     p.write_text(json.dumps({**scene, "shapes": [mesh]}))
     with pytest.raises(InputError, match=r"shapes\[0\]\.obj"):
         load_scene(p)
+
+
+def test_bench_budget_past_a_day_is_refused(capsys):
+    with pytest.raises(SystemExit) as ei:
+        main(["bench", "--budget", "1e30", "integrate"])
+    assert ei.value.code == 2 and "at most 86400 seconds" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("exposure", [1e30, -1e30, float("nan"), float("inf"), "2", True])
+def test_png_exposure_out_of_range_is_an_input_error(exposure, tmp_path):
+    from mcocl.render.image_io import srgb_encode, write_png
+
+    with pytest.raises(InputError, match="exposure must be a finite number of stops between -64 and 64"):
+        srgb_encode(np.ones((2, 2, 3)), exposure=exposure)
+    with pytest.raises(InputError, match="exposure"):
+        write_png(tmp_path / "x.png", np.ones((2, 2, 3)), exposure)
+    assert not list(tmp_path.iterdir())
+    assert srgb_encode(np.full((1, 1, 3), 2.0**-64), exposure=64.0)[0, 0, 0] == 255

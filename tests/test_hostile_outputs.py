@@ -122,3 +122,41 @@ def test_api_checkpoint_is_checked_before_work(tmp_path):
     with pytest.raises(InputError, match="checkpoint.*is a folder"):
         mcocl.render(SCENE, spp=100000, checkpoint=str(tmp_path))
     assert time.perf_counter() - t0 < 5.0
+
+
+def test_convert_never_overwrites_its_scene(tmp_path, capsys):
+    xml = tmp_path / "s.xml"
+    xml.write_bytes((SCENE.parent / "xml" / "cornell.xml").read_bytes())
+    before = xml.read_bytes()
+    assert main(["convert", str(xml), "-o", str(xml)]) == 2
+    assert "is the scene, an input" in capsys.readouterr().err
+    assert xml.read_bytes() == before
+    assert main(["convert", str(xml), "-o", str(tmp_path / "missing" / "o.json")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.xml"]
+
+
+@pytest.mark.parametrize("option", ["--out", "--png", "--checkpoint"])
+def test_outputs_replace_only_files_of_their_own_kind(option, tmp_path, capsys):
+    """--out quad.obj replaced the scene's mesh with an image (exit 0): an existing file is now replaced
+    only when it is empty or an earlier output of the same kind (EXR, PNG, checkpoint)."""
+    mesh = tmp_path / "quad.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    args = {"--out": str(tmp_path / "a.exr"), option: str(mesh)}
+    status, seconds = _render(tmp_path, *[x for kv in args.items() for x in kv])
+    err = capsys.readouterr().err
+    assert status == 2 and "exists and is not" in err and "mcocl replaces only its own earlier outputs" in err
+    assert mesh.read_text().startswith("v 0 0 0") and seconds < 5.0
+    assert main(["integrate", "x[0]", "--samples", "1e12", "--checkpoint", str(mesh)]) == 2
+    assert "is not an mcocl checkpoint" in capsys.readouterr().err
+
+
+def test_earlier_outputs_are_replaced(tmp_path):
+    furnace = SCENE.parent / "furnace.json"
+    files = [str(tmp_path / n) for n in ("f.exr", "f.png", "f.npz")]
+    argv = ["render", str(furnace), "--spp", "1", "--quiet", "--out", files[0], "--png", files[1], "--checkpoint",
+            files[2]]
+    assert main(argv) == 0
+    (tmp_path / "empty.exr").write_bytes(b"")
+    assert main([*argv[:-6], "--out", str(tmp_path / "empty.exr")]) == 0
+    assert main(argv) == 0  # a second run replaces its own outputs

@@ -111,9 +111,18 @@ def test_resume_after_a_partial_block_names_the_problem(tmp_path) -> None:
 
 
 def test_time_budget_stops_and_reports() -> None:
-    r = mcocl.integrate(POLY, dim=3, samples=None, time_budget=0.3, seed=1)
+    from mcocl.engine.one_device import IN_FLIGHT
+
+    folds = []
+    r = mcocl.integrate(POLY, dim=3, samples=None, time_budget=0.3, seed=1, progress=folds.append)
     assert r.stopped_by == "time"
-    assert 0.2 < r.seconds < 2.0
+    assert 0.2 < r.seconds
+    # The run stops promptly, whatever the machine's load: once the budget is spent no chunk is launched,
+    # so at most the IN_FLIGHT chunks already enqueued are folded after it, and the run ends with the
+    # fold that follows them (a wall-clock bound here flaked on a loaded machine).
+    late = [p.elapsed for p in folds if p.elapsed >= 0.3]
+    assert 1 <= len(late) <= IN_FLIGHT, [p.elapsed for p in folds]
+    assert r.seconds <= late[-1] + 0.25 * (late[-1] - folds[0].elapsed) + 0.05, (r.seconds, late)
     exact = 0.25 + 0.5 / 3 - 0.5
     assert abs(r.estimate - exact) <= 5 * r.stderr
 

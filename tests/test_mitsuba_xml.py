@@ -86,18 +86,80 @@ def test_rgb_forms(tmp_path, value, rgb):
     assert read_mitsuba(p)["materials"]["m"]["reflectance"] == (rgb[0] if len(set(rgb)) == 1 else rgb)
 
 
+# What Mitsuba 3.9.1 (variant scalar_rgb) makes of <spectrum> properties, measured by loading each element
+# inside a <scene version="3.0.0"> with mitsuba.load_string and reading the texture's value from
+# mitsuba.traverse (e.g. "<bsdf type="diffuse"><spectrum name="reflectance" value="500:0.2, 600:0.8"/></bsdf>"
+# -> reflectance.value). Mitsuba stores float32, so the bound is float32 rounding plus the sum's.
+MITSUBA_SPECTRA = [
+    # (element with the property, mcocl JSON path, Mitsuba's RGB)
+    ('<bsdf type="diffuse" id="m"><spectrum name="reflectance" value="0.3"/></bsdf>',
+     ("materials", "m", "reflectance"), [0.3, 0.3, 0.3]),
+    # a reflectance is weighted by D65 (a flat one is grey up to the sum's error) and clipped to [0, 1]
+    ('<bsdf type="diffuse" id="m"><spectrum name="reflectance" value="400:0.6, 700:0.6"/></bsdf>',
+     ("materials", "m", "reflectance"), [0.5972052, 0.5998539, 0.5969455]),
+    ('<bsdf type="diffuse" id="m"><spectrum name="reflectance" value="500:0.2, 600:0.8"/></bsdf>',
+     ("materials", "m", "reflectance"), [0.2787710, 0.4713645, 0.0]),
+    ('<bsdf type="diffuse" id="m"><spectrum name="reflectance" value="400:2, 700:2"/></bsdf>',
+     ("materials", "m", "reflectance"), [1.0, 1.0, 1.0]),
+    ('<bsdf type="plastic" id="m"><spectrum name="diffuse_reflectance" value="500:0.2, 600:0.8"/></bsdf>',
+     ("materials", "m", "diffuse_reflectance"), [0.2787710, 0.4713645, 0.0]),
+    # a conductor's eta/k: weighted by D65, not clipped above 1
+    ('<bsdf type="conductor" id="m"><spectrum name="eta" value="400:2, 700:2"/>'
+     '<spectrum name="k" value="500:0.2, 600:3"/></bsdf>', ("materials", "m", "eta"), [1.9906840, 1.9995128, 1.9898182]),
+    ('<bsdf type="conductor" id="m"><spectrum name="eta" value="400:2, 700:2"/>'
+     '<spectrum name="k" value="500:0.2, 600:3"/></bsdf>', ("materials", "m", "k"), [1.1470754, 1.4490148, 0.0]),
+    # an emitted spectrum: one number is the equal-energy white, wavelength:value pairs have no D65 weight
+    ('<emitter type="constant"><spectrum name="radiance" value="0.8"/></emitter>',
+     ("environment", "radiance"), [0.9638352, 0.7586328, 0.7271329]),
+    ('<emitter type="constant"><spectrum name="radiance" value="500:0.2, 600:0.8"/></emitter>',
+     ("environment", "radiance"), [0.3151602, 0.4613314, 0.0]),
+    ('<emitter type="constant"><spectrum name="radiance" value="400:2, 700:2"/></emitter>',
+     ("environment", "radiance"), [2.3993871, 1.8990407, 1.8068867]),
+    ('<shape type="sphere"><emitter type="area"><spectrum name="radiance" value="0.8"/></emitter></shape>',
+     ("shapes", 0, "emitter", "radiance"), [0.9638352, 0.7586328, 0.7271329]),
+    ('<emitter type="point"><spectrum name="intensity" value="2"/></emitter>',
+     ("lights", 0, "intensity"), [2.4095879, 1.8965820, 1.8178321]),
+    ('<emitter type="spot"><spectrum name="intensity" value="2"/></emitter>',
+     ("lights", 0, "intensity"), [2.4095879, 1.8965820, 1.8178321]),
+    ('<emitter type="directional"><spectrum name="irradiance" value="2"/></emitter>',
+     ("lights", 0, "irradiance"), [2.4095879, 1.8965820, 1.8178321]),
+    ('<emitter type="point"><spectrum name="intensity" value="500:0.2, 600:0.8"/></emitter>',
+     ("lights", 0, "intensity"), [0.3151602, 0.4613314, 0.0]),
+    # a <float> or <rgb> radiance is grey, as is the default
+    ('<emitter type="constant"><float name="radiance" value="0.8"/></emitter>', ("environment", "radiance"),
+     [0.8, 0.8, 0.8]),
+    ('<emitter type="constant"><rgb name="radiance" value="0.8"/></emitter>', ("environment", "radiance"),
+     [0.8, 0.8, 0.8]),
+    ('<emitter type="constant"/>', ("environment", "radiance"), [1.0, 1.0, 1.0]),
+]
+
+
+@pytest.mark.parametrize("element,path,rgb", MITSUBA_SPECTRA)
+def test_spectrum_as_mitsuba_reads_it(tmp_path, element, path, rgb):
+    v = read_mitsuba(write(tmp_path, element))
+    for k in path:
+        v = v[k]
+    np.testing.assert_allclose(np.broadcast_to(v, 3), rgb, rtol=2e-6, atol=1e-7)
+
+
 def test_spectrum_constant_and_sampled(tmp_path):
     body = ('<bsdf type="diffuse" id="c"><spectrum name="reflectance" value="0.3"/></bsdf>'
             '<bsdf type="diffuse" id="flat"><spectrum name="reflectance" value="360:0.5, 830:0.5"/></bsdf>'
-            '<bsdf type="diffuse" id="flat2"><spectrum name="reflectance" value="360:1, 600:1, 830:1"/></bsdf>')
-    m = read_mitsuba(write(tmp_path, body))["materials"]
+            '<bsdf type="diffuse" id="flat2"><spectrum name="reflectance" value="360:1, 600:1, 830:1"/></bsdf>'
+            '<emitter type="constant"><spectrum name="radiance" value="0.5"/></emitter>')
+    scene = read_mitsuba(write(tmp_path, body))
+    m = scene["materials"]
     assert m["c"]["reflectance"] == 0.3
-    # CIE 1931 normalises x̄, ȳ, z̄ to equal integrals, so a flat spectrum has XYZ = (v, v, v) (equal-energy
-    # white E); its linear sRGB is v times the row sums of the XYZ -> sRGB matrix (IEC 61966-2-1).
+    # A flat reflectance is weighted by D65, whose linear sRGB is white: grey, up to Mitsuba's Riemann sum
+    # (0.1 % low; Mitsuba 3.9.1 scalar_rgb gives (0.4994926, 0.4994369, 0.4994008), measured as above).
+    np.testing.assert_allclose(m["flat"]["reflectance"], [0.4994926, 0.4994369, 0.4994008], rtol=2e-6)
+    np.testing.assert_allclose(m["flat"]["reflectance"], 0.5, rtol=2e-3)
+    np.testing.assert_allclose(m["flat2"]["reflectance"], 2 * np.array(m["flat"]["reflectance"]), rtol=1e-12)
+    # A one-number radiance is the equal-energy white E: CIE 1931 normalises x̄, ȳ, z̄ to equal integrals, so
+    # XYZ = (v, v, v), and its linear sRGB is v times the row sums of the XYZ -> sRGB matrix (IEC 61966-2-1).
     e_white = np.array([3.240479 - 1.537150 - 0.498535, -0.969256 + 1.875991 + 0.041556,
                         0.055648 - 0.204043 + 1.057311])
-    np.testing.assert_allclose(m["flat"]["reflectance"], 0.5 * e_white, rtol=2e-3)
-    np.testing.assert_allclose(m["flat2"]["reflectance"], 2 * np.array(m["flat"]["reflectance"]), rtol=1e-12)
+    np.testing.assert_allclose(scene["environment"]["radiance"], 0.5 * e_white, rtol=1e-12)
 
 
 def test_spectrum_of_a_red_band_is_red(tmp_path):

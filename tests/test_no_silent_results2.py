@@ -95,14 +95,22 @@ def test_a_wrong_row_integral_is_refused() -> None:
                              row_integral="0.08f", transition_sampler=["sqrt(u[0])", "sqrt(u[1])"])
 
 
-@pytest.mark.parametrize("kernel, row_integral", [
-    ("y[0]", "0.5f"),
-    ("0.5f*fabs(x[0]-y[0])", "0.25f*(x[0]*x[0] + (1-x[0])*(1-x[0]))"),  # a kink at y = x
-    ("0.2f*rsqrt(fabs(x[0]-y[0]))", "0.4f*(sqrt(x[0]) + sqrt(1-x[0]))"),  # an integrable singularity at y = x
+# Each with the inverse CDF of |K(x, .)| / A(x), which the sampler check requires (tests/test_walk_sampler_check.py):
+# the masses left and right of x, L and R, pick the side, then the side's CDF is inverted in closed form.
+KINK_SAMPLER = ("float L = 0.5f*x[0]*x[0], R = 0.5f*(1-x[0])*(1-x[0]); float t = u[0]*(L+R); "
+                "return t < L ? x[0] - sqrt(x[0]*x[0] - 2*t) : x[0] + sqrt(2*(t-L));")
+SINGULAR_SAMPLER = ("float L = 2*sqrt(x[0]), R = 2*sqrt(1-x[0]); float t = u[0]*(L+R); float h; "
+                    "return t < L ? (h = 0.5f*(L-t), x[0] - h*h) : (h = 0.5f*(t-L), x[0] + h*h);")
+
+
+@pytest.mark.parametrize("kernel, row_integral, sampler", [
+    ("y[0]", "0.5f", "sqrt(u[0])"),
+    ("0.5f*fabs(x[0]-y[0])", "0.25f*(x[0]*x[0] + (1-x[0])*(1-x[0]))", KINK_SAMPLER),  # a kink at y = x
+    ("0.2f*rsqrt(fabs(x[0]-y[0]))", "0.4f*(sqrt(x[0]) + sqrt(1-x[0]))", SINGULAR_SAMPLER),  # integrable singularity
 ])
-def test_a_correct_row_integral_is_accepted(kernel: str, row_integral: str) -> None:
+def test_a_correct_row_integral_is_accepted(kernel: str, row_integral: str, sampler: str) -> None:
     r = mcocl.solve_fredholm(kernel, "1.0f", at=[0.5], walks=4096, estimator="subcritical", seed=1,
-                             row_integral=row_integral, transition_sampler=["u[0]"])
+                             row_integral=row_integral, transition_sampler=[sampler])
     assert np.all(np.isfinite(r.values))
 
 

@@ -160,6 +160,47 @@ def test_thin_lens_bdpt_agrees_with_mis() -> None:
     assert_pixels_agree(a, b)
 
 
+# A scene with every emitter kind: an area light, a constant environment, point, spot and directional
+# lights, over a plane with a rough metal sphere and a glass one.
+EVERY_EMITTER = {
+    "camera": {"origin": [0, 1.5, 3], "target": [0, 0.3, 0], "up": [0, 1, 0], "fov": 60, "width": 24, "height": 16},
+    "materials": {"white": {"type": "diffuse", "reflectance": 0.6}, "metal": {"type": "roughconductor", "alpha": 0.3},
+                  "glass": {"type": "dielectric"}},
+    "shapes": [
+        {"type": "rectangle", "material": "white",
+         "transform": [{"scale": 2}, {"rotate": {"axis": [1, 0, 0], "angle": -90}}]},
+        {"type": "sphere", "material": "metal", "center": [0, 0.5, 0], "radius": 0.5},
+        {"type": "sphere", "material": "glass", "center": [0.8, 0.3, 0.5], "radius": 0.3},
+        {"type": "sphere", "material": "white", "center": [-0.9, 0.2, 0.6], "radius": 0.2,
+         "emitter": {"type": "area", "radiance": [3.0, 2.0, 1.0]}},
+    ],
+    "environment": {"type": "constant", "radiance": [0.3, 0.4, 0.5]},
+    "lights": [{"type": "point", "position": [0.3, 1.0, 1.0], "intensity": [1.0, 0.8, 0.6]},
+               {"type": "spot", "position": [-0.4, 1.3, 1.5], "target": [-0.6, 0.1, 0.0],
+                "intensity": [3.0, 4.0, 5.0], "cutoff_angle": 35.0, "beam_width": 15.0},
+               {"type": "directional", "direction": [0.3, -1.0, -0.5], "irradiance": [0.5, 0.6, 0.4]}],
+}
+
+
+@pytest.mark.parametrize("scene", ["cornell.json", "caustic.json", "every_emitter"])
+def test_lane_builds_agree_with_the_scalar_build(scene: str) -> None:
+    """Every sample draws the same numbers in every lane width (kernels/render/bdpt.cl, "Lanes"), so a
+    packet build differs from the scalar one only in the order of its float additions: a lane that
+    leaked into another's strategies, or a masked lane that splatted, would differ by far more.
+    every_emitter: lanes of one packet start at different kinds of light and end at infinity or not."""
+    if scene == "every_emitter":
+        cs = compile_scene(parse_scene(EVERY_EMITTER))
+    else:
+        sc = load_scene(SCENES / scene)
+        sc.camera.width, sc.camera.height = 24, 16
+        cs = compile_scene(sc)
+    scalar = render(cs, spp=16, integrator="bdpt", seed=5, lanes=1).mean.astype(np.float64)
+    assert scalar.max() > 0
+    for lanes in (4, 16):
+        packed = render(cs, spp=16, integrator="bdpt", seed=5, lanes=lanes).mean.astype(np.float64)
+        assert np.abs(packed - scalar).max() <= 1e-5 * scalar.max(), lanes
+
+
 # Launch splits, sub-devices and resume: tests/test_render_lt.py runs them for bdpt too (SPLATTING).
 
 

@@ -73,16 +73,25 @@
  * their contribution where they land, and lt_fold_groups divides by the
  * block's W H spp_per_block samples.
  *
- * Build: a scalar kernel (LANES 1): the subpaths' lengths differ per sample.
+ * Lanes (Veach's algorithm unchanged, laid out for SIMD as lt.cl and the
+ * path integrators): a work-item takes LANES consecutive samples of its group
+ * at once, one per lane, and every vertex array holds lane vectors.  The
+ * subpaths grow together, vertex k of every lane in one step (a lane whose
+ * subpath ended stays masked until the longest one ends), so the rays of a
+ * step are traced as one packet (trace_packet.cl) and a strategy (s, t) is
+ * evaluated for all lanes at once, masked where a lane's subpaths are too
+ * short.  Each sample draws the same numbers as in a scalar build; the
+ * splats of a packet go to the film in lane order, one strategy after the
+ * other, so the image is bit-identical for a given LANES.  Measured on PoCL
+ * (bench/bdpt_efficiency.py): LANES 16 is about 3x the paths per CPU-second
+ * of the scalar build.
+ *
  * Options: -DBDPT_MIS_BETA=1|2; -DBDPT_ONLY_S=s -DBDPT_ONLY_T=t render one
  * strategy (its MIS weight kept unless -DBDPT_UNWEIGHTED).
  */
 #define LT_NO_TRACE_KERNEL
 #include "render/lt.cl"
 
-#if LANES != 1
-#error "bdpt.cl is a scalar kernel: build it with LANES=1"
-#endif
 #ifndef BDPT_MAX_VERTICES
 #define BDPT_MAX_VERTICES 24
 #endif
@@ -90,19 +99,20 @@
 #define BDPT_MIS_BETA 2
 #endif
 
+/* One vertex of every lane's subpath (lane vectors). */
 typedef struct {
     vec3v p;              /* position (z_0: the lens point) */
     vec3v n;              /* front normal (z_0: the camera's forward axis) */
     vec3v wi;             /* unit direction toward the previous vertex of its subpath */
     vec3v beta;           /* subpath throughput up to and including the vertex's arrival */
-    float pdf_fwd;        /* area density of the vertex from its own subpath */
-    float pdf_rev;        /* area density of the vertex from the other direction */
-    float light_pdf_area; /* density of this point as y_0 (emitters only; the s = 0 strategy) */
-    int emitter;          /* emitter index, -1 if none */
-    uint mat;             /* material index */
-    int delta;            /* the vertex scattered through a delta lobe */
-    int delta_light;      /* y_0 of a point, spot or directional light (no camera subpath reaches it) */
-    int infinite;         /* a direction at infinity: y_0 of a light at infinity, or an escaped camera ray */
+    floatv pdf_fwd;       /* area density of the vertex from its own subpath */
+    floatv pdf_rev;       /* area density of the vertex from the other direction */
+    floatv light_pdf_area; /* density of this point as y_0 (emitters only; the s = 0 strategy) */
+    intv emitter;         /* emitter index, -1 if none */
+    uintv mat;            /* material index (always a valid one, also in masked lanes) */
+    intv delta;           /* the vertex scattered through a delta lobe (a lane mask) */
+    intv delta_light;     /* y_0 of a point, spot or directional light (no camera subpath reaches it) */
+    intv infinite;        /* a direction at infinity: y_0 of a light at infinity, or an escaped camera ray */
 } bdpt_vertex;
 
 /* The scene a sample sees: geometry, primitives, lights, camera and the image. */
@@ -119,43 +129,55 @@ typedef struct {
 } bdpt_scene;
 
 /* The area density at q (normal nq) of a light ray from infinity along d: the disk's 1 / (pi R^2), projected. */
-MC_INLINE float infinite_to_area(const bdpt_scene *sc, vec3v d, vec3v nq) {
-    return fabs(v3_dot(d, nq)) / (RT_PI * sc->bsphere.w * sc->bsphere.w);
+MC_INLINE floatv infinite_to_area(const bdpt_scene *sc, vec3v d, vec3v nq) {
+    return lane_abs(v3_dot(d, nq)) / (RT_PI * sc->bsphere.w * sc->bsphere.w);
 }
 
 /* The area density at point q (normal nq) of a direction of solid-angle density pdf_dir sampled at p. */
-MC_INLINE float to_area(float pdf_dir, vec3v p, vec3v q, vec3v nq) {
+MC_INLINE floatv to_area(floatv pdf_dir, vec3v p, vec3v q, vec3v nq) {
     vec3v v = v3_sub(q, p);
-    float d2 = v3_len2(v);
-    return d2 > 0.0f ? pdf_dir * fabs(v3_dot(nq, v)) / (d2 * sqrt(d2)) : 0.0f;
+    floatv d2 = v3_len2(v);
+    return lane_select((floatv)(0.0f), pdf_dir * lane_abs(v3_dot(nq, v)) / (d2 * lane_sqrt(d2)), d2 > 0.0f);
 }
 
-/* f cos(theta_out) at surface vertex v for light arriving along world direction
- * w_in (pointing away) and leaving along w_out; *pdf: the density of sampling w_out from w_in.
+/* A vertex's material and shading frame, loaded once for the evaluations of one connection. */
+typedef struct {
+    material_v m;
+    frame3v fr;
+    vec3v wi_local;
+} vertex_bsdf;
+
+MC_INLINE vertex_bsdf vertex_bsdf_of(const bdpt_scene *sc, const bdpt_vertex *v) {
+    vertex_bsdf b;
+    b.m = material_load(sc->materials, v->mat);
+    b.fr = frame_from_normal(v->n);
+    b.wi_local = frame_to_local(b.fr, v->wi);
+    return b;
+}
+
+/* f cos(theta_out) for light arriving along v->wi and leaving along world direction w_out;
+ * *pdf: the density of sampling w_out from wi.  *pdf_rev (when not null): that of sampling wi from w_out.
  * mode: TRANSPORT_RADIANCE at camera vertices, TRANSPORT_IMPORTANCE at light vertices (only
  * rough refraction tells them apart; pdfs are the same in both). */
-MC_INLINE vec3v vertex_eval(const bdpt_scene *sc, const bdpt_vertex *v, vec3v w_in, vec3v w_out, float *pdf,
-                            int mode) {
-    material_v m = material_load(sc->materials, v->mat);
-    frame3v fr = frame_from_normal(v->n);
-    return bsdf_eval_mode(&m, frame_to_local(fr, w_in), frame_to_local(fr, w_out), pdf, mode);
+MC_INLINE vec3v vertex_eval(const vertex_bsdf *b, vec3v w_out, floatv *pdf, floatv *pdf_rev, int mode) {
+    vec3v wo = frame_to_local(b->fr, w_out);
+    if (pdf_rev) bsdf_eval_mode(&b->m, wo, b->wi_local, pdf_rev, mode);
+    return bsdf_eval_mode(&b->m, b->wi_local, wo, pdf, mode);
 }
 
-MC_INLINE int vertex_connectible(const bdpt_scene *sc, const bdpt_vertex *v) {
-    material_v m = material_load(sc->materials, v->mat);
-    return bsdf_is_smooth(&m) != 0;
-}
-
-/* Whether the segment from a (normal na) to b (normal nb) is unoccluded. */
-MC_INLINE int segment_clear(const bdpt_scene *sc, vec3v a, vec3v na, vec3v b) {
+/* Whether the segments from a (normal na) to b are unoccluded, for the lanes in `active`. */
+MC_INLINE intv segment_clear(const bdpt_scene *sc, vec3v a, vec3v na, vec3v b, intv active) {
     vec3v w = v3_normalize(v3_sub(b, a));
     vec3v so = offset_origin(a, na, w);
-    float dist = sqrt(v3_len2(v3_sub(b, so)));
-    return !trace_any_v(sc->geom, so, w, dist * (1.0f - SHADOW_EPSILON), 1);
+    floatv dist = lane_sqrt(v3_len2(v3_sub(b, so)));
+    return active & !trace_any_v(sc->geom, so, w, dist * (1.0f - SHADOW_EPSILON), active);
 }
 
-/* Grow a subpath from path[n - 1] along (o, d), sampled with solid-angle density
- * pdf_dir, while it has fewer than maxv vertices; returns its vertex count.
+/* Grow the lanes' subpaths from path[n - 1] along (o, d), sampled with solid-angle density
+ * pdf_dir, for the lanes in `alive`, while they have fewer than maxv vertices; *count: each
+ * lane's vertex count (raised for the lanes that gain vertices).  Every step writes vertex n of
+ * every lane (masked lanes get finite values with a valid material), so a strategy may read
+ * vertex k < max(count) of any lane and mask the result.
  * The MIS densities (pdf_fwd, pdf_rev) and wi are functions of the vertices'
  * positions alone, as the connections compute them: a walk's ray leaves from
  * an offset origin (offset_origin), so its sampled direction differs from the
@@ -167,101 +189,94 @@ MC_INLINE int segment_clear(const bdpt_scene *sc, vec3v a, vec3v na, vec3v b) {
  * mode: TRANSPORT_RADIANCE (camera; dimensions RENDER_DIM_BSDF(k - 1) at z_k, Mitsuba's
  * roulette on max(beta) eta^2) or TRANSPORT_IMPORTANCE (light; LT_DIM_BSDF(k) at y_k,
  * roulette on max(beta) / rr_scale as lt.cl).  Roulette applies from path length rr_depth. */
-MC_INLINE int bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *path, int n, int maxv, vec3v o,
-                        vec3v d, vec3v beta, float pdf_dir, int mode, uint rr_depth, float rr_scale) {
-    float eta = 1.0f;
-    while (n < maxv) {
-        hitv h = trace_closest_v(sc->geom, o, d, 1);
-        if (!h.hit) {
-            if (mode == TRANSPORT_RADIANCE && sc->has_env) {
-                /* the camera ray escapes: a vertex at infinity in direction d */
-                bdpt_vertex *v = &path[n];
-                if (n >= 2 && !path[n - 1].delta) { /* as for a surface vertex below: prev's reverse density */
-                    float pdf_back;
-                    vertex_eval(sc, &path[n - 1], d, path[n - 1].wi, &pdf_back, mode);
-                    path[n - 2].pdf_rev = to_area(pdf_back, path[n - 1].p, path[n - 2].p, path[n - 2].n);
-                }
-                v->p = v3_add(path[n - 1].p, d);
-                v->n = v3_neg(d);
-                v->wi = v3_neg(d);
-                v->beta = beta;
-                v->pdf_fwd = pdf_dir;
-                v->pdf_rev = 0.0f;
-                v->light_pdf_area = 0.0f;
-                v->emitter = -1;
-                v->mat = 0u;
-                v->delta = 0;
-                v->delta_light = 0;
-                v->infinite = 1;
-                ++n;
-            }
-            break;
-        }
-        surface_v sf = surface_at(sc->pt, h.prim, h.t, o, d, 1);
+MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *path, intv *count, intv alive,
+                         int maxv, vec3v o, vec3v d, vec3v beta, floatv pdf_dir, int mode, uint rr_depth,
+                         floatv rr_scale) {
+    floatv eta = (floatv)(1.0f);
+    vertex_bsdf pb; /* path[n - 1]'s material, frame and geometric wi, from the step that sampled it */
+    for (int n = 1; n < maxv && lane_any(alive); ) {
+        hitv h = trace_closest_v(sc->geom, o, d, alive);
+        intv hit = alive & h.hit;
+        /* a camera ray that escapes into an environment: a vertex at infinity in direction d */
+        const intv esc = mode == TRANSPORT_RADIANCE && sc->has_env ? alive & !h.hit : (intv)(0);
+        surface_v sf = surface_at(sc->pt, h.prim, h.t, o, d, hit);
         bdpt_vertex *v = &path[n];
         bdpt_vertex *prev = &path[n - 1];
         v->p = sf.p;
         v->n = sf.n;
         vec3v back = v3_sub(prev->p, sf.p);
-        v->wi = v3_len2(back) > 0.0f ? v3_normalize(back) : v3_neg(d);
+        v->wi = v3_select(v3_neg(d), v3_normalize(back), hit & (v3_len2(back) > 0.0f));
         v->beta = beta;
         /* prev's density of the direction toward v: the camera's rays leave the lens point itself (pdf_dir),
          * an area emitter's by its cosine, a surface's by its BSDF given its own geometric wi; a point or
          * spot light's ray leaves the light's position itself (pdf_dir), an infinite light's a disk
          * (infinite_to_area) */
-        float pdf_geo = pdf_dir;
-        if (n >= 2 && prev->delta) {
-            pdf_geo = 0.0f;
-        } else if (n >= 2) {
-            float pdf_back;
-            bdpt_vertex *pp = &path[n - 2];
-            vertex_eval(sc, prev, prev->wi, v3_neg(v->wi), &pdf_geo, mode);
-            vertex_eval(sc, prev, v3_neg(v->wi), prev->wi, &pdf_back, mode);
-            pp->pdf_rev = pp->infinite ? pdf_back : to_area(pdf_back, prev->p, pp->p, pp->n);
-        } else if (mode == TRANSPORT_IMPORTANCE && !prev->delta_light && !prev->infinite) {
-            pdf_geo = emitter_pdf_solid_angle(prev->n, v3_neg(v->wi));
+        floatv pdf_geo = pdf_dir;
+        if (n >= 2) {
+            floatv pdf_back;
+            vertex_eval(&pb, v3_neg(v->wi), &pdf_geo, &pdf_back, mode);
+            pdf_geo = lane_select(pdf_geo, (floatv)(0.0f), prev->delta);
+            bdpt_vertex *pprev = &path[n - 2];
+            /* y_0 at infinity keeps a solid-angle density */
+            floatv rev = lane_select(to_area(pdf_back, prev->p, pprev->p, pprev->n), pdf_back, pprev->infinite);
+            pprev->pdf_rev = lane_select(pprev->pdf_rev, rev, (hit | esc) & !prev->delta);
+        } else if (mode == TRANSPORT_IMPORTANCE) {
+            pdf_geo = lane_select(emitter_pdf_solid_angle(prev->n, v3_neg(v->wi)), pdf_dir,
+                                  prev->delta_light | prev->infinite);
         }
-        v->pdf_fwd = prev->infinite ? infinite_to_area(sc, d, sf.n) : to_area(pdf_geo, prev->p, sf.p, sf.n);
-        v->pdf_rev = 0.0f;
+        v->pdf_fwd = to_area(pdf_geo, prev->p, sf.p, sf.n);
+        if (n == 1 && mode == TRANSPORT_IMPORTANCE)
+            v->pdf_fwd = lane_select(v->pdf_fwd, infinite_to_area(sc, d, sf.n), prev->infinite);
+        v->pdf_rev = (floatv)(0.0f);
         v->emitter = sf.emitter;
-        v->light_pdf_area = sf.emitter >= 0 ? sf.pmf * (1.0f - sc->lt->env_pmf) / sf.area : 0.0f;
+        v->light_pdf_area = lane_select((floatv)(0.0f), sf.pmf * (1.0f - sc->lt->env_pmf) / sf.area, sf.emitter >= 0);
         v->mat = sf.mat;
-        v->delta = 0;
-        v->delta_light = 0;
-        v->infinite = 0;
+        v->delta = (intv)(0);
+        v->delta_light = (intv)(0);
+        v->infinite = esc;
+        if (lane_any(esc)) {
+            /* pdf_dir: the solid-angle density of d from prev (its BSDF sample, or the camera's) */
+            v->p = v3_select(v->p, v3_add(prev->p, d), esc);
+            v->n = v3_select(v->n, v3_neg(d), esc);
+            v->pdf_fwd = lane_select(v->pdf_fwd, pdf_dir, esc);
+            v->light_pdf_area = lane_select(v->light_pdf_area, (floatv)(0.0f), esc);
+            v->emitter = lane_select(v->emitter, (intv)(-1), esc);
+            v->mat = lane_select(v->mat, (uintv)(0u), esc);
+        }
         ++n;
-        if (n >= maxv) break;
-        material_v m = material_load(sc->materials, sf.mat);
-        frame3v fr = frame_from_normal(sf.n);
-        vec3v wi = frame_to_local(fr, v->wi);
-        float ub[4]; /* lobe, direction 2D, roulette */
-        sampler_seek(smp, mode == TRANSPORT_RADIANCE ? RENDER_DIM_BSDF((uint)(n - 2)) : LT_DIM_BSDF((uint)(n - 1)));
+        *count = lane_select(*count, (intv)(n), hit | esc);
+        alive = hit;
+        if (n >= maxv || !lane_any(alive)) break;
+        pb = vertex_bsdf_of(sc, v);
+        floatv ub[4]; /* lobe, direction 2D, roulette */
+        sampler_seek(smp, (uintv)(mode == TRANSPORT_RADIANCE ? RENDER_DIM_BSDF((uint)(n - 2))
+                                                              : LT_DIM_BSDF((uint)(n - 1))));
         sampler_next_nd(smp, 4, ub);
-        bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2], mode);
-        if (!(v3_maxc(bs.weight) > 0.0f) || !(bs.pdf > 0.0f)) break;
-        if (bs.delta) v->delta = 1;
+        bsdf_sample_v bs = bsdf_sample(&pb.m, pb.wi_local, ub[0], ub[1], ub[2], mode);
+        intv ok = alive & (v3_maxc(bs.weight) > 0.0f) & (bs.pdf > 0.0f);
+        v->delta = ok & bs.delta;
         beta = v3_mul(beta, bs.weight);
         eta *= bs.eta;
         /* the solid-angle density of d, for a vertex at infinity should the ray escape */
-        pdf_dir = bs.delta ? 0.0f : bs.pdf;
-        vec3v wo = frame_to_world(fr, bs.wo);
+        pdf_dir = lane_select(bs.pdf, (floatv)(0.0f), bs.delta);
+        vec3v wo = frame_to_world(pb.fr, bs.wo);
         o = offset_origin(sf.p, sf.n, wo);
         d = wo;
         /* roulette as integrator.cl (camera: from depth rr_depth of the vertex after z_k, i.e. k + 1)
          * and lt.cl (light: from light vertex rr_depth) */
         if ((uint)(mode == TRANSPORT_RADIANCE ? n - 1 : n) >= rr_depth) {
-            float q = mode == TRANSPORT_RADIANCE ? fmin(v3_maxc(beta) * eta * eta, 0.95f)
-                                                 : fmin(v3_maxc(beta) / rr_scale, 0.95f);
-            if (!(ub[3] < q)) break;
+            floatv q = mode == TRANSPORT_RADIANCE ? lane_min(v3_maxc(beta) * eta * eta, (floatv)(0.95f))
+                                                  : lane_min(v3_maxc(beta) / rr_scale, (floatv)(0.95f));
+            ok = ok & (ub[3] < q);
             beta = v3_scale(beta, 1.0f / q);
         }
+        alive = ok;
     }
-    return n;
 }
 
 /* (pdf_rev / pdf_fwd)^beta with zero densities (delta vertices) counted as 1. */
-MC_INLINE float mis_ratio(float rev, float fwd) {
-    float r = (rev != 0.0f ? rev : 1.0f) / (fwd != 0.0f ? fwd : 1.0f);
+MC_INLINE floatv mis_ratio(floatv rev, floatv fwd) {
+    floatv r = lane_select((floatv)(1.0f), rev, rev != 0.0f) / lane_select((floatv)(1.0f), fwd, fwd != 0.0f);
 #if BDPT_MIS_BETA == 2
     return r * r;
 #else
@@ -272,24 +287,24 @@ MC_INLINE float mis_ratio(float rev, float fwd) {
 /* The MIS weight of strategy (s, t), the connection's reverse densities
  * already in place; nl_cap, nc_cap: the most light and camera vertices a
  * strategy of this render may use. */
-MC_INLINE float bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *cam, int s, int t, int nl_cap,
-                                int nc_cap) {
-    float sum = 0.0f, r = 1.0f;
+MC_INLINE floatv bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *cam, int s, int t, int nl_cap,
+                                 int nc_cap) {
+    floatv sum = (floatv)(0.0f), r = (floatv)(1.0f);
     /* (1, 1) is no strategy for a light at infinity */
-    const int no_11 = s + t == 2 && (s > 0 ? light[0].infinite : cam[t - 1].infinite);
+    const intv no_11 = s + t == 2 ? (s > 0 ? light[0].infinite : cam[t - 1].infinite) : (intv)(0);
     /* strategies (s + t - i, i): the camera vertex z_i is taken by the light subpath instead */
     for (int i = t - 1; i > 0; --i) {
         if (s + t - i > nl_cap) break;
         r *= mis_ratio(cam[i].pdf_rev, cam[i].pdf_fwd);
-        if (!cam[i].delta && !cam[i - 1].delta && !(i == 1 && no_11)) sum += r;
+        sum += lane_select(r, (floatv)(0.0f), cam[i].delta | cam[i - 1].delta | (i == 1 ? no_11 : (intv)(0)));
     }
-    r = 1.0f;
+    r = (floatv)(1.0f);
     /* strategies (i, s + t - i): the light vertex y_i is taken by the camera subpath instead */
     for (int i = s - 1; i >= 0; --i) {
         if (s + t - i > nc_cap) break;
         r *= mis_ratio(light[i].pdf_rev, light[i].pdf_fwd);
-        int delta_before = i > 0 ? light[i - 1].delta : light[0].delta_light;
-        if (!light[i].delta && !delta_before) sum += r;
+        intv delta_before = i > 0 ? light[i - 1].delta : light[0].delta_light;
+        sum += lane_select(r, (floatv)(0.0f), light[i].delta | delta_before);
     }
     return 1.0f / (1.0f + sum);
 }
@@ -297,171 +312,196 @@ MC_INLINE float bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *cam
 /* bdpt_mis_weight for a path that strategy (s, t) joined at cam[t - 1] and light[s - 1]: the path scatters
  * there by the connection's smooth lobe, whatever lobe the walk went on with (a plastic's delta coat), so
  * the two endpoints count as non-delta (pbrt-v3's MISWeight does the same). */
-MC_INLINE float bdpt_connection_weight(bdpt_vertex *light, bdpt_vertex *cam, int s, int t, int nl_cap, int nc_cap) {
-    int dz = cam[t - 1].delta, dy = s > 0 ? light[s - 1].delta : 0;
-    cam[t - 1].delta = 0;
-    if (s > 0) light[s - 1].delta = 0;
-    float w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+MC_INLINE floatv bdpt_connection_weight(bdpt_vertex *light, bdpt_vertex *cam, int s, int t, int nl_cap,
+                                        int nc_cap) {
+    intv dz = cam[t - 1].delta, dy = s > 0 ? light[s - 1].delta : (intv)(0);
+    cam[t - 1].delta = (intv)(0);
+    if (s > 0) light[s - 1].delta = (intv)(0);
+    floatv w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
     cam[t - 1].delta = dz;
     if (s > 0) light[s - 1].delta = dy;
     return w;
 }
 
-/* Strategy (s, t) with t >= 2: its unweighted contribution to the sample's own pixel times
- * its weight into *w.  ul: two uniforms (the s = 1 light point's position; the emitter choice
- * takes two more, ue). */
+/* Strategy (s, t) with t >= 2 for the lanes in `active`: its unweighted contribution to the
+ * sample's own pixel, zero where a lane has none, times its weight into *w.  ue: the s = 1 light
+ * point's four uniforms (emitter choice and position).  zb: camera vertex z_{t-1}'s material
+ * and frame. */
 MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, int t,
-                             const float *ue, int nl_cap, int nc_cap, float *w) {
+                             const floatv *ue, const vertex_bsdf *zb, intv active, int nl_cap, int nc_cap,
+                             floatv *w) {
     vec3v zero = v3s(0.0f);
-    *w = 0.0f;
+    *w = (floatv)(0.0f);
     bdpt_vertex *pt = &cam[t - 1], *ptm = &cam[t - 2];
-    float save_pt = pt->pdf_rev, save_ptm = ptm->pdf_rev;
-    vec3v c = zero;
-    if (s == 0 && pt->infinite) {
-        /* an escaped camera ray: the environment along it */
-        vec3v dir = v3_neg(pt->wi);
-        c = v3_mul(pt->beta, environment_radiance(sc->lt, dir, 1));
-        pt->pdf_rev = sc->lt->env_pmf * environment_pdf(sc->lt, dir, 1);
-        ptm->pdf_rev = infinite_to_area(sc, dir, ptm->n);
-        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
-    } else if (s == 0) {
-        if (pt->emitter < 0 || !(v3_dot(pt->n, pt->wi) > 0.0f)) return zero;
-        c = v3_mul(pt->beta, emitter_radiance_of(sc->lt, pt->emitter));
+    floatv save_pt = pt->pdf_rev, save_ptm = ptm->pdf_rev;
+    vec3v c;
+    intv ok;
+    if (s == 0) {
+        /* z_{t-1} on an area emitter, or at infinity (an escaped camera ray: the environment along it) */
+        const intv inf = active & pt->infinite;
+        ok = active & !pt->infinite & (pt->emitter >= 0) & (v3_dot(pt->n, pt->wi) > 0.0f);
+        if (!lane_any(ok | inf)) return zero;
+        c = v3_mul(pt->beta, emitter_radiance_of(sc->lt, lane_select((intv)(-1), pt->emitter, ok)));
         pt->pdf_rev = pt->light_pdf_area;
         ptm->pdf_rev = to_area(emitter_pdf_solid_angle(pt->n, pt->wi), pt->p, ptm->p, ptm->n);
-        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
+        if (lane_any(inf)) {
+            vec3v dir = v3_neg(pt->wi);
+            c = v3_select(c, v3_mul(pt->beta, environment_radiance(sc->lt, dir, inf)), inf);
+            pt->pdf_rev = lane_select(pt->pdf_rev, sc->lt->env_pmf * environment_pdf(sc->lt, dir, inf), inf);
+            ptm->pdf_rev = lane_select(ptm->pdf_rev, infinite_to_area(sc, dir, ptm->n), inf);
+            ok = ok | inf;
+        }
+        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap), ok);
     } else if (s == 1) {
-        if (!vertex_connectible(sc, pt)) return zero;
-        float u6[6] = {ue[0], ue[1], ue[2], ue[3], 0.5f, 0.5f};
-        emitter_ray_v er = sample_emitter_ray(sc->lt, sc->bsphere, u6, 1);
-        if (er.infinite) {
-            /* a light at infinity seen from z_{t-1} (lights.cl: the same choice and direction) */
-            light_sample_v ls = sample_light(sc->lt, sc->pt, pt->p, ue[0], ue[1], ue[2], ue[3], 1);
-            if (!ls.valid) return zero;
-            float pz;
-            vec3v fz = vertex_eval(sc, pt, pt->wi, ls.wo, &pz, TRANSPORT_RADIANCE);
-            c = v3_scale(v3_mul(v3_mul(pt->beta, fz), ls.radiance), 1.0f / ls.pdf);
-            if (!(v3_maxc(c) > 0.0f)) return zero;
-            if (trace_any_v(sc->geom, offset_origin(pt->p, pt->n, ls.wo), ls.wo, (floatv)(INFINITY), 1)) return zero;
-            bdpt_vertex y0 = light[0];
-            light[0].p = v3_add(pt->p, ls.wo);
-            light[0].n = v3_neg(ls.wo);
-            light[0].delta = 0;
-            light[0].delta_light = ls.delta;
-            light[0].infinite = 1;
-            light[0].pdf_fwd = ls.pdf;
-            light[0].pdf_rev = pz;
-            pt->pdf_rev = infinite_to_area(sc, ls.wo, pt->n);
-            float pr;
-            vertex_eval(sc, pt, ls.wo, pt->wi, &pr, TRANSPORT_RADIANCE);
-            ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
-            *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
-            light[0] = y0;
-            pt->pdf_rev = save_pt;
-            ptm->pdf_rev = save_ptm;
-            return c;
+        ok = active & bsdf_is_smooth(&zb->m);
+        if (!lane_any(ok)) return zero;
+        floatv u6[6] = {ue[0], ue[1], ue[2], ue[3], (floatv)(0.5f), (floatv)(0.5f)};
+        emitter_ray_v er = sample_emitter_ray(sc->lt, sc->bsphere, u6, ok);
+        /* lanes that chose a light at infinity (env, directional) or a point or spot light see it as
+         * light sampling does (lights.cl: the same choice and direction) */
+        intv inf = ok & er.infinite, point = ok & er.valid & er.delta & !er.infinite;
+        light_sample_v ls;
+        if (lane_any(inf | point)) {
+            ls = sample_light(sc->lt, sc->pt, pt->p, ue[0], ue[1], ue[2], ue[3], inf | point);
+            inf = inf & ls.valid;
+            point = point & ls.valid;
         }
-        if (!er.valid || er.env) return zero;
+        ok = ok & er.valid & !er.infinite;
         vec3v dv = v3_sub(er.pos, pt->p);
-        float d2 = v3_len2(dv);
-        vec3v wz = v3_scale(dv, 1.0f / sqrt(d2));
-        float cos_y = -v3_dot(er.n, wz);
-        float pz;
-        vec3v fz;
-        if (er.delta) {
-            /* the same light, seen from z_{t-1} (lights.cl): intensity times falloff / d^2, probability
-             * er.pdf_area; the density of the direction toward z_{t-1} is the light's emission density
-             * (uniform on the sphere or the cone: er's, whatever direction it drew) */
-            light_sample_v ls = sample_light(sc->lt, sc->pt, pt->p, ue[0], ue[1], ue[2], ue[3], 1);
-            if (!ls.valid || !(d2 > 0.0f)) return zero;
-            fz = vertex_eval(sc, pt, pt->wi, wz, &pz, TRANSPORT_RADIANCE);
-            c = v3_scale(v3_mul(v3_mul(pt->beta, fz), ls.radiance), 1.0f / er.pdf_area);
-            cos_y = 1.0f;
-        } else {
-            if (!(cos_y > 0.0f) || !(d2 > 0.0f)) return zero;
-            fz = vertex_eval(sc, pt, pt->wi, wz, &pz, TRANSPORT_RADIANCE);
-            c = v3_scale(v3_mul(v3_mul(pt->beta, fz), er.radiance), cos_y / (d2 * er.pdf_area));
+        floatv d2 = v3_len2(dv);
+        vec3v wz = v3_scale(dv, lane_rsqrt(d2));
+        floatv cos_y = -v3_dot(er.n, wz);
+        ok = (ok & !er.delta & (cos_y > 0.0f) & (d2 > 0.0f)) | (point & (d2 > 0.0f));
+        const int special = lane_any(inf | point);
+        floatv pz, pr;
+        vec3v fz = vertex_eval(zb, special ? v3_select(wz, ls.wo, inf) : wz, &pz, &pr, TRANSPORT_RADIANCE);
+        c = v3_scale(v3_mul(v3_mul(pt->beta, fz), er.radiance), cos_y / (d2 * er.pdf_area));
+        if (special) {
+            /* a point or spot light: intensity times falloff / d^2, probability er.pdf_area; at infinity:
+             * radiance over the solid-angle pdf (a directional light's: its choice probability) */
+            vec3v fl = v3_mul(v3_mul(pt->beta, fz), ls.radiance);
+            c = v3_select(c, v3_scale(fl, 1.0f / er.pdf_area), point);
+            c = v3_select(c, v3_scale(fl, 1.0f / ls.pdf), inf);
+            ok = ok | inf;
         }
-        if (!(v3_maxc(c) > 0.0f) || !segment_clear(sc, pt->p, pt->n, er.pos)) return zero;
+        ok = ok & (v3_maxc(c) > 0.0f);
+        if (!lane_any(ok)) return zero;
+        if (special) {
+            const intv at_inf = ok & inf;
+            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok & !inf);
+            if (lane_any(at_inf))
+                ok = ok | (at_inf & !trace_any_v(sc->geom, offset_origin(pt->p, pt->n, ls.wo), ls.wo,
+                                                 (floatv)(INFINITY), at_inf));
+        } else {
+            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok);
+        }
+        if (!lane_any(ok)) return zero;
         bdpt_vertex y0 = light[0];
         light[0].p = er.pos;
         light[0].n = er.n;
-        light[0].delta = 0;
+        light[0].delta = (intv)(0);
         light[0].delta_light = er.delta;
-        light[0].infinite = 0;
+        light[0].infinite = (intv)(0);
         light[0].pdf_fwd = er.pdf_area;
         light[0].pdf_rev = to_area(pz, pt->p, er.pos, er.n);
-        pt->pdf_rev = to_area(er.delta ? er.pdf_solid_angle : cos_y * RT_INV_PI, er.pos, pt->p, pt->n);
-        float pr;
-        vertex_eval(sc, pt, wz, pt->wi, &pr, TRANSPORT_RADIANCE);
+        /* the density of the direction toward z_{t-1}: an area light's cosine, a point or spot light's
+         * emission density (uniform on the sphere or the cone: er's, whatever direction it drew) */
+        pt->pdf_rev = to_area(lane_select(cos_y * RT_INV_PI, er.pdf_solid_angle, er.delta), er.pos, pt->p, pt->n);
+        if (special) {
+            light[0].p = v3_select(light[0].p, v3_add(pt->p, ls.wo), inf);
+            light[0].n = v3_select(light[0].n, v3_neg(ls.wo), inf);
+            light[0].delta_light = lane_select(light[0].delta_light, ls.delta, inf);
+            light[0].infinite = inf;
+            light[0].pdf_fwd = lane_select(light[0].pdf_fwd, ls.pdf, inf);
+            light[0].pdf_rev = lane_select(light[0].pdf_rev, pz, inf);
+            pt->pdf_rev = lane_select(pt->pdf_rev, infinite_to_area(sc, ls.wo, pt->n), inf);
+        }
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
-        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
+        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap), ok);
         light[0] = y0;
     } else {
         bdpt_vertex *qs = &light[s - 1], *qsm = &light[s - 2];
-        if (!vertex_connectible(sc, pt) || !vertex_connectible(sc, qs)) return zero;
+        ok = active & bsdf_is_smooth(&zb->m);
+        if (!lane_any(ok)) return zero;
+        vertex_bsdf yb = vertex_bsdf_of(sc, qs);
+        ok = ok & bsdf_is_smooth(&yb.m);
         vec3v dv = v3_sub(pt->p, qs->p);
-        float d2 = v3_len2(dv);
-        if (!(d2 > 0.0f)) return zero;
-        vec3v wy = v3_scale(dv, 1.0f / sqrt(d2)); /* from y_{s-1} toward z_{t-1} */
-        float py, pz;
-        vec3v fy = vertex_eval(sc, qs, qs->wi, wy, &py, TRANSPORT_IMPORTANCE);
-        vec3v fz = vertex_eval(sc, pt, pt->wi, v3_neg(wy), &pz, TRANSPORT_RADIANCE);
+        floatv d2 = v3_len2(dv);
+        ok = ok & (d2 > 0.0f);
+        if (!lane_any(ok)) return zero;
+        vec3v wy = v3_scale(dv, lane_rsqrt(d2)); /* from y_{s-1} toward z_{t-1} */
+        floatv py, pz, pry, prz;
+        vec3v fy = vertex_eval(&yb, wy, &py, &pry, TRANSPORT_IMPORTANCE);
+        vec3v fz = vertex_eval(zb, v3_neg(wy), &pz, &prz, TRANSPORT_RADIANCE);
         c = v3_scale(v3_mul(v3_mul(qs->beta, fy), v3_mul(fz, pt->beta)), 1.0f / d2);
-        if (!(v3_maxc(c) > 0.0f) || !segment_clear(sc, qs->p, qs->n, pt->p)) return zero;
-        float save_qs = qs->pdf_rev, save_qsm = qsm->pdf_rev;
+        ok = ok & (v3_maxc(c) > 0.0f);
+        if (!lane_any(ok)) return zero;
+        ok = segment_clear(sc, qs->p, qs->n, pt->p, ok);
+        if (!lane_any(ok)) return zero;
+        floatv save_qs = qs->pdf_rev, save_qsm = qsm->pdf_rev;
         pt->pdf_rev = to_area(py, qs->p, pt->p, pt->n);
         qs->pdf_rev = to_area(pz, pt->p, qs->p, qs->n);
-        float pr;
-        vertex_eval(sc, pt, v3_neg(wy), pt->wi, &pr, TRANSPORT_RADIANCE);
-        ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
-        vertex_eval(sc, qs, wy, qs->wi, &pr, TRANSPORT_IMPORTANCE);
-        qsm->pdf_rev = qsm->infinite ? pr : to_area(pr, qs->p, qsm->p, qsm->n);
-        *w = bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap);
+        ptm->pdf_rev = to_area(prz, pt->p, ptm->p, ptm->n);
+        qsm->pdf_rev = lane_select(to_area(pry, qs->p, qsm->p, qsm->n), pry, qsm->infinite);
+        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap), ok);
         qs->pdf_rev = save_qs;
         qsm->pdf_rev = save_qsm;
     }
     pt->pdf_rev = save_pt;
     ptm->pdf_rev = save_ptm;
-    return c;
+    return v3_select(zero, c, ok);
 }
 
-/* Strategy (s, 1): light vertex y_{s-1} seen by the camera through the lens point of (ul1, ul2).
- * Returns the splat (W H times the contribution, unweighted) and its pixel; *w its weight. */
-MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, float ul1,
-                                    float ul2, int nl_cap, int nc_cap, uint *pixel, float *w) {
+/* Strategy (s, 1) for the lanes in `active`: light vertex y_{s-1} seen by the camera through
+ * the lens point of (ul1, ul2).  Returns the splat (W H times the contribution, unweighted) and
+ * its pixel; *w its weight, zero where a lane has none. */
+MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, floatv ul1,
+                                    floatv ul2, intv active, int nl_cap, int nc_cap, uintv *pixel, floatv *w) {
     vec3v zero = v3s(0.0f);
-    *w = 0.0f;
+    *w = (floatv)(0.0f);
     bdpt_vertex *qs = &light[s - 1];
-    if (s > 1 && !vertex_connectible(sc, qs)) return zero;
-    if (s == 1 && (qs->delta_light || qs->infinite)) return zero; /* invisible, or left to (0, 2) */
-    camera_connection_v k = camera_connect(sc->camera, qs->p, ul1, ul2, sc->width, sc->height);
-    if (!k.valid) return zero;
-    vec3v f;
-    float pfwd = 0.0f;
+    vertex_bsdf yb;
+    intv ok = active;
     if (s == 1) {
-        float cos_y = v3_dot(qs->n, k.wo);
-        f = v3s(cos_y > 0.0f ? cos_y : 0.0f);
+        ok = ok & !(qs->delta_light | qs->infinite); /* invisible, or left to (0, 2) */
+        if (!lane_any(ok)) return zero;
     } else {
-        f = vertex_eval(sc, qs, qs->wi, k.wo, &pfwd, TRANSPORT_IMPORTANCE);
+        yb = vertex_bsdf_of(sc, qs);
+        ok = ok & bsdf_is_smooth(&yb.m);
+        if (!lane_any(ok)) return zero;
+    }
+    camera_connection_v k = camera_connect(sc->camera, qs->p, ul1, ul2, sc->width, sc->height);
+    ok = ok & k.valid;
+    if (!lane_any(ok)) return zero;
+    vec3v f;
+    floatv pr = (floatv)(0.0f);
+    if (s == 1) {
+        floatv cos_y = v3_dot(qs->n, k.wo);
+        f = v3s(lane_max(cos_y, (floatv)(0.0f)));
+    } else {
+        floatv pfwd;
+        f = vertex_eval(&yb, k.wo, &pfwd, &pr, TRANSPORT_IMPORTANCE);
     }
     vec3v c = v3_scale(v3_mul(qs->beta, f), sc->pixels * k.film.importance / k.pdf_solid_angle);
-    if (!(v3_maxc(c) > 0.0f) || !camera_visible(sc->geom, qs->p, qs->n, &k, 1)) return zero;
+    ok = ok & (v3_maxc(c) > 0.0f);
+    if (!lane_any(ok)) return zero;
+    ok = camera_visible(sc->geom, qs->p, qs->n, &k, ok);
+    if (!lane_any(ok)) return zero;
     *pixel = k.film.pixel;
-    float save_qs = qs->pdf_rev;
+    floatv save_qs = qs->pdf_rev;
     qs->pdf_rev = to_area(k.film.pdf_solid_angle, k.lens, qs->p, qs->n);
     if (s > 1) {
         bdpt_vertex *qsm = &light[s - 2];
-        float save_qsm = qsm->pdf_rev, pr;
-        vertex_eval(sc, qs, k.wo, qs->wi, &pr, TRANSPORT_IMPORTANCE);
-        qsm->pdf_rev = qsm->infinite ? pr : to_area(pr, qs->p, qsm->p, qsm->n);
+        floatv save_qsm = qsm->pdf_rev;
+        qsm->pdf_rev = lane_select(to_area(pr, qs->p, qsm->p, qsm->n), pr, qsm->infinite);
         *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
         qsm->pdf_rev = save_qsm;
     } else {
         *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
     }
     qs->pdf_rev = save_qs;
-    return c;
+    *w = lane_select((floatv)(0.0f), *w, ok);
+    return v3_select(zero, c, ok);
 }
 
 /* Whether strategy (s, t) is rendered (all, or the one of -DBDPT_ONLY_S / -DBDPT_ONLY_T). */
@@ -473,16 +513,17 @@ MC_INLINE int strategy_on(int s, int t) {
 #endif
 }
 
-MC_INLINE float strategy_weight(float w) {
+MC_INLINE floatv strategy_weight(floatv w) {
 #ifdef BDPT_UNWEIGHTED
-    return 1.0f;
+    return (floatv)(1.0f);
 #else
     return w;
 #endif
 }
 
 /* Samples of blocks first_block .. first_block + nblocks - 1; params.ntiles groups per block,
- * one work-item each, on the splat film of lt.cl (scratch: one group image per work-item). */
+ * one work-item each, LANES samples at a time, on the splat film of lt.cl (scratch: one group
+ * image per work-item). */
 kernel void bdpt_trace(
     SPLAT_TRACE_PARAMS)
 {
@@ -523,20 +564,22 @@ kernel void bdpt_trace(
     bdpt_vertex cam[BDPT_MAX_VERTICES];
     bdpt_vertex light[BDPT_MAX_VERTICES];
 
-    for (ulong j = 0; j < total; ++j) {
-        const ulong index = path0 + j;
-        const uint pixel = (uint)(index % npix);
+    for (ulong j = 0; j < total; j += LANES) {
+        /* the lanes holding one of the group's samples (the last packet may be partial) */
+        const intv active = LANE_IOTA < (uintv)((uint)min(total - j, (ulong)LANES));
+        const ulongv index = (ulongv)(path0 + j) + to_ulongv(LANE_IOTA);
+        const uintv pixel = to_uintv(index % (ulongv)(npix));
 
-        /* ---- the camera subpath ---- */
+        /* ---- the camera subpaths ---- */
         mc_sampler_t cs = sampler_start(seed, index, RNG_STREAM_RENDER);
-        float uc[2];
-        sampler_seek(&cs, RENDER_DIM_CAMERA);
+        floatv uc[2];
+        sampler_seek(&cs, (uintv)(RENDER_DIM_CAMERA));
         sampler_next_2d(&cs, uc);
-        uint py = pixel / width;
-        float sx = (float)(pixel - py * width) + uc[0], sy = (float)py + uc[1];
+        uintv py = pixel / width;
+        floatv sx = to_floatv(pixel - py * width) + uc[0], sy = to_floatv(py) + uc[1];
         vec3v co, cd;
         if (thin_lens) {
-            float ul[2];
+            floatv ul[2];
             sampler_next_2d(&cs, ul);
             cd = camera_ray_lens(camera, sx, sy, inv_w, inv_h, ul[0], ul[1], &co);
         } else {
@@ -547,79 +590,88 @@ kernel void bdpt_trace(
         cam[0].n = forward;
         cam[0].wi = forward;
         cam[0].beta = v3s(1.0f);
-        cam[0].pdf_fwd = 1.0f;
-        cam[0].pdf_rev = 0.0f;
-        cam[0].light_pdf_area = 0.0f;
-        cam[0].emitter = -1;
-        cam[0].mat = 0u;
-        cam[0].delta = 0;
-        cam[0].delta_light = 0;
-        cam[0].infinite = 0;
-        int nc = bdpt_walk(&sc, &cs, cam, 1, nc_cap, co, cd, v3s(1.0f), cdir.pdf_solid_angle, TRANSPORT_RADIANCE,
-                           rr_depth, 1.0f);
+        cam[0].pdf_fwd = (floatv)(1.0f);
+        cam[0].pdf_rev = (floatv)(0.0f);
+        cam[0].light_pdf_area = (floatv)(0.0f);
+        cam[0].emitter = (intv)(-1);
+        cam[0].mat = (uintv)(0u);
+        cam[0].delta = (intv)(0);
+        cam[0].delta_light = (intv)(0);
+        cam[0].infinite = (intv)(0);
+        intv nc = lane_select((intv)(0), (intv)(1), active);
+        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, co, cd, v3s(1.0f), cdir.pdf_solid_angle, TRANSPORT_RADIANCE,
+                  rr_depth, (floatv)(1.0f));
 
-        /* ---- the light subpath ---- */
+        /* ---- the light subpaths ---- */
         mc_sampler_t ls = sampler_start(seed, index, RNG_STREAM_LIGHT_TRACE);
-        float ue[8];
-        sampler_seek(&ls, LT_DIM_EMIT);
+        floatv ue[8];
+        sampler_seek(&ls, (uintv)(LT_DIM_EMIT));
         sampler_next_nd(&ls, 8, ue);
-        int nl = 0;
+        intv nl = (intv)(0);
         if (nl_cap > 0) {
-            emitter_ray_v er = sample_emitter_ray(&lt, bsphere, ue, 1);
-            if (er.valid) {
-                light[0].p = er.pos;
-                light[0].n = er.n;
-                light[0].wi = er.n;
-                light[0].beta = v3_scale(er.radiance, 1.0f / er.pdf_area);
-                light[0].pdf_fwd = er.pdf_area;
-                light[0].pdf_rev = 0.0f;
-                light[0].light_pdf_area = er.pdf_area;
-                light[0].emitter = -1;
-                light[0].mat = 0u;
-                light[0].delta = 0;
-                light[0].delta_light = er.delta;
-                light[0].infinite = er.infinite;
-                if (er.infinite) {
-                    /* a direction: its density as light sampling draws it (the disk's area density
-                     * pi R^2 taken out of pdf_area; a directional light's pdf_solid_angle is 1) */
-                    light[0].p = v3_sub(er.pos, er.d);
-                    light[0].pdf_fwd = er.pdf_area * RT_PI * bsphere.w * bsphere.w * er.pdf_solid_angle;
-                }
-                vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
-                nl = 1;
-                if (v3_maxc(b1) > 0.0f)
-                    nl = bdpt_walk(&sc, &ls, light, 1, nl_cap, offset_origin(er.pos, er.n, er.d), er.d, b1,
-                                   er.pdf_solid_angle, TRANSPORT_IMPORTANCE, rr_depth, v3_maxc(b1));
+            emitter_ray_v er = sample_emitter_ray(&lt, bsphere, ue, active);
+            const intv started = er.valid;
+            light[0].p = er.pos;
+            light[0].n = er.n;
+            light[0].wi = er.n;
+            light[0].beta = v3_scale(er.radiance, 1.0f / er.pdf_area);
+            light[0].pdf_fwd = er.pdf_area;
+            light[0].pdf_rev = (floatv)(0.0f);
+            light[0].light_pdf_area = er.pdf_area;
+            light[0].emitter = (intv)(-1);
+            light[0].mat = (uintv)(0u);
+            light[0].delta = (intv)(0);
+            light[0].delta_light = er.delta;
+            light[0].infinite = er.infinite;
+            if (lane_any(er.infinite)) {
+                /* a direction: its density as light sampling draws it (the disk's area density
+                 * pi R^2 taken out of pdf_area; a directional light's pdf_solid_angle is 1) */
+                light[0].p = v3_select(light[0].p, v3_sub(er.pos, er.d), er.infinite);
+                light[0].pdf_fwd = lane_select(light[0].pdf_fwd,
+                                               er.pdf_area * RT_PI * bsphere.w * bsphere.w * er.pdf_solid_angle,
+                                               er.infinite);
             }
+            vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
+            nl = lane_select(nl, (intv)(1), started);
+            bdpt_walk(&sc, &ls, light, &nl, started & (v3_maxc(b1) > 0.0f), nl_cap, offset_origin(er.pos, er.n, er.d),
+                      er.d, b1, er.pdf_solid_angle, TRANSPORT_IMPORTANCE, rr_depth, v3_maxc(b1));
         }
 
-        /* ---- every strategy ---- */
+        /* ---- every strategy, for all lanes at once ---- */
         vec3v L = v3s(0.0f);
-        for (int t = 1; t <= nc; ++t) {
-            for (int s = 0; s <= (t >= 2 ? max(nl, 1) : nl); ++s) {
+        for (int t = 1; lane_any(nc >= t); ++t) {
+            const intv has_t = nc >= t;
+            /* s = 1 with t >= 2 samples its own light point, so it needs no light subpath */
+            const intv ns = t >= 2 ? lane_select(nl, (intv)(1), nl < 1) : nl;
+            vertex_bsdf zb;
+            if (t >= 2) zb = vertex_bsdf_of(&sc, &cam[t - 1]);
+            for (int s = 0; lane_any(has_t & (ns >= s)); ++s) {
                 if (s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth) || !strategy_on(s, t)) continue;
-                if (s > 0 && cam[t - 1].infinite) continue; /* only (0, t) ends at infinity */
-                float w;
+                /* only (0, t) ends at infinity */
+                const intv run = has_t & (ns >= s) & (s > 0 ? !cam[t - 1].infinite : has_t);
+                floatv w;
                 if (t == 1) {
-                    float ul[2] = {ue[6], ue[7]};
+                    floatv ul[2] = {ue[6], ue[7]};
                     if (s > 1) {
-                        sampler_seek(&ls, LT_DIM_LENS((uint)(s - 1)));
+                        sampler_seek(&ls, (uintv)(LT_DIM_LENS((uint)(s - 1))));
                         sampler_next_2d(&ls, ul);
                     }
-                    uint px = 0u;
-                    vec3v c = bdpt_connect_camera(&sc, light, cam, s, ul[0], ul[1], nl_cap, nc_cap, &px, &w);
-                    if (w > 0.0f) splat(img, px, v3_scale(c, strategy_weight(w)), 1);
+                    uintv px = (uintv)(0u);
+                    vec3v c = bdpt_connect_camera(&sc, light, cam, s, ul[0], ul[1], run, nl_cap, nc_cap, &px, &w);
+                    intv got = w > 0.0f;
+                    if (lane_any(got)) splat(img, px, v3_scale(c, strategy_weight(w)), got);
                 } else {
-                    float ul[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+                    floatv ul[4] = {(floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f)};
                     if (s == 1) {
-                        sampler_seek(&cs, RENDER_DIM_LIGHT((uint)(t - 2)));
+                        sampler_seek(&cs, (uintv)(RENDER_DIM_LIGHT((uint)(t - 2))));
                         sampler_next_nd(&cs, 4, ul);
                     }
-                    vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, nl_cap, nc_cap, &w);
-                    if (w > 0.0f) L = v3_add(L, v3_scale(c, strategy_weight(w)));
+                    vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &w);
+                    L = v3_add(L, v3_select(v3s(0.0f), v3_scale(c, strategy_weight(w)), w > 0.0f));
                 }
             }
         }
-        if (!(L.x == 0.0f && L.y == 0.0f && L.z == 0.0f)) splat(img, pixel, v3_scale(L, sc.pixels), 1);
+        const intv lit = active & !((L.x == 0.0f) & (L.y == 0.0f) & (L.z == 0.0f));
+        if (lane_any(lit)) splat(img, pixel, v3_scale(L, sc.pixels), lit);
     }
 }

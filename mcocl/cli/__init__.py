@@ -13,9 +13,7 @@ import importlib
 import sys
 import warnings
 
-from ..build_output import set_build_log
 from ..errors import MCOCLError
-from . import supervise
 
 VERBOSE_HELP = "show the OpenCL compiler's build logs (as MCOCL_BUILD_LOG=1 does)"
 
@@ -68,6 +66,25 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mcocl`` console script."""
+    import signal
+
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:  # see mcocl/__init__.py: from here on, KeyboardInterrupt
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        return _run(argv)
+    except KeyboardInterrupt:
+        # Ctrl-C before the command's own handling is set up (while the
+        # sub-commands import NumPy and pyopencl): nothing ran yet, no traceback.
+        print("mcocl: interrupted", file=sys.stderr)
+        return 130
+
+
+def _run(argv: list[str] | None) -> int:
+    """Parse the command line and run the command (supervised, unless told otherwise)."""
+    # imported here, under main's Ctrl-C handling, like everything a command needs
+    from ..build_output import set_build_log
+    from . import supervise
+
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

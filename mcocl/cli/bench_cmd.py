@@ -81,10 +81,23 @@ problem file (JSON): {"problems": [{"name": ..., "expression": "<OpenCL C over x
 """
 
 
+# A day per estimator and problem: a bench of many estimators must still end in
+# a time a person waits for (issue 10: --budget 1e30 ran for ever).
+MAX_BUDGET = 86400.0
+
+
+def budget_seconds(text: str) -> float:
+    """A --budget: a positive number of seconds, at most MAX_BUDGET."""
+    v = positive(text)
+    if v > MAX_BUDGET:
+        raise argparse.ArgumentTypeError(f"expected at most {MAX_BUDGET:g} seconds (a day) per estimator, got {text!r}")
+    return v
+
+
 def _common(p: argparse.ArgumentParser, top: bool) -> None:
     """Options valid before and after the mode (a mode's copy only overrides when given)."""
     d = (lambda v: v) if top else (lambda v: argparse.SUPPRESS)
-    p.add_argument("--budget", type=positive, default=d(None), metavar="SECONDS",
+    p.add_argument("--budget", type=budget_seconds, default=d(None), metavar="SECONDS",
                    help=f"sampling seconds per estimator and problem (default {DEFAULT_BUDGET:g}; {QUICK_BUDGET:g} with --quick)")
     p.add_argument("--out", default=d(None), metavar="DIR", help=f"folder for the table, CSV, JSON and PNG files (default {DEFAULT_OUT})")
     p.add_argument("--quick", action="store_true", default=d(False), help="the quick subset, a few seconds in all")

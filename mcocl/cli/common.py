@@ -15,6 +15,7 @@ import sys
 from typing import Any
 
 from ..errors import InputError
+from ..render.image_io import EXPOSURE_LIMIT
 
 
 def count(text: str) -> int:
@@ -49,10 +50,6 @@ def finite_number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
     return v
 
-
-# Exposure stops the PNG writer takes: 2^64 scales any radiance a float32 image
-# holds to a finite value, and no useful exposure lies beyond.
-EXPOSURE_LIMIT = 64.0
 
 
 def exposure_stops(text: str) -> float:

@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, SceneSubstitutionWarning
+from ..output_files import write_atomically
+from .paths import check_files
 
 DESCRIPTION = """\
 Convert SCENE (a Mitsuba 3 or 0.6 XML file) to mcocl's JSON scene format
@@ -91,6 +93,8 @@ def run(args: argparse.Namespace) -> int:
     src = Path(args.scene)
     if src.suffix.lower() != ".xml":
         raise InputError(f"{src}: convert reads Mitsuba XML scenes (.xml)")
+    # before any work, and the scene is never overwritten (issue 10)
+    check_files([("--out", args.out)], [("the scene", args.scene)])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SceneSubstitutionWarning)
         data = read_mitsuba(src, params=dict(args.define), lenient=args.lenient)
@@ -101,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         out_dir = Path(args.out).resolve().parent
         outside = set()
         for shape in data.get("shapes", []):
-            for kind in ("obj", "ply"):
+            for kind in ("obj", "ply", "serialized"):
                 if kind in shape:
                     mesh = src.resolve().parent / shape[kind]
                     shape[kind] = Path(os.path.relpath(mesh, out_dir)).as_posix()
@@ -113,7 +117,8 @@ def run(args: argparse.Namespace) -> int:
             env["filename"] = Path(os.path.relpath(image, out_dir)).as_posix()
             if env["filename"].startswith("../"):
                 outside.add(str(image.parent))
-        Path(args.out).write_text(format_json(data) + "\n")
+        text = format_json(data) + "\n"
+        write_atomically(args.out, lambda tmp: tmp.write_text(text))
         for folder in sorted(outside):
             # a scene file reads meshes only from its own folder unless told otherwise (scene_file.load_scene)
             print(f"note: {args.out} reads meshes or images from {folder}, outside its folder: "

@@ -18,7 +18,13 @@ from ..output_files import check_distinct, check_output_file, check_output_folde
 Named = Iterable[tuple[str, "str | os.PathLike[str] | None"]]
 
 
-def check_files(outputs: Named = (), inputs: Named = (), folders: Named = (), resume: str | None = None) -> None:
+# The kind of file each output option writes (mcocl.output_files.SIGNATURES): an
+# existing file is replaced only when it is of that kind.
+OUTPUT_KINDS = {"--png": "png", "--checkpoint": "checkpoint"}
+
+
+def check_files(outputs: Named = (), inputs: Named = (), folders: Named = (), resume: str | None = None,
+                kinds: dict[str, str] | None = None) -> None:
     """Refuse unusable outputs before anything runs.
 
     Args:
@@ -28,6 +34,7 @@ def check_files(outputs: Named = (), inputs: Named = (), folders: Named = (), re
         resume: the ``--resume`` checkpoint: it must exist, and it may be the
             same file as ``--checkpoint`` (continuing a run in place), but no
             other output may overwrite it.
+        kinds: more ``option: kind`` pairs for :data:`OUTPUT_KINDS` (render's ``--out`` is an EXR).
 
     Raises:
         InputError: naming the option and the reason.
@@ -44,6 +51,9 @@ def check_files(outputs: Named = (), inputs: Named = (), folders: Named = (), re
     check_distinct(outs, ins)
     if resume is not None:
         check_distinct([(w, p) for w, p in outs if w != "--checkpoint"], [("--resume", resume)])
+    kind_of = {**OUTPUT_KINDS, **(kinds or {})}
+    for w, p in outs:  # last: "is the scene, an input" says more than "is not an OpenEXR image"
+        check_output_file(p, w, kind_of.get(w))
 
 
 __all__ = ["check_files"]

@@ -100,7 +100,8 @@ def run(args: argparse.Namespace) -> int:
     """Render, write the image(s), print a summary; 130 if Ctrl-C stopped the render."""
     out = Path(args.out) if args.out else Path(Path(args.scene).stem + ".exr")
     check_files([("--out", out), ("--png", args.png), ("--checkpoint", args.checkpoint)],
-                [("the scene", args.scene), ("--mesh-folder", args.mesh_folder)], resume=args.resume)
+                [("the scene", args.scene), ("--mesh-folder", args.mesh_folder)], resume=args.resume,
+                kinds={"--out": "exr"})
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", NonFiniteSampleWarning)
         warnings.simplefilter("always", DeviceFailureWarning)

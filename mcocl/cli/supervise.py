@@ -15,14 +15,18 @@ environment) and supervises it from here:
   stuck;
 - Ctrl-C and SIGTERM are passed on to the child, which stops and saves what it
   has (:class:`~mcocl.engine.contract.InterruptFlag`); a child that has not
-  ended ``STOP_WAIT`` seconds after the last request is killed;
+  ended ``STOP_WAIT`` seconds after the first request, or ``URGENT_STOP_WAIT``
+  seconds after the second, is killed;
 - a child killed by a signal (SIGSEGV, SIGBUS, SIGABRT, ...) is reported in
   one line with exit status 2, instead of the shell's bare "Segmentation
   fault";
 - a child that crashes after it began to compile is run once more with a
   fresh temporary PoCL kernel cache (a damaged cache entry makes PoCL abort
   or crash every run of that program); when that run succeeds, the message
-  names the cache folder as the cause.
+  names the cache folder as the cause.  A crash during a build that had run
+  longer than ``CACHE_LOAD_SECONDS`` is the compiler's own (a cache lookup is
+  quick; a long build compiles from source): it is reported as such at once,
+  since a rerun would only crash again after as long.
 
 The child runs in its own session, so a terminal's Ctrl-C reaches only this
 process, which forwards it exactly once.  ``MCOCL_SUPERVISE=0`` turns the
@@ -31,6 +35,7 @@ supervision off (the command then runs in this process, as the API does).
 
 from __future__ import annotations
 
+import ctypes
 import os
 import select
 import signal
@@ -38,7 +43,8 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 from ..heartbeat import ENV as HEARTBEAT_ENV
 from ..pocl_cache import cache_folder
@@ -49,8 +55,15 @@ SUPERVISED = frozenset({"integrate", "solve", "render", "bench"})
 GRACE = 3.0
 # Seconds a child may take to stop after Ctrl-C or SIGTERM before it is killed.
 STOP_WAIT = 10.0
+# After a second request the child only writes what it has folded: a child still
+# running this many seconds later is stuck in a kernel launch and is killed (issue 10:
+# two Ctrl-Cs on an endless loop waited the full STOP_WAIT again).
+URGENT_STOP_WAIT = 5.0
 # Exit status of a run stopped by the supervisor (as for any engine error).
 EXIT_ERROR = 2
+# A build that crashed after running this long was compiling from source, not
+# loading PoCL's cache (a cache hit takes well under a second).
+CACHE_LOAD_SECONDS = 5.0
 
 
 def wanted(argv: Sequence[str] | None, command: str | None) -> bool:
@@ -71,13 +84,54 @@ def _signal_name(num: int) -> str:
         return f"signal {num}"
 
 
-def _crash_message(command: str, signum: int) -> str:
-    what = {"integrate": "the integrand", "solve": "the kernel or source", "render": "the renderer",
+def _what(command: str) -> str:
+    return {"integrate": "the integrand", "solve": "the kernel or source", "render": "the renderer",
             "bench": "a benchmarked snippet"}.get(command, "the device code")
+
+
+@dataclass(frozen=True)
+class _Crash:
+    """A child killed by ``signum``; ``in_build``: while a build had been running ``build_seconds``."""
+
+    signum: int
+    in_build: bool
+    build_seconds: float
+
+
+def _crash_message(command: str, crash: _Crash) -> str:
+    if crash.in_build:
+        return (
+            f"mcocl {command}: error: the compiler crashed while building {_what(command)} "
+            f"({_signal_name(crash.signum)}); code this long or this deeply nested is beyond the OpenCL "
+            "compiler: shorten it or split it into several statements. If the same code compiled before, "
+            f"PoCL's kernel cache {str(cache_folder())!r} may hold a corrupt entry: delete it and run again"
+        )
     return (
-        f"mcocl {command}: error: {what} crashed the device process ({_signal_name(signum)}); "
+        f"mcocl {command}: error: {_what(command)} crashed the device process ({_signal_name(crash.signum)}); "
         "checkpoints written before the crash are kept (--checkpoint), nothing else was saved"
     )
+
+
+def _die_with_parent(parent: int) -> Callable[[], None] | None:
+    """What the child runs before exec so that it dies with this process, even one killed by SIGKILL.
+
+    The child lives in its own session, so a ``kill -9`` of this process or of
+    its process group would leave it running: with an endless loop in the
+    user's code, for ever (issue 10).  Linux's ``prctl(PR_SET_PDEATHSIG)``
+    has the kernel send it SIGKILL when this process ends; elsewhere nothing is done.
+    """
+    if not sys.platform.startswith("linux"):
+        return None
+
+    def arm() -> None:
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1 = PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            return
+        if os.getppid() != parent:  # the parent died before the request was made
+            os._exit(1)
+
+    return arm
 
 
 class _Child:
@@ -93,6 +147,7 @@ class _Child:
             env=env,
             pass_fds=(write_fd,),
             start_new_session=True,
+            preexec_fn=_die_with_parent(os.getpid()),
         )
         os.close(write_fd)
         self.pipe = read_fd
@@ -103,6 +158,9 @@ class _Child:
         self.compile_seconds = 0.0
         self.stopping: float | None = None  # when the last stop was asked for
         self.killed_for = ""
+        self.beats = 0  # events read: none while the child still imports (its first is its first build)
+        self.started: float | None = None  # when sampling began (the child's first "start" beat)
+        self.compile_before_start = 0.0
 
     def read_beats(self, timeout: float) -> None:
         ready, _, _ = select.select([self.pipe], [], [], timeout)
@@ -115,22 +173,49 @@ class _Child:
         if not data:  # the child closed its end (it is exiting)
             time.sleep(min(timeout, 0.05))
             return
+        self._count(data)
+
+    def _count(self, data: bytes) -> None:
         now = time.monotonic()
         for line in data.decode(errors="replace").split():
+            self.beats += 1
             if line == "build":
                 self.builds += 1
                 if self.compiling == 0:
                     self.compile_since = now
                 self.compiling += 1
+            elif line == "start" and self.started is None:
+                self.started = now
+                self.compile_before_start = self.compile_seconds
             elif line == "built" and self.compiling > 0:
                 self.compiling -= 1
                 if self.compiling == 0:
                     self.compile_seconds += now - self.compile_since
 
+    def drain(self) -> None:
+        """Read the beats the child wrote before it ended (its pipe is at its end once it has)."""
+        while select.select([self.pipe], [], [], 0)[0]:
+            try:
+                data = os.read(self.pipe, 4096)
+            except OSError:
+                return
+            if not data:
+                return
+            self._count(data)
+
     def running_seconds(self, now: float) -> float:
-        """Seconds since launch, less the time spent compiling."""
+        """The seconds --time is held against, less the time spent compiling: since sampling began
+        (the engine's own clock starts there), or since launch while the child is still setting up.
+
+        Counting from the start of sampling keeps Python's start-up and the setup of the run (both
+        slow on a busy machine) out of the budget, so a healthy run with a tiny --time still gets
+        its first block (issue 10: --time 1e-9 was killed before it, exit 2); an endless loop in
+        the probes that run the user's code before sampling is still caught from launch.
+        """
         compiling = now - self.compile_since if self.compiling else 0.0
-        return now - self.launched - self.compile_seconds - compiling
+        if self.started is None:
+            return now - self.launched - self.compile_seconds - compiling
+        return now - self.started - (self.compile_seconds - self.compile_before_start) - compiling
 
     def kill(self, why: str) -> None:
         self.killed_for = why
@@ -152,13 +237,16 @@ def run(argv: Sequence[str], command: str, time_budget: float | None) -> int:
     code, crash = _run_once(argv, command, time_budget, None)
     if crash is None:
         return code
+    if crash.in_build and crash.build_seconds > CACHE_LOAD_SECONDS:  # the compiler's own crash: see the docstring
+        print(_crash_message(command, crash), file=sys.stderr)
+        return EXIT_ERROR
     with tempfile.TemporaryDirectory(prefix="mcocl-pocl-cache-") as fresh:
         code, again = _run_once(argv, command, time_budget, {"POCL_CACHE_DIR": fresh})
     if again is not None:
         print(_crash_message(command, again), file=sys.stderr)
     elif code == 0:
         folder = str(cache_folder())
-        print(f"mcocl {command}: warning: the first attempt crashed ({_signal_name(crash)}) while using PoCL's "
+        print(f"mcocl {command}: warning: the first attempt crashed ({_signal_name(crash.signum)}) while using PoCL's "
               f"kernel cache {folder!r}, which holds a corrupt entry; it was bypassed (the run was repeated with "
               f"a fresh temporary cache): delete {folder!r} to repair it", file=sys.stderr)
     return code
@@ -170,7 +258,7 @@ _CACHE_CRASHES = frozenset({signal.SIGABRT, signal.SIGBUS, signal.SIGSEGV, signa
 
 def _run_once(
     argv: Sequence[str], command: str, time_budget: float | None, env_changes: dict[str, str] | None
-) -> tuple[int, int | None]:
+) -> tuple[int, _Crash | None]:
     """Run the child once: its exit status, and the signal that crashed it after a build began, if any.
 
     Such a crash is left to the caller to report (it may retry); every other outcome is reported here.
@@ -193,6 +281,10 @@ def _run_once(
                 child.stopping = now
                 if forwarded >= 3:
                     child.kill("interrupted three times")
+                elif not child.beats:
+                    # still importing Python modules, with nothing computed: a KeyboardInterrupt there
+                    # would print a traceback from the middle of an import
+                    child.kill("interrupted while it was starting; nothing was computed")
                 else:
                     try:
                         child.proc.send_signal(sig)
@@ -200,17 +292,21 @@ def _run_once(
                         pass
             if child.killed_for:
                 continue
-            if child.stopping is not None and now - child.stopping > STOP_WAIT:
-                child.kill(f"it did not stop within {STOP_WAIT:g} s of the request (a kernel launch is stuck)")
+            wait = STOP_WAIT if forwarded < 2 else URGENT_STOP_WAIT
+            if child.stopping is not None and now - child.stopping > wait:
+                child.kill(f"it did not stop within {wait:g} s of the request (a kernel launch is stuck)")
             elif time_budget is not None and child.running_seconds(now) > time_budget + GRACE:
                 child.kill(
                     f"it outlived --time {time_budget:g} by {GRACE:g} s: a kernel launch did not return "
                     "(an endless loop in the user code?)"
                 )
         code = child.proc.wait()
+        child.drain()
     finally:
         for s, h in old.items():
-            signal.signal(s, h)
+            # once asked to stop, the process only reports and exits: a further Ctrl-C must not
+            # interrupt that with a KeyboardInterrupt (issue 10: two quick Ctrl-Cs gave exit -2)
+            signal.signal(s, forward if requests else h)
         os.close(child.pipe)
     if child.killed_for:
         print(f"mcocl {command}: error: stopped the run: {child.killed_for}; "
@@ -218,9 +314,15 @@ def _run_once(
         return (130 if requests else EXIT_ERROR), None
     if code < 0:
         if -code in (signal.SIGINT, signal.SIGTERM):
+            # killed outright, before it had a handler (still starting, or in a build): say so, as an
+            # interrupted run that saved its result would have
+            print(f"mcocl {command}: stopped by {_signal_name(-code)} before sampling; nothing was computed "
+                  "(checkpoints already written with --checkpoint are kept)", file=sys.stderr)
             return 128 - code, None
+        crash = _Crash(-code, child.compiling > 0,
+                       time.monotonic() - child.compile_since if child.compiling else 0.0)
         if -code in _CACHE_CRASHES and child.builds and not requests:
-            return EXIT_ERROR, -code
-        print(_crash_message(command, -code), file=sys.stderr)
+            return EXIT_ERROR, crash
+        print(_crash_message(command, crash), file=sys.stderr)
         return EXIT_ERROR, None
     return code, None

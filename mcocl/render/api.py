@@ -129,11 +129,9 @@ class RenderResult:
 
     def save_png(self, path: str | os.PathLike[str], exposure: float = 0.0) -> None:
         """Write an sRGB preview (clamped) of the mean, scaled by 2^exposure."""
-        from .image_io import write_png
+        from .image_io import check_exposure, write_png
 
-        if not isinstance(exposure, (int, float)) or not math.isfinite(exposure):
-            raise InputError(f"exposure must be a finite number of stops, got {exposure!r}")
-        write_png(path, np.nan_to_num(self.mean, nan=0.0), exposure)
+        write_png(path, np.nan_to_num(self.mean, nan=0.0), check_exposure(exposure))
 
     def __str__(self) -> str:
         s = (f"{self.width}x{self.height}, {self.spp} spp, {self.integrator}, {self.seconds:.3g} s "

@@ -16,6 +16,7 @@ filter 0 on every row) so that previews need no imaging dependency.
 
 from __future__ import annotations
 
+import math
 import struct
 import zlib
 from dataclasses import dataclass, field
@@ -109,12 +110,30 @@ def read_exr(path: str | Path) -> ExrImage:
     return ExrImage(mean, var, samples, meta)
 
 
+# Exposure stops the PNG writer takes: 2^64 scales any radiance a float32 image
+# holds to a finite value, and no useful exposure lies beyond (2^1e30 overflows).
+EXPOSURE_LIMIT = 64.0
+
+
+def check_exposure(exposure: object) -> float:
+    """``exposure`` as a float of stops, refused unless it is a finite number within +-EXPOSURE_LIMIT."""
+    if isinstance(exposure, bool) or not isinstance(exposure, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(float(exposure)) or abs(float(exposure)) > EXPOSURE_LIMIT:
+        raise InputError(f"exposure must be a finite number of stops between {-EXPOSURE_LIMIT:g} and "
+                         f"{EXPOSURE_LIMIT:g}, got {exposure!r}")
+    return float(exposure)
+
+
 def srgb_encode(linear: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     """Linear RGB → 8-bit sRGB (IEC 61966-2-1 transfer curve), after scaling by 2^exposure and clamping.
 
     Non-finite values become 0.
+
+    Raises:
+        InputError: ``exposure`` is not a finite number within +-EXPOSURE_LIMIT stops.
     """
-    x = np.nan_to_num(np.asarray(linear, np.float64) * 2.0**exposure, nan=0.0, posinf=0.0, neginf=0.0)
+    scale = 2.0 ** check_exposure(exposure)
+    x = np.nan_to_num(np.asarray(linear, np.float64) * scale, nan=0.0, posinf=0.0, neginf=0.0)
     x = np.clip(x, 0.0, 1.0)
     s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
     return np.round(s * 255.0).astype(np.uint8)

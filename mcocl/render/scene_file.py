@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..datafile import decode_utf8, loads_json
+from ..datafile import decode_utf8, loads_json, read_regular_file
 from ..errors import InputError
 from .mitsuba import load_mitsuba
 from .scene import Scene, parse_scene
@@ -37,12 +37,14 @@ def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = 
             breaks the format; the message names the file and the key path.
     """
     p = Path(path)
+    if mesh_folder is not None and not Path(mesh_folder).is_dir():
+        raise InputError(f"mesh_folder (--mesh-folder): {mesh_folder} is not a folder")
     if p.suffix.lower() == ".xml":
         return load_mitsuba(p, params=params, lenient=lenient)
     if params:
         raise InputError(f"{p}: params (-D name=value) apply to Mitsuba XML scenes only")
     try:
-        raw = p.read_bytes()
+        raw = read_regular_file(p)
     except OSError as e:
         raise InputError(f"{p}: cannot read scene file: {e.strerror or e}") from None
     text = decode_utf8(raw, str(p))

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..datafile import read_regular_file
 from ..errors import InputError
 from .obj_reader import parse_obj
 from .ply_reader import PlyMesh, parse_ply
@@ -118,7 +119,7 @@ def read_obj(path: Path, where: str) -> PlyMesh:
             scene key ``where`` and the OBJ line.
     """
     try:
-        data = path.read_bytes()
+        data = read_regular_file(path)
     except OSError as e:
         raise InputError(f"{where}: cannot read OBJ file {path}: {e.strerror or e}") from None
     mesh = PlyMesh(*parse_obj(data, f"{where}: {path}"))
@@ -145,7 +146,7 @@ def read_ply(path: Path, where: str) -> PlyMesh:
             scene key ``where`` and the file.
     """
     try:
-        data = path.read_bytes()
+        data = read_regular_file(path)
     except OSError as e:
         raise InputError(f"{where}: cannot read PLY file {path}: {e.strerror or e}") from None
     mesh = parse_ply(data, f"{where}: {path}")

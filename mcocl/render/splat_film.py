@@ -96,8 +96,7 @@ class SplatRunner:
     def __init__(self, job, ctx: runtime.DeviceContext, buffer_names: tuple[str, ...]) -> None:
         self.job = job
         self.ctx = ctx
-        # bdpt is a scalar kernel (kernels/render/bdpt.cl): its subpaths' lengths differ per sample
-        self.lanes = 1 if job.integrator == "bdpt" else int(job.lanes) if job.lanes is not None else ctx.lanes
+        self.lanes = int(job.lanes) if job.lanes is not None else ctx.lanes
         t0 = time.perf_counter()
         kernel_file, trace_name = TRACE_KERNELS[job.integrator]
         src = runtime.compose([kernel_file])

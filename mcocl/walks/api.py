@@ -38,6 +38,7 @@ from .integral_check import check_given_integrals
 from .job import STATS, WALKS_PER_BLOCK, WalkJob, WalkRunner, estimates
 from .nystrom import spectral_radius
 from .request import WalkRequest, validate
+from .sampler_check import check_user_samplers
 from .sobol_walks import WALK_SAMPLERS, sobol_walks_per_block
 
 
@@ -290,6 +291,7 @@ def solve_fredholm(
 
     t0 = time.perf_counter()
     notes += _tabulate(req, job, runner)
+    check_user_samplers(req, runner, opts.device)  # a sampler of another density is refused, not used (issue 10)
     if acc is not None:
         if acc.meta.get("tables") != (job.tables.digest() if job.tables is not None else None):
             raise InputError(f"checkpoint {resume} was made with different tabulated densities "

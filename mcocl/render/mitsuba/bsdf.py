@@ -48,6 +48,8 @@ SUBSTITUTES = {
 NESTED = ("mask", "bumpmap", "normalmap", "blendbsdf")
 
 _COLOUR_TAGS = ("rgb", "spectrum", "float")
+# Colour properties Mitsuba 3 reads as unbounded textures (a sampled spectrum is not clipped to 1).
+UNBOUNDED_COLOURS = ("eta", "k")
 
 
 def _ior(props, name: str, default_name: str, comments: list[str]) -> float:
@@ -189,7 +191,7 @@ def _registered(node: Node, kind: str, props, rep: Reporter, comments: list[str]
         if p.optional and p.key not in props:
             continue
         if p.kind == "rgb":
-            v = props.colour(p.key, p.default)
+            v = props.colour(p.key, p.default, "unbounded" if p.key in UNBOUNDED_COLOURS else "bounded")
             if v is not None:
                 mat[p.key] = rgb_json(v)
         elif p.kind in ("flag", "choice", "name"):
@@ -257,9 +259,9 @@ def _conductor(node: Node, kind: str, props, rep: Reporter, comments: list[str])
         comments.append(f"material: {material!r}, RGB eta/k of Mitsuba's table (mcocl/conductor_iors.py)")
     elif has_ior:
         if "eta" in props:
-            mat["eta"] = rgb_json(props.colour("eta", 0.0))
+            mat["eta"] = rgb_json(props.colour("eta", 0.0, "unbounded"))
         if "k" in props:
-            mat["k"] = rgb_json(props.colour("k", 1.0))
+            mat["k"] = rgb_json(props.colour("k", 1.0, "unbounded"))
     supported = ("material", "eta", "k", "specular_reflectance")
     if kind == "roughconductor":
         _roughness(node, kind, props, rep, comments, mat)

@@ -42,7 +42,7 @@ def _axis(node: Node, m: np.ndarray, what: str) -> list[float]:
 def _colour(props: Props, name: str, comments: list[str]) -> list[float] | float:
     if name not in props:
         comments.append(f"{name}: Mitsuba's default 1")
-    rgb = props.colour(name, 1.0)
+    rgb = props.colour(name, 1.0, "emitted")
     if np.any(rgb < 0):
         props.node(name).fail(f"{name} must be >= 0")
     return rgb_json(rgb)

@@ -12,16 +12,41 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from .. import transform as tf
-from .spectra import spectrum_to_linear_srgb
+from .spectra import EQUAL_ENERGY_WHITE, spectrum_to_linear_srgb
 from .xml_source import Node
 
 PROPERTY_TAGS = ("float", "integer", "boolean", "string", "rgb", "spectrum", "point", "vector", "transform")
 TRANSFORM_OPS = ("translate", "rotate", "scale", "matrix", "lookat")
+# What a colour property is, as Mitsuba 3 reads its texture: "bounded" (a reflectance: a sampled spectrum is
+# weighted by D65 and clipped to [0, 1]), "unbounded" (a conductor's eta/k: weighted by D65, not clipped above)
+# or "emitted" (a radiance, irradiance or intensity: no D65; one number is the equal-energy white).
+ColourUse = Literal["bounded", "unbounded", "emitted"]
+
+
+@dataclass(eq=False)
+class Spectrum:
+    """A ``<spectrum>`` as written: one number (``wavelengths`` empty) or wavelength:value pairs.
+
+    Its RGB depends on the property it gives (:data:`ColourUse`; the rules
+    are in mcocl/render/mitsuba/spectra.py).
+    """
+
+    wavelengths: np.ndarray
+    values: np.ndarray
+
+    def rgb(self, use: ColourUse) -> np.ndarray:
+        """Linear sRGB (3,) of this spectrum given as a property of kind ``use``, as Mitsuba 3's RGB variants read it."""
+        if self.wavelengths.size == 0:
+            v = float(self.values[0])
+            return v * EQUAL_ENERGY_WHITE if use == "emitted" else np.full(3, v)
+        rgb, _clipped = spectrum_to_linear_srgb(self.wavelengths, self.values, emitted=use == "emitted",
+                                                bounded=use == "bounded")
+        return rgb
 
 
 @dataclass
@@ -174,8 +199,9 @@ def parse_transform(node: Node) -> Transform:
 def parse_property(node: Node) -> Any:
     """The value of one property element (its ``name`` attribute is read by the caller).
 
-    float → float, integer → int, boolean → bool, string → str, rgb and
-    spectrum → (3,) float64 linear RGB, point/vector → list of 3 floats,
+    float → float, integer → int, boolean → bool, string → str, rgb → (3,)
+    float64 linear RGB, spectrum → :class:`Spectrum` (its RGB depends on the
+    property: :meth:`Props.colour`), point/vector → list of 3 floats,
     transform → :class:`Transform`.
     """
     tag = node.tag
@@ -221,12 +247,12 @@ def parse_property(node: Node) -> Any:
     return None
 
 
-def _spectrum(node: Node, text: str) -> np.ndarray:
+def _spectrum(node: Node, text: str) -> Spectrum:
     if ":" not in text:
         v = _numbers(node, text, "spectrum")
         if len(v) != 1:
             node.fail('a constant spectrum is one number; a sampled one is "λ1:v1, λ2:v2, ..." (nm:value)')
-        return np.full(3, v[0])
+        return Spectrum(np.empty(0), np.array(v))
     lam, val = [], []
     for pair in re.split(r"[,\s]+", re.sub(r"\s*:\s*", ":", text.strip())):
         parts = pair.split(":")
@@ -237,8 +263,7 @@ def _spectrum(node: Node, text: str) -> np.ndarray:
         val.append(x[0])
     if len(lam) < 2 or np.any(np.diff(lam) <= 0):
         node.fail("a sampled spectrum needs at least two wavelengths in increasing order")
-    rgb, _clamped = spectrum_to_linear_srgb(np.array(lam), np.array(val))
-    return rgb
+    return Spectrum(np.array(lam), np.array(val))
 
 
 class Props:
@@ -275,11 +300,16 @@ class Props:
             n.fail(f"property {name!r} must be given as <{'> or <'.join(kinds)}>")
         return parse_property(n)
 
-    def colour(self, name: str, default: float | None) -> np.ndarray | None:
-        """An RGB value from ``<rgb>``, ``<spectrum>`` or ``<float>`` (grey)."""
+    def colour(self, name: str, default: float | None, use: ColourUse = "bounded") -> np.ndarray | None:
+        """An RGB value from ``<rgb>``, ``<spectrum>`` (converted as a property of kind ``use``) or ``<float>`` (grey).
+
+        A ``<float>`` and the default are grey whatever ``use`` is, as in Mitsuba 3's RGB variants.
+        """
         v = self.get(name, ("rgb", "spectrum", "float"), None)
         if v is None:
             return None if default is None else np.full(3, float(default))
+        if isinstance(v, Spectrum):
+            return v.rgb(use)
         return np.full(3, v) if isinstance(v, float) else v
 
     def unread(self) -> list[Node]:
@@ -294,4 +324,4 @@ def split_children(node: Node) -> tuple[Props, list[Node]]:
     return Props(node, props), objects
 
 
-__all__ = ["PROPERTY_TAGS", "Props", "Transform", "look_at", "parse_property", "parse_transform", "split_children"]
+__all__ = ["PROPERTY_TAGS", "ColourUse", "Props", "Spectrum", "Transform", "look_at", "parse_property", "parse_transform", "split_children"]

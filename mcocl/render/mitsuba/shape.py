@@ -44,7 +44,7 @@ def translate_radiance(node: Node, rep: Reporter, comments: list[str]) -> list[f
                         "the radiance property (default 1)", comments)
     if "radiance" not in props:
         comments.append("radiance: Mitsuba's default 1")
-    rgb = props.colour("radiance", 1.0)
+    rgb = props.colour("radiance", 1.0, "emitted")
     if np.any(rgb < 0):
         props.node("radiance").fail("radiance must be >= 0")
     rep.leftover(node, props.unread(), ("radiance",), comments)

@@ -1,20 +1,31 @@
 """Spectra in Mitsuba files as linear sRGB, and Mitsuba's table of named indices of refraction.
 
-A ``<spectrum>`` given as wavelength:value pairs becomes linear sRGB in two
-steps (scenes/README.md, "Mitsuba XML"):
+Mitsuba 3's RGB variants turn a ``<spectrum>`` into linear sRGB by rules that
+depend on the property it gives (scenes/README.md, "Mitsuba XML"); mcocl's
+reader follows them, measured against Mitsuba 3.9.1 ``scalar_rgb``
+(tests/test_mitsuba_xml.py):
 
-1. CIE 1931 XYZ: ``X = ∫ s(λ) x̄(λ) dλ / ∫ ȳ(λ) dλ`` (likewise Y, Z) over
-   360–830 nm, with ``s`` linear between the given wavelengths and zero
-   outside them, and the colour-matching functions linear between the 5 nm
-   samples of the CIE 1931 2° standard observer below (CIE 15:2004, table T.4).
-   Dividing by ∫ȳ makes a spectrum that is 1 everywhere have luminance Y = 1.
-   The integral is a 1 nm midpoint sum.
-2. Linear sRGB (ITU-R BT.709 primaries, D65 white) by the standard XYZ → RGB
-   matrix; negative components (colours outside the sRGB gamut) are clamped
-   to zero, as Mitsuba does for unbounded spectra.
-
-Mitsuba 3's RGB variants compute the same integral (with its own sampling of
-the same table), so the colours agree to about three digits.
+- One number ``v``: the grey (v, v, v) for a reflectance or any other
+  non-emitted property; for an emitted one (``radiance``, ``irradiance``,
+  ``intensity``) the colour of the spectrum that is ``v`` at every wavelength,
+  the equal-energy white ``v`` · (1.20479, 0.94829, 0.90892), XYZ = (v, v, v)
+  in sRGB (whose white is D65), as Mitsuba's spectral variants would see it.
+- Wavelength:value pairs ``s(λ)``, linear between the given wavelengths and
+  zero outside them: CIE 1931 XYZ ``X = ∫ s(λ) w(λ) x̄(λ) dλ / ∫ ȳ(λ) dλ``
+  (likewise Y, Z) over 360–830 nm, with the colour-matching functions linear
+  between the 5 nm samples of the CIE 1931 2° standard observer below
+  (CIE 15:2004, table T.4), then linear sRGB (ITU-R BT.709 primaries, D65
+  white) by the standard XYZ → RGB matrix. The weight ``w`` is 1 for an
+  emitted property; for anything else (a reflectance, a conductor's eta/k) it
+  is the CIE D65 illuminant (table T.1) divided by ``∫ȳ D65 / ∫ȳ``, so a flat
+  spectrum is grey: a reflectance is the colour it has under daylight.
+  The integral is Mitsuba's Riemann sum (1000 wavelengths evenly spaced over
+  360–830 nm, both ends included, each weighted 0.47 nm, and Mitsuba's
+  normalising constants), so colours agree with Mitsuba's to float precision
+  (the sum is 0.1 % below the integral, and a flat reflectance of 0.6 comes out
+  (0.5972, 0.5999, 0.5969)). Negative components (outside the sRGB gamut) are
+  clamped to zero; a bounded property (not emitted, not a conductor's eta/k)
+  is also clipped to at most 1.
 """
 
 from __future__ import annotations
@@ -58,12 +69,35 @@ _CIE_Z = """
 CIE_XYZ = np.array([np.array(t.split(), dtype=np.float64) for t in (_CIE_X, _CIE_Y, _CIE_Z)])
 CIE_WAVELENGTHS = CIE_MIN_NM + CIE_STEP_NM * np.arange(CIE_XYZ.shape[1])
 
+# CIE standard illuminant D65, relative spectral power at 360, 365, ..., 830 nm (CIE 15:2004, table T.1).
+CIE_D65 = np.array("""
+46.6383 49.3637 52.0891 51.0323 49.9755 52.3118 54.6482 68.7015 82.7549 87.1204
+91.4860 92.4589 93.4318 90.0570 86.6823 95.7736 104.8650 110.9360 117.0080 117.4100
+117.8120 116.3360 114.8610 115.3920 115.9230 112.3670 108.8110 109.0820 109.3540 108.5780
+107.8020 106.2960 104.7900 106.2390 107.6890 106.0470 104.4050 104.2250 104.0460 102.0230
+100.0000 98.1671 96.3342 96.0611 95.7880 92.2368 88.6856 89.3459 90.0062 89.8026
+89.5991 88.6489 87.6987 85.4936 83.2886 83.4939 83.6992 81.8630 80.0268 80.1207
+80.2146 81.2462 82.2778 80.2810 78.2842 74.0027 69.7213 70.6652 71.6091 72.9790
+74.3490 67.9765 61.6040 65.7448 69.8856 72.4863 75.0870 69.3398 63.5927 55.0054
+46.4182 56.6118 66.8054 65.0941 63.3828 63.8434 64.3040 61.8779 59.4519 55.7054
+51.9590 54.6998 57.4406 58.8765 60.3125
+""".split(), dtype=np.float64)
+
+CIE_MAX_NM = float(CIE_WAVELENGTHS[-1])
+# Mitsuba 3's sum for a sampled spectrum (module docstring): its number of wavelengths, its ∫ȳ dλ (nm) and
+# its ∫ȳ D65 dλ / ∫ȳ dλ (its constants MI_CIE_Y_NORMALIZATION and MI_CIE_D65_NORMALIZATION, inverted).
+MITSUBA_SUM_POINTS = 1000
+MITSUBA_Y_INTEGRAL = 106.7502593994140625
+MITSUBA_D65_Y = 98.99741751876255
+
 # XYZ → linear sRGB (ITU-R BT.709 primaries, D65 white point), IEC 61966-2-1.
 XYZ_TO_LINEAR_SRGB = np.array([
     [3.240479, -1.537150, -0.498535],
     [-0.969256, 1.875991, 0.041556],
     [0.055648, -0.204043, 1.057311],
 ])
+# Linear sRGB of XYZ = (1, 1, 1), the equal-energy white E: a constant emitted spectrum of 1 (module docstring).
+EQUAL_ENERGY_WHITE = XYZ_TO_LINEAR_SRGB.sum(axis=1)
 
 # Mitsuba's documented named indices of refraction (Hecht, Optics, 4th ed.; ~589 nm, 0–20 °C).
 NAMED_IORS = {
@@ -86,20 +120,26 @@ def nearest_ior_names(name: str) -> list[str]:
     return difflib.get_close_matches(name.lower(), list(NAMED_IORS), n=3, cutoff=0.3)
 
 
-def spectrum_to_linear_srgb(wavelengths: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, bool]:
-    """Linear sRGB of a piecewise-linear spectrum; also whether a negative component was clamped.
+def spectrum_to_linear_srgb(wavelengths: np.ndarray, values: np.ndarray, *, emitted: bool,
+                            bounded: bool) -> tuple[np.ndarray, bool]:
+    """Linear sRGB of a piecewise-linear spectrum as Mitsuba 3's RGB variants read it; also whether it was clipped.
 
     ``wavelengths`` (nm, strictly increasing) and ``values`` have one entry per
-    sample; see the module docstring for the integral.
+    sample. ``emitted``: the spectrum is a radiance, irradiance or intensity
+    (no D65 weight); ``bounded``: components above 1 are clipped to 1 (a
+    reflectance). See the module docstring for the integral.
     """
-    grid = np.arange(CIE_MIN_NM + 0.5, CIE_WAVELENGTHS[-1], 1.0)  # 1 nm midpoints over 360–830 nm
-    cmf = np.array([np.interp(grid, CIE_WAVELENGTHS, c) for c in CIE_XYZ])
+    grid = np.linspace(CIE_MIN_NM, CIE_MAX_NM, MITSUBA_SUM_POINTS)
     inside = (grid >= wavelengths[0]) & (grid <= wavelengths[-1])
     s = np.where(inside, np.interp(grid, wavelengths, values), 0.0)
-    xyz = cmf @ s / cmf[1].sum()
+    if not emitted:
+        s = s * np.interp(grid, CIE_WAVELENGTHS, CIE_D65) / MITSUBA_D65_Y
+    cmf = np.array([np.interp(grid, CIE_WAVELENGTHS, c) for c in CIE_XYZ])
+    xyz = cmf @ s * ((CIE_MAX_NM - CIE_MIN_NM) / MITSUBA_SUM_POINTS) / MITSUBA_Y_INTEGRAL
     rgb = XYZ_TO_LINEAR_SRGB @ xyz
-    clamped = bool(np.any(rgb < 0.0))
-    return np.maximum(rgb, 0.0), clamped
+    high = 1.0 if bounded else np.inf
+    clipped = bool(np.any(rgb < 0.0) or np.any(rgb > high))
+    return np.clip(rgb, 0.0, high), clipped
 
 
-__all__ = ["NAMED_IORS", "XYZ_TO_LINEAR_SRGB", "named_ior", "nearest_ior_names", "spectrum_to_linear_srgb"]
+__all__ = ["EQUAL_ENERGY_WHITE", "NAMED_IORS", "XYZ_TO_LINEAR_SRGB", "named_ior", "nearest_ior_names", "spectrum_to_linear_srgb"]

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NoReturn
 
+from ...datafile import read_regular_file
 from ...errors import InputError, SceneSubstitutionWarning
 
 
@@ -58,6 +59,12 @@ class Node:
         raise InputError(f"{self.where()}: {self.label()}: {msg}")
 
 
+# The deepest element nesting accepted.  A Mitsuba scene nests a handful of
+# levels (scene, shape, bsdf, nested bsdf, texture, property); 100,000 levels
+# overflowed Python's recursion limit in the tree walkers (issue 10).
+MAX_DEPTH = 200
+
+
 class _RefusedDeclarationError(Exception):
     """Raised inside the expat callbacks to stop at a refused declaration."""
 
@@ -69,7 +76,7 @@ def parse_xml_file(path: Path) -> Node:
         InputError: unreadable file, malformed XML or a refused declaration (file and line).
     """
     try:
-        data = path.read_bytes()
+        data = read_regular_file(path)
     except OSError as e:
         raise InputError(f"{path}: cannot read scene file: {e.strerror or e}") from None
     parser = xml.parsers.expat.ParserCreate()
@@ -78,6 +85,9 @@ def parse_xml_file(path: Path) -> Node:
     roots: list[Node] = []
 
     def start(tag: str, attrs: dict[str, str]) -> None:
+        if len(stack) >= MAX_DEPTH:  # the readers that walk the tree recurse once per level
+            raise _RefusedDeclarationError(f"{path}:{parser.CurrentLineNumber}: elements are nested more than "
+                                           f"{MAX_DEPTH} deep; no scene needs that many levels")
         node = Node(tag, dict(attrs), path, parser.CurrentLineNumber)
         (stack[-1].children if stack else roots).append(node)
         stack.append(node)

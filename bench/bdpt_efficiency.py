@@ -1,0 +1,121 @@
+"""Efficiency of ``bdpt`` and ``lt`` against ``mis`` (issue 11's performance targets).
+
+Efficiency = 1 / (MSE x CPU-seconds): the MSE per pixel and channel against
+one long ``bdpt`` reference per scene, rendered in the same process with
+another seed (its own mean variance, which the splat film reports from
+independent batches, is subtracted from the MSE), and the process's CPU time
+of the render (PoCL's worker threads included), since the machine this runs
+on is shared and wall time depends on the other users.  Each integrator
+renders for ``--budget`` wall seconds, ``--runs`` times with different seeds,
+after a warm-up render that builds its kernel.
+
+Scenes: ``caustic`` (scenes/caustic.json), ``cornell`` (scenes/cornell.json)
+and ``cornell_spheres`` (the Cornell box with a mirror and a glass sphere,
+bench/render_throughput.py's), each at ``--size`` pixels wide.  ``lt``
+cannot see a mirror or glass seen directly through a pinhole
+(kernels/render/lt.cl): its MSE is taken over the pixels that a long ``lt``
+reference does not leave exactly black where the ``bdpt`` reference is not
+(the other integrators' MSE over all pixels, and over those pixels too).
+
+Reading the ratios: in a pixel that sees a caustic through glass or in a
+mirror (a specular-diffuse-specular path), only the camera subpath hitting
+the emitter (s = 0) samples the path, as in ``mis``, so there ``bdpt`` is
+``mis`` at a higher cost per path; those pixels bound its whole-image
+ratio on ``caustic`` and ``cornell_spheres``.
+
+    PYTHONPATH=. python bench/bdpt_efficiency.py --scenes caustic cornell cornell_spheres \\
+        --budget 10 --ref-budget 120
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mcocl.render.api import render
+from mcocl.render.scene_file import load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "bench"))
+from render_throughput import cornell_spheres  # noqa: E402
+
+INTEGRATORS = ("mis", "lt", "bdpt")
+
+
+def cpu_seconds() -> float:
+    """User plus system CPU time of this process, its OpenCL worker threads included."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def scene_at(name: str, width: int, folder: Path):
+    """Scene ``name`` with its camera ``width`` pixels wide (the aspect ratio kept)."""
+    path = cornell_spheres(folder) if name == "cornell_spheres" else ROOT / "scenes" / f"{name}.json"
+    scene = load_scene(path)
+    cam = scene.camera
+    scene.camera = dataclasses.replace(cam, width=width, height=max(1, round(width * cam.height / cam.width)))
+    return scene
+
+
+def timed(scene, integrator: str, seed: int, budget: float):
+    """Render for ``budget`` wall seconds; the result, its CPU seconds and wall seconds."""
+    c0, t0 = cpu_seconds(), time.perf_counter()
+    r = render(scene, time_budget=budget, integrator=integrator, seed=seed)
+    return r, cpu_seconds() - c0, time.perf_counter() - t0
+
+
+def main() -> None:
+    """Print, per scene and integrator, paths per second, MSE and efficiency, and the ratios to ``mis``."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", nargs="+", default=["caustic", "cornell", "cornell_spheres"])
+    ap.add_argument("--integrators", nargs="+", default=list(INTEGRATORS), choices=INTEGRATORS)
+    ap.add_argument("--size", type=int, default=128, help="image width in pixels")
+    ap.add_argument("--budget", type=float, default=10.0, help="wall seconds of each timed render")
+    ap.add_argument("--ref-budget", type=float, default=120.0, help="wall seconds of the bdpt reference")
+    ap.add_argument("--runs", type=int, default=2, help="timed renders per integrator (seeds 1..runs)")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in args.scenes:
+            scene = scene_at(name, args.size, Path(tmp))
+            npix = scene.camera.width * scene.camera.height
+            ref = render(scene, time_budget=args.ref_budget, integrator="bdpt", seed=1000)
+            ref_mean = ref.mean.astype(np.float64)
+            ref_var = ref.variance.astype(np.float64)
+            print(f"== {name} {scene.camera.width}x{scene.camera.height}: bdpt reference {ref.spp} spp in "
+                  f"{ref.seconds:.0f} s, mean {ref_mean.mean():.4g}, mean variance {ref_var.mean():.3g}", flush=True)
+            seen = np.ones(ref_mean.shape[:2], bool)
+            if "lt" in args.integrators:
+                lt_ref = render(scene, time_budget=args.ref_budget / 4, integrator="lt", seed=1001)
+                blind = (lt_ref.mean.reshape(npix, 3) == 0).all(axis=1) & (ref_mean.reshape(npix, 3) > 0).any(axis=1)
+                seen = ~blind.reshape(seen.shape)
+                print(f"   pixels lt cannot see (black in a long lt render, not in the reference): {blind.sum()}")
+            eff_all, eff_seen = {}, {}
+            for integrator in args.integrators:
+                render(scene, spp=1, integrator=integrator, seed=0)  # builds the kernel
+                rows = []
+                for seed in range(1, args.runs + 1):
+                    r, cpu, wall = timed(scene, integrator, seed, args.budget)
+                    err = (r.mean.astype(np.float64) - ref_mean) ** 2 - ref_var
+                    rows.append((r.spp, cpu, wall, float(err.mean()), float(err[seen].mean())))
+                spp, cpu, wall, mse, mse_seen = (float(np.mean(c)) for c in zip(*rows, strict=True))
+                eff_all[integrator] = 1.0 / (mse * cpu)
+                eff_seen[integrator] = 1.0 / (mse_seen * cpu)
+                print(f"   {integrator:4s} {spp:7.0f} spp  {spp * npix / cpu / 1e6:6.3f} M paths/cpu-s  "
+                      f"{spp * npix / wall / 1e6:6.3f} M paths/s  cpu {cpu:5.1f} s  MSE {mse:.4g}  "
+                      f"(seen by lt {mse_seen:.4g})  efficiency {eff_all[integrator]:.4g}", flush=True)
+            if "mis" in eff_all:
+                for integrator in args.integrators:
+                    if integrator != "mis":
+                        print(f"   {integrator} / mis efficiency: {eff_all[integrator] / eff_all['mis']:.2f}  "
+                              f"(pixels lt sees: {eff_seen[integrator] / eff_seen['mis']:.2f})", flush=True)
+
+
+if __name__ == "__main__":
+    main()
