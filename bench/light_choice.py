@@ -15,7 +15,10 @@ against the first row of each table.
   dim and a bright sky.
 - ``samplers``: ``power``, ``uniform`` and ``bvh`` on the shipped scenes.
 
-Usage: python bench/light_choice.py [env|samplers|all] [--spp N] [--size W]
+``--cpu`` times in CPU seconds of the process (the device's threads
+included) instead of the render's wall seconds: steadier on a shared machine.
+
+Usage: python bench/light_choice.py [env|samplers|all] [--spp N] [--size W] [--cpu]
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import resource
 import tempfile
 from pathlib import Path
 
@@ -60,11 +64,22 @@ def _old_bbox_share(cs: CompiledScene) -> float:
     return p_env / (p_env + float(cs.light_power.sum()))
 
 
+CPU_TIME = False  # --cpu: _measure reports CPU seconds
+
+
+def _cpu_seconds() -> float:
+    """CPU seconds of this process and its threads."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
 def _measure(cs: CompiledScene, spp: int, seed: int = 3) -> tuple[float, float, float]:
     """Mean and median over pixels and channels of the variance of the pixel mean, and the seconds."""
+    t = _cpu_seconds()
     r = render(cs, spp=spp, seed=seed)
+    cpu = _cpu_seconds() - t
     v = r.variance.astype(np.float64)
-    return float(np.mean(v)), float(np.median(v)), r.seconds
+    return float(np.mean(v)), float(np.median(v)), cpu if CPU_TIME else r.seconds
 
 
 def _table(title: str, rows: list[tuple[str, float, float, float]]) -> None:
@@ -113,10 +128,10 @@ def env_shares(spp: int, width: int) -> None:
         _table(f"environment share: {title}, {width} px wide, {spp} spp", rows)
 
 
-def samplers(spp: int, width: int) -> None:
-    """power, uniform and bvh on the shipped scenes."""
-    for name, path in [(n, SCENES / n) for n in ("many_lights.json", "veach_mis.json", "cornell.json")] + [
-            ("big-mesh scene (5e4 triangles)", _big_scene_file())]:
+def samplers(spp: int, width: int, scenes: list[str]) -> None:
+    """power, uniform and bvh on the shipped scenes (and the big-mesh scene, 'big')."""
+    for name in scenes:
+        path = _big_scene_file() if name == "big" else SCENES / name
         rows = []
         for ls in ("power", "uniform", "bvh"):
             cs = _scene(path, width).with_settings(light_sampler=ls)
@@ -131,11 +146,16 @@ def main() -> int:
     ap.add_argument("what", nargs="?", default="all", choices=("env", "samplers", "all"))
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--size", type=int, default=96, help="image width in pixels")
+    ap.add_argument("--cpu", action="store_true", help="time in CPU seconds, not the render's wall seconds")
+    ap.add_argument("--scenes", default="many_lights.json,veach_mis.json,cornell.json,big",
+                    help="samplers: comma-separated shipped scenes, 'big' for the big-mesh scene")
     a = ap.parse_args()
+    global CPU_TIME
+    CPU_TIME = a.cpu
     if a.what in ("env", "all"):
         env_shares(a.spp, a.size)
     if a.what in ("samplers", "all"):
-        samplers(a.spp, a.size)
+        samplers(a.spp, a.size, a.scenes.split(","))
     return 0
 
 

@@ -34,6 +34,13 @@
  * walks the same nodes by the light's trail with the same arithmetic (one
  * function, light_bvh_walk), so it reproduces the sampling probability bit
  * for bit.
+ *
+ * Flat trees.  A tree of 2..16 area lights is a root (its count carrying
+ * LIGHT_BVH_FLAT_FLAG) and the leaves 1..L in light order, the trail of a
+ * light its index (mcocl/render/light_bvh.py).  light_bvh_flat weighs every
+ * leaf at once: the records are the same for all lanes (read once, no
+ * gathers, no lanes waiting for the deepest walk), and the cells are dealt
+ * out in proportion to the leaf importances with the same exactness.
  */
 #ifndef MCOCL_RENDER_LIGHT_BVH_CL
 #define MCOCL_RENDER_LIGHT_BVH_CL
@@ -43,6 +50,11 @@
 #include "render/vec3.cl"
 #include "render/lane_io.cl"
 #include "sampling/gather.cl"
+
+/* A flat tree (mcocl/render/light_bvh.py, FLAT_LIGHTS and FLAT_FLAG): the root's count carries
+ * the flag bit beside its at most LIGHT_BVH_FLAT_MAX lights, leaves 1..L follow it. */
+#define LIGHT_BVH_FLAT_MAX 16u
+#define LIGHT_BVH_FLAT_FLAG 0x80000000u
 
 /* cos(max(0, alpha - beta)) from the sines and cosines of alpha and beta in [0, pi]. */
 MC_INLINE floatv cos_sub_clamped(floatv sin_a, floatv cos_a, floatv sin_b, floatv cos_b) {
@@ -83,17 +95,72 @@ MC_INLINE floatv light_bvh_importance(vec3v c, floatv r2, floatv power, vec3v ax
     return lane_select((floatv)(0.0f), imp, (cos_p > cos_e) & (imp > 0.0f));
 }
 
+/* Field F of node i read once for all lanes (flat trees: every lane evaluates the same leaves). */
+#define LIGHT_BVH_SCALAR(nodes, i, F) (nodes)[(i) * LIGHT_BVH_NODE_QUADS + F##_QUAD].F##_COMP
+#define LIGHT_BVH_SCALAR3(nodes, i, F)                                                                        \
+    v3((floatv)((nodes)[(i) * LIGHT_BVH_NODE_QUADS + F##_QUAD].F##_COMP),                                     \
+       (floatv)((nodes)[(i) * LIGHT_BVH_NODE_QUADS + F##_QUAD].F##_COMP1),                                    \
+       (floatv)((nodes)[(i) * LIGHT_BVH_NODE_QUADS + F##_QUAD].F##_COMP2))
+
+/* The choice among the leaves 1..L of a flat tree (L <= LIGHT_BVH_FLAT_MAX lights), by u
+ * (by_trail 0) or of light trail (by_trail 1); same contract as light_bvh_walk.  With I_k the
+ * importance of leaf k, S_k = I_0 + ... + I_{k-1} (summed in this order), T = S_L and P the number of
+ * lights with I_k > 0, light k owns the cells [B_k, B_{k+1}) of the 2^23 with
+ *     B_k = round((2^23 - P) S_k / T) + #{j < k : I_j > 0},
+ * so B_0 = 0, B_L = 2^23 and every light with I_k > 0 owns at least one cell; light_bvh_pmf runs the
+ * same arithmetic, so the probability (B_{k+1} - B_k) 2^-23 is reproduced bit for bit. */
+MC_INLINE uintv light_bvh_flat(global const float4 *nodes, uint count, vec3v p, vec3v n, uintv cell, uintv trail,
+                               const int by_trail, intv active, floatv *pmf) {
+    intv has_n = v3_len2(n) > 0.0f;
+    floatv imp[LIGHT_BVH_FLAT_MAX];
+    floatv total = (floatv)(0.0f);
+    uintv positive = (uintv)(0u);
+    for (uint k = 0u; k < count; ++k) {
+        uint i = k + 1u;
+        imp[k] = light_bvh_importance(LIGHT_BVH_SCALAR3(nodes, i, LIGHT_BVH_NODE_CENTER),
+                                      (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_RADIUS2)),
+                                      (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_POWER)),
+                                      LIGHT_BVH_SCALAR3(nodes, i, LIGHT_BVH_NODE_AXIS),
+                                      (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_COS_O)),
+                                      (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_COS_E)), p, n, has_n);
+        total += imp[k];
+        positive += lane_select((uintv)(0u), (uintv)(1u), imp[k] > 0.0f);
+    }
+    floatv spread = to_floatv((uintv)(UNIFORM_CELLS) - positive);
+    floatv sum = (floatv)(0.0f);
+    uintv below = (uintv)(0u), lo = (uintv)(0u), chosen = (uintv)(0u);
+    floatv p_chosen = (floatv)(0.0f);
+    for (uint k = 0u; k < count; ++k) {
+        intv lit = imp[k] > 0.0f;
+        sum += imp[k];
+        below += lane_select((uintv)(0u), (uintv)(1u), lit);
+        uintv hi = to_uintv(spread * (sum / total) + 0.5f) + below;
+        intv mine = by_trail ? trail == (uintv)(k) : (cell >= lo) & (cell < hi);
+        mine = mine & lit;
+        chosen = lane_select(chosen, (uintv)(as_uint(LIGHT_BVH_SCALAR(nodes, k + 1u, LIGHT_BVH_NODE_REF))), mine);
+        p_chosen = lane_select(p_chosen, to_floatv(hi - lo) * UNIFORM_CELL_WIDTH, mine);
+        lo = hi;
+    }
+    intv live = active & (total > 0.0f) & (p_chosen > 0.0f);
+    *pmf = lane_select((floatv)(0.0f), p_chosen, live);
+    return lane_select((uintv)(0u), chosen, live);
+}
+
 /* Walk from the root to a leaf, choosing the child by u (by_trail 0) or by
  * the bits of trail (by_trail 1, a compile-time constant at each call).
  * Returns the light (0 for lanes that found none) and its exact probability. */
 MC_INLINE uintv light_bvh_walk(global const float4 *nodes, vec3v p, vec3v n, floatv u, uintv trail,
                                const int by_trail, intv active, floatv *pmf) {
+    uintv cell = by_trail ? (uintv)(0u) : to_uintv(u * (float)UNIFORM_CELLS); /* u = (cell + 1/2) 2^-23 */
+    uint root_count = as_uint(LIGHT_BVH_SCALAR(nodes, 0u, LIGHT_BVH_NODE_COUNT));
+    if (root_count & LIGHT_BVH_FLAT_FLAG) /* one branch for every lane: the tree is flat or not */
+        return light_bvh_flat(nodes, min(root_count & ~LIGHT_BVH_FLAT_FLAG, LIGHT_BVH_FLAT_MAX), p, n, cell, trail,
+                              by_trail, active, pmf);
     intv has_n = v3_len2(n) > 0.0f;
     LIGHT_BVH_NODE_GATHER(r, nodes, (uintv)(0u));
     uintv ref = lane_as_uint(REC_FIELD(r, LIGHT_BVH_NODE_REF));
     intv leaf = lane_as_uint(REC_FIELD(r, LIGHT_BVH_NODE_COUNT)) == 1u;
     uintv lo = (uintv)(0u), hi = (uintv)(UNIFORM_CELLS);
-    uintv cell = by_trail ? (uintv)(0u) : to_uintv(u * (float)UNIFORM_CELLS); /* u = (cell + 1/2) 2^-23 */
     intv live = active;
     for (uint depth = 0u;; ++depth) {
         intv go = live & !leaf;

@@ -48,8 +48,9 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   (D,) their choice powers.  With D > 0, ``light_cdf`` and ``light_pmf``
   run over the L light primitives and then the D delta lights (L + D
   entries; the kernel's light records follow the same order).
-- ``light_sampler``: ``"power"``, ``"uniform"`` or ``"bvh"``
-  (:mod:`mcocl.render.emitter_choice`; the BVH's tables come from
+- ``light_sampler``: ``"power"``, ``"uniform"`` or ``"bvh"``, what the
+  scene's ``"auto"`` resolves to (``resolve_light_sampler`` of
+  :mod:`mcocl.render.emitter_choice`; the BVH's tables come from
   :mod:`mcocl.render.light_bvh`).
 - ``light_pmf``: float32 (L,): the exact probability with which CDF inversion
   picks light i when an area light is chosen — the share of the uniforms' 2^23
@@ -96,7 +97,7 @@ from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
 from .delta_lights import delta_power
-from .emitter_choice import LUMINANCE, bounding_sphere, environment_choice, light_choice
+from .emitter_choice import LUMINANCE, bounding_sphere, environment_choice, light_choice, resolve_light_sampler
 from .envmap import EnvMap
 from .pixel_filter import BOX, PixelFilter
 from .roughplastic_tables import append_tables
@@ -213,6 +214,7 @@ class CompiledScene:
             key="settings",
             light_sampler=self.light_sampler if light_sampler is None else light_sampler,
         )
+        s["light_sampler"] = resolve_light_sampler(s["light_sampler"], self.num_lights, len(self.delta_lights))
         self.integrator, self.max_depth, self.rr_depth, self.spp = (
             s["integrator"], s["max_depth"], s["rr_depth"], s["spp"])
         directional = [li for li in self.delta_lights if li.kind == "directional"]
@@ -396,7 +398,8 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     bounds = np.ascontiguousarray(bvh.bounds if len(ids) else np.zeros((2, 3)), np.float32)
     # Point, spot and directional lights follow the light primitives in the choice table.
     dpower = delta_power(scene.lights, bounding_sphere(bounds)[1])
-    cdf, pmf = light_choice(np.concatenate([power, dpower]), scene.light_sampler)
+    sampler = resolve_light_sampler(scene.light_sampler, len(light_prims), len(scene.lights))
+    cdf, pmf = light_choice(np.concatenate([power, dpower]), sampler)
     if len(pmf) == 0:
         light_prims = np.zeros(0, np.uint32)
         power = np.zeros(0)
@@ -420,7 +423,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         shape_material=shape_material, shape_emitter=shape_emitter, materials=mats,
         emitter_radiance=emitter_radiance, light_prims=light_prims, light_cdf=cdf, light_pmf=pmf,
         prim_light=prim_light, light_area=light_area, env_radiance=env,
-        light_power=power.astype(np.float64), light_sampler=scene.light_sampler, sampler=scene.sampler,
+        light_power=power.astype(np.float64), light_sampler=sampler, sampler=scene.sampler,
         delta_lights=list(scene.lights) if len(dpower) else [], delta_power=dpower, env_map=scene.env_map,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,

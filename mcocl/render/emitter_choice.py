@@ -16,7 +16,9 @@ Area lights (``integrator.light_sampler``): ``"power"`` chooses an emitting
 primitive in proportion to its power, luminance · area · π (pbrt-v4's power
 light sampler), ``"uniform"`` every emitting primitive with the same
 probability; ``"bvh"`` uses the same power CDF for the tables but the kernel
-chooses through the light BVH (:mod:`mcocl.render.light_bvh`).  Luminance is
+chooses through the light BVH (:mod:`mcocl.render.light_bvh`); ``"auto"``
+(the default) is ``"bvh"`` where that tree is flat and ``"power"`` elsewhere
+(:func:`resolve_light_sampler`).  Luminance is
 Rec. 709: 0.2126 R + 0.7152 G + 0.0722 B.
 
 The environment's share.  It used to be its power π · luminance · 4π R²
@@ -86,6 +88,7 @@ def cdf_choice_pmf(cdf: np.ndarray) -> np.ndarray:
 
 
 MIN_ENV_RADIUS = 1e-3  # a point-sized scene still gets a bounding sphere light rays can start outside
+FLAT_LIGHTS = 16  # at most this many area lights: a flat light BVH (kernels/render/light_bvh.cl)
 ENV_SHARE = 0.5  # the environment's share of light samples under ``nee`` when there are area lights too
 
 
@@ -94,6 +97,21 @@ def bounding_sphere(bounds: np.ndarray) -> tuple[np.ndarray, float]:
     diagonal, at least ``MIN_ENV_RADIUS`` (light tracing's environment rays start outside it)."""
     lo, hi = np.asarray(bounds, np.float32).astype(np.float64)
     return 0.5 * (lo + hi), max(0.5 * float(np.linalg.norm(hi - lo)), MIN_ENV_RADIUS)
+
+
+def resolve_light_sampler(name: str, area_lights: int, point_lights: int) -> str:
+    """The light sampler ``"auto"`` stands for (other names unchanged), from the scene's lights.
+
+    ``"bvh"`` when the scene has 2 to :data:`FLAT_LIGHTS` emitting primitives
+    and no point, spot or directional light (the light BVH is then flat,
+    mcocl/render/light_bvh.py: a sample costs about what the power table's
+    does and the image's noise is lower), else ``"power"`` (a deep tree costs
+    1.5x per sample and lost on MSE per second on scenes/many_lights.json;
+    measured in scenes/README.md, *Light choice*).
+    """
+    if name != "auto":
+        return name
+    return "bvh" if 2 <= area_lights <= FLAT_LIGHTS and point_lights == 0 else "power"
 
 
 def light_choice(power: np.ndarray, sampler: str = "power") -> tuple[np.ndarray, np.ndarray]:
@@ -140,5 +158,5 @@ def environment_choice(env_rgb: np.ndarray, has_area_lights: bool, integrator: s
     return float(threshold), float(cells_below(threshold)) / GRID
 
 
-__all__ = ["ENV_SHARE", "GRID", "LUMINANCE", "bounding_sphere", "cdf_choice_pmf", "cells_below",
+__all__ = ["ENV_SHARE", "FLAT_LIGHTS", "resolve_light_sampler", "GRID", "LUMINANCE", "bounding_sphere", "cdf_choice_pmf", "cells_below",
            "environment_choice", "light_choice"]

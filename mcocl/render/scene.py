@@ -56,10 +56,11 @@ MAX_SPP = 2**32 - 2  # below render.job.UNBOUNDED_SPP, the 32-bit "no limit" mar
 # float64 totals and a float64 copy (STATS each), float32 block partials, float32 mean/variance/count
 BYTES_PER_PIXEL = 8 * 8 * 2 + 8 * 4 + 7 * 4
 # How light sampling chooses an area light (mcocl/render/emitter_choice.py, kernels/render/light_bvh.cl).
-LIGHT_SAMPLERS = ("power", "uniform", "bvh")
-# power: a bvh sample takes 1.3-2x as long, and bvh did not win on MSE per second on the shipped scenes,
-# though it cut the median pixel variance 3.2x (many_lights.json) and 40x (veach_mis.json): scenes/README.md.
-DEFAULT_LIGHT_SAMPLER = "power"
+LIGHT_SAMPLERS = ("auto", "power", "uniform", "bvh")
+# auto: bvh where its tree is flat (2-16 area lights, no point/spot/directional light), where it costs what
+# power costs per sample and wins on MSE per second (veach_mis.json); power elsewhere, where the deep tree's
+# 1.5x cost per sample lost on MSE per second (many_lights.json): scenes/README.md, emitter_choice.py.
+DEFAULT_LIGHT_SAMPLER = "auto"
 # integrator.sampler: independent uniforms, or per-pixel RQMC (mcocl/render/sobol_film.py).
 RENDER_SAMPLERS = ("independent", "sobol")
 DEFAULT_RENDER_SAMPLER = "independent"
