@@ -153,10 +153,10 @@ def test_light_bvh_nodes_bound_their_lights(cloud: BVHKernels) -> None:
     assert np.all(rec["count"][inner] == rec["count"][rec["ref"][inner]] + rec["count"][rec["ref"][inner] + 1])
 
 
-@pytest.mark.parametrize("point", range(len(POINTS)))
-def test_bvh_choice_fits_its_pmf_exactly(cloud: BVHKernels, point: int) -> None:
+def check_choice_fits_pmf(kernels: BVHKernels, point: int, family: Chi2Family) -> None:
+    """The light tree's choices at POINTS[point] against its own pmf: bit for bit, on the grid, and by chi-square."""
     p, n = (np.array(x, np.float64) for x in POINTS[point])
-    out = cloud.choices(p, n)
+    out = kernels.choices(p, n)
     k, pmf, again = out[0].astype(np.int64), out[1], out[2]
     ok = k >= 0
     # a walk may end where both children are dark to p (their cones face away) though the parent
@@ -164,17 +164,22 @@ def test_bvh_choice_fits_its_pmf_exactly(cloud: BVHKernels, point: int) -> None:
     assert ok.mean() > 0.9
     # light_bvh_pmf recomputes the walk's probability bit for bit
     assert np.array_equal(pmf[ok].view(np.uint32), again[ok].view(np.uint32))
-    table = cloud.pmfs(p, n)
+    table = kernels.pmfs(p, n)
     assert np.array_equal(table[k[ok]], pmf[ok])
     # exact on the grid: whole numbers of cells that add up to at most one
     cells = table.astype(np.float64) / CELL
     assert np.all(cells == np.round(cells)) and cells.sum() <= 1 << 23
     # no light that can reach p is dark to the tree
-    facing = _facing(cloud.cs, p)
+    facing = _facing(kernels.cs, p)
     assert np.all(table[facing] > 0), f"{np.sum(table[facing] == 0)} facing lights have probability 0"
     observed = np.append(np.bincount(k[ok], minlength=len(table)), np.sum(~ok)).astype(float)
     expected = N * np.append(table.astype(np.float64), 1.0 - table.astype(np.float64).sum())
-    FAMILY.check(f"point {point}", observed, expected)
+    family.check(f"point {point}", observed, expected)
+
+
+@pytest.mark.parametrize("point", range(len(POINTS)))
+def test_bvh_choice_fits_its_pmf_exactly(cloud: BVHKernels, point: int) -> None:
+    check_choice_fits_pmf(cloud, point, FAMILY)
 
 
 @pytest.mark.parametrize("point", [0, 2])

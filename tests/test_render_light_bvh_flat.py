@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from chi2 import Chi2Family
-from test_render_light_bvh import CELL, POINTS, SCENES, BVHKernels, N, _cloud_scene, _facing
+from test_render_light_bvh import CELL, POINTS, SCENES, BVHKernels, _cloud_scene, check_choice_fits_pmf
 
 from mcocl.layouts import LIGHT_BVH_NODE
 from mcocl.render.compiled import compile_scene
@@ -58,21 +58,7 @@ def test_few_lights_make_a_flat_tree(few: BVHKernels) -> None:
 
 @pytest.mark.parametrize("point", range(len(POINTS)))
 def test_flat_choice_fits_its_pmf_exactly(few: BVHKernels, point: int) -> None:
-    p, n = (np.array(x, np.float64) for x in POINTS[point])
-    out = few.choices(p, n)
-    k, pmf, again = out[0].astype(np.int64), out[1], out[2]
-    ok = k >= 0
-    assert ok.mean() > 0.9
-    assert np.array_equal(pmf[ok].view(np.uint32), again[ok].view(np.uint32))
-    table = few.pmfs(p, n)
-    assert np.array_equal(table[k[ok]], pmf[ok])
-    cells = table.astype(np.float64) / CELL
-    assert np.all(cells == np.round(cells)) and cells.sum() <= 1 << 23
-    facing = _facing(few.cs, p)
-    assert np.all(table[facing] > 0), f"{np.sum(table[facing] == 0)} facing lights have probability 0"
-    observed = np.append(np.bincount(k[ok], minlength=len(table)), np.sum(~ok)).astype(float)
-    expected = N * np.append(table.astype(np.float64), 1.0 - table.astype(np.float64).sum())
-    FAMILY.check(f"point {point}", observed, expected)
+    check_choice_fits_pmf(few, point, FAMILY)
 
 
 @pytest.mark.parametrize("point", [0, 2])
