@@ -21,6 +21,15 @@ import pytest
 from mcocl.render import splat_film
 from mcocl.render.api import render
 
+
+@pytest.fixture(autouse=True)
+def _scalar_build(monkeypatch) -> None:
+    """These tests run bdpt's scalar build (MCOCL_LANES=1): it compiles in half the time of the
+    16-lane build, and test_render_bdpt.py::test_lane_builds_agree_with_the_scalar_build holds the lane
+    builds to it."""
+    monkeypatch.setenv("MCOCL_LANES", "1")
+
+
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
 
