@@ -527,22 +527,7 @@ MC_INLINE floatv strategy_weight(floatv w) {
 kernel void bdpt_trace(
     SPLAT_TRACE_PARAMS)
 {
-    const ulong seed = params.seed;
-    const uint width = params.width, height = params.height, rr_depth = params.rr_depth;
-    const int max_depth = params.max_depth;
-    const uint scene_ntris = params.ntris, scene_nspheres = params.nspheres;
-    path_group pg;
-    if (!path_group_at(&params, scratch, (uint)get_global_id(0), &pg)) return;
-    const uint npix = pg.npix;
-    global film_t *img = pg.img;
-    const ulong path0 = pg.path0, total = pg.total;
-    if (total == 0ul || max_depth == 0) return;
-
-    SCENE_GEOM_MAKE(geom);
-    const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
-    /* light paths start at emitters chosen by power: no light BVH is bound */
-    light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
-    light_tables_bind_envmap(&lt, &params, env_map, env_cdf);
+    SPLAT_TRACE_PRELUDE;
     bdpt_scene sc;
     sc.has_env = params.env_radiance.x > 0.0f || params.env_radiance.y > 0.0f || params.env_radiance.z > 0.0f;
     sc.geom = &geom;

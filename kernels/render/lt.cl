@@ -114,6 +114,25 @@ MC_INLINE void splat(global film_t *img, uintv pixel, vec3v c, intv ok) {
     global const float4 *light_rec, global const float *light_cdf, global const float4 *vertex_normals,      \
     global const float4 *env_map, global const uint *env_cdf, const float4 bsphere, global film_t *scratch
 
+/* The start of every splatting trace kernel: the launch's settings, this
+ * work-item's path group (or return), the geometry, primitive and light
+ * tables.  Light paths start at emitters chosen by power: no light BVH is bound. */
+#define SPLAT_TRACE_PRELUDE                                                                                 \
+    const ulong seed = params.seed;                                                                         \
+    const uint width = params.width, height = params.height, rr_depth = params.rr_depth;                    \
+    const int max_depth = params.max_depth;                                                                 \
+    const uint scene_ntris = params.ntris, scene_nspheres = params.nspheres;                                \
+    path_group pg;                                                                                          \
+    if (!path_group_at(&params, scratch, (uint)get_global_id(0), &pg)) return;                              \
+    const uint npix = pg.npix;                                                                              \
+    global film_t *img = pg.img;                                                                            \
+    const ulong path0 = pg.path0, total = pg.total;                                                         \
+    if (total == 0ul || max_depth == 0) return;                                                             \
+    SCENE_GEOM_MAKE(geom);                                                                                  \
+    const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);                                \
+    light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);              \
+    light_tables_bind_envmap(&lt, &params, env_map, env_cdf)
+
 /* The light paths of one path group.  Work-item gid of a launch is group
  * gid % ntiles of block first_block + gid / ntiles; the block's paths are
  * split evenly over its groups, and each group splats into its own image of
@@ -179,22 +198,7 @@ MC_INLINE intv camera_visible(const scene_geom *geom, vec3v p, vec3v n, const ca
 kernel void lt_trace(
     SPLAT_TRACE_PARAMS)
 {
-    const ulong seed = params.seed;
-    const uint width = params.width, height = params.height, rr_depth = params.rr_depth;
-    const int max_depth = params.max_depth;
-    const uint scene_ntris = params.ntris, scene_nspheres = params.nspheres;
-    path_group pg;
-    if (!path_group_at(&params, scratch, (uint)get_global_id(0), &pg)) return;
-    const uint npix = pg.npix;
-    global film_t *img = pg.img;
-    const ulong path0 = pg.path0, total = pg.total;
-    if (total == 0ul || max_depth == 0) return;
-
-    SCENE_GEOM_MAKE(geom);
-    const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
-    /* light paths start at emitters chosen by power: no light BVH is bound */
-    light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
-    light_tables_bind_envmap(&lt, &params, env_map, env_cdf);
+    SPLAT_TRACE_PRELUDE;
     const float pixels = (float)npix;
     const float lens_area = camera_lens_area(camera);
     const uint depth_limit = max_depth >= 0 ? min((uint)max_depth, (uint)DEPTH_GUARD) : (uint)DEPTH_GUARD;
