@@ -35,19 +35,19 @@ HOSTILE_VALUES: list[Any] = [
 ]
 
 
-def _paths(obj: Any, prefix: tuple = ()) -> list[tuple]:
+def json_key_paths(obj: Any, prefix: tuple = ()) -> list[tuple]:
     """Every key path in a JSON value (the root excluded)."""
     out = []
     items = obj.items() if isinstance(obj, dict) else enumerate(obj) if isinstance(obj, list) else []
     for k, v in items:
         out.append(prefix + (k,))
-        out += _paths(v, prefix + (k,))
+        out += json_key_paths(v, prefix + (k,))
     return out
 
 
 def _mutate(doc: Any, rng: random.Random) -> Any:
     doc = copy.deepcopy(doc)
-    path = rng.choice(_paths(doc))
+    path = rng.choice(json_key_paths(doc))
     parent = doc
     for k in path[:-1]:
         parent = parent[k]

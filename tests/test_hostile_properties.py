@@ -32,6 +32,7 @@ from typing import Any
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_hostile_fuzz import json_key_paths
 
 from mcocl.cli import main
 
@@ -61,22 +62,12 @@ JSON_VALUE = st.recursive(
 )
 
 
-def _paths(obj: Any, prefix: tuple = ()) -> list[tuple]:
-    """Every key path in a JSON value (the root excluded)."""
-    out = []
-    items = obj.items() if isinstance(obj, dict) else enumerate(obj) if isinstance(obj, list) else []
-    for k, v in items:
-        out.append(prefix + (k,))
-        out += _paths(v, prefix + (k,))
-    return out
-
-
 @st.composite
 def mutated(draw: st.DrawFn, doc: Any) -> Any:
     """``doc`` with one to three values replaced, removed or added at random places."""
     doc = copy.deepcopy(doc)
     for _ in range(draw(st.integers(1, 3))):
-        paths = _paths(doc)
+        paths = json_key_paths(doc)
         if not paths:
             break
         path = paths[draw(st.integers(0, len(paths) - 1))]
