@@ -17,6 +17,16 @@ The records live in ``mcocl-records/`` inside PoCL's cache folder, so clearing
 the cache clears them too.  The check is skipped (never fails) when the entry
 cannot be identified uniquely, e.g. while another process builds at the same
 instant, or when the records cannot be written.
+
+PoCL's bitcode is not byte-for-byte reproducible: it embeds the name of the
+temporary source file (``tempfile_XXXXXX.cl``), so two processes that build
+one program at the same instant leave the entry with either's bytes.  The
+record therefore keeps ``program.bc`` as its size and the digests of its
+chunks (:func:`bitcode_fingerprint`), and a bitcode of the same size that
+differs in at most ``REBUILD_CHUNKS`` chunks is taken for PoCL's own rebuild
+(:func:`rebuilt_alike`); another program's bitcode differs in size or almost
+everywhere.  The kernel libraries (``.so``) are reproducible and keep whole
+digests.
 """
 
 from __future__ import annotations
@@ -33,15 +43,36 @@ RECORDS = "mcocl-records"
 # Seconds of slack around the build when matching last_accessed stamps: file
 # times come from the kernel's coarse clock (a tick of a few milliseconds).
 SLACK = 0.01
+# A rebuild of one program changes two places of its bitcode (the temporary
+# file's name in the string table and in the module's source-file record).
+REBUILD_CHUNKS = 4
+# Bitcode chunks: at least this many bytes, at most MAX_CHUNKS of them per file.
+MIN_CHUNK = 256
+MAX_CHUNKS = 512
 
 
 def _file_digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+def bitcode_fingerprint(data: bytes) -> str:
+    """``size:digest,digest,...``: the bitcode's size and short digests of its chunks."""
+    chunk = max(MIN_CHUNK, -(-len(data) // MAX_CHUNKS))
+    parts = (hashlib.sha256(data[i:i + chunk]).hexdigest()[:16] for i in range(0, len(data), chunk))
+    return f"{len(data)}:{','.join(parts)}"
+
+
+def rebuilt_alike(recorded: str, now: str) -> bool:
+    """True when two bitcode fingerprints differ only as PoCL's rebuilds of one program differ."""
+    size_a, _, chunks_a = recorded.partition(":")
+    size_b, _, chunks_b = now.partition(":")
+    a, b = chunks_a.split(","), chunks_b.split(",")
+    return size_a == size_b and len(a) == len(b) and sum(x != y for x, y in zip(a, b)) <= REBUILD_CHUNKS
+
+
 def _entry_files(entry: Path) -> dict[str, str]:
-    """Digests of the files that decide what runs: the program bitcode and every kernel library."""
-    files = {"program.bc": _file_digest(entry / "program.bc")}
+    """Fingerprints of the files that decide what runs: the program bitcode and every kernel library."""
+    files = {"program.bc": bitcode_fingerprint((entry / "program.bc").read_bytes())}
     for so in sorted(entry.glob("*/*/*.so")):
         files[so.relative_to(entry).as_posix()] = _file_digest(so)
     return files
@@ -109,11 +140,19 @@ def check_entry(key: str, entry: Path) -> str | None:
             files = {}
     except (OSError, ValueError, KeyError, TypeError):
         files = {}
+    rebuilt = False
     for name, digest in files.items():
-        if name in now and now[name] != digest:
+        if name == "program.bc" and name in now and now[name] != digest and (
+                ":" not in digest or rebuilt_alike(digest, now[name])):
+            # PoCL rebuilt the program into its entry (another process, the same instant),
+            # or the record predates fingerprints (a whole-file digest): record it anew
+            rebuilt = True
+        elif name in now and now[name] != digest:
             return (f"PoCL's kernel cache entry {str(entry)!r} does not hold the program mcocl built there "
                     f"({name} changed since it was first built: a corrupt or swapped cache entry)")
-    if not files or any(name not in files for name in now):
+    if rebuilt:
+        files["program.bc"] = now["program.bc"]
+    if rebuilt or not files or any(name not in files for name in now):
         files.update({k: v for k, v in now.items() if k not in files})
         _write_atomically(path, json.dumps({"entry": entry.name, "files": files}, sort_keys=True))
     return None
@@ -130,4 +169,4 @@ def _write_atomically(path: Path, text: str) -> None:
         pass
 
 
-__all__ = ["RECORDS", "check_entry", "entry_used", "record_key"]
+__all__ = ["RECORDS", "bitcode_fingerprint", "check_entry", "entry_used", "rebuilt_alike", "record_key"]

@@ -108,3 +108,25 @@ def test_corrupt_entry_is_bypassed(cache: tuple[Path, str, Path, Path], target: 
         data[len(data) // 3: len(data) // 3 + 256] = b"\xff" * 256
         f.write_bytes(bytes(data[: len(data) // 2]))
     _check_damaged_run(folder, "x[0]*x[0]", square)
+
+
+def _bitcode(cache: Path, body: str) -> bytes:
+    """The program.bc PoCL writes for a small kernel, built in a fresh process with its own cache."""
+    code = ("import pyopencl as cl\nfrom mcocl import runtime\nctx = runtime.device_context(None)\n"
+            f"cl.Program(ctx.context, 'kernel void rebuild_check(global float *a) {{ float x = a[0]; a[0] = {body}; }}').build()\n")
+    env = dict(os.environ, POCL_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT))
+    subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=300)
+    (bc,) = (p for p in cache.glob("*/*/program.bc") if b"rebuild_check" in p.read_bytes())  # not the probe's
+    return bc.read_bytes()
+
+
+def test_a_concurrent_rebuild_is_not_taken_for_a_swap(tmp_path: Path) -> None:
+    """PoCL's bitcode names its temporary source file, so two builds of one program differ in a few
+    bytes (two processes building at the same instant leave either's); another program differs more."""
+    from mcocl.pocl_cache_record import bitcode_fingerprint, rebuilt_alike
+
+    one = bitcode_fingerprint(_bitcode(tmp_path / "c1", "sin(x) * x"))
+    two = bitcode_fingerprint(_bitcode(tmp_path / "c2", "sin(x) * x"))
+    other = bitcode_fingerprint(_bitcode(tmp_path / "c3", "cos(x) + x"))
+    assert rebuilt_alike(one, two)
+    assert not rebuilt_alike(one, other)
