@@ -35,6 +35,7 @@ import pyopencl as cl
 from . import heartbeat
 from .build_output import build_log_requested, compiler_stderr_captured, show_build_log
 from .errors import DeviceError, InputError, KernelBuildError
+from .host_simd import host_simd_width
 from .pocl_cache import cache_folder, cache_problem, no_device_hint
 from .pocl_cache_record import check_entry, entry_used, record_key
 from .usercode import UserFunction, explain_build_log, probe_source
@@ -132,8 +133,10 @@ def default_lanes(device: cl.Device) -> int:
     """How many samples a work-item carries in vector lanes on this device.
 
     CPUs get their preferred float vector width (8 with AVX2, 16 with AVX-512:
-    measured fastest on PoCL, see bench/); GPUs vectorise across work-items by
-    themselves and get 1.  ``MCOCL_LANES`` overrides.
+    measured fastest on PoCL, see bench/), or the host's SIMD width where the
+    device reports less (PoCL reports 1 on CPUs its LLVM does not recognise);
+    GPUs vectorise across work-items by themselves and get 1.  ``MCOCL_LANES``
+    overrides.
     """
     env = os.environ.get("MCOCL_LANES")
     if env:
@@ -145,7 +148,8 @@ def default_lanes(device: cl.Device) -> int:
             raise InputError(f"the environment variable MCOCL_LANES must be a whole number such as 1, 2, 4, 8 "
                              f"or 16, got {env!r}")
     elif device.type & cl.device_type.CPU:
-        lanes = int(device.preferred_vector_width_float) or 8
+        reported = max(int(device.preferred_vector_width_float), int(device.native_vector_width_float))
+        lanes = reported if reported >= 4 else max(reported, host_simd_width())
     else:
         lanes = 1
     for allowed in (16, 8, 4, 2, 1):

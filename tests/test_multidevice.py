@@ -100,6 +100,28 @@ def test_split_gives_the_sums_of_one_device_bit_for_bit(tmp_path, sampler):
     assert (r1.estimate, r1.stderr, r1.samples) == (r2.estimate, r2.stderr, r2.samples)
 
 
+def test_sub_devices_of_another_default_width_build_the_jobs_width(tmp_path, monkeypatch):
+    """Devices may report different default widths (a driver reporting 1 on one of them); the job's
+    width is fixed by the first build, so the split still gives the one-device sums bit for bit (a
+    scalar build of exp rounds differently from the vector one)."""
+    import mcocl.devices as devices
+
+    init = devices.SubDeviceContext.__init__
+
+    def narrow(self, *args, **kwargs) -> None:
+        init(self, *args, **kwargs)
+        self.lanes = 1
+
+    monkeypatch.setattr(devices.SubDeviceContext, "__init__", narrow)
+    monkeypatch.setattr(devices, "_subdevices", {})  # fresh sub-devices, made with the narrow width
+    one, two = tmp_path / "one.npz", tmp_path / "two.npz"
+    kw = dict(dim=3, samples=1e6, seed=13)
+    mcocl.integrate(F3, checkpoint=str(one), **kw)
+    r2 = mcocl.integrate(F3, checkpoint=str(two), split=2, **kw)
+    assert "[2/2]" in r2.device
+    assert np.array_equal(_totals(one), _totals(two))
+
+
 @pytest.mark.parametrize("estimator", ["nee", "roulette"])
 def test_split_gives_the_random_walk_sums_of_one_device_bit_for_bit(tmp_path, estimator):
     from walk_problems import SEP2

@@ -15,15 +15,14 @@ kernel void proposal_samples(ulong n, ulong seed, global const uint *tables,
     sampler_next_nd(&s, DIM, u);
     floatv p = warp_t0(u, x, tables);
     floatv q = pdf_t0(x, tables);
-    float ps[LANES], qs[LANES], xj[LANES];
-    MC_CAT(vstore, LANE_SUFFIX)(p, 0, ps);
-    MC_CAT(vstore, LANE_SUFFIX)(q, 0, qs);
+    /* float_lanes (lane_ops.cl) reads the lanes in every build, the scalar one included */
+    float_lanes ps = {.v = p}, qs = {.v = q};
     for (int l = 0; l < LANES && i0 + l < n; ++l) {
-        pdf_warp[i0 + l] = ps[l];
-        pdf_eval[i0 + l] = qs[l];
+        pdf_warp[i0 + l] = ps.a[l];
+        pdf_eval[i0 + l] = qs.a[l];
     }
     for (int j = 0; j < DIM; ++j) {
-        MC_CAT(vstore, LANE_SUFFIX)(x[j], 0, xj);
-        for (int l = 0; l < LANES && i0 + l < n; ++l) xs[(i0 + l) * DIM + j] = xj[l];
+        float_lanes xj = {.v = x[j]};
+        for (int l = 0; l < LANES && i0 + l < n; ++l) xs[(i0 + l) * DIM + j] = xj.a[l];
     }
 }

@@ -55,6 +55,8 @@ def execute(
         DeviceError: no device is left after failures (multi-device, Dask).
     """
     placement = placement or Placement()
+    if not placement.is_single or placement.client is not None:
+        _pin_lanes(job, runner)
     if placement.client is not None:
         return run_dask(job, acc, halting, placement, progress=progress)
     if placement.is_single:
@@ -69,6 +71,19 @@ def execute(
     report = run_devices(job, acc, halting, contexts, progress=progress, runners=runners)
     report.notes = choice.notes + report.notes
     return report
+
+
+def _pin_lanes(job: BlockJob, runner: BlockRunner | None) -> None:
+    """Give every device the lane width of the build the API already made.
+
+    A job without a lane width builds each device's default, and devices (a
+    sub-device, a Dask worker's device) may report different ones; the lane
+    width changes the order of sums inside a block, so the blocks' last bits
+    would depend on which device computed them.
+    """
+    lanes = getattr(runner, "lanes", None)
+    if lanes is not None and getattr(job, "lanes", 0) is None:
+        job.lanes = int(lanes)  # type: ignore[attr-defined]
 
 
 __all__ = ["execute"]
