@@ -8,3 +8,22 @@ import pyopencl as cl
 
 # PoCL reports vector-ABI notes as compiler warnings; they are not test failures.
 warnings.filterwarnings("ignore", category=cl.CompilerWarning)
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:  # noqa: ANN001
+    """End the report with the machine the suite ran on: a CI log shows only its tail."""
+    import platform
+
+    from mcocl import runtime
+    from mcocl.host_simd import host_simd_width
+
+    try:
+        d = runtime.device_context(None).device
+        line = (f"{d.name.strip()} ({d.platform.version.strip()}), preferred float width "
+                f"{d.preferred_vector_width_float}, lanes {runtime.default_lanes(d)}")
+    except Exception as e:  # the summary must never hide the tests' own outcome
+        line = f"no device ({e})"
+    cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")), "?") \
+        if platform.system() == "Linux" else platform.processor()
+    terminalreporter.write_line(f"mcocl device: {line}; CPU {cpu}, host SIMD width {host_simd_width()}, "
+                                f"Python {platform.python_version()}")
