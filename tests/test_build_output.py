@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from vector_lanes import needs_vector_lanes
 
 from mcocl.cli import build_parser
 
@@ -47,6 +48,7 @@ def test_a_cold_run_prints_no_compiler_output(args: list[str], tmp_path: Path) -
     assert _noise(r.stderr) == [], r.stderr
 
 
+@needs_vector_lanes
 @pytest.mark.parametrize("how", ["flag", "env"])
 def test_build_logs_are_shown_on_request(how: str, tmp_path: Path) -> None:
     args = [*FALLBACK, "--verbose"] if how == "flag" else FALLBACK

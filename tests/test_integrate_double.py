@@ -12,6 +12,7 @@ import math
 from types import SimpleNamespace
 
 import pytest
+from vector_lanes import needs_vector_lanes
 
 import mcocl
 from mcocl.errors import InputError
@@ -41,6 +42,7 @@ def test_independent_in_double_is_unbiased() -> None:
     assert abs(r.estimate - PEAK_EXACT) <= 4 * r.stderr
 
 
+@needs_vector_lanes
 @pytest.mark.parametrize("sampler", ["sobol", "independent"])
 def test_double_is_deterministic_across_runs_and_lane_widths(sampler: str) -> None:
     kw = dict(dim=2, samples=1 << 17, sampler=sampler, seed=11, precision="double")

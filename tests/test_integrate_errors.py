@@ -10,6 +10,7 @@ import warnings
 
 import numpy as np
 import pytest
+from vector_lanes import needs_vector_lanes
 
 import mcocl
 from mcocl.errors import InputError, KernelBuildError
@@ -86,6 +87,7 @@ def test_nonfinite_samples_are_counted_and_left_out() -> None:
     assert s.nonfinite == s.samples
 
 
+@needs_vector_lanes
 def test_scalar_fallback_for_code_not_valid_on_vectors() -> None:
     body = "if (x[0] < 0.5f) return 1.0f;\nreturn 0.0f;"
     r = mcocl.integrate(body, samples=1 << 16, seed=2)
@@ -94,6 +96,7 @@ def test_scalar_fallback_for_code_not_valid_on_vectors() -> None:
     assert abs(r.estimate - 0.5) <= 5 * r.stderr
 
 
+@needs_vector_lanes
 def test_lane_form_that_means_something_else_is_caught() -> None:
     # any() of a scalar comparison tests its sign bit (always 0); of a vector
     # comparison, whether some lane is true: compiles both ways, means different things.
