@@ -101,10 +101,11 @@ MC_INLINE vec3v texture_eval(global const float4 *tex, intv id, floatv u, floatv
     intv odd = ((su - floor(su)) > 0.5f) != ((sv - floor(sv)) > 0.5f);
     intv checker = active & (kind == TEX_CHECKERBOARD);
     i00 = lane_select(i00, first + lane_select((intv)(0), (intv)(1), odd), checker);
+    /* nearest lanes read texel i00 four times (weights 1, 0, 0, 0); inactive lanes row 0 */
     i00 = lane_select((intv)(0), i00, active);
-    i10 = lane_select((intv)(0), i10, active & !nearest);
-    i01 = lane_select((intv)(0), i01, active & !nearest);
-    i11 = lane_select((intv)(0), i11, active & !nearest);
+    i10 = lane_select(i00, i10, active & !nearest);
+    i01 = lane_select(i00, i01, active & !nearest);
+    i11 = lane_select(i00, i11, active & !nearest);
     rec4v a = gather_rec4(tex, to_uintv(i00)), b = gather_rec4(tex, to_uintv(i10));
     rec4v c = gather_rec4(tex, to_uintv(i01)), e = gather_rec4(tex, to_uintv(i11));
     floatv gx = 1.0f - fx, gy = 1.0f - fy;

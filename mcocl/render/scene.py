@@ -15,6 +15,7 @@ kernels read.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -161,6 +162,8 @@ class _Checker:
 
     def __init__(self, file: str) -> None:
         self.file = file
+        # Textures read so far, by their JSON text: equal definitions share one Texture (one copy of the texels).
+        self.textures: dict[str, Texture] = {}
 
     def fail(self, key: str, msg: str) -> None:
         raise InputError(f"{self.file}: {key}: {msg}" if key else f"{self.file}: {msg}")
@@ -455,8 +458,13 @@ def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec, roots: 
         if p.optional and p.key not in o:
             continue
         raw, pk = o.get(p.key, p.default), f"{key}.{p.key}"
-        if isinstance(raw, dict) and p.texturable:
-            textures[p.field] = tex = parse_texture(c, raw, pk, roots, _transform)
+        if isinstance(raw, dict) and not p.texturable:
+            which = [f"{s.name}.{q.key}" for s in BSDFS.values() for q in s.params if q.texturable]
+            c.fail(pk, f"takes no texture (keys that do: {', '.join(which)})")
+        if isinstance(raw, dict):
+            text = json.dumps(raw, sort_keys=True)
+            tex = c.textures.get(text) or parse_texture(c, raw, pk, roots, _transform)
+            textures[p.field] = c.textures[text] = tex
             raw = tex.mean().tolist() if p.kind == "rgb" else float(np.clip(tex.mean() @ LUMINANCE, p.lo, p.hi))
             if p.field == "alpha" and any(k in o for k in ("alpha_u", "alpha_v")):
                 c.fail(pk, "a roughness texture takes the place of alpha_u/alpha_v: give one or the other")

@@ -161,9 +161,10 @@ def parse_texture(c: Any, value: dict, key: str, roots: list[Path], transform) -
         rel = c.string(o["filename"], f"{key}.filename")
         path = c.mesh_file(rel, f"{key}.filename", roots, text=False)
         raw = c.boolean(o.get("raw", False), f"{key}.raw")
-        tex = Texture(kind, image=load_image(path, raw, f"{c.file}: {key}.filename"),
-                      filter_type=c.string(o.get("filter_type", "bilinear"), f"{key}.filter_type", FILTERS),
-                      wrap_mode=c.string(o.get("wrap_mode", "repeat"), f"{key}.wrap_mode", WRAPS), filename=rel)
+        filt = c.string(o.get("filter_type", "bilinear"), f"{key}.filter_type", FILTERS)
+        wrap = c.string(o.get("wrap_mode", "repeat"), f"{key}.wrap_mode", WRAPS)
+        tex = Texture(kind, image=load_image(path, raw, f"{c.file}: {key}.filename"), filter_type=filt,
+                      wrap_mode=wrap, filename=rel)
     if "to_uv" in o:
         m = transform(c, o["to_uv"], f"{key}.to_uv")
         tex.to_uv = affine_uv(m)
