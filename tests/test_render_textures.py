@@ -370,3 +370,18 @@ def test_texture_keys_are_checked(tmp_path: Path) -> None:
         p.write_text(json.dumps(base))
         with pytest.raises(InputError, match=key):
             load_scene(p)
+
+
+def test_convert_rewrites_texture_paths(tmp_path: Path) -> None:
+    from mcocl.cli import main
+
+    xml = Path(__file__).parent / "data" / "mitsuba" / "textures.xml"
+    out = tmp_path / "out" / "t.json"
+    out.parent.mkdir()
+    assert main(["convert", str(xml), "-o", str(out)]) == 0
+    data = json.loads(out.read_text())
+    names = sorted(v["filename"] for m in data["materials"].values() for v in m.values()
+                   if isinstance(v, dict) and v.get("type") == "bitmap")
+    assert len(names) == 3 and all((out.parent / n).resolve().is_file() for n in names)
+    scene = load_scene(out, mesh_folder=xml.parent)
+    assert sum(len(m.textures) for m in scene.materials) == 6
