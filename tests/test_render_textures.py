@@ -385,3 +385,22 @@ def test_convert_rewrites_texture_paths(tmp_path: Path) -> None:
     assert len(names) == 3 and all((out.parent / n).resolve().is_file() for n in names)
     scene = load_scene(out, mesh_folder=xml.parent)
     assert sum(len(m.textures) for m in scene.materials) == 6
+
+
+def test_one_image_one_copy_and_mesh_corner_order() -> None:
+    xml = Path(__file__).parent / "data" / "mitsuba" / "textures.xml"
+    cs = compile_scene(xml)
+    header = cs.textures[0].view(np.int32)
+    ntex = 6  # floor, sphere, cube, cylinder checks, wall checks (<ref>), wall roughness
+    texel_row = header[3] + 3 * ntex
+    # tex_colour.png (8 x 6) once for the sphere's and the cube's textures, tex_rough.png (4 x 4), 3 x 2 checker colours
+    assert len(cs.textures) - texel_row == 8 * 6 + 4 * 4 + 3 * 2
+    # mesh UVs follow the corners when a mirroring transform reorders them (as compile_scene does)
+    from mcocl.render.shape_uvs import triangle_uvs
+
+    uvs = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    mesh = SimpleNamespace(kind="mesh", faces=np.array([[0, 1, 2]]), uvs=uvs, flip_normals=False,
+                           vertices=np.eye(3), matrix=np.diag([-1.0, 1.0, 1.0, 1.0]))
+    np.testing.assert_array_equal(triangle_uvs([mesh])[0], uvs[[0, 2, 1]])
+    mesh.matrix = np.eye(4)
+    np.testing.assert_array_equal(triangle_uvs([mesh])[0], uvs)

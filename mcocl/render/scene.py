@@ -164,6 +164,7 @@ class _Checker:
         self.file = file
         # Textures read so far, by their JSON text: equal definitions share one Texture (one copy of the texels).
         self.textures: dict[str, Texture] = {}
+        self.images: dict[tuple[Path, bool], np.ndarray] = {}  # image arrays by (file, raw): one per file
 
     def fail(self, key: str, msg: str) -> None:
         raise InputError(f"{self.file}: {key}: {msg}" if key else f"{self.file}: {msg}")

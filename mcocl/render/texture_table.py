@@ -13,7 +13,8 @@ float4 rows; fields marked (int) hold int32/uint32 bits:
   width, height, first texel row) (int), to_uv (a, b, d, e), (c, f, 0, 0);
 - the texels of every texture, RGB and 0, row after row from the image's top
   (a checkerboard's are its two colours).  Textures that are the same object
-  (a Mitsuba ``<ref>``) share one descriptor and one copy of their texels.
+  (a Mitsuba ``<ref>``, equal definitions) share one descriptor; textures of
+  one image (one file, read once by the parser) share one copy of its texels.
 
 A scene without textures has no such table and its kernels are built
 without -DTEXTURES: they render bit for bit as before.
@@ -25,7 +26,7 @@ import numpy as np
 
 from ..errors import InputError
 from .shape_uvs import sphere_frames, triangle_uvs
-from .textures import FILTERS, KINDS, MAX_TEXELS, WRAPS
+from .textures import FILTERS, KINDS, MAX_TEXELS, WRAPS, Texture
 
 # What the kernels read for textures when the scene has none (OpenCL has no empty buffers).
 TEXTURES_ABSENT = {"textures": np.zeros((1, 4), np.float32)}
@@ -52,7 +53,11 @@ def texture_table(materials: list, shapes: list) -> np.ndarray | None:
                 textures.append(t)
     if not textures:
         return None
-    total = sum(t.size[0] * t.size[1] for t in textures)
+    # the texel rows of each distinct texel source: a bitmap's image array, a checkerboard's own colours
+    sources: dict[int, Texture] = {}
+    for t in textures:
+        sources.setdefault(id(t.image) if t.image is not None else id(t), t)
+    total = sum(t.size[0] * t.size[1] for t in sources.values())
     if total > MAX_TEXELS:
         raise InputError(f"the scene's textures hold {total} texels, more than the {MAX_TEXELS} one device buffer takes")
     uvs = triangle_uvs(shapes)
@@ -71,17 +76,21 @@ def texture_table(materials: list, shapes: list) -> np.ndarray | None:
     tri = table[tri_row:tri_row + 2 * len(uvs)].reshape(-1, 8)
     tri[:, :6] = uvs.reshape(-1, 6)
     table[sph_row:sph_row + 3 * len(frames), :3] = frames.reshape(-1, 3)
+    first: dict[int, int] = {}
     row = texel_row
+    for key, t in sources.items():
+        w, h = t.size
+        first[key] = row
+        table[row:row + w * h, :3] = t.texels()
+        row += w * h
     for k, t in enumerate(textures):
         w, h = t.size
         d = desc_row + DESCRIPTOR_ROWS * k
         code = KINDS.index(t.kind) | FILTERS.index(t.filter_type) << 4 | WRAPS.index(t.wrap_mode) << 8
-        table[d] = _ints(code, w, h, row)
+        table[d] = _ints(code, w, h, first[id(t.image) if t.image is not None else id(t)])
         a, b, c, dd, e, f = t.to_uv
         table[d + 1] = (a, b, dd, e)
         table[d + 2] = (c, f, 0.0, 0.0)
-        table[row:row + w * h, :3] = t.texels()
-        row += w * h
     return table
 
 

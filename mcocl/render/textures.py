@@ -163,8 +163,11 @@ def parse_texture(c: Any, value: dict, key: str, roots: list[Path], transform) -
         raw = c.boolean(o.get("raw", False), f"{key}.raw")
         filt = c.string(o.get("filter_type", "bilinear"), f"{key}.filter_type", FILTERS)
         wrap = c.string(o.get("wrap_mode", "repeat"), f"{key}.wrap_mode", WRAPS)
-        tex = Texture(kind, image=load_image(path, raw, f"{c.file}: {key}.filename"), filter_type=filt,
-                      wrap_mode=wrap, filename=rel)
+        # one array per image file and decoding, however many textures use it (texture_table shares its texels)
+        image = c.images.get((path, raw))
+        if image is None:
+            image = c.images[(path, raw)] = load_image(path, raw, f"{c.file}: {key}.filename")
+        tex = Texture(kind, image=image, filter_type=filt, wrap_mode=wrap, filename=rel)
     if "to_uv" in o:
         m = transform(c, o["to_uv"], f"{key}.to_uv")
         tex.to_uv = affine_uv(m)
