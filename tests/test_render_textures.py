@@ -404,3 +404,18 @@ def test_one_image_one_copy_and_mesh_corner_order() -> None:
     np.testing.assert_array_equal(triangle_uvs([mesh])[0], uvs[[0, 2, 1]])
     mesh.matrix = np.eye(4)
     np.testing.assert_array_equal(triangle_uvs([mesh])[0], uvs)
+
+
+@pytest.mark.parametrize("bsdf, match", [
+    ('<bsdf type="dielectric"><texture type="checkerboard" name="specular_reflectance"/></bsdf>',
+     r"t\.xml:\d+: <texture .*a texture for 'specular_reflectance' is not supported on a 'dielectric' BSDF"),
+    ('<bsdf type="diffuse"><texture type="perlin" name="reflectance"/></bsdf>',
+     r"t\.xml:\d+: <texture .*unsupported texture plugin 'perlin'"),
+    ('<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="no.png"/>'
+     '</texture></bsdf>', r"t\.xml:\d+: .*image file 'no.png' not found"),
+    ('<bsdf type="diffuse"><texture type="checkerboard"/></bsdf>', r"t\.xml:\d+: .*needs name=\"<property>\""),
+])
+def test_mitsuba_texture_errors_name_the_line(tmp_path: Path, bsdf: str, match: str) -> None:
+    p = write_xml(tmp_path, f'<shape type="rectangle">{bsdf}</shape>')
+    with pytest.raises(InputError, match=match):
+        load_scene(p)
