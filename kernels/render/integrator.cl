@@ -313,12 +313,8 @@ kernel void render_blocks(
         if (lane_any(cont)) {
             material_v m = material_load(materials, lane_select((uintv)(0u), sf.mat, cont));
 #ifdef TEXTURES
-            {
-                /* the material's textures at the hit's (u, v) (render/texture.cl) */
-                floatv tu, tv;
-                texture_uv(textures, &pt, h.prim, h.b1, h.b2, p, cont, &tu, &tv);
-                material_texture(&m, textures, tu, tv, cont);
-            }
+            /* the material's textures at the hit's (u, v) (render/texture.cl) */
+            material_texture_at_hit(&m, textures, &pt, h.prim, h.b1, h.b2, p, cont);
 #endif
             frame3v fr = frame_from_normal(ns);
             vec3v wi = frame_to_local(fr, v3_neg(d));

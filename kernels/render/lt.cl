@@ -267,12 +267,8 @@ kernel void lt_trace(
         vec3v p = sf.p, n = sf.n;
         material_v m = material_load(materials, lane_select((uintv)(0u), sf.mat, hit));
 #ifdef TEXTURES
-        {
-            /* the material's textures at the hit's (u, v) (render/texture.cl) */
-            floatv tu, tv;
-            texture_uv(textures, &pt, h.prim, h.b1, h.b2, p, hit, &tu, &tv);
-            material_texture(&m, textures, tu, tv, hit);
-        }
+        /* the material's textures at the hit's (u, v) (render/texture.cl) */
+        material_texture_at_hit(&m, textures, &pt, h.prim, h.b1, h.b2, p, hit);
 #endif
 #ifdef SHADING_NORMALS
         /* the BSDF's frame; importance transport takes the adjoint factor (render/shading_normal.cl) */

@@ -55,13 +55,19 @@ MC_INLINE void texture_uv(global const float4 *tex, const prim_tables *pt, uintv
     *v = lane_select((floatv)(0.0f), vv, active);
 }
 
+/* i mod n in [0, n) for |i| < 2^24, n >= 1: the quotient by a float division (off by at most one,
+ * then corrected), as vector integer division has no instruction on CPUs. */
+MC_INLINE intv texture_mod(intv i, intv n) {
+    intv r = i - to_intv(floor(to_floatv(i) / to_floatv(n))) * n;
+    r = lane_select(r, r + n, r < 0);
+    return lane_select(r, r - n, r >= n);
+}
+
 /* Integer texel coordinate i wrapped into [0, size) by the lanes' wrap modes. */
 MC_INLINE intv texture_wrap(intv i, intv size, intv mode) {
-    intv r = i % size;
-    r = lane_select(r, r + size, r < 0);
+    intv r = texture_mod(i, size);
     intv two = size + size;
-    intv m = i % two;
-    m = lane_select(m, m + two, m < 0);
+    intv m = texture_mod(i, two);
     m = lane_select(m, two - 1 - m, m >= size);
     intv c = lane_select(lane_select(i, size - 1, i >= size), (intv)(0), i < 0);
     return lane_select(lane_select(r, m, mode == TEX_WRAP_MIRROR), c, mode == TEX_WRAP_CLAMP);
@@ -84,30 +90,35 @@ MC_INLINE vec3v texture_eval(global const float4 *tex, intv id, floatv u, floatv
     floatv su = d1.x * u + d1.y * v + d2.x;
     floatv sv = d1.z * u + d1.w * v + d2.y;
 
-    /* bilinear: the four texels around (su W - 1/2, sv H - 1/2) */
-    floatv px = su * to_floatv(w) - 0.5f, py = sv * to_floatv(h) - 0.5f;
-    intv x0 = texture_floor(px), y0 = texture_floor(py);
-    floatv fx = lane_clamp(px - to_floatv(x0), 0.0f, 1.0f), fy = lane_clamp(py - to_floatv(y0), 0.0f, 1.0f);
-    /* nearest: the texel under (su W, sv H), weight 1 */
-    intv nearest = (kind == TEX_CHECKERBOARD) | (filter == TEX_FILTER_NEAREST);
-    x0 = lane_select(x0, texture_floor(su * to_floatv(w)), nearest);
-    y0 = lane_select(y0, texture_floor(sv * to_floatv(h)), nearest);
-    fx = lane_select(fx, (floatv)(0.0f), nearest);
-    fy = lane_select(fy, (floatv)(0.0f), nearest);
-    intv xa = texture_wrap(x0, w, wrap), xb = texture_wrap(x0 + 1, w, wrap);
-    intv ya = texture_wrap(y0, h, wrap), yb = texture_wrap(y0 + 1, h, wrap);
-    intv i00 = first + ya * w + xa, i10 = first + ya * w + xb, i01 = first + yb * w + xa, i11 = first + yb * w + xb;
-    /* checkerboard: color0 (texel 0) where frac(su) > 1/2 and frac(sv) > 1/2 agree, else color1 (texel 1) */
+    /* checkerboard: color0 (texel 0) where frac(su) > 1/2 and frac(sv) > 1/2 agree, else color1 (texel 1);
+     * it and nearest lanes read texel i00 with weight 1 (fx = fy = 0); inactive lanes row 0 */
     intv odd = ((su - floor(su)) > 0.5f) != ((sv - floor(sv)) > 0.5f);
-    intv checker = active & (kind == TEX_CHECKERBOARD);
-    i00 = lane_select(i00, first + lane_select((intv)(0), (intv)(1), odd), checker);
-    /* nearest lanes read texel i00 four times (weights 1, 0, 0, 0); inactive lanes row 0 */
-    i00 = lane_select((intv)(0), i00, active);
-    i10 = lane_select(i00, i10, active & !nearest);
-    i01 = lane_select(i00, i01, active & !nearest);
-    i11 = lane_select(i00, i11, active & !nearest);
-    rec4v a = gather_rec4(tex, to_uintv(i00)), b = gather_rec4(tex, to_uintv(i10));
-    rec4v c = gather_rec4(tex, to_uintv(i01)), e = gather_rec4(tex, to_uintv(i11));
+    intv i00 = lane_select((intv)(0), first + lane_select((intv)(0), (intv)(1), odd), active);
+    intv i10 = i00, i01 = i00, i11 = i00;
+    floatv fx = (floatv)(0.0f), fy = (floatv)(0.0f);
+    intv bitmap = active & (kind == TEX_BITMAP);
+    intv bilinear = bitmap & (filter != TEX_FILTER_NEAREST);
+    if (lane_any(bitmap)) {
+        /* bilinear: the four texels around (su W - 1/2, sv H - 1/2); nearest: the texel under (su W, sv H) */
+        floatv px = su * to_floatv(w) - 0.5f, py = sv * to_floatv(h) - 0.5f;
+        intv x0 = texture_floor(px), y0 = texture_floor(py);
+        fx = lane_select((floatv)(0.0f), lane_clamp(px - to_floatv(x0), 0.0f, 1.0f), bilinear);
+        fy = lane_select((floatv)(0.0f), lane_clamp(py - to_floatv(y0), 0.0f, 1.0f), bilinear);
+        x0 = lane_select(texture_floor(su * to_floatv(w)), x0, bilinear);
+        y0 = lane_select(texture_floor(sv * to_floatv(h)), y0, bilinear);
+        intv xa = texture_wrap(x0, w, wrap), xb = texture_wrap(x0 + 1, w, wrap);
+        intv ya = texture_wrap(y0, h, wrap), yb = texture_wrap(y0 + 1, h, wrap);
+        i00 = lane_select(i00, first + ya * w + xa, bitmap);
+        i10 = lane_select(i00, first + ya * w + xb, bilinear);
+        i01 = lane_select(i00, first + yb * w + xa, bilinear);
+        i11 = lane_select(i00, first + yb * w + xb, bilinear);
+    }
+    rec4v a = gather_rec4(tex, to_uintv(i00)), b = a, c = a, e = a;
+    if (lane_any(bilinear)) { /* the other three texels only where a lane filters bilinearly */
+        b = gather_rec4(tex, to_uintv(i10));
+        c = gather_rec4(tex, to_uintv(i01));
+        e = gather_rec4(tex, to_uintv(i11));
+    }
     floatv gx = 1.0f - fx, gy = 1.0f - fy;
     vec3v out = v3(gy * (gx * a.x + fx * b.x) + fy * (gx * c.x + fx * e.x),
                    gy * (gx * a.y + fx * b.y) + fy * (gx * c.y + fx * e.y),
@@ -115,10 +126,16 @@ MC_INLINE vec3v texture_eval(global const float4 *tex, intv id, floatv u, floatv
     return v3_select(v3s(0.0f), out, active);
 }
 
-/* Replace the colour (and the roughness) of the lanes' materials by their textures at (u, v). */
-MC_INLINE void material_texture(material_v *m, global const float4 *tex, floatv u, floatv v, intv active) {
+/* The material map's row of the lanes' materials: (x, y) = the textures of colour and roughness, -1: none. */
+MC_INLINE rec4v material_texture_ids(const material_v *m, global const float4 *tex, intv active) {
     const uint mat_row = as_uint(tex[0].x);
-    rec4v r = gather_rec4(tex, mat_row + lane_select((uintv)(0u), m->index, active));
+    return gather_rec4(tex, mat_row + lane_select((uintv)(0u), m->index, active));
+}
+
+/* Replace the colour (and the roughness) of the lanes' materials by their textures at (u, v);
+ * r: their material_texture_ids. */
+MC_INLINE void material_texture_apply(material_v *m, global const float4 *tex, rec4v r, floatv u, floatv v,
+                                      intv active) {
     intv rgb_tex = lane_as_int(r.x), alpha_tex = lane_as_int(r.y);
     intv use = active & (rgb_tex >= 0);
     if (lane_any(use)) m->color = v3_select(m->color, texture_eval(tex, rgb_tex, u, v, use), use);
@@ -129,6 +146,23 @@ MC_INLINE void material_texture(material_v *m, global const float4 *tex, floatv 
         floatv a = 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
         m->alpha = lane_select(m->alpha, lane_clamp(a, 1.0e-4f, 1.0f), use);
     }
+}
+
+/* Replace the colour (and the roughness) of the lanes' materials by their textures at (u, v). */
+MC_INLINE void material_texture(material_v *m, global const float4 *tex, floatv u, floatv v, intv active) {
+    material_texture_apply(m, tex, material_texture_ids(m, tex, active), u, v, active);
+}
+
+/* The same at a ray hit (primitive, barycentrics b1, b2, point p): the (u, v) are computed only when
+ * a lane's material has a texture, so that untextured surfaces of a textured scene cost one read. */
+MC_INLINE void material_texture_at_hit(material_v *m, global const float4 *tex, const prim_tables *pt, uintv prim,
+                                       floatv b1, floatv b2, vec3v p, intv active) {
+    rec4v r = material_texture_ids(m, tex, active);
+    intv need = active & ((lane_as_int(r.x) >= 0) | (lane_as_int(r.y) >= 0));
+    if (!lane_any(need)) return;
+    floatv u, v;
+    texture_uv(tex, pt, prim, b1, b2, p, need, &u, &v);
+    material_texture_apply(m, tex, r, u, v, need);
 }
 
 #endif
