@@ -76,6 +76,8 @@ class Param:
         default: the value when the key is absent; ``None`` makes the key required.
         lo, hi: bounds of a number (``None``: unbounded); ``lo_open``/``hi_open`` exclude them.
         optional: the key may be absent (then nothing is packed; ``default`` is ``None``).
+        texturable: the key also takes a texture object (mcocl/render/textures.py), looked up per hit
+            (kernels/render/texture.cl); the record field then holds the texture's mean.
     """
 
     key: str
@@ -89,6 +91,7 @@ class Param:
     lo_open: bool = False
     hi_open: bool = False
     optional: bool = False
+    texturable: bool = False
 
     @property
     def derived(self) -> bool:
@@ -98,7 +101,7 @@ class Param:
     def describe(self) -> str:
         """The key's type, range and default as scenes/README.md writes them."""
         if self.kind == "rgb":
-            what = "RGB"
+            what = "RGB or a texture" if self.texturable else "RGB"
         elif self.kind == "flag":
             return f"`{self.key}` (boolean, default {'true' if self.default else 'false'}; {self.doc})"
         elif self.kind == "choice":
@@ -111,6 +114,8 @@ class Param:
             what = f"number {'>' if self.lo_open else '≥'} {self.lo:g}"
         else:
             what = "number"
+        if self.texturable and self.kind == "number":
+            what += " or a texture"
         tail = "optional" if self.optional else "required" if self.default is None else f"default {self.default:g}"
         return f"`{self.key}` ({what}, {tail}{'; ' + self.doc if self.doc else ''})"
 
@@ -221,6 +226,10 @@ def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]
 
 
 ALPHA = Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0)
+# roughconductor's and roughdielectric's alpha may be a texture (its luminance, clamped to [1e-4, 1]);
+# roughplastic's may not: its coat's tables are computed per material for one alpha.
+ALPHA_TEXTURED = Param("alpha", "number", "alpha", "a texture's luminance, clamped to [1e-4, 1]", default=0.1,
+                       lo=1e-4, hi=1.0, texturable=True)
 DISTRIBUTION = Param("distribution", "choice", "flags", "the microfacet distribution", default="ggx",
                      choices=("ggx", "beckmann"))
 TWOSIDED = Param("twosided", "flag", "flags", "the same BSDF mirrored onto the back side, as Mitsuba's `twosided`", default=False)
@@ -232,7 +241,7 @@ class Diffuse(BsdfSpec):
 
     name = "diffuse"
     code = 0
-    params = (Param("reflectance", "rgb", "rgb", ""), TWOSIDED)
+    params = (Param("reflectance", "rgb", "rgb", "", texturable=True), TWOSIDED)
     summary = "Lambertian with that albedo, one-sided (black from behind) unless `twosided`"
 
 
@@ -285,7 +294,7 @@ class Conductor(BsdfSpec):
 
     name = "conductor"
     code = 1
-    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0), METAL, ETA, K, TWOSIDED)
+    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0, texturable=True), METAL, ETA, K, TWOSIDED)
     delta = True
     summary = ("a smooth metal: the conductor Fresnel term of `material` or `eta`/`k` times "
                "`specular_reflectance` (a perfect mirror without them); one-sided unless `twosided`")
@@ -305,8 +314,8 @@ class RoughConductor(BsdfSpec):
 
     name = "roughconductor"
     code = 2
-    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0), METAL, ETA, K,
-              ALPHA, ALPHA_U, ALPHA_V, DISTRIBUTION, TWOSIDED)
+    params = (Param("specular_reflectance", "rgb", "rgb", "", default=1.0, texturable=True), METAL, ETA, K,
+              ALPHA_TEXTURED, ALPHA_U, ALPHA_V, DISTRIBUTION, TWOSIDED)
     summary = ("microfacet reflection with roughness α (or anisotropic α_u, α_v): GGX sampled by visible normals, "
                "or Beckmann sampled by D(m) cos θ_m; Fresnel as `conductor`; one-sided unless `twosided`")
 
@@ -345,7 +354,7 @@ class Plastic(BsdfSpec):
 
     name = "plastic"
     code = 4
-    params = (Param("diffuse_reflectance", "rgb", "rgb", "base albedo", default=0.5),
+    params = (Param("diffuse_reflectance", "rgb", "rgb", "base albedo", default=0.5, texturable=True),
               Param("int_ior", "number", "int_ior", "polypropylene", default=1.49, lo=0.0, lo_open=True, hi=IOR_LIMIT),
               Param("ext_ior", "number", "ext_ior", "air", default=1.000277, lo=0.0, lo_open=True, hi=IOR_LIMIT),
               TWOSIDED)
@@ -368,7 +377,7 @@ class RoughPlastic(BsdfSpec):
 
     name = "roughplastic"
     code = 7
-    params = (Param("diffuse_reflectance", "rgb", "rgb", "base albedo", default=0.5),
+    params = (Param("diffuse_reflectance", "rgb", "rgb", "base albedo", default=0.5, texturable=True),
               Param("int_ior", "number", "int_ior", "polypropylene", default=1.49, lo=0.0, lo_open=True, hi=IOR_LIMIT),
               Param("ext_ior", "number", "ext_ior", "air", default=1.000277, lo=0.0, lo_open=True, hi=IOR_LIMIT),
               ALPHA, DISTRIBUTION, TWOSIDED)
@@ -396,7 +405,7 @@ class RoughDielectric(BsdfSpec):
     code = 5
     params = (Param("int_ior", "number", "int_ior", "BK7", default=1.5046, lo=0.0, lo_open=True, hi=IOR_LIMIT),
               Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT),
-              ALPHA, ALPHA_U, ALPHA_V, DISTRIBUTION)
+              ALPHA_TEXTURED, ALPHA_U, ALPHA_V, DISTRIBUTION)
     fixed = {"rgb": (1.0, 1.0, 1.0)}
     transmissive = True
     eval_mode = True

@@ -52,6 +52,7 @@ SCENES = {
     "plastic_twosided": 4096,
     "shapes": 2048,
     "spectra": 1024,
+    "textures": 4096,
     "smooth_gaussian": 8192,
 }
 # scene name -> (spp, why): references mcocl is known not to match yet; strict xfail, so that the fix

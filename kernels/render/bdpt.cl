@@ -110,6 +110,9 @@ typedef struct {
     floatv light_pdf_area; /* density of this point as y_0 (emitters only; the s = 0 strategy) */
     intv emitter;         /* emitter index, -1 if none */
     uintv mat;            /* material index (always a valid one, also in masked lanes) */
+#ifdef TEXTURES
+    floatv tu, tv;        /* the surface's texture coordinates (render/texture.cl) */
+#endif
     intv delta;           /* the vertex scattered through a delta lobe (a lane mask) */
     intv delta_light;     /* y_0 of a point, spot or directional light (no camera subpath reaches it) */
     intv infinite;        /* a direction at infinity: y_0 of a light at infinity, or an escaped camera ray */
@@ -122,6 +125,7 @@ typedef struct {
     const light_tables *lt;
     global const float4 *camera;
     global const float4 *materials;
+    global const float4 *textures; /* render/texture.cl (bound, and read, only with -DTEXTURES) */
     float4 bsphere;
     uint width, height;
     float pixels;
@@ -150,6 +154,9 @@ typedef struct {
 MC_INLINE vertex_bsdf vertex_bsdf_of(const bdpt_scene *sc, const bdpt_vertex *v) {
     vertex_bsdf b;
     b.m = material_load(sc->materials, v->mat);
+#ifdef TEXTURES
+    material_texture(&b.m, sc->textures, v->tu, v->tv, (intv)(-1));
+#endif
     b.fr = frame_from_normal(v->n);
     b.wi_local = frame_to_local(b.fr, v->wi);
     return b;
@@ -231,6 +238,9 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
         v->emitter = sf.emitter;
         v->light_pdf_area = lane_select((floatv)(0.0f), sf.pmf * (1.0f - sc->lt->env_pmf) / sf.area, sf.emitter >= 0);
         v->mat = sf.mat;
+#ifdef TEXTURES
+        texture_uv(sc->textures, sc->pt, h.prim, h.b1, h.b2, sf.p, hit, &v->tu, &v->tv);
+#endif
         v->delta = (intv)(0);
         v->delta_light = (intv)(0);
         v->infinite = esc;
@@ -535,6 +545,7 @@ kernel void bdpt_trace(
     sc.lt = &lt;
     sc.camera = camera;
     sc.materials = materials;
+    sc.textures = textures;
     sc.bsphere = bsphere;
     sc.width = width;
     sc.height = height;
@@ -580,6 +591,9 @@ kernel void bdpt_trace(
         cam[0].light_pdf_area = (floatv)(0.0f);
         cam[0].emitter = (intv)(-1);
         cam[0].mat = (uintv)(0u);
+#ifdef TEXTURES
+        cam[0].tu = cam[0].tv = (floatv)(0.0f);
+#endif
         cam[0].delta = (intv)(0);
         cam[0].delta_light = (intv)(0);
         cam[0].infinite = (intv)(0);
@@ -605,6 +619,9 @@ kernel void bdpt_trace(
             light[0].light_pdf_area = er.pdf_area;
             light[0].emitter = (intv)(-1);
             light[0].mat = (uintv)(0u);
+#ifdef TEXTURES
+            light[0].tu = light[0].tv = (floatv)(0.0f);
+#endif
             light[0].delta = (intv)(0);
             light[0].delta_light = er.delta;
             light[0].infinite = er.infinite;

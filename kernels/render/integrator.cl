@@ -62,6 +62,7 @@
 #include "render/lights.cl"
 #include "render/trace.cl"
 #include "render/shading_normal.cl"
+#include "render/texture.cl"
 
 /* INTEGRATOR_PATH, _NEE, _MIS: the Integrator codes of layouts.cl. */
 #ifndef INTEGRATOR
@@ -163,6 +164,7 @@ kernel void render_blocks(
     global const float4 *light_bvh, global const uint *light_trail,
     global const float4 *vertex_normals,
     global const float4 *env_map, global const uint *env_cdf,
+    global const float4 *textures,
     global film_t *out)
 {
     const ulong first_block = params.first_block, seed = params.seed;
@@ -310,6 +312,10 @@ kernel void render_blocks(
         intv next_alive = (intv)(0);
         if (lane_any(cont)) {
             material_v m = material_load(materials, lane_select((uintv)(0u), sf.mat, cont));
+#ifdef TEXTURES
+            /* the material's textures at the hit's (u, v) (render/texture.cl) */
+            material_texture_at_hit(&m, textures, &pt, h.prim, h.b1, h.b2, p, cont);
+#endif
             frame3v fr = frame_from_normal(ns);
             vec3v wi = frame_to_local(fr, v3_neg(d));
             floatv ub[4]; /* lobe, direction 2D, roulette */

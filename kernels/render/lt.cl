@@ -63,6 +63,7 @@
 #include "render/lights_emit.cl"
 #include "render/trace.cl"
 #include "render/shading_normal.cl"
+#include "render/texture.cl"
 
 /* See integrator.cl: the random-number dimension of a vertex must fit 32 bits. */
 #define DEPTH_GUARD 65536
@@ -112,7 +113,8 @@ MC_INLINE void splat(global film_t *img, uintv pixel, vec3v c, intv ok) {
     const render_params params, global const float4 *camera, SCENE_GEOM_BUFFERS,                            \
     global const float4 *prim_rec, global const float4 *materials, global const float4 *emitter_radiance, \
     global const float4 *light_rec, global const float *light_cdf, global const float4 *vertex_normals,      \
-    global const float4 *env_map, global const uint *env_cdf, const float4 bsphere, global film_t *scratch
+    global const float4 *env_map, global const uint *env_cdf, global const float4 *textures,                \
+    const float4 bsphere, global film_t *scratch
 
 /* The start of every splatting trace kernel: the launch's settings, this
  * work-item's path group (or return), the geometry, primitive and light
@@ -264,6 +266,10 @@ kernel void lt_trace(
         surface_v sf = surface_at(&pt, h.prim, h.t, o, d, hit);
         vec3v p = sf.p, n = sf.n;
         material_v m = material_load(materials, lane_select((uintv)(0u), sf.mat, hit));
+#ifdef TEXTURES
+        /* the material's textures at the hit's (u, v) (render/texture.cl) */
+        material_texture_at_hit(&m, textures, &pt, h.prim, h.b1, h.b2, p, hit);
+#endif
 #ifdef SHADING_NORMALS
         /* the BSDF's frame; importance transport takes the adjoint factor (render/shading_normal.cl) */
         vec3v ns = shading_normal(vertex_normals, &pt, h.prim, h.b1, h.b2, n, hit);

@@ -22,8 +22,8 @@ Convert SCENE (a Mitsuba 3 or 0.6 XML file) to mcocl's JSON scene format
 (scenes/README.md).  Each object of the output carries "comment" strings that
 say which Mitsuba default was taken, how a value was converted (fov axis,
 spectra, named IORs, sampler) and what --lenient substituted.  The JSON
-renders the same image as the XML.  Mesh and environment-map paths are
-rewritten relative to the output file.
+renders the same image as the XML.  Mesh, environment-map and bitmap texture
+paths are rewritten relative to the output file.
 """
 
 EXAMPLES = """\
@@ -112,10 +112,13 @@ def run(args: argparse.Namespace) -> int:
                     if shape[kind].startswith("../"):
                         outside.add(str(mesh.parent))
         env = data.get("environment", {})
-        if env.get("type") == "envmap":  # the map's image, like the meshes
-            image = src.resolve().parent / env["filename"]
-            env["filename"] = Path(os.path.relpath(image, out_dir)).as_posix()
-            if env["filename"].startswith("../"):
+        images = [env] if env.get("type") == "envmap" else []  # the map's image, like the meshes
+        images += [v for m in data.get("materials", {}).values() if isinstance(m, dict)
+                   for v in m.values() if isinstance(v, dict) and v.get("type") == "bitmap"]  # bitmap textures
+        for holder in images:
+            image = src.resolve().parent / holder["filename"]
+            holder["filename"] = Path(os.path.relpath(image, out_dir)).as_posix()
+            if holder["filename"].startswith("../"):
                 outside.add(str(image.parent))
         text = format_json(data) + "\n"
         write_atomically(args.out, lambda tmp: tmp.write_text(text))

@@ -105,6 +105,7 @@ from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
 from .shading_normals import vertex_normal_table
 from .shape_registry import SHAPES
+from .texture_table import texture_table
 
 # Primitives up to which compile_scene builds the binned SAH tree (see there).
 BINNED_UP_TO = 200_000
@@ -151,6 +152,8 @@ class CompiledScene:
     pixel_filter: PixelFilter = BOX  # the camera's reconstruction filter (mcocl/render/pixel_filter.py)
     # (T, 3, 4) corner normals of the triangles that shade smoothly, None if none does (render/shading_normals.py)
     vertex_normals: np.ndarray | None = None
+    # the one table of the scene's textures and surface UVs, None if no material is textured (render/texture_table.py)
+    textures: np.ndarray | None = None
     near_clip: float = 0.0  # camera.near_clip (kernels/render/camera.cl, camera_clip_origin)
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
@@ -428,6 +431,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
         vertex_normals=vertex_normal_table(scene.shapes, tri_vertices[:, :, :3]), near_clip=cam.near_clip,
+        textures=texture_table(scene.materials, scene.shapes),
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
                    "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},

@@ -151,6 +151,8 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     }
     if getattr(cs, "vertex_normals", None) is not None:  # only then: other scenes keep their tables digest
         tables["vertex_normals"] = np.ascontiguousarray(cs.vertex_normals, np.float32).reshape(-1, 4)
+    if getattr(cs, "textures", None) is not None:  # likewise (render/texture_table.py)
+        tables["textures"] = np.ascontiguousarray(cs.textures, np.float32)
     if cs.env_map is not None:
         tables["env_map"], tables["env_cdf"] = envmap_tables(cs.env_map)
     else:

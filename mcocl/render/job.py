@@ -51,6 +51,7 @@ from .pixel_filter import BOX, PixelFilter, require_box
 from .shading_normals import VERTEX_NORMALS_ABSENT, require_face_normals, shading_defines
 from .sobol_film import block_batches, sobol_render_defines
 from .splat_film import SplatRunner, splat_groups
+from .texture_table import TEXTURES_ABSENT, texture_defines
 
 INTEGRATOR_CODES = {kind.name.lower(): int(kind) for kind in Integrator}
 LIGHT_SAMPLER_CODES = {kind.name.lower(): int(kind) for kind in LightSampler}
@@ -65,7 +66,7 @@ TILE_PIXELS = 64
 # The scene arrays the render kernel takes after its render_params, in its argument order.
 KERNEL_BUFFERS = ("camera", "bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
                   "materials", "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail",
-                  "vertex_normals", "env_map", "env_cdf")
+                  "vertex_normals", "env_map", "env_cdf", "textures")
 # The integrators on the splatting film (mcocl/render/splat_film.py).
 SPLAT_INTEGRATORS = ("lt", "bdpt")
 # bdpt's MIS heuristics: the exponent beta of Veach's power heuristic (1: the balance heuristic).
@@ -183,7 +184,7 @@ class RenderJob:
         if self.integrator == "bdpt":
             require_face_normals(self.tables)
         clip = [f"-DNEAR_CLIP={float(np.float32(self.near_clip))!r}f"] if self.near_clip > 0.0 else []
-        return opts + self.pixel_filter.defines() + shading_defines(self.tables) + clip
+        return opts + self.pixel_filter.defines() + shading_defines(self.tables) + texture_defines(self.tables) + clip
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:
         """The kernel's ``render_params`` (mcocl/layouts.py) for a launch of ``nblocks`` from ``first_block``."""
@@ -218,7 +219,7 @@ class RenderRunner:
         self.build_seconds = time.perf_counter() - t0
         self.kernel = runtime.kernel(self.program, "render_blocks")
         mf = cl.mem_flags
-        t = {**LIGHT_BVH_ABSENT, **VERTEX_NORMALS_ABSENT, **job.tables}
+        t = {**LIGHT_BVH_ABSENT, **VERTEX_NORMALS_ABSENT, **TEXTURES_ABSENT, **job.tables}
         self.buffers = {
             name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(t[name]))
             for name in KERNEL_BUFFERS

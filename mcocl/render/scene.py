@@ -15,6 +15,7 @@ kernels read.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -29,9 +30,11 @@ from ..errors import InputError
 from ..layouts import Integrator, MaterialKind
 from . import transform as tf
 from .delta_lights import DeltaLight, parse_lights
+from .emitter_choice import LUMINANCE
 from .envmap import EnvMap, check_rotation, load_envmap_image
 from .pixel_filter import BOX, PixelFilter, parse_filter
 from .shape_registry import GEOMETRY_LIMIT, SHAPES
+from .textures import Texture, parse_texture
 
 # The names a scene file uses: the codes of mcocl/layouts.py, lower case.
 INTEGRATORS = tuple(kind.name.lower() for kind in Integrator)
@@ -105,6 +108,8 @@ class Material:
     alpha_second: float = 0.0  # anisotropic roughness along the second tangent (the key alpha_v)
     eta_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))  # a conductor's complex IOR
     k_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    # Record fields ("rgb", "alpha") given by a texture (mcocl/render/textures.py), looked up per hit.
+    textures: dict[str, Texture] = field(default_factory=dict)
 
 
 @dataclass
@@ -127,7 +132,8 @@ class Shape:
     center: np.ndarray | None = None
     radius: float = 0.0
     name: str = ""
-    # Per-vertex data of a PLY or serialized mesh: normals shade smoothly (render/shading_normals.py); uvs unused.
+    # Per-vertex data of a mesh file: normals shade smoothly (render/shading_normals.py), uvs place textures
+    # (render/shape_uvs.py).
     normals: np.ndarray | None = None
     uvs: np.ndarray | None = None
 
@@ -156,6 +162,9 @@ class _Checker:
 
     def __init__(self, file: str) -> None:
         self.file = file
+        # Textures read so far, by their JSON text: equal definitions share one Texture (one copy of the texels).
+        self.textures: dict[str, Texture] = {}
+        self.images: dict[tuple[Path, bool], np.ndarray] = {}  # image arrays by (file, raw): one per file
 
     def fail(self, key: str, msg: str) -> None:
         raise InputError(f"{self.file}: {key}: {msg}" if key else f"{self.file}: {msg}")
@@ -319,11 +328,11 @@ def parse_scene(data: Any, path: str | Path = "<scene>", mesh_folder: str | Path
     top = c.obj(data, "", ("camera",), ("integrator", "materials", "shapes", "environment", "lights"))
     camera = _camera(c, top["camera"], "camera")
     integ = _integrator(c, top.get("integrator", {}), "integrator")
-    materials, index = _materials(c, top.get("materials", {}), "materials")
+    roots = [p.parent] + ([Path(mesh_folder)] if mesh_folder is not None else [])
+    materials, index = _materials(c, top.get("materials", {}), "materials", roots)
     raw_shapes = top.get("shapes", [])
     if not isinstance(raw_shapes, list):
         c.fail("shapes", f"expected a list of shapes, got {_kind(raw_shapes)}")
-    roots = [p.parent] + ([Path(mesh_folder)] if mesh_folder is not None else [])
     shape_list = [_shape(c, s, f"shapes[{i}]", index, roots) for i, s in enumerate(raw_shapes)]
     env, env_map = np.zeros(3), None
     if "environment" in top:
@@ -423,7 +432,7 @@ def check_integrator_settings(integrator: Any, max_depth: Any, rr_depth: Any, sp
     }
 
 
-def _materials(c: _Checker, v: Any, key: str) -> tuple[list[Material], dict[str, int]]:
+def _materials(c: _Checker, v: Any, key: str, roots: list[Path]) -> tuple[list[Material], dict[str, int]]:
     if not isinstance(v, dict):
         c.fail(key, f"expected an object mapping names to materials, got {_kind(v)}")
     out: list[Material] = []
@@ -435,20 +444,31 @@ def _materials(c: _Checker, v: Any, key: str) -> tuple[list[Material], dict[str,
         if not isinstance(m, dict):
             c.fail(k, f"expected a material object, got {_kind(m)}")
         kind = c.string(m.get("type"), f"{k}.type", MATERIAL_KINDS) if "type" in m else c.fail(f"{k}.type", "missing required key")
-        out.append(_material(c, m, k, name, BSDFS[kind]))
+        out.append(_material(c, m, k, name, BSDFS[kind], roots))
         index[name] = len(out) - 1
     return out, index
 
 
-def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec) -> Material:
+def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec, roots: list[Path]) -> Material:
     """One material of a registered BSDF: its keys validated as the registration declares them."""
     required = tuple(p.key for p in spec.params if p.default is None and not p.optional)
     o = c.obj(m, key, ("type", *required), tuple(p.key for p in spec.params if p.default is not None or p.optional))
     given: dict[str, object] = {}
+    textures: dict[str, Texture] = {}
     for p in spec.params:
         if p.optional and p.key not in o:
             continue
         raw, pk = o.get(p.key, p.default), f"{key}.{p.key}"
+        if isinstance(raw, dict) and not p.texturable:
+            which = [f"{s.name}.{q.key}" for s in BSDFS.values() for q in s.params if q.texturable]
+            c.fail(pk, f"takes no texture (keys that do: {', '.join(which)})")
+        if isinstance(raw, dict):
+            text = json.dumps(raw, sort_keys=True)
+            tex = c.textures.get(text) or parse_texture(c, raw, pk, roots, _transform)
+            textures[p.field] = c.textures[text] = tex
+            raw = tex.mean().tolist() if p.kind == "rgb" else float(np.clip(tex.mean() @ LUMINANCE, p.lo, p.hi))
+            if p.field == "alpha" and any(k in o for k in ("alpha_u", "alpha_v")):
+                c.fail(pk, "a roughness texture takes the place of alpha_u/alpha_v: give one or the other")
         if p.kind in ("flag", "choice", "name"):
             given[p.key] = c.boolean(raw, pk) if p.kind == "flag" else c.string(raw, pk, p.choices)
             continue
@@ -462,7 +482,7 @@ def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec) -> Mate
                     int_ior=float(values["int_ior"]), ext_ior=float(values["ext_ior"]), flags=int(values["flags"]),
                     alpha_second=float(values["alpha_second"]),  # type: ignore[arg-type]
                     eta_rgb=np.array(values["eta_rgb"], np.float64).reshape(3),
-                    k_rgb=np.array(values["k_rgb"], np.float64).reshape(3))
+                    k_rgb=np.array(values["k_rgb"], np.float64).reshape(3), textures=textures)
 
 
 def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:

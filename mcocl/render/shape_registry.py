@@ -191,6 +191,8 @@ class Mesh(ShapeSpec):
             else:
                 mesh = (shape_lib.read_obj if kind == "obj" else shape_lib.read_ply)(path, where)
                 shape.vertices, shape.faces, shape.normals, shape.uvs = mesh.vertices, mesh.faces, mesh.normals, mesh.uvs
+                if kind == "obj" and shape.uvs is not None:  # an OBJ's v = 0 is the image's bottom (Mitsuba flips it too)
+                    shape.uvs = np.stack([shape.uvs[:, 0], 1.0 - shape.uvs[:, 1]], axis=1)
         except (OverflowError, MemoryError, RecursionError) as e:  # numbers no mesh can hold
             c.fail(f"{key}.{kind}", f"{path}: a number out of range ({type(e).__name__}: {e})")
         if not len(shape.faces):

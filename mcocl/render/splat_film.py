@@ -43,6 +43,7 @@ import pyopencl as cl
 from .. import runtime
 from .film import STATS
 from .shading_normals import VERTEX_NORMALS_ABSENT
+from .texture_table import TEXTURES_ABSENT
 
 KERNEL_FILE = "render/lt.cl"
 # Per splatting integrator: its kernel file and trace kernel (both fold with lt_fold_groups).
@@ -108,7 +109,7 @@ class SplatRunner:
         self.fold = runtime.kernel(self.program, "lt_fold_groups")
         self.buffer_names = buffer_names
         mf = cl.mem_flags
-        tables = {**VERTEX_NORMALS_ABSENT, **job.tables}
+        tables = {**VERTEX_NORMALS_ABSENT, **TEXTURES_ABSENT, **job.tables}
         self.buffers = {
             name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(tables[name]))
             for name in buffer_names

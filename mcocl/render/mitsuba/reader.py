@@ -89,7 +89,7 @@ class _SceneBuilder:
             base = bsdf.attrib.get("id") or f"{bsdf.attrib.get('type', 'bsdf')}-line{bsdf.line}"
             name = self._unique(base)
             self.material_names[key] = name
-            self.materials[name] = translate_bsdf(bsdf, self.rep, self.resolve)
+            self.materials[name] = translate_bsdf(bsdf, self.rep, self.resolve, self.path.parent)
             self.elements[f"materials.{name}"] = bsdf
         return self.material_names[key]
 
@@ -109,6 +109,8 @@ class _SceneBuilder:
                 shapes.append(ch)
             elif ch.tag == "emitter":
                 envs.append(ch)
+            elif ch.tag == "texture" and "id" in ch.attrib:
+                continue  # read where a BSDF refers to it (mcocl/render/mitsuba/texture.py)
             elif ch.tag in ("texture", "medium", "phase", "volume", "film", "sampler", "rfilter", "alias", "path"):
                 self.rep.unsupported(ch, f"<{ch.tag}> elements", "constant colours" if ch.tag == "texture"
                                      else "leave it out", "nothing (ignored)", comments)
