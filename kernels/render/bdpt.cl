@@ -91,7 +91,6 @@
  */
 #define LT_NO_TRACE_KERNEL
 #include "render/lt.cl"
-#include "render/shadow_queue.cl"
 
 #ifndef BDPT_MAX_VERTICES
 #define BDPT_MAX_VERTICES 24
@@ -164,6 +163,14 @@ MC_INLINE vec3v vertex_eval(const vertex_bsdf *b, vec3v w_out, floatv *pdf, floa
     vec3v wo = frame_to_local(b->fr, w_out);
     if (pdf_rev) bsdf_eval_mode(&b->m, wo, b->wi_local, pdf_rev, mode);
     return bsdf_eval_mode(&b->m, b->wi_local, wo, pdf, mode);
+}
+
+/* Whether the segments from a (normal na) to b are unoccluded, for the lanes in `active`. */
+MC_INLINE intv segment_clear(const bdpt_scene *sc, vec3v a, vec3v na, vec3v b, intv active) {
+    vec3v w = v3_normalize(v3_sub(b, a));
+    vec3v so = offset_origin(a, na, w);
+    floatv dist = lane_sqrt(v3_len2(v3_sub(b, so)));
+    return active & !trace_any_v(sc->geom, so, w, dist * (1.0f - SHADOW_EPSILON), active);
 }
 
 /* Grow the lanes' subpaths from path[n - 1] along (o, d), sampled with solid-angle density
@@ -317,12 +324,12 @@ MC_INLINE floatv bdpt_connection_weight(bdpt_vertex *light, bdpt_vertex *cam, in
 }
 
 /* Strategy (s, t) with t >= 2 for the lanes in `active`: its unweighted contribution to the
- * sample's own pixel, zero where a lane has none, times its weight into *w, both valid once
- * *ray (s >= 1: the connection's shadow ray) is clear.  ue: the s = 1 light point's four
- * uniforms (emitter choice and position).  zb: camera vertex z_{t-1}'s material and frame. */
+ * sample's own pixel, zero where a lane has none, times its weight into *w.  ue: the s = 1 light
+ * point's four uniforms (emitter choice and position).  zb: camera vertex z_{t-1}'s material
+ * and frame. */
 MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, int t,
                              const floatv *ue, const vertex_bsdf *zb, intv active, int nl_cap, int nc_cap,
-                             floatv *w, shadow_ray_v *ray) {
+                             floatv *w) {
     vec3v zero = v3s(0.0f);
     *w = (floatv)(0.0f);
     bdpt_vertex *pt = &cam[t - 1], *ptm = &cam[t - 2];
@@ -379,13 +386,16 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         }
         ok = ok & (v3_maxc(c) > 0.0f);
         if (!lane_any(ok)) return zero;
-        *ray = shadow_segment(pt->p, pt->n, er.pos);
         if (special) {
-            /* toward a light at infinity: along ls.wo, clear to infinity */
-            ray->o = v3_select(ray->o, offset_origin(pt->p, pt->n, ls.wo), inf);
-            ray->d = v3_select(ray->d, ls.wo, inf);
-            ray->tmax = lane_select(ray->tmax, (floatv)(INFINITY), inf);
+            const intv at_inf = ok & inf;
+            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok & !inf);
+            if (lane_any(at_inf))
+                ok = ok | (at_inf & !trace_any_v(sc->geom, offset_origin(pt->p, pt->n, ls.wo), ls.wo,
+                                                 (floatv)(INFINITY), at_inf));
+        } else {
+            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok);
         }
+        if (!lane_any(ok)) return zero;
         bdpt_vertex y0 = light[0];
         light[0].p = er.pos;
         light[0].n = er.n;
@@ -426,7 +436,8 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         c = v3_scale(v3_mul(v3_mul(qs->beta, fy), v3_mul(fz, pt->beta)), 1.0f / d2);
         ok = ok & (v3_maxc(c) > 0.0f);
         if (!lane_any(ok)) return zero;
-        *ray = shadow_segment(qs->p, qs->n, pt->p);
+        ok = segment_clear(sc, qs->p, qs->n, pt->p, ok);
+        if (!lane_any(ok)) return zero;
         floatv save_qs = qs->pdf_rev, save_qsm = qsm->pdf_rev;
         pt->pdf_rev = to_area(py, qs->p, pt->p, pt->n);
         qs->pdf_rev = to_area(pz, pt->p, qs->p, qs->n);
@@ -443,11 +454,9 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
 
 /* Strategy (s, 1) for the lanes in `active`: light vertex y_{s-1} seen by the camera through
  * the lens point of (ul1, ul2).  Returns the splat (W H times the contribution, unweighted) and
- * its pixel; *w its weight, zero where a lane has none; both valid once *ray (the shadow ray
- * to the lens point, lt.cl's camera_visible) is clear. */
+ * its pixel; *w its weight, zero where a lane has none. */
 MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, floatv ul1,
-                                    floatv ul2, intv active, int nl_cap, int nc_cap, uintv *pixel, floatv *w,
-                                    shadow_ray_v *ray) {
+                                    floatv ul2, intv active, int nl_cap, int nc_cap, uintv *pixel, floatv *w) {
     vec3v zero = v3s(0.0f);
     *w = (floatv)(0.0f);
     bdpt_vertex *qs = &light[s - 1];
@@ -476,9 +485,8 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
     vec3v c = v3_scale(v3_mul(qs->beta, f), sc->pixels * k.film.importance / k.pdf_solid_angle);
     ok = ok & (v3_maxc(c) > 0.0f);
     if (!lane_any(ok)) return zero;
-    ray->o = offset_origin(qs->p, qs->n, k.wo);
-    ray->d = k.wo;
-    ray->tmax = lane_sqrt(v3_len2(v3_sub(k.lens, ray->o))) * (1.0f - SHADOW_EPSILON);
+    ok = camera_visible(sc->geom, qs->p, qs->n, &k, ok);
+    if (!lane_any(ok)) return zero;
     *pixel = k.film.pixel;
     floatv save_qs = qs->pdf_rev;
     qs->pdf_rev = to_area(k.film.pdf_solid_angle, k.lens, qs->p, qs->n);
@@ -540,8 +548,6 @@ kernel void bdpt_trace(
 
     bdpt_vertex cam[BDPT_MAX_VERTICES];
     bdpt_vertex light[BDPT_MAX_VERTICES];
-    shadow_queue queue;
-    shadow_queue_init(&queue);
 
     for (ulong j = 0; j < total; j += LANES) {
         /* the lanes holding one of the group's samples (the last packet may be partial) */
@@ -616,8 +622,8 @@ kernel void bdpt_trace(
                       er.d, b1, er.pdf_solid_angle, TRANSPORT_IMPORTANCE, rr_depth, v3_maxc(b1));
         }
 
-        /* ---- every strategy, for all lanes at once; the shadow rays go through the queue ---- */
-        shadow_ray_v ray = {v3s(0.0f), v3(0.0f, 0.0f, 1.0f), (floatv)(0.0f)}; /* s = 0: none */
+        /* ---- every strategy, for all lanes at once ---- */
+        vec3v L = v3s(0.0f);
         for (int t = 1; lane_any(nc >= t); ++t) {
             const intv has_t = nc >= t;
             /* s = 1 with t >= 2 samples its own light point, so it needs no light subpath */
@@ -636,27 +642,20 @@ kernel void bdpt_trace(
                         sampler_next_2d(&ls, ul);
                     }
                     uintv px = (uintv)(0u);
-                    vec3v c = bdpt_connect_camera(&sc, light, cam, s, ul[0], ul[1], run, nl_cap, nc_cap, &px, &w,
-                                                  &ray);
+                    vec3v c = bdpt_connect_camera(&sc, light, cam, s, ul[0], ul[1], run, nl_cap, nc_cap, &px, &w);
                     intv got = w > 0.0f;
-                    if (lane_any(got))
-                        shadow_queue_push(&queue, &geom, img, ray, v3_scale(c, strategy_weight(w)), px, got, got);
+                    if (lane_any(got)) splat(img, px, v3_scale(c, strategy_weight(w)), got);
                 } else {
                     floatv ul[4] = {(floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f)};
                     if (s == 1) {
                         sampler_seek(&cs, (uintv)(RENDER_DIM_LIGHT((uint)(t - 2))));
                         sampler_next_nd(&cs, 4, ul);
                     }
-                    vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &w, &ray);
-                    intv got = w > 0.0f;
-                    if (lane_any(got))
-                        shadow_queue_push(&queue, &geom, img, ray, v3_scale(c, strategy_weight(w)),
-                                          (uintv)(SHADOW_TO_LANE) | LANE_IOTA, got, s > 0 ? got : (intv)(0));
+                    vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &w);
+                    L = v3_add(L, v3_select(v3s(0.0f), v3_scale(c, strategy_weight(w)), w > 0.0f));
                 }
             }
         }
-        shadow_queue_drain(&queue, &geom, img);
-        const vec3v L = shadow_queue_take_sums(&queue);
         const intv lit = active & !((L.x == 0.0f) & (L.y == 0.0f) & (L.z == 0.0f));
         if (lane_any(lit)) splat(img, pixel, v3_scale(L, sc.pixels), lit);
     }
