@@ -43,6 +43,7 @@
 
 #include "layouts.cl"
 #include "render/vec3.cl"
+#include "render/pixel_filter.cl"
 
 MC_INLINE vec3v cam_row(float4 r) { return v3((floatv)(r.x), (floatv)(r.y), (floatv)(r.z)); }
 
@@ -117,8 +118,11 @@ MC_INLINE vec3v camera_clip_origin(global const float4 *cam, vec3v o, vec3v d) {
 }
 
 /* Where the ray from lens point xl in the unit direction d meets the film:
- * raster position (sx, sy) in pixels and the pixel index (row-major); cos theta
- * to `forward`.  Valid when d points forwards and lands inside the image. */
+ * raster position (sx, sy) in pixels and the pixel index (row-major; the
+ * nearest pixel for a point past the edge); cos theta to `forward`.  Valid
+ * when d points forwards and lands inside the image, or within the
+ * FILTER_MARGIN that a reconstruction filter's camera samples reach past its
+ * edge (render/pixel_filter.cl; 0 for the box). */
 typedef struct {
     floatv raster_x, raster_y;
     uintv pixel;
@@ -152,10 +156,10 @@ MC_INLINE camera_direction_v camera_importance(global const float4 *cam, vec3v x
     floatv ndc_y = v3_dot(v, up) / (vz * u2) - camera_crop_shift_y(cam);
     c.raster_x = 0.5f * (ndc_x + 1.0f) * (float)width;
     c.raster_y = 0.5f * (1.0f - ndc_y) * (float)height;
-    intv inside = front & (c.raster_x >= 0.0f) & (c.raster_x < (float)width) & (c.raster_y >= 0.0f) &
-                  (c.raster_y < (float)height);
-    floatv rx = lane_select((floatv)(0.0f), c.raster_x, inside);
-    floatv ry = lane_select((floatv)(0.0f), c.raster_y, inside);
+    intv inside = front & (c.raster_x >= -FILTER_MARGIN) & (c.raster_x < (float)width + FILTER_MARGIN) &
+                  (c.raster_y >= -FILTER_MARGIN) & (c.raster_y < (float)height + FILTER_MARGIN);
+    floatv rx = lane_max(lane_select((floatv)(0.0f), c.raster_x, inside), (floatv)(0.0f));
+    floatv ry = lane_max(lane_select((floatv)(0.0f), c.raster_y, inside), (floatv)(0.0f));
     uintv px = lane_min_u(to_uintv_rtz(rx), (uintv)(width - 1u));
     uintv py = lane_min_u(to_uintv_rtz(ry), (uintv)(height - 1u));
     c.pixel = py * width + px;

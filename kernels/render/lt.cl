@@ -105,6 +105,45 @@ MC_INLINE void splat(global film_t *img, uintv pixel, vec3v c, intv ok) {
 #endif
 }
 
+/* Add the contributions c of the lanes in `ok`, which landed at film point `film`, to the pixels
+ * the reconstruction filter reaches, lane after lane (the box: splat to the pixel it landed in).
+ * A filter weighs a contribution by its normalised value at each pixel centre, pbrt-v4's splat
+ * (render/pixel_filter.cl); a non-finite contribution is counted once, in the nearest pixel. */
+MC_INLINE void splat_filtered(global film_t *img, const camera_direction_v *film, vec3v c, intv ok, uint width,
+                              uint height) {
+#if PIXEL_FILTER == PIXEL_FILTER_BOX
+    splat(img, film->pixel, c, ok);
+#else
+    float_lanes lx, ly, lz, fx, fy;
+    uint_lanes px;
+    int_lanes k_ok;
+    lx.v = c.x; ly.v = c.y; lz.v = c.z;
+    fx.v = film->raster_x; fy.v = film->raster_y;
+    px.v = film->pixel;
+    k_ok.v = ok;
+    for (int k = 0; k < LANES; ++k) {
+        if (!k_ok.a[k]) continue;
+        const float r = lx.a[k], g = ly.a[k], b = lz.a[k];
+        if (!((r - r) == 0.0f && (g - g) == 0.0f && (b - b) == 0.0f)) {
+            splat_one(img, px.a[k], r, g, b);
+            continue;
+        }
+        /* the film point in units where pixel i's centre is at i */
+        const float x = fx.a[k] - 0.5f, y = fy.a[k] - 0.5f;
+        const int x0 = max((int)ceil(x - FILTER_RADIUS), 0), x1 = min((int)floor(x + FILTER_RADIUS), (int)width - 1);
+        const int y0 = max((int)ceil(y - FILTER_RADIUS), 0), y1 = min((int)floor(y + FILTER_RADIUS), (int)height - 1);
+        for (int iy = y0; iy <= y1; ++iy) {
+            const float wy = filter_weight(y - (float)iy);
+            if (wy <= 0.0f) continue;
+            for (int ix = x0; ix <= x1; ++ix) {
+                const float w = wy * filter_weight(x - (float)ix);
+                if (w > 0.0f) splat_one(img, (uint)iy * width + (uint)ix, r * w, g * w, b * w);
+            }
+        }
+    }
+#endif
+}
+
 /* The arguments of every splatting trace kernel (lt_trace, bdpt_trace), in the
  * order the host binds them (mcocl/render/job.py LT_BUFFERS, splat_film.py):
  * the launch's render_params, the scene's buffers, the bounding sphere light
@@ -233,7 +272,7 @@ kernel void lt_trace(
                 floatv w = pixels * cos_y * k.film.importance / (er.pdf_area * k.pdf_solid_angle);
                 intv ok = area & k.valid & (cos_y > 0.0f);
                 ok = camera_visible(&geom, er.pos, er.n, &k, ok);
-                if (lane_any(ok)) splat(img, k.film.pixel, v3_scale(er.radiance, w), ok);
+                if (lane_any(ok)) splat_filtered(img, &k.film, v3_scale(er.radiance, w), ok, width, height);
             }
             intv env = er.valid & er.env;
             if (lane_any(env)) {
@@ -245,7 +284,7 @@ kernel void lt_trace(
                 floatv w = pixels * lens_area * c.importance * c.cos_theta / (lt.env_pmf * er.pdf_solid_angle);
                 intv ok = env & c.valid;
                 ok = ok & !trace_any_v(&geom, xl, look, (floatv)(INFINITY), ok);
-                if (lane_any(ok)) splat(img, c.pixel, v3_scale(er.radiance, w), ok);
+                if (lane_any(ok)) splat_filtered(img, &c, v3_scale(er.radiance, w), ok, width, height);
             }
             /* beta_1 = L_e cos / (pdf_area pdf_solid_angle); the ray leaves y_0 */
             vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
@@ -294,7 +333,7 @@ kernel void lt_trace(
 #endif
             intv ok = conn & k.valid & (v3_maxc(c) > 0.0f);
             ok = camera_visible(&geom, p, n, &k, ok);
-            if (lane_any(ok)) splat(img, k.film.pixel, c, ok);
+            if (lane_any(ok)) splat_filtered(img, &k.film, c, ok, width, height);
         }
 
         /* ---- the path grows while its next vertex may still connect ---- */

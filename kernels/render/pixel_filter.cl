@@ -33,6 +33,18 @@
  *                          = 3 reach float precision, the same in every lane),
  *                          and a bracket [lo, hi] turns a step that would
  *                          leave it into bisection.
+ *
+ * Splatting (lt.cl, bdpt.cl; pbrt-v4 §8.8 splats light-traced contributions
+ * with the filter's value): a contribution that lands at film point x adds
+ * f(x - c_p) times itself to every pixel p whose centre c_p lies within the
+ * filter's support, f normalised to unit integral (filter_weight), so that
+ * pixel p estimates the same filter-weighted mean as its camera samples
+ * (filter importance sampling draws x with density f(x - c_p): weight 1).
+ * Camera samples of the pixels at the image's edge reach film points up to
+ * FILTER_MARGIN pixels outside it, so camera connections are accepted there
+ * too (camera.cl, camera_importance): a path that a camera subpath can
+ * sample can then be sampled by a light subpath as well, and bdpt's MIS
+ * weights, which do not depend on the pixel, still sum to 1 for it.
  */
 #ifndef MCOCL_RENDER_PIXEL_FILTER_CL
 #define MCOCL_RENDER_PIXEL_FILTER_CL
@@ -104,6 +116,30 @@ MC_INLINE floatv filter_offset(floatv u) {
     return u - 0.5f;
 #endif
 }
+
+/* How far past the image's edge, in pixels, a camera sample's film point may lie. */
+#if PIXEL_FILTER == PIXEL_FILTER_BOX
+#define FILTER_MARGIN 0.0f
+#else
+#define FILTER_MARGIN (FILTER_RADIUS - 0.5f)
+#endif
+
+#if PIXEL_FILTER != PIXEL_FILTER_BOX
+/* The 1-D filter f1 at offset x (pixels) over its integral: the density of filter_offset's offsets. */
+MC_INLINE float filter_weight(float x) {
+    const float r = FILTER_RADIUS;
+    const float a = fabs(x);
+#if PIXEL_FILTER == PIXEL_FILTER_TENT
+    return a < r ? (1.0f - a / r) / r : 0.0f;
+#else
+    const float s = FILTER_STDDEV;
+    const float k = M_SQRT1_2_F / s;
+    const float bias = exp(-0.5f * (r / s) * (r / s));
+    const float total = 2.0f * (s * 1.2533141373155003f * erf(r * k) - bias * r); /* the integral over [-r, r] */
+    return a < r ? fmax(exp(-(a * k) * (a * k)) - bias, 0.0f) / total : 0.0f;
+#endif
+}
+#endif
 
 /* The film coordinate of a camera sample in pixel column/row `base` (as a
  * float) from the uniform u: the box keeps base + u bit for bit. */

@@ -41,7 +41,7 @@ from .job import (
     scene_tables,
     tables_digest,
 )
-from .pixel_filter import BOX, require_box
+from .pixel_filter import BOX
 from .scene import INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
 from .scene_file import load_scene
 from .sobol_film import MIN_BATCHES, sobol_spp_per_block
@@ -268,7 +268,6 @@ def render(
     pixel_filter = getattr(cs, "pixel_filter", BOX)
     near_clip = float(getattr(cs, "near_clip", 0.0))
     if cs.integrator in SPLAT_INTEGRATORS:
-        require_box(pixel_filter, cs.integrator)
         require_no_clip(near_clip, cs.integrator)
     tables = scene_tables(cs)
     meta = {

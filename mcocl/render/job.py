@@ -47,7 +47,7 @@ from .device_scene import (
     tables_digest,
 )
 from .film import STATS
-from .pixel_filter import BOX, PixelFilter, require_box
+from .pixel_filter import BOX, PixelFilter
 from .shading_normals import VERTEX_NORMALS_ABSENT, require_face_normals, shading_defines
 from .sobol_film import block_batches, sobol_render_defines
 from .splat_film import SplatRunner, splat_groups
@@ -179,7 +179,6 @@ class RenderJob:
                 if self.unweighted:
                     opts.append("-DBDPT_UNWEIGHTED")
         if self.splats:
-            require_box(self.pixel_filter, self.integrator)
             require_no_clip(self.near_clip, self.integrator)
         if self.integrator == "bdpt":
             require_face_normals(self.tables)

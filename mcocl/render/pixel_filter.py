@@ -12,8 +12,13 @@ Mitsuba 3's definitions (separable, 1-D profile ``f1``):
 - ``gaussian``: ``f1(x) = max(0, exp(-x²/(2s²)) - exp(-r²/(2s²)))``, ``stddev`` s
   (default 0.5) and r = 4 s.
 
-Light tracing and bidirectional path tracing splat a connection to the pixel it
-lands in, a box; they refuse other filters (:func:`require_box`).
+Light tracing and bidirectional path tracing splat a camera connection that lands
+at film point x into every pixel p within the filter's reach, weighted by
+``f(x - c_p) / ∫f`` (pbrt-v4's splat), so that a pixel estimates the same
+filter-weighted mean from both sides; connections are accepted up to
+``radius - 1/2`` pixels past the image's edge, where the edge pixels' camera
+samples reach (kernels/render/pixel_filter.cl).  bdpt's MIS weights do not depend
+on the pixel, so they still sum to 1 over the strategies of every path.
 """
 
 from __future__ import annotations
@@ -129,12 +134,4 @@ def parse_filter(v: Any, where: str = "camera.filter") -> PixelFilter:
     return make_filter(v["type"], v.get("radius"), v.get("stddev"), where)
 
 
-def require_box(f: PixelFilter, integrator: str) -> None:
-    """Refuse a non-box filter for a splatting integrator (its camera connections land in one pixel, a box)."""
-    if f.kind != "box":
-        raise InputError(f"the {f.kind} reconstruction filter works with the path integrators (path, nee, mis); "
-                         f"{integrator!r} splats camera connections into one pixel (a box filter): set the filter "
-                         "to box (JSON camera.filter \"box\", XML <rfilter type=\"box\"/>) or use mis")
-
-
-__all__ = ["BOX", "FILTER_CODES", "PIXEL_FILTERS", "PixelFilter", "make_filter", "parse_filter", "require_box"]
+__all__ = ["BOX", "FILTER_CODES", "PIXEL_FILTERS", "PixelFilter", "make_filter", "parse_filter"]
