@@ -19,9 +19,10 @@ vegas      ``vegas.Integrator``: 5 adapting iterations of E/10, then 5 more
            combined (the package's documented use), batch integrand in
            NumPy; wall time T_v.
 mcocl      the sampler the user would pick for the kind (PICK below):
-           ``sobol`` with ``precision="double"`` for the smooth, kinked and
-           discontinuous kinds, ``vegas`` for the narrow peak and the
-           singularity.  Run once against each peer with the sample count N
+           ``sobol`` with ``precision="double"`` and ``scrambling="linear"``
+           (the README's advice for large N; ``--scrambling hash`` for the
+           default) for the smooth, kinked and discontinuous kinds,
+           ``vegas`` for the narrow peak and the singularity.  Run once against each peer with the sample count N
            that fills that peer's time (a rate measured on a pilot run, then
            up to three corrections until a run takes 80-110 % of it; of the
            runs within 110 %, the one with the most samples counts, whatever
@@ -136,11 +137,14 @@ def vegas_run(case: Case, evals: int, seed: int) -> tuple[float, float]:
     return (float(r.mean) - case.g.exact) / abs(case.g.exact), time.perf_counter() - t0
 
 
+SCRAMBLING = {"scrambling": "linear"}  # --scrambling
+
+
 def mcocl_kwargs(sampler: str, samples: int, min_replicates: int) -> dict:
     """The options the user would give with ``sampler`` for ``samples`` evaluations (see the module docstring)."""
     if sampler == "sobol":
         m = max(samples // min_replicates, 1).bit_length() - 1
-        return {"sampler": "sobol", "precision": "double", "replicates": max(samples >> m, 2)}
+        return {"sampler": "sobol", "precision": "double", "replicates": max(samples >> m, 2), **SCRAMBLING}
     return {"sampler": "vegas"}
 
 
@@ -194,7 +198,9 @@ def main() -> None:
     ap.add_argument("--kinds", nargs="+", default=KINDS, choices=KINDS, metavar="KIND")
     ap.add_argument("--min-replicates", type=int, default=4, help="R0 of mcocl sobol's replicates (see above)")
     ap.add_argument("--other", action="store_true", help="also run the sampler not picked")
+    ap.add_argument("--scrambling", choices=["hash", "linear"], default="linear", help="mcocl sobol's scrambling")
     args = ap.parse_args()
+    SCRAMBLING["scrambling"] = args.scrambling
     rng = np.random.default_rng(args.param_seed)
     seeds = range(1, args.seeds + 1)
     print(f"{'kind':14} {'d':>2} {'E':>8} | {'scipy err':>9} {'T s':>6} | {'vegas err':>9} {'T s':>6} | "
