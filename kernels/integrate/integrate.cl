@@ -74,6 +74,15 @@ typedef floatv realv;
 #endif
 
 #define NCOORD (POINTS * DIM)
+#if SAMPLER == SAMPLER_SOBOL
+/* what the packets of a block share (one replicate) */
+#include "samplers/sobol_block.cl"
+#if REAL_DOUBLE
+#define SOBOL_BLOCK_UNIFORMS sobol_block_uniforms_d
+#else
+#define SOBOL_BLOCK_UNIFORMS sobol_block_uniforms
+#endif
+#endif
 #define STATS 6
 #define VLANES 16
 #define NACC (VLANES / LANES)
@@ -125,6 +134,9 @@ MC_INLINE void unit_values(uint k, uint nunits, ulong unit0, ulong design_base, 
 #if SAMPLER == SAMPLER_NROOKS
                            const perm_key *keys,
 #endif
+#if SAMPLER == SAMPLER_SOBOL
+                           const sobol_block_t *sobol_block,
+#endif
 #if SAMPLER == SAMPLER_VEGAS
                            global const float *vegas_grid, uintv vbin[UNIT_SAMPLES][DIM],
 #endif
@@ -157,7 +169,13 @@ MC_INLINE void unit_values(uint k, uint nunits, ulong unit0, ulong design_base, 
     v[0] = lane_select((floatv)(0.0f), v2[0], *ok);
     v[1] = lane_select((floatv)(0.0f), v2[1], *ok);
 #else
+#if SAMPLER == SAMPLER_SOBOL
+    /* sample_uniforms' numbers, from the block's shared part (samplers/sobol_block.cl) */
+    SOBOL_BLOCK_UNIFORMS(sobol_block, k, tau);
+    REFINE_FIRST_CELLS(tau, NCOORD, rng_init_offset(ubase, LANE_IOTA, seed, RNG_STREAM_REFINE));
+#else
     sample_uniforms(ubase, 1u, seed, tau);
+#endif
 #if SAMPLER == SAMPLER_NROOKS
     for (uint a = 0; a < NCOORD; ++a) {
         uintv cell = nrooks_permute(in_design, DESIGN_UNITS, NROOKS_MASK, NROOKS_S1, NROOKS_S2, keys[a]);
@@ -179,6 +197,8 @@ MC_INLINE void unit_values(uint k, uint nunits, ulong unit0, ulong design_base, 
 
 #if SAMPLER == SAMPLER_NROOKS
 #define UNIT_KEYS keys,
+#elif SAMPLER == SAMPLER_SOBOL
+#define UNIT_KEYS &sobol_block,
 #else
 #define UNIT_KEYS
 #endif
@@ -222,6 +242,10 @@ kernel void integrate_blocks(ulong first_block, ulong nblocks, ulong unit_limit,
 #if SAMPLER == SAMPLER_NROOKS
     perm_key keys[NCOORD];
     for (uint a = 0; a < NCOORD; ++a) keys[a] = nrooks_key(seed, design, a);
+#endif
+#if SAMPLER == SAMPLER_SOBOL
+    sobol_block_t sobol_block;
+    sobol_block_init(&sobol_block, seed, design, unit0);
 #endif
 
     /* k runs over units in steps of LANES; the inner loop over the NACC lane

@@ -23,6 +23,10 @@
 /* Refinement of uniforms in the first grid cell (samplers/refine_zero.cl):
  * "sample" = the sample's index in RNG_STREAM_SAMPLE, dimension 4 * coordinate. */
 #define RNG_STREAM_REFINE 4u
+/* The random linear scrambling of sampler="sobol" integration
+ * (samplers/sobol_block.cl): "sample" = replicate index, dimension
+ * 4 * (8 * coordinate + t), t < 8 (32 words per coordinate). */
+#define RNG_STREAM_SOBOL_SCRAMBLE 5u
 
 /* ---- random walks (walks/walk.cl) ---- */
 /* Walk moves and roulette of query point q: stream RNG_STREAM_WALK + q,

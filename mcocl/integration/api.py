@@ -25,7 +25,7 @@ from .design import UNBOUNDED_UNITS, design_from_checkpoint
 from .heavy_tail import PEAK_KEY, TailWatchingAccumulator, heavy_tail_note
 from .job import ROW, IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
-from .samplers import SAMPLER_SPECS, SamplerSpec, Vegas, sampler_spec, spec_of
+from .samplers import SAMPLER_SPECS, SamplerSpec, Sobol, Vegas, sampler_spec, spec_of
 from .vegas import VegasOutcome, VegasSettings, run_vegas
 
 # The registered sampler names, for --help and error messages (mcocl/integration/samplers.py).
@@ -230,6 +230,18 @@ def _check_precision(precision: Any, req: _Request) -> str:
     return precision
 
 
+def _check_scrambling(scrambling: Any, req: _Request) -> int:
+    """``scrambling=`` as an index into ``Sobol.SCRAMBLINGS`` (0 when not given); InputError naming the problem."""
+    if scrambling is None:
+        return 0
+    names = Sobol.SCRAMBLINGS
+    if scrambling not in names:
+        raise InputError(f"scrambling: unknown scrambling {scrambling!r}; choose one of {', '.join(names)}")
+    if not isinstance(req.sampler, Sobol):
+        raise InputError(f"scrambling: it belongs to sampler='sobol', not {req.sampler.name!r}")
+    return names.index(scrambling)
+
+
 def require_fp64(device: Any) -> None:
     """Refuse ``precision="double"`` on a device without double-precision arithmetic (cl_khr_fp64)."""
     extensions = str(getattr(device, "extensions", "")).split()
@@ -258,6 +270,7 @@ def integrate(
     target_error: float | None = None,
     design_samples: int | None = None,
     replicates: int | None = None,
+    scrambling: str | None = None,
     device: Any = None,
     devices: Any = None,
     split: int | None = None,
@@ -298,6 +311,11 @@ def integrate(
         replicates: independent scramblings of a ``sobol`` run (default 16);
             the standard error is their spread, and ``samples`` is rounded
             down to ``replicates`` x 2^m (``Sobol`` in samplers.py).
+        scrambling: how a ``sobol`` run scrambles its replicates: ``"hash"``
+            (the default: Laine-Karras hashing, Owen's nested scrambling
+            approximately) or ``"linear"`` (a random lower-triangular matrix
+            and a digital shift, Matoušek's; smaller errors at large N, README
+            "Quasi-Monte Carlo").  A resumed run keeps its checkpoint's.
         device: device index or name substring (``mcocl devices``).
         devices: several devices (a list of specs, or ``"all"``).
         split: partition each CPU device into this many sub-devices.
@@ -345,6 +363,7 @@ def integrate(
         design_samples = whole_number("design_samples", design_samples, 1, MAX_SAMPLES)
     if replicates is not None:
         replicates = whole_number("replicates", replicates, 1, 1 << 20)
+    scramble_index = _check_scrambling(scrambling, req)
 
     users = UserFunction("integrand", req.integrand, "integrand", (("x", req.dim),), real)
     control_fn = UserFunction("control", req.control, "control", (("x", req.dim),), real) if req.control else None
@@ -373,6 +392,8 @@ def integrate(
         design = req.sampler.plan_replicated(req.dim, code.points, samples, design_samples, replicates)
         if req.precision == "double":
             design = dataclasses.replace(design, double=1)
+        if scramble_index:
+            design = dataclasses.replace(design, scrambling=scramble_index)
         shift = None
     spec = spec_of(design)
     max_blocks, unit_limit = spec.granules(design, samples)

@@ -41,6 +41,9 @@ class Design:
         bins: bins per dimension of the VEGAS grid (vegas), else 0.
         double: 1 when the integrand is evaluated and its sums kept in double
             (``precision="double"``), else 0 (float32, the default).
+        scrambling: sobol's scrambling, an index into ``Sobol.SCRAMBLINGS``
+            (0: the Laine-Karras hash, the default; 1: random linear matrix
+            scrambling with a digital shift), else 0.
     """
 
     sampler: str
@@ -51,6 +54,7 @@ class Design:
     replicates: int = 0
     bins: int = 0
     double: int = 0
+    scrambling: int = 0
 
     def to_dict(self) -> dict:
         """JSON form (saved in checkpoints)."""

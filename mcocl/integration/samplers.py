@@ -390,6 +390,9 @@ class Sobol(DesignSpread):
     Unbounded runs (time or target only) use replicates of 2^18 until the
     halting rule stops them.  A resumed run keeps its checkpoint's design.
     Standard error: the sample variance of the R replicate means / R.
+    ``scrambling`` (SCRAMBLINGS): ``"hash"`` (the default) scrambles by the
+    Laine-Karras hash, ``"linear"`` by a random lower-triangular matrix and a
+    digital shift per (replicate, coordinate) (kernels/samplers/sobol_block.cl).
     """
 
     name = "sobol"
@@ -403,6 +406,7 @@ class Sobol(DesignSpread):
     UNBOUNDED_LOG2_POINTS = 18
     MAX_COORDINATES = 1024  # dimensions of kernels/samplers/sobol_joe_kuo_1024.cl
     TABLE_CHUNK = 64
+    SCRAMBLINGS = ("hash", "linear")  # Design.scrambling indexes this
 
     def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
         """The default number of replicates (see :meth:`plan_replicated`)."""
@@ -447,16 +451,18 @@ class Sobol(DesignSpread):
         """The Sobol' back end: points per scrambling and the table's dimensions."""
         table = -(-dim * points // self.TABLE_CHUNK) * self.TABLE_CHUNK
         return [*super().defines(design, dim, points), "-DSAMPLER_BACKEND=SAMPLER_BACKEND_SOBOL",
-                f"-DSOBOL_LOG2_POINTS={design.units.bit_length() - 1}", f"-DSOBOL_TABLE_DIMS={table}"]
+                f"-DSOBOL_LOG2_POINTS={design.units.bit_length() - 1}", f"-DSOBOL_TABLE_DIMS={table}",
+                f"-DSOBOL_SCRAMBLE_LINEAR={design.scrambling}"]
 
     def notes(self, design: Design, dim: int) -> list[str]:
         """The replicates and how the sample budget was rounded."""
         m = design.units.bit_length() - 1
+        how = "Owen-scrambled" if design.scrambling == 0 else "linearly scrambled (random matrix and digital shift)"
         per = f"2^{m} point tuples" if design.samples_per_unit == 1 else f"2^{m} units of {design.samples_per_unit} points"
         if design.replicates == 0:
-            return [f"independent Owen-scrambled Sobol' replicates of {per}: the sample budget is rounded "
+            return [f"independent {how} Sobol' replicates of {per}: the sample budget is rounded "
                     "down to whole replicates (at least 2), or they run until the time or error target"]
-        return [f"{design.replicates} independent Owen-scrambled Sobol' replicates of {per}: "
+        return [f"{design.replicates} independent {how} Sobol' replicates of {per}: "
                 f"the sample budget is rounded down to replicates x 2^{m}"
                 + (f" x {design.samples_per_unit}" if design.samples_per_unit > 1 else "")]
 
