@@ -21,11 +21,12 @@ from ..usercode import UserFunction
 from ..validate import whole_number
 from .codegen import HEURISTICS, generate
 from .density_check import check_user_densities
-from .design import UNBOUNDED_UNITS, design_from_checkpoint
+from .design import UNBOUNDED_UNITS, Design, design_from_checkpoint
 from .heavy_tail import PEAK_KEY, TailWatchingAccumulator, heavy_tail_note
 from .job import ROW, IntegrationJob, estimate_from_totals, rounding_floor
 from .proposals import Proposal
 from .samplers import SAMPLER_SPECS, SamplerSpec, Sobol, Vegas, sampler_spec, spec_of
+from .sobol_budget import Sampling, run_sobol_budget
 from .vegas import VegasOutcome, VegasSettings, run_vegas
 
 # The registered sampler names, for --help and error messages (mcocl/integration/samplers.py).
@@ -62,7 +63,8 @@ class IntegrationResult:
             quadrature; when it dominates, more samples no longer help.
         notes: anything the user should know (scalar fallback, rounding).
         samples_this_run: samples computed by this call (fewer than ``samples``
-            when it resumed a checkpoint); ``samples_per_second`` counts these.
+            when it resumed a checkpoint; more under a ``sobol`` time plan,
+            whose pilot is not in the estimate); ``samples_per_second`` counts these.
         vegas: for ``sampler="vegas"``: the iterations (estimate, variance,
             samples, warm-up or not), ``chi2_dof`` and its tail probability
             ``q``, ``bins``, ``alpha``, ``warmup``; else None.
@@ -396,43 +398,24 @@ def integrate(
             design = dataclasses.replace(design, scrambling=scramble_index)
         shift = None
     spec = spec_of(design)
-    max_blocks, unit_limit = spec.granules(design, samples)
     if (acc is not None and acc.meta.get("partial_tail")
-            and acc.meta_int("unit_limit", opts.resume, 1, UNBOUNDED_UNITS) != unit_limit):
+            and acc.meta_int("unit_limit", opts.resume, 1, UNBOUNDED_UNITS) != spec.granules(design, samples)[1]):
         raise InputError(
             f"checkpoint {opts.resume} ends in a partial block of {spec.units_per_block} units; "
             f"resume it with the same samples ({acc.meta.get('unit_limit') * design.samples_per_unit}) "
             "or start runs with a multiple of the block size"
         )
-
-    ctx = runtime.device_context(opts.device)
-    if design.double:
-        require_fp64(ctx.device)
-    job = IntegrationJob(code, req.dim, design, req.seed, unit_limit, opts.lanes)
-    runner = job.runner(ctx)
-    if shift is None:
-        shift = runner.pilot_shift()
-    job.shift = shift
-    if acc is None:
-        acc = TailWatchingAccumulator((job.stat_shape[0],), {**meta, "design": design.to_dict(), "shift": shift})
-    notes = [runner.program.note] if runner.program.note else []
-
-    def target(a: Accumulator) -> bool:
-        est, var, n = estimate_from_totals(a.totals, design, shift)
-        return spec.target_ready(a.blocks_done, n) and math.isfinite(var) and math.sqrt(var) <= opts.target_error
-
-    callback, bar = opts.progress_reporter(f"integrate [{req.sampler.name}]", "samples",
-                                           spec.samples_per_block(design))
-    acc.meta["unit_limit"] = unit_limit
-    halting = opts.halting(max_blocks, target if opts.target_error else None)
-    blocks_before = acc.blocks_done  # a resumed checkpoint's blocks: not this run's throughput
-    report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
-    if bar is not None:
-        bar.close()
-    acc.meta["partial_tail"] = bool(spec.partial_tail(design, acc.blocks_done, unit_limit))
+    label = f"integrate [{req.sampler.name}]"
+    if acc is None and samples is None and design_samples is None and opts.time_budget is not None \
+            and isinstance(spec, Sobol):
+        run = run_sobol_budget(lambda d, a, sh, t: _sample(code, req, opts, meta, d, a, sh, None, t, label),
+                               spec, design, code.points, replicates or spec.REPLICATES, opts.time_budget)
+    else:
+        run = _sample(code, req, opts, meta, design, acc, shift, samples, opts.time_budget, label)
     if opts.checkpoint:
-        acc.save(opts.checkpoint)
-
+        run.acc.save(opts.checkpoint)
+    acc, design, shift, runner, report, unit_limit = run.acc, run.design, run.shift, run.runner, run.report, run.unit_limit
+    notes = [runner.program.note] if runner.program.note else []
     notes += list(getattr(report, "notes", []) or [])
     est, var, n = estimate_from_totals(acc.totals, design, shift)
     floor = rounding_floor(acc.totals, design)
@@ -442,10 +425,10 @@ def integrate(
     if req.control:
         est += req.control_integral
     samples_used = spec.samples_used(design, acc.blocks_done, unit_limit)
-    samples_before = spec.samples_used(design, blocks_before, unit_limit) if blocks_before else 0
+    samples_before = spec.samples_used(design, run.blocks_before, unit_limit) if run.blocks_before else 0
     nonfinite = int(acc.totals[1])
     stderr = math.sqrt(var) if var >= 0 else math.nan
-    notes += spec.notes(design, req.dim)
+    notes += spec.notes(design, req.dim) + run.notes
     tail = heavy_tail_note(acc)
     if tail:
         notes.append(tail)
@@ -454,8 +437,8 @@ def integrate(
         stderr=stderr,
         variance=var * samples_used if math.isfinite(var) else math.nan,
         samples=samples_used,
-        seconds=report.seconds,
-        device=", ".join(report.devices) if report.devices else ctx.name,
+        seconds=run.seconds,
+        device=", ".join(report.devices) if report.devices else run.device,
         sampler=req.sampler.name,
         seed=req.seed,
         nonfinite=nonfinite,
@@ -466,9 +449,9 @@ def integrate(
         lanes=runner.lanes,
         designs=spec.designs_done(acc.blocks_done),
         stopped_by={"blocks": "samples", "target": "stderr"}.get(report.stopped_by, report.stopped_by),
-        build_seconds=runner.build_seconds,
+        build_seconds=run.build_seconds,
         notes=notes,
-        samples_this_run=samples_used - samples_before,
+        samples_this_run=samples_used - samples_before + run.discarded_samples,
     )
     if nonfinite:
         warnings.warn(
@@ -480,6 +463,41 @@ def integrate(
         warnings.warn(tail.removeprefix("WARNING: "), HeavyTailWarning, stacklevel=2)
     _report_overflowed_sums(acc.totals, result)
     return result
+
+
+def _sample(code: Any, req: _Request, opts: RunOptions, meta: dict[str, Any], design: Design,
+            acc: Accumulator | None, shift: float | None, samples: int | None, time_budget: float | None,
+            label: str) -> Sampling:
+    """Run the integration job of ``design`` into ``acc`` (a fresh accumulator when None) until
+    ``samples``, ``time_budget`` seconds, the target error or an interrupt stops it."""
+    spec = spec_of(design)
+    max_blocks, unit_limit = spec.granules(design, samples)
+    ctx = runtime.device_context(opts.device)
+    if design.double:
+        require_fp64(ctx.device)
+    job = IntegrationJob(code, req.dim, design, req.seed, unit_limit, opts.lanes)
+    runner = job.runner(ctx)
+    if shift is None:
+        shift = runner.pilot_shift()
+    job.shift = shift
+    if acc is None:
+        acc = TailWatchingAccumulator((job.stat_shape[0],), {**meta, "design": design.to_dict(), "shift": shift})
+
+    def target(a: Accumulator) -> bool:
+        est, var, n = estimate_from_totals(a.totals, design, shift)
+        return spec.target_ready(a.blocks_done, n) and math.isfinite(var) and math.sqrt(var) <= opts.target_error
+
+    callback, bar = opts.progress_reporter(label, "samples", spec.samples_per_block(design))
+    acc.meta["unit_limit"] = unit_limit
+    halting = dataclasses.replace(opts.halting(max_blocks, target if opts.target_error else None),
+                                  time_budget=time_budget)
+    blocks_before = acc.blocks_done  # a resumed checkpoint's blocks: not this run's throughput
+    report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
+    if bar is not None:
+        bar.close()
+    acc.meta["partial_tail"] = bool(spec.partial_tail(design, acc.blocks_done, unit_limit))
+    return Sampling(design, acc, shift, runner, report, unit_limit, blocks_before, ctx.name,
+                    report.seconds, runner.build_seconds)
 
 
 def _report_overflowed_sums(totals: np.ndarray, result: IntegrationResult) -> None:

@@ -387,8 +387,14 @@ class Sobol(DesignSpread):
     Past 2^30 points per replicate the replicates grow instead: N // (2^30 P).
     ``design_samples`` fixes 2^m (rounded down to a power of two) and R
     becomes N // (2^m P), at least 2 (so a resumed run may ask for more).
-    Unbounded runs (time or target only) use replicates of 2^18 until the
-    halting rule stops them.  A resumed run keeps its checkpoint's design.
+    A time budget without a sample count (and without ``design_samples``)
+    is planned from the measured rate (:mod:`mcocl.integration.sobol_budget`):
+    a pilot of replicates of 2^12 for PILOT_SHARE of the budget, then
+    replicates of 2^M until the time is spent, 2^M the largest power of two
+    with R * 2^M * P samples predicted to take at most BUDGET_MARGIN of the
+    time left (:meth:`budget_log2`), so about R to 2R replicates complete.
+    Target-only runs use replicates of 2^18 until the halting rule stops
+    them.  A resumed run keeps its checkpoint's design.
     Standard error: the sample variance of the R replicate means / R.
     ``scrambling`` (SCRAMBLINGS): ``"hash"`` (the default) scrambles by the
     Laine-Karras hash, ``"linear"`` by a random lower-triangular matrix and a
@@ -407,6 +413,14 @@ class Sobol(DesignSpread):
     MAX_COORDINATES = 1024  # dimensions of kernels/samplers/sobol_joe_kuo_1024.cl
     TABLE_CHUNK = 64
     SCRAMBLINGS = ("hash", "linear")  # Design.scrambling indexes this
+    # The time plan (mcocl/integration/sobol_budget.py): the pilot's replicates
+    # are one kernel block each, and it takes this share of the budget (long
+    # enough to measure the rate with the chunks the engine sizes for it).
+    PILOT_LOG2_POINTS = 12
+    PILOT_SHARE = 0.05
+    # R * 2^M is planned to fill at most this share of the time left, so a
+    # rate that drops by up to 1/BUDGET_MARGIN still completes R replicates.
+    BUDGET_MARGIN = 0.8
 
     def plan(self, dim: int, points: int, samples: int | None, design_samples: int | None) -> Design:
         """The default number of replicates (see :meth:`plan_replicated`)."""
@@ -437,6 +451,22 @@ class Sobol(DesignSpread):
             log2 = min(log2, self.MAX_LOG2_POINTS)
         units = 1 << log2
         return Design(self.name, units, points, 0, -(-units // self.units_per_block), count)
+
+    def budget_log2(self, rate: float, seconds: float, replicates: int, points: int) -> int:
+        """log2 of the replicate size of a time plan: the largest M in PILOT_LOG2_POINTS ..
+        MAX_LOG2_POINTS with ``replicates`` * 2^M * ``points`` samples taking at most
+        BUDGET_MARGIN * ``seconds`` at ``rate`` samples per second (the pilot's size when none does)."""
+        fit = rate * seconds * self.BUDGET_MARGIN / (replicates * points) if rate > 0 and seconds > 0 else 0.0
+        if not math.isfinite(fit) or fit < 1 << self.PILOT_LOG2_POINTS:
+            return self.PILOT_LOG2_POINTS
+        return min(int(fit).bit_length() - 1, self.MAX_LOG2_POINTS)
+
+    def budget_design(self, log2_points: int, points: int, like: Design) -> Design:
+        """An unbounded design of replicates of 2^``log2_points`` point tuples, with ``like``'s
+        precision and scrambling (the time plan's pilot and final runs)."""
+        units = 1 << log2_points
+        return Design(self.name, units, points, 0, -(-units // self.units_per_block), 0,
+                      double=like.double, scrambling=like.scrambling)
 
     def granules(self, design: Design, samples: int | None) -> tuple[int | None, int]:
         """Exactly the design's R replicates; without R (``design_samples``, or 2^m capped) the
