@@ -274,6 +274,8 @@ FLAGS = {
         "--roulette": NUMBER, "--control": st.sampled_from(["x[0]", "x[9]", "", "return;"]),
         "--control-integral": NUMBER, "--replicates": NUMBER, "--iterations": NUMBER, "--vegas-bins": NUMBER,
         "--alpha": NUMBER, "--beta": NUMBER, "--lanes": NUMBER, "--split": NUMBER, "--target-error": NUMBER,
+        "--scrambling": st.sampled_from(["hash", "linear", "bogus", ""]),
+        "--precision": st.sampled_from(["single", "double", "bogus"]),
         "--design-samples": NUMBER, "--checkpoint": PATH, "--resume": PATH, "--device": NUMBER,
         "--json": None, "--time": st.sampled_from(["0", "-1", "nan", "1e-9", "0.5", "abc"]),
     },

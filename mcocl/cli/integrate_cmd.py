@@ -41,7 +41,9 @@ Samplers (how the uniform points are placed):
   sobol        randomised quasi-Monte Carlo: --replicates R (default 16)
                independent Owen scramblings of 2^m Sobol' points; the
                samples are rounded down to R x 2^m and the standard error
-               comes from the spread of the R replicate means;
+               comes from the spread of the R replicate means; with
+               --time alone, a short pilot measures the rate and 2^m is
+               the largest whose R replicates fit the time left;
                --scrambling linear (random matrix and digital shift)
                gives smaller errors than the default hash at large N
 
