@@ -129,3 +129,10 @@ def test_plan_stops_in_the_pilot(stop: str) -> None:
     runs = _FakeRuns([1e8], [stop])
     out = run_sobol_budget(runs, SPEC, LIKE, 1, 16, 10.0)
     assert len(runs.calls) == 1 and out.report.stopped_by == stop
+
+
+def test_a_target_error_may_end_the_run_early() -> None:
+    """A run stopped by the target error after two replicates is the result, not the pilot."""
+    runs = _FakeRuns([1e8, 2.5 * (1 << 25) / 9.5], ["time", "target"])  # two replicates of 2^25 done
+    out = run_sobol_budget(runs, SPEC, LIKE, 1, 16, 10.0)
+    assert out.design.units == 1 << 25 and out.acc.blocks_done == 2 and out.report.stopped_by == "target"

@@ -307,7 +307,8 @@ def integrate(
         beta: exponent of the power heuristic.
         control: control variate g (OpenCL C over ``x``), with ``control_integral`` = its exact integral J.
         roulette: survival probability P of the single-integral Russian roulette.
-        time_budget: stop after this many seconds.
+        time_budget: stop after this many seconds (``sobol`` without ``samples``:
+            replicates sized from a measured rate, :mod:`mcocl.integration.sobol_budget`).
         target_error: stop once the standard error is at most this.
         design_samples: samples per stratified / N-rooks design / Sobol' replicate (default: see samplers.py).
         replicates: independent scramblings of a ``sobol`` run (default 16);

@@ -21,7 +21,8 @@ order; tests/test_integrate_sobol_budget.py).  The pilot's samples are left
 out (different replicates) and counted in ``samples_this_run`` only.  When
 the time runs out before max(2, R // 2) replicates of the run complete (the
 devices slowed down, or an interrupt), the run is left out and the pilot's
-replicates are the result; the notes say which.  When the measured rate
+replicates are the result; the notes say which.  A ``target_error`` stops
+either part as it stops any run (from two replicates on).  When the measured rate
 allows no replicate larger than the pilot's, the pilot run simply goes on.
 
 Which M is chosen depends on the measured rate, so on the machine and its
@@ -101,7 +102,7 @@ def run_sobol_budget(sample: SampleRun, spec: Sobol, like: Design, points: int, 
     done = run.acc.blocks_done
     need = max(2, replicates // 2)
     run_samples = spec.samples_used(run.design, done, run.unit_limit)
-    if done < need:
+    if done < need and run.report.stopped_by != "target":
         return dataclasses.replace(
             pilot, report=run.report, seconds=pilot.seconds + run.seconds,
             build_seconds=pilot.build_seconds + run.build_seconds, discarded_samples=run_samples,
