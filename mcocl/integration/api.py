@@ -19,7 +19,7 @@ from ..errors import HeavyTailWarning, InputError, NonFiniteWarning
 from ..run_options import RunOptions, renamed_keyword
 from ..usercode import UserFunction
 from ..validate import whole_number
-from .codegen import HEURISTICS, generate
+from .codegen import HEURISTICS, EstimatorCode, generate
 from .density_check import check_user_densities
 from .design import UNBOUNDED_UNITS, Design, design_from_checkpoint
 from .heavy_tail import PEAK_KEY, TailWatchingAccumulator, heavy_tail_note
@@ -466,7 +466,7 @@ def integrate(
     return result
 
 
-def _sample(code: Any, req: _Request, opts: RunOptions, meta: dict[str, Any], design: Design,
+def _sample(code: EstimatorCode, req: _Request, opts: RunOptions, meta: dict[str, Any], design: Design,
             acc: Accumulator | None, shift: float | None, samples: int | None, time_budget: float | None,
             label: str) -> Sampling:
     """Run the integration job of ``design`` into ``acc`` (a fresh accumulator when None) until

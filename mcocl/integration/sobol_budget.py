@@ -36,10 +36,11 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 from ..accumulate import Accumulator
+from ..engine.contract import RunReport
 from .design import Design
+from .job import IntegrationRunner
 from .samplers import Sobol
 
 
@@ -62,8 +63,8 @@ class Sampling:
     design: Design
     acc: Accumulator
     shift: float
-    runner: Any
-    report: Any
+    runner: IntegrationRunner
+    report: RunReport
     unit_limit: int
     blocks_before: int
     device: str
