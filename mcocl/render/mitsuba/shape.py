@@ -9,7 +9,8 @@ file it is written in, confined to the scene's folder); ``to_world`` and
 (OBJ, PLY and serialized vertex normals shade smoothly unless it is set).  A shape without a BSDF
 gets Mitsuba's default, diffuse 0.5, or black when it emits.  Emitters:
 ``area`` inside a shape and a top-level ``constant``, each with ``radiance``
-(default 1).
+(default 1).  ``shapegroup`` and ``instance`` are flattened by
+mcocl/render/mitsuba/instance.py into copies of these.
 """
 
 from __future__ import annotations
@@ -29,11 +30,6 @@ from .xml_source import Node
 
 SUPPORTED = ("rectangle", "cube", "disk", "cylinder", "sphere", "obj", "ply", "serialized")
 MESH_FILES = ("obj", "ply", "serialized")  # plugins that become a "mesh" shape reading the file of the same kind
-# Unsupported shape plugin → the nearest supported alternative.
-ALTERNATIVES = {
-    "shapegroup": "the shapes themselves, repeated",
-    "instance": "the shapes themselves, repeated",
-}
 
 
 def translate_radiance(node: Node, rep: Reporter, comments: list[str]) -> list[float] | float:
@@ -105,8 +101,7 @@ class ShapeTranslator:
             out["name"] = node.attrib["id"]
         props, objects = split_children(node)
         if kind not in SUPPORTED:
-            alt = ALTERNATIVES.get(kind, nearest(kind, SUPPORTED))
-            self.rep.unsupported(node, f"the shape {kind!r}", alt, "nothing (the shape is left out)")
+            self.rep.unsupported(node, f"the shape {kind!r}", nearest(kind, SUPPORTED), "nothing (the shape is left out)")
             return None
         out["type"] = "mesh" if kind in MESH_FILES else kind
         if kind in ("disk", "cylinder"):
