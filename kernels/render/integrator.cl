@@ -262,6 +262,10 @@ kernel void render_blocks(
 
         /* ---- intersect ---- */
         hitv h = trace_closest_v(&geom, o, d, alive);
+#ifdef FAR_CLIP
+        /* a primary ray ends at the far clip plane (render/camera.cl): what lies beyond is a miss */
+        h.hit = h.hit & !(camera_beyond_far_clip(camera, d, h.t) & (depth == (uintv)(0u)));
+#endif
         intv hit = alive & h.hit;
         intv miss = alive & !h.hit;
 

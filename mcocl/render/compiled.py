@@ -155,6 +155,7 @@ class CompiledScene:
     # the one table of the scene's textures and surface UVs, None if no material is textured (render/texture_table.py)
     textures: np.ndarray | None = None
     near_clip: float = 0.0  # camera.near_clip (kernels/render/camera.cl, camera_clip_origin)
+    far_clip: float | None = None  # camera.far_clip (kernels/render/camera.cl, camera_beyond_far_clip)
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
@@ -430,7 +431,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         delta_lights=list(scene.lights) if len(dpower) else [], delta_power=dpower, env_map=scene.env_map,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
-        vertex_normals=vertex_normal_table(scene.shapes, tri_vertices[:, :, :3]), near_clip=cam.near_clip,
+        vertex_normals=vertex_normal_table(scene.shapes, tri_vertices[:, :, :3]), near_clip=cam.near_clip, far_clip=cam.far_clip,
         textures=texture_table(scene.materials, scene.shapes),
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
