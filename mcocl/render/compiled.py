@@ -34,7 +34,8 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   ``[kind, r, g, b, alpha, int_ior, ext_ior, 0]`` with kind a
   :class:`mcocl.layouts.MaterialKind` code (:data:`MATERIAL_CODES` by name);
   (r, g, b) = albedo (diffuse) or specular reflectance (conductors; 1 for dielectrics).
-- ``emitter_radiance``: float32 (E, 4): RGB radiance, 0.
+- ``emitter_radiance``: float32 (E, 4): RGB radiance (a textured emitter's mean texel), texture id + 1 or 0
+  (render/texture_table.py).
 - ``light_prims``: uint32 (L,): every primitive of every emissive shape
   with non-zero area, in primitive-id order.
 - ``light_cdf``: float32 (L + 1,): CDF over ``light_prims`` proportional to
@@ -105,7 +106,7 @@ from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
 from .shading_normals import vertex_normal_table
 from .shape_registry import SHAPES
-from .texture_table import texture_table
+from .texture_table import emitter_texture_code, scene_textures, texture_table
 
 # Primitives up to which compile_scene builds the binned SAH tree (see there).
 BINNED_UP_TO = 200_000
@@ -386,10 +387,12 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     shape_material = np.array([sh.material for sh in scene.shapes], np.uint32)
     shape_emitter = np.full(len(scene.shapes), -1, np.int32)
     radiance = []
+    textures = scene_textures(scene.materials, scene.shapes)
     for k, sh in enumerate(scene.shapes):
         if sh.radiance is not None:
             shape_emitter[k] = len(radiance)
-            radiance.append([*sh.radiance, 0.0])
+            # w: the emitter's texture id + 1, 0 when constant (render/texture_table.py)
+            radiance.append([*sh.radiance, emitter_texture_code(sh.radiance_texture, textures)])
     emitter_radiance = np.array(radiance, np.float32).reshape(-1, 4)
 
     # Lights: every primitive of an emissive shape, chosen in proportion to its power.

@@ -128,6 +128,8 @@ class Shape:
     matrix: np.ndarray
     flip_normals: bool = False
     radiance: np.ndarray | None = None
+    # a textured area emitter's radiance (mcocl/render/textures.py); ``radiance`` then holds its mean texel
+    radiance_texture: Texture | None = None
     vertices: np.ndarray | None = None
     faces: np.ndarray | None = None
     center: np.ndarray | None = None
@@ -557,7 +559,15 @@ def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], roots: list
     if "emitter" in o:
         e = c.obj(o["emitter"], f"{key}.emitter", ("type", "radiance"))
         c.string(e["type"], f"{key}.emitter.type", ("area",))
-        shp.radiance = c.rgb(e["radiance"], f"{key}.emitter.radiance")
+        if isinstance(e["radiance"], dict):
+            # a textured emitter: the texture at the point's (u, v) (kernels/render/lights.cl); its mean
+            # texel stands for it where one number is needed (the power of light choice)
+            text = json.dumps(e["radiance"], sort_keys=True)
+            tex = c.textures.get(text) or parse_texture(c, e["radiance"], f"{key}.emitter.radiance", roots, _transform)
+            shp.radiance_texture = c.textures[text] = tex
+            shp.radiance = tex.mean()
+        else:
+            shp.radiance = c.rgb(e["radiance"], f"{key}.emitter.radiance")
     spec.build(c, o, key, shp, roots)
     return shp
 
