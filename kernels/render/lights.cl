@@ -45,9 +45,8 @@
 #include "render/delta_lights.cl"
 #include "render/envmap.cl"
 #include "sampling/gather.cl"
-#ifdef TEXTURES
+/* unconditional: runtime.compose inlines an include once, whatever #ifdef surrounds it */
 #include "render/texture.cl"
-#endif
 
 #ifndef LIGHT_SAMPLER
 #define LIGHT_SAMPLER LIGHT_SAMPLER_POWER

@@ -84,7 +84,8 @@ def expand_instance(node: Node, resolve: Callable[[Node], Node], translate: Call
         s = translate(member)
         if s is None:
             continue
-        s["transform"] = s.get("transform", []) + ops
+        if ops:
+            s["transform"] = s.get("transform", []) + ops
         if s["type"] == "sphere" and t is not None:
             own = split_children(member)[0].get("to_world", ("transform",), None)
             if tf.uniform_scale_of(t.matrix @ (own.matrix if own is not None else np.eye(4))) is None:
