@@ -428,7 +428,7 @@ def test_lenient_substitutes_with_a_warning(tmp_path):
             '<float name="alpha" value="0.2"/><boolean name="nonlinear" value="true"/></bsdf>'
             '<bsdf type="conductor" id="gold"><float name="sheen" value="1"/></bsdf>'
             '<bsdf type="mask" id="t"><bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>'
-            '<shape type="instance"/><emitter type="sunsky"/>')  # serialized and envmap are supported now
+            '<shape type="heightfield"/><emitter type="sunsky"/>')  # serialized and envmap are supported now
     p = write(tmp_path, body)
     with pytest.raises(InputError, match=r"the nonlinear plastic model is not supported \(nearest supported: "
                                          r"nonlinear=false\)"):

@@ -325,3 +325,34 @@ def test_near_clip_hides_what_lies_nearer(tmp_path: Path) -> None:
                              '<float name="near_clip" value="0.25"/>'))
     assert compile_scene(p).near_clip == 0.25
     assert compile_scene(_xml(tmp_path, "")).near_clip == 0.0  # Mitsuba's 0.01 default is not applied
+
+
+def test_far_clip_hides_what_lies_farther(tmp_path: Path) -> None:
+    # the black plane 0.5 in front hides the environment unless the far clip plane lies before it
+    # (Mitsuba 3: maxt = (far_clip - near_clip) / cos from the near-clipped origin)
+    shapes = [{"type": "rectangle", "material": "black",
+               "transform": [{"scale": 10.0}, {"translate": [0.0, 0.0, -0.5]}]}]
+    p = _scene(tmp_path, None, shapes, 1.0, size=8)
+    data = json.loads(p.read_text())
+    for clip, seen in (({"far_clip": 0.45}, 1.0), ({"near_clip": 0.2, "far_clip": 0.55}, 0.0)):
+        data["camera"].update(clip)
+        p.write_text(json.dumps(data))
+        np.testing.assert_array_equal(mcocl.render(p, spp=4, seed=1).mean, seen)
+    del data["camera"]["near_clip"]
+    p.write_text(json.dumps(data))
+    with pytest.raises(InputError, match="camera.far_clip works with the path integrators"):
+        mcocl.render(p, spp=1, integrator="bdpt")
+    data["camera"].update(near_clip=0.6)
+    p.write_text(json.dumps(data))
+    with pytest.raises(InputError, match=r"camera\.far_clip"):
+        compile_scene(p)
+    xml = _xml(tmp_path, '<rfilter type="box"/>').read_text()
+    p = tmp_path / "clip.xml"
+    p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
+                             '<float name="far_clip" value="25"/>'))
+    assert compile_scene(p).far_clip == 25.0
+    assert compile_scene(_xml(tmp_path, "")).far_clip is None  # Mitsuba's 1e4 default is not applied
+    p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
+                             '<float name="far_clip" value="0"/>'))
+    with pytest.raises(InputError, match=r"clip\.xml:\d+: .*far_clip must exceed near_clip"):
+        compile_scene(p)

@@ -363,7 +363,12 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         const intv inf = active & pt->infinite;
         ok = active & !pt->infinite & (pt->emitter >= 0) & (v3_dot(pt->n, pt->wi) > 0.0f);
         if (!lane_any(ok | inf)) return zero;
-        c = v3_mul(pt->beta, emitter_radiance_of(sc->lt, lane_select((intv)(-1), pt->emitter, ok)));
+        intv e = lane_select((intv)(-1), pt->emitter, ok);
+        vec3v le = emitter_radiance_of(sc->lt, e);
+#ifdef TEXTURES
+        le = emitter_radiance_uv(sc->lt, e, pt->tu, pt->tv, le, ok); /* a textured emitter (render/lights.cl) */
+#endif
+        c = v3_mul(pt->beta, le);
         pt->pdf_rev = pt->light_pdf_area;
         ptm->pdf_rev = to_area(emitter_pdf_solid_angle(pt->n, pt->wi), pt->p, ptm->p, ptm->n);
         if (lane_any(inf)) {

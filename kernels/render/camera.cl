@@ -117,6 +117,25 @@ MC_INLINE vec3v camera_clip_origin(global const float4 *cam, vec3v o, vec3v d) {
 #endif
 }
 
+/* Mitsuba's far_clip (-DFAR_CLIP, scene units along the optical axis; the
+ * path integrators only): a primary ray ends where it crosses the plane at
+ * that distance, maxt = (far - near) / (d . forward) from its near-clipped
+ * origin (Mitsuba 3's perspective and thinlens sample_ray), so geometry
+ * beyond the plane is not seen and the ray escapes to the environment.
+ * Whether the hit at distance t lies beyond it (never without -DFAR_CLIP). */
+MC_INLINE intv camera_beyond_far_clip(global const float4 *cam, vec3v d, floatv t) {
+#ifdef FAR_CLIP
+#ifdef NEAR_CLIP
+    const float span = FAR_CLIP - NEAR_CLIP;
+#else
+    const float span = FAR_CLIP;
+#endif
+    return t > span / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD]));
+#else
+    return (intv)(0);
+#endif
+}
+
 /* Where the ray from lens point xl in the unit direction d meets the film:
  * raster position (sx, sy) in pixels and the pixel index (row-major; the
  * nearest pixel for a point past the edge); cos theta to `forward`.  Valid

@@ -194,6 +194,9 @@ kernel void render_blocks(
     const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
     light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, light_bvh, light_trail);
     light_tables_bind_envmap(&lt, &params, env_map, env_cdf);
+#ifdef TEXTURES
+    light_tables_bind_textures(&lt, textures, &pt);
+#endif
     const bool has_env = env_radiance.x > 0.0f || env_radiance.y > 0.0f || env_radiance.z > 0.0f;
     const vec3v env_le = v3((floatv)(env_radiance.x), (floatv)(env_radiance.y), (floatv)(env_radiance.z));
     const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;
@@ -262,6 +265,10 @@ kernel void render_blocks(
 
         /* ---- intersect ---- */
         hitv h = trace_closest_v(&geom, o, d, alive);
+#ifdef FAR_CLIP
+        /* a primary ray ends at the far clip plane (render/camera.cl): what lies beyond is a miss */
+        h.hit = h.hit & !(camera_beyond_far_clip(camera, d, h.t) & (depth == (uintv)(0u)));
+#endif
         intv hit = alive & h.hit;
         intv miss = alive & !h.hit;
 
@@ -292,7 +299,8 @@ kernel void render_blocks(
         /* (max_depth 0 renders black, as in Mitsuba 3) */
         intv emitting = hit & (sf.emitter >= 0) & (v3_dot(n, d) < 0.0f) & (intv)(max_depth != 0 ? -1 : 0);
         if (lane_any(emitting)) {
-            vec3v le = emitter_radiance_of(&lt, sf.emitter);
+            vec3v le = emitter_radiance_at(&lt, sf.emitter, h.prim, h.b1, h.b2, p, emitter_radiance_of(&lt, sf.emitter),
+                                           emitting);
 #if INTEGRATOR == INTEGRATOR_MIS
 #if LIGHT_CHOICE_AT_VERTEX
             floatv lp = light_pdf_hit_at(&lt, &pt, prev_p, prev_up, prev_n, h.prim, &sf, emitting & !unsampled);

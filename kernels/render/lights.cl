@@ -28,6 +28,14 @@
  * Point, spot and directional lights (render/delta_lights.cl) share the
  * choice table with the area lights; their sample has pdf = the choice
  * probability (a discrete density, flagged `delta`), so its MIS weight is 1.
+ *
+ * Textured area emitters (-DTEXTURES; emitter_radiance's w = texture id + 1,
+ * mcocl/render/texture_table.py): the radiance at a point is the texture at
+ * its (u, v) (render/texture.cl) wherever it is evaluated — an emitter hit
+ * (emitter_radiance_at), a light sample here, an emitted ray
+ * (render/lights_emit.cl), bdpt's s = 0 (emitter_radiance_uv) — so that every
+ * integrator estimates the same image.  Positions stay sampled by area; the
+ * light choice's power takes the texture's mean texel (compiled.py).
  */
 #ifndef MCOCL_RENDER_LIGHTS_CL
 #define MCOCL_RENDER_LIGHTS_CL
@@ -37,6 +45,8 @@
 #include "render/delta_lights.cl"
 #include "render/envmap.cl"
 #include "sampling/gather.cl"
+/* unconditional: runtime.compose inlines an include once, whatever #ifdef surrounds it */
+#include "render/texture.cl"
 
 #ifndef LIGHT_SAMPLER
 #define LIGHT_SAMPLER LIGHT_SAMPLER_POWER
@@ -60,6 +70,10 @@ typedef struct {
     float4 env_radiance;                   /* w > 0: an environment map, env_map (render/envmap.cl) */
     envmap_t env_map;                      /* bound by light_tables_bind_envmap; unbound otherwise */
     int has_env_map;
+#ifdef TEXTURES
+    global const float4 *textures;         /* bound by light_tables_bind_textures; 0: constant radiance */
+    prim_tables pt;
+#endif
 } light_tables;
 
 /* The light tables of a render launch: its buffers, and the light count and
@@ -81,8 +95,20 @@ MC_INLINE light_tables light_tables_of(const render_params *p, global const floa
     lt.env_radiance = p->env_radiance;
     lt.env_map = envmap_of(0, 0);
     lt.has_env_map = 0;
+#ifdef TEXTURES
+    lt.textures = 0;
+#endif
     return lt;
 }
+
+#ifdef TEXTURES
+/* Bind the texture table of a textured launch (render/texture.cl), so that
+ * textured area emitters shine with their texture. */
+MC_INLINE void light_tables_bind_textures(light_tables *lt, global const float4 *textures, const prim_tables *pt) {
+    lt->textures = textures;
+    lt->pt = *pt;
+}
+#endif
 
 /* Bind the environment map tables of a launch (mcocl/render/envmap.py); a
  * scene without one (env_radiance.w == 0) leaves the constant environment. */
@@ -99,6 +125,54 @@ MC_INLINE vec3v emitter_radiance_of(const light_tables *lt, intv e) {
     intv has = e >= 0;
     rec4v r = gather_rec4(lt->emitter_radiance, lane_as_uint(lane_select((intv)(0), e, has)));
     return v3_select(v3s(0.0f), v3(r.x, r.y, r.z), has);
+}
+
+/* The radiance of emitter e at texture coordinates (u, v): le (its constant) unless the emitter is
+ * textured, then the texture there (lanes with e < 0 or inactive keep le). */
+MC_INLINE vec3v emitter_radiance_uv(const light_tables *lt, intv e, floatv u, floatv v, vec3v le, intv active) {
+#ifdef TEXTURES
+    if (lt->textures == 0) return le;
+    intv has = active & (e >= 0);
+    rec4v r = gather_rec4(lt->emitter_radiance, lane_as_uint(lane_select((intv)(0), e, has)));
+    intv id = to_intv(r.w) - 1;
+    intv use = has & (id >= 0);
+    if (!lane_any(use)) return le;
+    return v3_select(le, texture_eval(lt->textures, id, u, v, use), use);
+#else
+    return le;
+#endif
+}
+
+/* The radiance of emitter e at the point p of primitive prim (barycentrics b1, b2 of a triangle's corners
+ * 1 and 2): le unless the emitter is textured (see emitter_radiance_uv). */
+MC_INLINE vec3v emitter_radiance_at(const light_tables *lt, intv e, uintv prim, floatv b1, floatv b2, vec3v p,
+                                    vec3v le, intv active) {
+#ifdef TEXTURES
+    if (lt->textures == 0) return le;
+    intv has = active & (e >= 0);
+    rec4v r = gather_rec4(lt->emitter_radiance, lane_as_uint(lane_select((intv)(0), e, has)));
+    intv use = has & (r.w > 0.0f);
+    if (!lane_any(use)) return le;
+    floatv u, v;
+    texture_uv(lt->textures, &lt->pt, prim, b1, b2, p, use, &u, &v);
+    return emitter_radiance_uv(lt, e, u, v, le, use);
+#else
+    return le;
+#endif
+}
+
+/* The radiance of the emitting primitive prim at its point p (a sampled light position; b1, b2 as above). */
+MC_INLINE vec3v emitter_radiance_of_prim(const light_tables *lt, uintv prim, floatv b1, floatv b2, vec3v p, vec3v le,
+                                         intv active) {
+#ifdef TEXTURES
+    if (lt->textures == 0 || !lane_any(active)) return le;
+    uintv pr = lane_select((uintv)(0u), prim, active);
+    PRIM_RECORD_GATHER(q, lt->pt.prim_rec, pr);
+    intv e = lane_select((intv)(-1), lane_as_int(REC_FIELD(q, PRIM_RECORD_EMITTER)), active);
+    return emitter_radiance_at(lt, e, pr, b1, b2, p, le, active);
+#else
+    return le;
+#endif
 }
 
 /* Largest k in [0, nlights - 1] with light_cdf[k] <= u (light_cdf[0] = 0). */
@@ -253,6 +327,9 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
         s.n = v3_select(s.n, ny, area);
         s.pdf = lane_select(s.pdf, pdf, ok);
         vec3v rad = REC_VEC3(q, LIGHT_RECORD_RADIANCE);
+        /* a textured emitter: its texture at the sampled point (triangle barycentrics as sampled above) */
+        floatv su_t = lane_sqrt(u1);
+        rad = emitter_radiance_of_prim(lt, s.prim, 1.0f - su_t, u2 * su_t, y, rad, ok & !delta_l);
         s.radiance = v3_select(s.radiance, v3_select(rad, v3_scale(rad, delta_scale), delta_l), ok);
         s.valid = s.valid | ok;
     }

@@ -140,7 +140,11 @@ MC_INLINE emitter_ray_v sample_emitter_ray(const light_tables *lt, float4 bspher
         r.cos_theta = lane_select(r.cos_theta, w_local.z, area);
         r.pdf_area = lane_select(r.pdf_area, pdf_a, ok);
         r.pdf_solid_angle = lane_select(r.pdf_solid_angle, pdf_dir, ok);
-        r.radiance = v3_select(r.radiance, REC_VEC3(q, LIGHT_RECORD_RADIANCE), ok);
+        /* a textured emitter: its texture at the sampled point (render/lights.cl) */
+        vec3v rad = emitter_radiance_of_prim(lt, lane_as_uint(REC_FIELD(q, LIGHT_RECORD_PRIM)), 1.0f - su,
+                                             u[3] * su, y, REC_VEC3(q, LIGHT_RECORD_RADIANCE),
+                                             ok & !light_shape_is_delta(shape));
+        r.radiance = v3_select(r.radiance, rad, ok);
         r.valid = r.valid | ok;
         intv dl = area & light_shape_is_delta(shape);
         if (lane_any(dl))

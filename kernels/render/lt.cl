@@ -155,6 +155,13 @@ MC_INLINE void splat_filtered(global film_t *img, const camera_direction_v *film
     global const float4 *env_map, global const uint *env_cdf, global const float4 *textures,                \
     const float4 bsphere, global film_t *scratch
 
+/* Textured area emitters shine with their texture (render/lights.cl). */
+#ifdef TEXTURES
+#define LT_BIND_TEXTURES light_tables_bind_textures(&lt, textures, &pt)
+#else
+#define LT_BIND_TEXTURES (void)textures
+#endif
+
 /* The start of every splatting trace kernel: the launch's settings, this
  * work-item's path group (or return), the geometry, primitive and light
  * tables.  Light paths start at emitters chosen by power: no light BVH is bound. */
@@ -172,7 +179,8 @@ MC_INLINE void splat_filtered(global film_t *img, const camera_direction_v *film
     SCENE_GEOM_MAKE(geom);                                                                                  \
     const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);                                \
     light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);              \
-    light_tables_bind_envmap(&lt, &params, env_map, env_cdf)
+    light_tables_bind_envmap(&lt, &params, env_map, env_cdf);                                                \
+    LT_BIND_TEXTURES
 
 /* The light paths of one path group.  Work-item gid of a launch is group
  * gid % ntiles of block first_block + gid / ntiles; the block's paths are

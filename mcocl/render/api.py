@@ -267,8 +267,9 @@ def render(
     bdpt = bdpt_settings(cs, mis, strategy, unweighted)
     pixel_filter = getattr(cs, "pixel_filter", BOX)
     near_clip = float(getattr(cs, "near_clip", 0.0))
+    far_clip = getattr(cs, "far_clip", None)
     if cs.integrator in SPLAT_INTEGRATORS:
-        require_no_clip(near_clip, cs.integrator)
+        require_no_clip(near_clip, cs.integrator, far_clip)
     tables = scene_tables(cs)
     meta = {
         "kind": "render",
@@ -285,6 +286,7 @@ def render(
         # no key for the box: the checkpoints written before filters existed have none
         **({"filter": repr(pixel_filter)} if pixel_filter != BOX else {}),
         **({"near_clip": near_clip} if near_clip > 0.0 else {}),
+        **({"far_clip": far_clip} if far_clip is not None else {}),
     }
     spp_limit = spp if spp is not None else UNBOUNDED_SPP
     acc: Accumulator | None = None
@@ -317,7 +319,7 @@ def render(
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
                     spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius), sampler=sampler,
-                    pixel_filter=pixel_filter, near_clip=near_clip, **bdpt)
+                    pixel_filter=pixel_filter, near_clip=near_clip, far_clip=far_clip, **bdpt)
     ctx = runtime.device_context(opts.device)
     runner = job.runner(ctx)
     if acc is None:

@@ -34,7 +34,8 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   ``[kind, r, g, b, alpha, int_ior, ext_ior, 0]`` with kind a
   :class:`mcocl.layouts.MaterialKind` code (:data:`MATERIAL_CODES` by name);
   (r, g, b) = albedo (diffuse) or specular reflectance (conductors; 1 for dielectrics).
-- ``emitter_radiance``: float32 (E, 4): RGB radiance, 0.
+- ``emitter_radiance``: float32 (E, 4): RGB radiance (a textured emitter's mean texel), texture id + 1 or 0
+  (render/texture_table.py).
 - ``light_prims``: uint32 (L,): every primitive of every emissive shape
   with non-zero area, in primitive-id order.
 - ``light_cdf``: float32 (L + 1,): CDF over ``light_prims`` proportional to
@@ -105,7 +106,7 @@ from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
 from .shading_normals import vertex_normal_table
 from .shape_registry import SHAPES
-from .texture_table import texture_table
+from .texture_table import emitter_texture_code, scene_textures, texture_table
 
 # Primitives up to which compile_scene builds the binned SAH tree (see there).
 BINNED_UP_TO = 200_000
@@ -155,6 +156,7 @@ class CompiledScene:
     # the one table of the scene's textures and surface UVs, None if no material is textured (render/texture_table.py)
     textures: np.ndarray | None = None
     near_clip: float = 0.0  # camera.near_clip (kernels/render/camera.cl, camera_clip_origin)
+    far_clip: float | None = None  # camera.far_clip (kernels/render/camera.cl, camera_beyond_far_clip)
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
@@ -385,10 +387,12 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     shape_material = np.array([sh.material for sh in scene.shapes], np.uint32)
     shape_emitter = np.full(len(scene.shapes), -1, np.int32)
     radiance = []
+    textures = scene_textures(scene.materials, scene.shapes)
     for k, sh in enumerate(scene.shapes):
         if sh.radiance is not None:
             shape_emitter[k] = len(radiance)
-            radiance.append([*sh.radiance, 0.0])
+            # w: the emitter's texture id + 1, 0 when constant (render/texture_table.py)
+            radiance.append([*sh.radiance, emitter_texture_code(sh.radiance_texture, textures)])
     emitter_radiance = np.array(radiance, np.float32).reshape(-1, 4)
 
     # Lights: every primitive of an emissive shape, chosen in proportion to its power.
@@ -430,7 +434,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         delta_lights=list(scene.lights) if len(dpower) else [], delta_power=dpower, env_map=scene.env_map,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
-        vertex_normals=vertex_normal_table(scene.shapes, tri_vertices[:, :, :3]), near_clip=cam.near_clip,
+        vertex_normals=vertex_normal_table(scene.shapes, tri_vertices[:, :, :3]), near_clip=cam.near_clip, far_clip=cam.far_clip,
         textures=texture_table(scene.materials, scene.shapes),
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,

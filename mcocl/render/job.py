@@ -75,11 +75,14 @@ MIS_BETAS = {"balance": 1, "power": 2}
 LT_BUFFERS = tuple(name for name in KERNEL_BUFFERS if name not in ("light_bvh", "light_trail"))
 
 
-def require_no_clip(near_clip: float, integrator: str) -> None:
-    """Refuse a camera near_clip for a splatting integrator (its camera connections do not clip)."""
+def require_no_clip(near_clip: float, integrator: str, far_clip: float | None = None) -> None:
+    """Refuse a camera near_clip or far_clip for a splatting integrator (its camera connections do not clip)."""
     if near_clip > 0.0:
         raise InputError(f"camera.near_clip works with the path integrators (path, nee, mis), not {integrator!r}: "
                          "leave it out (0) or use mis")
+    if far_clip is not None:
+        raise InputError(f"camera.far_clip works with the path integrators (path, nee, mis), not {integrator!r}: "
+                         "leave it out or use mis")
 
 
 def has_smooth_transmission(materials: np.ndarray) -> bool:
@@ -146,6 +149,7 @@ class RenderJob:
     unweighted: bool = False
     pixel_filter: PixelFilter = BOX  # the reconstruction filter (mcocl/render/pixel_filter.py)
     near_clip: float = 0.0  # camera.near_clip: -DNEAR_CLIP (kernels/render/camera.cl)
+    far_clip: float | None = None  # camera.far_clip: -DFAR_CLIP (kernels/render/camera.cl)
     stat_shape: tuple[int, ...] = field(default=(0, 0, STATS))
 
     def __post_init__(self) -> None:
@@ -179,10 +183,12 @@ class RenderJob:
                 if self.unweighted:
                     opts.append("-DBDPT_UNWEIGHTED")
         if self.splats:
-            require_no_clip(self.near_clip, self.integrator)
+            require_no_clip(self.near_clip, self.integrator, self.far_clip)
         if self.integrator == "bdpt":
             require_face_normals(self.tables)
         clip = [f"-DNEAR_CLIP={float(np.float32(self.near_clip))!r}f"] if self.near_clip > 0.0 else []
+        if self.far_clip is not None:
+            clip.append(f"-DFAR_CLIP={float(np.float32(self.far_clip))!r}f")
         return opts + self.pixel_filter.defines() + shading_defines(self.tables) + texture_defines(self.tables) + clip
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:

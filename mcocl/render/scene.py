@@ -88,6 +88,7 @@ class Camera:
     pixel_filter: PixelFilter = BOX  # camera.filter (mcocl/render/pixel_filter.py)
     crop: tuple[int, int, int, int] | None = None  # offset x, y, width, height of the rendered window
     near_clip: float = 0.0  # primary rays start this far along the optical axis (path integrators)
+    far_clip: float | None = None  # ... and end this far along it (None: never; path integrators)
 
 
 @dataclass
@@ -127,6 +128,8 @@ class Shape:
     matrix: np.ndarray
     flip_normals: bool = False
     radiance: np.ndarray | None = None
+    # a textured area emitter's radiance (mcocl/render/textures.py); ``radiance`` then holds its mean texel
+    radiance_texture: Texture | None = None
     vertices: np.ndarray | None = None
     faces: np.ndarray | None = None
     center: np.ndarray | None = None
@@ -365,7 +368,7 @@ def _envmap(c: _Checker, v: dict, key: str, roots: list[Path]) -> EnvMap | None:
 
 def _camera(c: _Checker, v: Any, key: str) -> Camera:
     o = c.obj(v, key, ("origin", "target", "fov", "width", "height"), ("up", "aperture_radius", "focus_distance", "filter", "crop",
-                                                                   "near_clip"))
+                                                                   "near_clip", "far_clip"))
     origin = c.vector(o["origin"], f"{key}.origin", limit=GEOMETRY_LIMIT)
     target = c.vector(o["target"], f"{key}.target", limit=GEOMETRY_LIMIT)
     up = c.vector(o.get("up", [0, 1, 0]), f"{key}.up", limit=GEOMETRY_LIMIT)
@@ -385,7 +388,10 @@ def _camera(c: _Checker, v: Any, key: str) -> Camera:
     pf = parse_filter(o["filter"], f"{key}.filter") if "filter" in o else BOX
     crop = _crop(c, o["crop"], f"{key}.crop", width, height) if "crop" in o else None
     near = c.number(o.get("near_clip", 0.0), f"{key}.near_clip", 0.0, GEOMETRY_LIMIT)
-    return Camera(origin, target, up, fov, width, height, aperture, focus, pf, crop, near)
+    far = None
+    if "far_clip" in o:
+        far = c.number(o["far_clip"], f"{key}.far_clip", near, GEOMETRY_LIMIT, lo_open=True)
+    return Camera(origin, target, up, fov, width, height, aperture, focus, pf, crop, near, far)
 
 
 def _crop(c: _Checker, v: Any, key: str, width: int, height: int) -> tuple[int, int, int, int] | None:
@@ -553,7 +559,15 @@ def _shape(c: _Checker, v: Any, key: str, materials: dict[str, int], roots: list
     if "emitter" in o:
         e = c.obj(o["emitter"], f"{key}.emitter", ("type", "radiance"))
         c.string(e["type"], f"{key}.emitter.type", ("area",))
-        shp.radiance = c.rgb(e["radiance"], f"{key}.emitter.radiance")
+        if isinstance(e["radiance"], dict):
+            # a textured emitter: the texture at the point's (u, v) (kernels/render/lights.cl); its mean
+            # texel stands for it where one number is needed (the power of light choice)
+            text = json.dumps(e["radiance"], sort_keys=True)
+            tex = c.textures.get(text) or parse_texture(c, e["radiance"], f"{key}.emitter.radiance", roots, _transform)
+            shp.radiance_texture = c.textures[text] = tex
+            shp.radiance = tex.mean()
+        else:
+            shp.radiance = c.rgb(e["radiance"], f"{key}.emitter.radiance")
     spec.build(c, o, key, shp, roots)
     return shp
 

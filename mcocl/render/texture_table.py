@@ -16,6 +16,9 @@ float4 rows; fields marked (int) hold int32/uint32 bits:
   (a Mitsuba ``<ref>``, equal definitions) share one descriptor; textures of
   one image (one file, read once by the parser) share one copy of its texels.
 
+Area emitters' textured radiance: ``emitter_radiance``'s w holds the
+emitter's texture index + 1 (0: constant; :func:`emitter_texture_code`).
+
 A scene without textures has no such table and its kernels are built
 without -DTEXTURES: they render bit for bit as before.
 """
@@ -40,17 +43,31 @@ def _ints(*values: int) -> np.ndarray:
     return np.array(values, np.int32).view(np.float32)
 
 
+def scene_textures(materials: list, shapes: list) -> list[Texture]:
+    """The scene's distinct textures in descriptor order: the materials', then the area emitters' radiance."""
+    textures: list = []
+    found = [t for m in materials for t in m.textures.values()]
+    found += [sh.radiance_texture for sh in shapes if getattr(sh, "radiance_texture", None) is not None]
+    for t in found:
+        if all(t is not u for u in textures):
+            textures.append(t)
+    return textures
+
+
+def emitter_texture_code(texture: Texture | None, textures: list[Texture]) -> float:
+    """``emitter_radiance``'s w of an area emitter: its texture's index in ``textures`` + 1, 0 for a constant."""
+    if texture is None:
+        return 0.0
+    return float(next(k for k, t in enumerate(textures) if t is texture) + 1)
+
+
 def texture_table(materials: list, shapes: list) -> np.ndarray | None:
-    """The ``textures`` table (N, 4) float32 of a scene, or None when no material has a texture.
+    """The ``textures`` table (N, 4) float32 of a scene, or None when no material or emitter has a texture.
 
     Raises:
         InputError: the textures' texels together exceed :data:`MAX_TEXELS`.
     """
-    textures: list = []
-    for m in materials:
-        for t in m.textures.values():
-            if all(t is not u for u in textures):
-                textures.append(t)
+    textures = scene_textures(materials, shapes)
     if not textures:
         return None
     # the texel rows of each distinct texel source: a bitmap's image array, a checkerboard's own colours
@@ -99,4 +116,5 @@ def texture_defines(tables: dict) -> list[str]:
     return ["-DTEXTURES"] if "textures" in tables else []
 
 
-__all__ = ["TEXTURED_FIELDS", "TEXTURES_ABSENT", "texture_defines", "texture_table"]
+__all__ = ["TEXTURED_FIELDS", "TEXTURES_ABSENT", "emitter_texture_code", "scene_textures", "texture_defines",
+           "texture_table"]

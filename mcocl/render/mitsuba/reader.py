@@ -18,6 +18,7 @@ from ...errors import InputError
 from ..scene import parse_scene
 from .bsdf import translate_bsdf
 from .delta_emitter import DELTA_EMITTERS, translate_delta_light
+from .instance import GROUP, INSTANCE, expand_instance, group_members
 from .properties import split_children
 from .report import Reporter, nearest
 from .sensor import translate_integrator, translate_sensor
@@ -136,10 +137,16 @@ class _SceneBuilder:
         out["materials"] = self.materials
         shape_list = []
         for n in shapes:
-            s = self.shapes.translate(n)
-            if s is not None:
-                self.elements[f"shapes[{len(shape_list)}]"] = n
-                shape_list.append(s)
+            kind = n.attrib.get("type", "")
+            if kind == GROUP:  # its shapes render only through instances (mcocl/render/mitsuba/instance.py)
+                group_members(n, self.resolve)
+                continue
+            added = (expand_instance(n, self.resolve, self.shapes.translate, self.rep) if kind == INSTANCE
+                     else [self.shapes.translate(n)])
+            for s in added:
+                if s is not None:
+                    self.elements[f"shapes[{len(shape_list)}]"] = n
+                    shape_list.append(s)
         out["shapes"] = shape_list
         for e in envs:
             if e.attrib.get("type", "") in DELTA_EMITTERS:

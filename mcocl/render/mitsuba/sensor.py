@@ -17,7 +17,9 @@
   filter when the film names none) → ``camera.filter`` (mcocl/render/pixel_filter.py);
   ``crop_offset_x/y``, ``crop_width/height`` → ``camera.crop`` (the image is the window).
 - ``near_clip`` given in the file → ``camera.near_clip`` (Mitsuba's default 0.01 is not
-  applied, so that files without it render as their JSON twins); ``far_clip`` is unsupported.
+  applied, so that files without it render as their JSON twins); ``far_clip`` given → ``camera.far_clip``
+  (primary rays end on the plane at that distance along the optical axis; Mitsuba's default 10⁴ is
+  not applied either).
 - samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
   ``ldsampler``: ``sample_count`` (default 4) → ``spp``; mcocl always draws from
   its counter-based Philox generator, so the sample pattern differs, not the
@@ -137,11 +139,17 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
         cam["near_clip"] = near
         comments.append(f"near_clip {near:g}: primary rays start at that distance along the optical axis "
                         "(path integrators only)")
-    if "far_clip" in props:
-        props.read.add("far_clip")
-        rep.unsupported(props.node("far_clip"), "far_clip (mcocl does not clip far along the view ray)",
-                        "leave it out", "no clipping", comments)
-    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", "near_clip", *lens_keys),
+    far = props.get("far_clip", ("float",), None)
+    if far is None:
+        comments.append(f"far_clip: Mitsuba's default {FAR_CLIP:g} is not applied (nothing is clipped)")
+    elif not far > (near or 0.0):
+        props.node("far_clip").fail(f"far_clip must exceed near_clip ({near or 0.0:g}), got {far:g}")
+    else:
+        cam["far_clip"] = far
+        comments.append(f"far_clip {far:g}: primary rays end at that distance along the optical axis "
+                        "(path integrators only)")
+    rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", "near_clip", "far_clip",
+                                        *lens_keys),
                  comments)
     return cam, spp
 

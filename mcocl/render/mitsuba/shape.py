@@ -8,8 +8,9 @@ file it is written in, confined to the scene's folder); ``to_world`` and
 ``flip_normals`` on all of them, ``face_normals`` on ``obj``, ``ply`` and ``serialized``
 (OBJ, PLY and serialized vertex normals shade smoothly unless it is set).  A shape without a BSDF
 gets Mitsuba's default, diffuse 0.5, or black when it emits.  Emitters:
-``area`` inside a shape and a top-level ``constant``, each with ``radiance``
-(default 1).
+``area`` inside a shape (``radiance`` a constant or a ``bitmap``/``checkerboard``
+texture) and a top-level ``constant`` (``radiance``), default 1.  ``shapegroup`` and ``instance`` are flattened by
+mcocl/render/mitsuba/instance.py into copies of these.
 """
 
 from __future__ import annotations
@@ -25,20 +26,34 @@ from .. import transform as tf
 from .bsdf import rgb_json
 from .properties import split_children
 from .report import Reporter, nearest
+from .texture import textured_properties
 from .xml_source import Node
 
 SUPPORTED = ("rectangle", "cube", "disk", "cylinder", "sphere", "obj", "ply", "serialized")
 MESH_FILES = ("obj", "ply", "serialized")  # plugins that become a "mesh" shape reading the file of the same kind
-# Unsupported shape plugin → the nearest supported alternative.
-ALTERNATIVES = {
-    "shapegroup": "the shapes themselves, repeated",
-    "instance": "the shapes themselves, repeated",
-}
 
 
-def translate_radiance(node: Node, rep: Reporter, comments: list[str]) -> list[float] | float:
-    """The ``radiance`` of an ``area`` or ``constant`` emitter (default 1)."""
+def translate_radiance(node: Node, rep: Reporter, comments: list[str], resolve=None,
+                       scene_folder: Path | None = None) -> list[float] | float | dict:
+    """The ``radiance`` of an ``area`` or ``constant`` emitter (default 1).
+
+    Given ``resolve`` (an area emitter), a ``<texture name="radiance">`` (nested or by ``<ref>``)
+    becomes a textured radiance (mcocl/render/mitsuba/texture.py)."""
     props, objects = split_children(node)
+    if resolve is not None:
+        textures = textured_properties(objects, resolve, rep, scene_folder)
+        for o in objects:
+            name = o.attrib.get("name") or (resolve(o) if o.tag == "ref" else o).attrib.get("name")
+            if name in textures and name != "radiance":
+                o.fail(f"an area emitter takes a texture for 'radiance' only, not {name!r}")
+        objects = [o for o in objects if (resolve(o) if o.tag == "ref" else o).tag != "texture"]
+        if "radiance" in textures:
+            for o in objects:
+                rep.unsupported(o, f"<{o.tag}> inside an emitter", "a radiance texture", "nothing (ignored)", comments)
+            if "radiance" in props:
+                props.node("radiance").fail("radiance is given twice (a texture and a value)")
+            rep.leftover(node, props.unread(), ("radiance",), comments)
+            return textures["radiance"]
     for o in objects:
         rep.unsupported(o, f"<{o.tag}> inside an emitter (textured radiance)", "a constant <rgb> radiance",
                         "the radiance property (default 1)", comments)
@@ -105,8 +120,7 @@ class ShapeTranslator:
             out["name"] = node.attrib["id"]
         props, objects = split_children(node)
         if kind not in SUPPORTED:
-            alt = ALTERNATIVES.get(kind, nearest(kind, SUPPORTED))
-            self.rep.unsupported(node, f"the shape {kind!r}", alt, "nothing (the shape is left out)")
+            self.rep.unsupported(node, f"the shape {kind!r}", nearest(kind, SUPPORTED), "nothing (the shape is left out)")
             return None
         out["type"] = "mesh" if kind in MESH_FILES else kind
         if kind in ("disk", "cylinder"):
@@ -127,7 +141,8 @@ class ShapeTranslator:
             if etype != "area":
                 self.rep.unsupported(emitter, f"the shape emitter {etype!r}", "area", "no emission", comments)
             else:
-                out["emitter"] = {"type": "area", "radiance": translate_radiance(emitter, self.rep, comments)}
+                out["emitter"] = {"type": "area", "radiance": translate_radiance(emitter, self.rep, comments,
+                                                                                 self.resolve, self.folder)}
         out["material"] = self.material_of(bsdf, emitter is not None and "emitter" in out, comments)
         t = props.get("to_world", ("transform",), None)
         if t is not None:
