@@ -549,6 +549,47 @@ MC_INLINE floatv strategy_weight(floatv w) {
 #endif
 }
 
+/* The scene of a splatting trace kernel's work-item (the names SPLAT_TRACE_PRELUDE makes). */
+MC_INLINE bdpt_scene bdpt_scene_of(const render_params *params, const scene_geom *geom, const prim_tables *pt,
+                                   const light_tables *lt, global const float4 *camera,
+                                   global const float4 *materials, global const float4 *textures, float4 bsphere,
+                                   uint npix) {
+    bdpt_scene sc;
+    sc.has_env = params->env_radiance.x > 0.0f || params->env_radiance.y > 0.0f || params->env_radiance.z > 0.0f;
+    sc.geom = geom;
+    sc.pt = pt;
+    sc.lt = lt;
+    sc.camera = camera;
+    sc.materials = materials;
+    sc.textures = textures;
+    sc.bsphere = bsphere;
+    sc.width = params->width;
+    sc.height = params->height;
+    sc.pixels = (float)npix;
+    return sc;
+}
+
+/* z_0 of a camera subpath: the lens point, facing along the camera's forward axis. */
+MC_INLINE bdpt_vertex lens_vertex(vec3v co, vec3v forward) {
+    bdpt_vertex z;
+    z.p = co;
+    z.n = forward;
+    z.wi = forward;
+    z.beta = v3s(1.0f);
+    z.pdf_fwd = (floatv)(1.0f);
+    z.pdf_rev = (floatv)(0.0f);
+    z.light_pdf_area = (floatv)(0.0f);
+    z.emitter = (intv)(-1);
+    z.mat = (uintv)(0u);
+#ifdef TEXTURES
+    z.tu = z.tv = (floatv)(0.0f);
+#endif
+    z.delta = (intv)(0);
+    z.delta_light = (intv)(0);
+    z.infinite = (intv)(0);
+    return z;
+}
+
 /* Samples of blocks first_block .. first_block + nblocks - 1; params.ntiles groups per block,
  * one work-item each, LANES samples at a time, on the splat film of lt.cl (scratch: one group
  * image per work-item). */
@@ -556,18 +597,7 @@ kernel void bdpt_trace(
     SPLAT_TRACE_PARAMS)
 {
     SPLAT_TRACE_PRELUDE;
-    bdpt_scene sc;
-    sc.has_env = params.env_radiance.x > 0.0f || params.env_radiance.y > 0.0f || params.env_radiance.z > 0.0f;
-    sc.geom = &geom;
-    sc.pt = &pt;
-    sc.lt = &lt;
-    sc.camera = camera;
-    sc.materials = materials;
-    sc.textures = textures;
-    sc.bsphere = bsphere;
-    sc.width = width;
-    sc.height = height;
-    sc.pixels = (float)npix;
+    const bdpt_scene sc = bdpt_scene_of(&params, &geom, &pt, &lt, camera, materials, textures, bsphere, npix);
     const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;
     const bool thin_lens = camera_aperture(camera) > 0.0f;
     /* the most vertices a strategy may take from each side (see the header) */
@@ -601,21 +631,7 @@ kernel void bdpt_trace(
             cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
         }
         camera_direction_v cdir = camera_importance(camera, co, cd, width, height);
-        cam[0].p = co;
-        cam[0].n = forward;
-        cam[0].wi = forward;
-        cam[0].beta = v3s(1.0f);
-        cam[0].pdf_fwd = (floatv)(1.0f);
-        cam[0].pdf_rev = (floatv)(0.0f);
-        cam[0].light_pdf_area = (floatv)(0.0f);
-        cam[0].emitter = (intv)(-1);
-        cam[0].mat = (uintv)(0u);
-#ifdef TEXTURES
-        cam[0].tu = cam[0].tv = (floatv)(0.0f);
-#endif
-        cam[0].delta = (intv)(0);
-        cam[0].delta_light = (intv)(0);
-        cam[0].infinite = (intv)(0);
+        cam[0] = lens_vertex(co, forward);
         intv nc = lane_select((intv)(0), (intv)(1), active);
         bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, co, cd, v3s(1.0f), cdir.pdf_solid_angle, TRANSPORT_RADIANCE,
                   rr_depth, (floatv)(1.0f));

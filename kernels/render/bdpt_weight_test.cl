@@ -110,16 +110,8 @@ MC_INLINE int join_path(const bdpt_vertex *cam, const bdpt_vertex *light, int s,
 kernel void bdpt_weight_check(
     SPLAT_TRACE_PARAMS)
 {
-    const uint width = params.width, height = params.height;
-    const int max_depth = params.max_depth;
-    const uint scene_ntris = params.ntris, scene_nspheres = params.nspheres;
-    path_group pg;
-    if (!path_group_at(&params, scratch, (uint)get_global_id(0), &pg)) return;
-    if (pg.total == 0ul || max_depth == 0) return;
-    SCENE_GEOM_MAKE(geom);
-    const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
-    const light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, 0, 0);
-    bdpt_scene sc = {&geom, &pt, &lt, camera, materials, bsphere, width, height, (float)pg.npix};
+    SPLAT_TRACE_PRELUDE;
+    const bdpt_scene sc = bdpt_scene_of(&params, &geom, &pt, &lt, camera, materials, textures, bsphere, npix);
     const bool thin_lens = camera_aperture(camera) > 0.0f;
     const int nc_cap = max_depth >= 0 ? min(max_depth + 1, BDPT_MAX_VERTICES) : BDPT_MAX_VERTICES;
     const int nl_cap = max_depth >= 0 ? min(max_depth, BDPT_MAX_VERTICES) : BDPT_MAX_VERTICES;
@@ -139,9 +131,7 @@ kernel void bdpt_weight_check(
         floatv sx = to_floatv(pixel - py * width) + uc[0], sy = to_floatv(py) + uc[1];
         cd = thin_lens ? camera_ray_lens(camera, sx, sy, 1.0f / width, 1.0f / height, uc[2], uc[3], &co)
                        : camera_ray(camera, sx, sy, 1.0f / width, 1.0f / height, &co);
-        bdpt_vertex z0 = {co, forward, forward, v3s(1.0f), (floatv)(1.0f), (floatv)(0.0f), (floatv)(0.0f),
-                          (intv)(-1), (uintv)(0u), (intv)(0)};
-        cam[0] = z0;
+        cam[0] = lens_vertex(co, forward);
         floatv pdf_cam = camera_importance(camera, co, cd, width, height).pdf_solid_angle;
         intv nc = lane_select((intv)(0), (intv)(1), active);
         bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, co, cd, v3s(1.0f), pdf_cam, TRANSPORT_RADIANCE,
