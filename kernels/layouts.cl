@@ -456,6 +456,9 @@ typedef struct {
     uint light_top;
     float env_threshold;
     float env_pmf;
+    int bdpt_only_s;
+    int bdpt_only_t;
+    int bdpt_unweighted;
     float4 env_radiance;
 } render_params;
 

@@ -98,8 +98,9 @@
  * packet instead of once per strategy gained nothing measurable either, so
  * neither is kept.
  *
- * Options: -DBDPT_MIS_BETA=1|2; -DBDPT_ONLY_S=s -DBDPT_ONLY_T=t render one
- * strategy (its MIS weight kept unless -DBDPT_UNWEIGHTED).
+ * Options: -DBDPT_MIS_BETA=1|2.  render_params.bdpt_only_s/_t (>= 0) render one
+ * strategy, its MIS weight kept unless bdpt_unweighted: launch parameters, not
+ * build options, so that every strategy of a scene runs on one build.
  */
 #define LT_NO_TRACE_KERNEL
 #include "render/lt.cl"
@@ -142,6 +143,7 @@ typedef struct {
     uint width, height;
     float pixels;
     int has_env;      /* an environment: escaped camera rays end in a vertex at infinity */
+    int only_s, only_t, unweighted; /* the one strategy rendered (-1: all), without its weight */
 } bdpt_scene;
 
 /* The area density at q (normal nq) of a light ray from infinity along d: the disk's 1 / (pi R^2), projected. */
@@ -532,21 +534,13 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
     return v3_select(zero, c, ok);
 }
 
-/* Whether strategy (s, t) is rendered (all, or the one of -DBDPT_ONLY_S / -DBDPT_ONLY_T). */
-MC_INLINE int strategy_on(int s, int t) {
-#ifdef BDPT_ONLY_S
-    return s == BDPT_ONLY_S && t == BDPT_ONLY_T;
-#else
-    return 1;
-#endif
+/* Whether strategy (s, t) is rendered (all, or the one of render_params.bdpt_only_s / _t). */
+MC_INLINE int strategy_on(const bdpt_scene *sc, int s, int t) {
+    return sc->only_s < 0 || (s == sc->only_s && t == sc->only_t);
 }
 
-MC_INLINE floatv strategy_weight(floatv w) {
-#ifdef BDPT_UNWEIGHTED
-    return (floatv)(1.0f);
-#else
-    return w;
-#endif
+MC_INLINE floatv strategy_weight(const bdpt_scene *sc, floatv w) {
+    return sc->unweighted ? (floatv)(1.0f) : w;
 }
 
 /* The scene of a splatting trace kernel's work-item (the names SPLAT_TRACE_PRELUDE makes). */
@@ -566,6 +560,9 @@ MC_INLINE bdpt_scene bdpt_scene_of(const render_params *params, const scene_geom
     sc.width = params->width;
     sc.height = params->height;
     sc.pixels = (float)npix;
+    sc.only_s = params->bdpt_only_s;
+    sc.only_t = params->bdpt_only_t;
+    sc.unweighted = params->bdpt_unweighted;
     return sc;
 }
 
@@ -683,7 +680,7 @@ kernel void bdpt_trace(
             vertex_bsdf zb;
             if (t >= 2) zb = vertex_bsdf_of(&sc, &cam[t - 1]);
             for (int s = 0; lane_any(has_t & (ns >= s)); ++s) {
-                if (s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth) || !strategy_on(s, t)) continue;
+                if (s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth) || !strategy_on(&sc, s, t)) continue;
                 /* only (0, t) ends at infinity */
                 const intv run = has_t & (ns >= s) & (s > 0 ? !cam[t - 1].infinite : has_t);
                 floatv w;
@@ -696,7 +693,7 @@ kernel void bdpt_trace(
                     camera_direction_v film;
                     vec3v c = bdpt_connect_camera(&sc, light, cam, s, ul[0], ul[1], run, nl_cap, nc_cap, &film, &w);
                     intv got = w > 0.0f;
-                    if (lane_any(got)) splat_filtered(img, &film, v3_scale(c, strategy_weight(w)), got, width, height);
+                    if (lane_any(got)) splat_filtered(img, &film, v3_scale(c, strategy_weight(&sc, w)), got, width, height);
                 } else {
                     floatv ul[4] = {(floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f)};
                     if (s == 1) {
@@ -704,7 +701,7 @@ kernel void bdpt_trace(
                         sampler_next_nd(&cs, 4, ul);
                     }
                     vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &w);
-                    L = v3_add(L, v3_select(v3s(0.0f), v3_scale(c, strategy_weight(w)), w > 0.0f));
+                    L = v3_add(L, v3_select(v3s(0.0f), v3_scale(c, strategy_weight(&sc, w)), w > 0.0f));
                 }
             }
         }

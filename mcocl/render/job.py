@@ -178,10 +178,6 @@ class RenderJob:
             opts += sobol_render_defines(self.spp_per_block)
         if self.integrator == "bdpt":
             opts.append(f"-DBDPT_MIS_BETA={MIS_BETAS[self.mis]}")
-            if self.strategy is not None:
-                opts += [f"-DBDPT_ONLY_S={int(self.strategy[0])}", f"-DBDPT_ONLY_T={int(self.strategy[1])}"]
-                if self.unweighted:
-                    opts.append("-DBDPT_UNWEIGHTED")
         if self.splats:
             require_no_clip(self.near_clip, self.integrator, self.far_clip)
         if self.integrator == "bdpt":
@@ -198,6 +194,9 @@ class RenderJob:
         p["spp_per_block"], p["spp_limit"] = self.spp_per_block, self.spp_limit
         p["width"], p["height"], p["tile_pixels"], p["ntiles"] = self.width, self.height, self.tile_pixels, self.ntiles
         p["max_depth"], p["rr_depth"] = self.max_depth, self.rr_depth
+        if self.integrator == "bdpt" and self.strategy is not None:
+            p["bdpt_only_s"], p["bdpt_only_t"] = int(self.strategy[0]), int(self.strategy[1])
+            p["bdpt_unweighted"] = int(bool(self.unweighted))
         return p
 
     def spp_done(self, blocks: int) -> int:
