@@ -226,7 +226,8 @@ def test_envmap_share_with_other_lights(tmp_path: Path) -> None:
 @pytest.mark.parametrize("env, message", [
     ({"type": "envmap"}, "environment.filename: missing required key"),
     ({"type": "envmap", "filename": "none.exr"}, "not found"),
-    ({"type": "envmap", "filename": "sky.hdr"}, "only OpenEXR environment maps"),
+    ({"type": "envmap", "filename": "sky.hdr"}, "sky.hdr: no end of the header"),
+    ({"type": "envmap", "filename": "sky.png"}, "read from OpenEXR .* or Radiance"),
     ({"type": "envmap", "filename": "../sky.exr"}, "outside the scene's folder"),
     ({"type": "envmap", "filename": "sky.exr", "scale": -1}, "environment.scale: must be >= 0"),
     ({"type": "envmap", "filename": "sky.exr", "transform": [{"scale": 2}]}, "must be a rotation"),
@@ -239,6 +240,7 @@ def test_bad_envmaps_are_rejected(tmp_path: Path, env: dict, message: str) -> No
     write_exr(sub / "sky.exr", sky_image(4, 8))
     write_exr(tmp_path / "sky.exr", sky_image(4, 8))
     (sub / "sky.hdr").write_bytes(b"#?RADIANCE\n")
+    (sub / "sky.png").write_bytes(b"")
     with pytest.raises(InputError, match=message):
         parse_scene(_scene(sub, env), sub / "s.json")
 

@@ -335,7 +335,7 @@ def test_mitsuba_xml_textures(tmp_path: Path) -> None:
 @pytest.mark.parametrize("filename, content, match", [
     ("missing.png", None, "not found"),
     ("text.png", b"not an image", "not an image file"),
-    ("sky.hdr", b"#?RADIANCE\n", "convert it to OpenEXR"),
+    ("sky.hdr", b"#?RADIANCE\n", "no end of the header"),
     ("/etc/passwd", None, "outside the scene's folder"),
     ("../up.png", None, "outside the scene's folder"),
 ])

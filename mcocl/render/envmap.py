@@ -64,17 +64,20 @@ class EnvMap:
 
 
 def load_envmap_image(path: Path, what: str) -> np.ndarray:
-    """float32 (H, W, 3) linear RGB of an EXR file, checked (finite, >= 0, at least 2 x 2 texels).
+    """float32 (H, W, 3) linear RGB of an OpenEXR or Radiance .hdr file, checked (finite, >= 0, at least
+    2 x 2 texels).
 
     Raises:
         InputError: a missing, unreadable or unsupported file, or bad pixel values (named by ``what``).
     """
     from .image_io import read_exr
+    from .radiance_hdr import read_hdr
 
-    if path.suffix.lower() != ".exr":
-        raise InputError(f"{what}: {path.name}: only OpenEXR environment maps are read (convert "
-                         f"{path.suffix or 'the file'} to .exr)")
-    img = read_exr(path).mean
+    suffix = path.suffix.lower()
+    if suffix not in (".exr", ".hdr"):
+        raise InputError(f"{what}: {path.name}: environment maps are read from OpenEXR (.exr) or Radiance "
+                         f"(.hdr) files, not {suffix or 'a file without a suffix'}")
+    img = read_exr(path).mean if suffix == ".exr" else read_hdr(path, what)
     h, w = img.shape[:2]
     if h < 2 or w < 1:
         raise InputError(f"{what}: {path.name}: an environment map needs at least 2 rows, got {w} x {h}")

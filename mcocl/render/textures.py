@@ -24,9 +24,9 @@ variant queried at chosen points: tests/test_render_textures.py states them):
   values are decoded to linear RGB by the sRGB transfer function (IEC
   61966-2-1) on loading; float images (OpenEXR, float TIFF) are linear.
 
-Images are read by Pillow (PNG, JPEG, BMP, TGA, TIFF, ...) and OpenEXR files by
-:func:`mcocl.render.image_io.read_exr`.  Radiance ``.hdr`` files are refused
-with a hint (Pillow does not read them): convert them to EXR.
+Images are read by Pillow (PNG, JPEG, BMP, TGA, TIFF, ...), OpenEXR files by
+:func:`mcocl.render.image_io.read_exr` and Radiance ``.hdr`` files by
+:func:`mcocl.render.radiance_hdr.read_hdr` (linear, like EXR).
 """
 
 from __future__ import annotations
@@ -98,9 +98,10 @@ def load_image(path: Path, raw: bool, what: str) -> np.ndarray:
         raise InputError(f"{what}: {path} not found")
     suffix = path.suffix.lower()
     if suffix == ".hdr":
-        raise InputError(f"{what}: {path.name}: Radiance .hdr images are not read (Pillow cannot decode them): "
-                         "convert it to OpenEXR (.exr)")
-    if suffix == ".exr":
+        from .radiance_hdr import read_hdr
+
+        img = read_hdr(path, what)
+    elif suffix == ".exr":
         from .image_io import read_exr
 
         img = read_exr(path).mean

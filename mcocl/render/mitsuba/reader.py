@@ -180,7 +180,7 @@ class _SceneBuilder:
 
 
     def _envmap(self, node: Node) -> dict:
-        """An ``envmap`` emitter: ``filename`` (EXR, relative to its file, inside the scene's folder),
+        """An ``envmap`` emitter: ``filename`` (EXR or HDR, relative to its file, inside the scene's folder),
         ``scale`` (default 1), ``to_world`` (a rotation)."""
         props, objects = split_children(node)
         comments: list[str] = []
