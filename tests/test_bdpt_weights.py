@@ -7,7 +7,8 @@ produced the path, and counts the paths whose weights do not sum to 1 or
 whose weight in the render differs from the recomputed one.  Scenes: the
 spherical furnace (all diffuse, long paths), the Cornell box with depth caps,
 the caustic's glass sphere (delta vertices), a plastic Cornell box (a smooth
-material that also scatters by a delta coat) and a thin lens; both heuristics.
+material that also scatters by a delta coat), a thin lens and a camera with
+near and far clip planes; both heuristics.
 """
 
 from __future__ import annotations
@@ -33,10 +34,14 @@ def _scalar_build(monkeypatch) -> None:
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
 
-def _small(tmp_path: Path, name: str, size: int = 24, plastic: bool = False, aperture: float = 0.0) -> Path:
-    """A copy of a scene at size x size pixels, its diffuse materials made plastic, or with a thin lens."""
+def _small(tmp_path: Path, name: str, size: int = 24, plastic: bool = False, aperture: float = 0.0,
+           clip: tuple[float, float] | None = None) -> Path:
+    """A copy of a scene at size x size pixels, its diffuse materials made plastic, with a thin lens,
+    or with the camera's (near_clip, far_clip)."""
     s = json.loads((SCENES / name).read_text())
     s["camera"]["width"] = s["camera"]["height"] = size
+    if clip:
+        s["camera"]["near_clip"], s["camera"]["far_clip"] = clip
     if aperture:
         s["camera"]["aperture_radius"], s["camera"]["focus_distance"] = aperture, 2.5
     if plastic:
@@ -65,6 +70,8 @@ def _check(monkeypatch, scene: Path, max_depth: int, mis: str) -> tuple[float, f
     ("caustic.json", -1, {"size": 32}, True),
     ("cornell.json", 5, {"plastic": True}, True),
     ("cornell.json", 5, {"aperture": 0.15}, False),
+    # the near plane cuts the box's open front, the far one its back wall (camera at z = 3.9)
+    ("cornell.json", 5, {"clip": (3.2, 4.6)}, False),
 ])
 def test_weights_of_a_path_sum_to_one(monkeypatch, tmp_path, name, max_depth, kw, with_delta, mis) -> None:
     checked, bad, delta = _check(monkeypatch, _small(tmp_path, name, **kw), max_depth, mis)

@@ -50,6 +50,14 @@
  * heuristic.  The camera's lens is not a target of light paths (t = 0 is
  * not a strategy), as in lt.cl.
  *
+ * The camera's clip planes (-DNEAR_CLIP, -DFAR_CLIP; render/camera.cl): the
+ * camera ray leaves from the near clip plane (z_0 stays the lens point) and a
+ * hit beyond the far one is a miss, as the megakernel's primary rays; a
+ * (s, 1) connection counts only for a point between the planes, its shadow
+ * ray stopping at the near one (lt.cl, camera_visible).  The clip removes a
+ * path (one whose z_1 lies outside the planes) from every strategy alike and
+ * changes no density, so the weights of a path that remains still sum to 1.
+ *
  * Russian roulette is a multiplicative survival weight on the subpath
  * throughput (1 / q on survival); the pdfs of the MIS weights leave it out:
  * any weights that sum to 1 over the strategies of a path keep every
@@ -217,6 +225,11 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
     vertex_bsdf pb; /* path[n - 1]'s material, frame and geometric wi, from the step that sampled it */
     for (int n = 1; n < maxv && lane_any(alive); ) {
         hitv h = trace_closest_v(sc->geom, o, d, alive);
+#ifdef FAR_CLIP
+        /* a camera ray ends at the far clip plane, as the megakernel's (render/camera.cl): what lies
+         * beyond is a miss */
+        if (n == 1 && mode == TRANSPORT_RADIANCE) h.hit = h.hit & !camera_beyond_far_clip(sc->camera, d, h.t);
+#endif
         intv hit = alive & h.hit;
         /* a camera ray that escapes into an environment: a vertex at infinity in direction d */
         const intv esc = mode == TRANSPORT_RADIANCE && sc->has_env ? alive & !h.hit : (intv)(0);
@@ -630,8 +643,9 @@ kernel void bdpt_trace(
         camera_direction_v cdir = camera_importance(camera, co, cd, width, height);
         cam[0] = lens_vertex(co, forward);
         intv nc = lane_select((intv)(0), (intv)(1), active);
-        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, co, cd, v3s(1.0f), cdir.pdf_solid_angle, TRANSPORT_RADIANCE,
-                  rr_depth, (floatv)(1.0f));
+        /* z_0 stays the lens point; the ray leaves from the near clip plane (render/camera.cl) */
+        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, co, cd), cd, v3s(1.0f),
+                  cdir.pdf_solid_angle, TRANSPORT_RADIANCE, rr_depth, (floatv)(1.0f));
 
         /* ---- the light subpaths ---- */
         mc_sampler_t ls = sampler_start(seed, index, RNG_STREAM_LIGHT_TRACE);

@@ -105,10 +105,10 @@ MC_INLINE vec3v camera_ray_lens(global const float4 *cam, floatv sx, floatv sy, 
     return v3_normalize(v3_sub(focal, *origin));
 }
 
-/* Mitsuba's near_clip (-DNEAR_CLIP, scene units along the optical axis; the
- * path integrators only): the primary ray starts where it crosses the plane
- * at that distance in front of its origin, o + d near / (d . forward), so
- * geometry nearer than the plane is not seen. */
+/* Mitsuba's near_clip (-DNEAR_CLIP, scene units along the optical axis): the
+ * primary ray starts where it crosses the plane at that distance in front of
+ * its origin, o + d near / (d . forward), so geometry nearer than the plane
+ * is not seen.  The camera rays of bdpt start there too (render/bdpt.cl). */
 MC_INLINE vec3v camera_clip_origin(global const float4 *cam, vec3v o, vec3v d) {
 #ifdef NEAR_CLIP
     return v3_madd(o, NEAR_CLIP / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD])), d);
@@ -117,22 +117,65 @@ MC_INLINE vec3v camera_clip_origin(global const float4 *cam, vec3v o, vec3v d) {
 #endif
 }
 
-/* Mitsuba's far_clip (-DFAR_CLIP, scene units along the optical axis; the
- * path integrators only): a primary ray ends where it crosses the plane at
- * that distance, maxt = (far - near) / (d . forward) from its near-clipped
- * origin (Mitsuba 3's perspective and thinlens sample_ray), so geometry
- * beyond the plane is not seen and the ray escapes to the environment.
- * Whether the hit at distance t lies beyond it (never without -DFAR_CLIP). */
-MC_INLINE intv camera_beyond_far_clip(global const float4 *cam, vec3v d, floatv t) {
 #ifdef FAR_CLIP
+/* Mitsuba's far_clip (-DFAR_CLIP, scene units along the optical axis): a
+ * primary ray ends where it crosses the plane at that distance, maxt =
+ * (far - near) / (d . forward) from its near-clipped origin (Mitsuba 3's
+ * perspective and thinlens sample_ray), so geometry beyond the plane is not
+ * seen and the ray escapes to the environment.  That maxt. */
+MC_INLINE floatv camera_far_extent(global const float4 *cam, vec3v d) {
 #ifdef NEAR_CLIP
     const float span = FAR_CLIP - NEAR_CLIP;
 #else
     const float span = FAR_CLIP;
 #endif
-    return t > span / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD]));
+    return span / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD]));
+}
+#endif
+
+/* Whether the hit at distance t of the (near-clipped) primary ray in
+ * direction d lies beyond the far clip plane (never without -DFAR_CLIP). */
+MC_INLINE intv camera_beyond_far_clip(global const float4 *cam, vec3v d, floatv t) {
+#ifdef FAR_CLIP
+    return t > camera_far_extent(cam, d);
 #else
     return (intv)(0);
+#endif
+}
+
+/* How far a ray from the (near-clipped) origin of a primary ray in direction
+ * d may look: to the far clip plane, or without end. */
+MC_INLINE floatv camera_ray_extent(global const float4 *cam, vec3v d) {
+#ifdef FAR_CLIP
+    return camera_far_extent(cam, d);
+#else
+    return (floatv)(INFINITY);
+#endif
+}
+
+/* Whether a scene point at depth z = (p - lens) . forward along the optical
+ * axis lies between the clip planes: what the clipped primary rays can see
+ * (always without -DNEAR_CLIP and -DFAR_CLIP). */
+MC_INLINE intv camera_depth_seen(floatv z) {
+    intv seen = z == z;
+#ifdef NEAR_CLIP
+    seen = seen & (z >= NEAR_CLIP);
+#endif
+#ifdef FAR_CLIP
+    seen = seen & (z <= FAR_CLIP);
+#endif
+    return seen;
+}
+
+/* The part of a segment of length dist from a scene point toward the lens,
+ * at cos_theta to the optical axis, that the camera sees through: up to the
+ * near clip plane (geometry nearer than it is invisible and does not block;
+ * the whole segment without -DNEAR_CLIP). */
+MC_INLINE floatv camera_unclipped_length(floatv dist, floatv cos_theta) {
+#ifdef NEAR_CLIP
+    return dist - NEAR_CLIP / cos_theta;
+#else
+    return dist;
 #endif
 }
 
@@ -213,6 +256,10 @@ MC_INLINE camera_connection_v camera_connect(global const float4 *cam, vec3v p, 
     k.wo = v3_scale(v, 1.0f / k.dist);
     k.film = camera_importance(cam, k.lens, v3_neg(k.wo), width, height);
     k.valid = k.film.valid & (d2 > 0.0f);
+#if defined(NEAR_CLIP) || defined(FAR_CLIP)
+    /* the point must lie between the clip planes, as for the primary rays that could see it */
+    k.valid = k.valid & camera_depth_seen(k.dist * k.film.cos_theta);
+#endif
     k.pdf_solid_angle = lane_select((floatv)(0.0f), d2 / (k.film.cos_theta * camera_lens_area(cam)), k.valid);
     return k;
 }

@@ -27,6 +27,13 @@
  * it: those paths (camera - delta ... - first non-delta vertex) need a
  * camera subpath (path tracing, BDPT).
  *
+ * The camera's clip planes (-DNEAR_CLIP, -DFAR_CLIP; render/camera.cl): a
+ * connection counts only for a point whose depth along the optical axis lies
+ * between them (camera_connect), and its shadow ray stops at the near plane
+ * (camera_visible), which is what the clipped primary rays of the path
+ * tracer see; the environment is seen along a ray from the near plane to the
+ * far one.
+ *
  * Depths follow Mitsuba 3's meaning of max_depth, the path length in
  * segments: light vertex y_i connects to the camera when i + 1 <= max_depth
  * (max_depth < 0: unbounded; 0: a black image), and the path grows to
@@ -233,10 +240,12 @@ MC_INLINE intv assign_paths(intv need, ulong *next, ulong total, ulongv *j) {
 #endif
 }
 
-/* A shadow ray from p (normal n) to the connection's lens point: is it clear? */
+/* A shadow ray from p (normal n) to the connection's lens point: is it clear?  With a near
+ * clip, only up to the near clip plane: the camera does not see what lies nearer, so it does
+ * not block (render/camera.cl, camera_unclipped_length). */
 MC_INLINE intv camera_visible(const scene_geom *geom, vec3v p, vec3v n, const camera_connection_v *k, intv active) {
     vec3v so = offset_origin(p, n, k->wo);
-    floatv dist = lane_sqrt(v3_len2(v3_sub(k->lens, so)));
+    floatv dist = camera_unclipped_length(lane_sqrt(v3_len2(v3_sub(k->lens, so))), k->film.cos_theta);
     return active & !trace_any_v(geom, so, k->wo, dist * (1.0f - SHADOW_EPSILON), active);
 }
 
@@ -291,7 +300,9 @@ kernel void lt_trace(
                 camera_direction_v c = camera_importance(camera, xl, look, width, height);
                 floatv w = pixels * lens_area * c.importance * c.cos_theta / (lt.env_pmf * er.pdf_solid_angle);
                 intv ok = env & c.valid;
-                ok = ok & !trace_any_v(&geom, xl, look, (floatv)(INFINITY), ok);
+                /* the primary ray along look: from the near clip plane to the far one (render/camera.cl) */
+                ok = ok & !trace_any_v(&geom, camera_clip_origin(camera, xl, look), look,
+                                       camera_ray_extent(camera, look), ok);
                 if (lane_any(ok)) splat_filtered(img, &c, v3_scale(er.radiance, w), ok, width, height);
             }
             /* beta_1 = L_e cos / (pdf_area pdf_solid_angle); the ray leaves y_0 */

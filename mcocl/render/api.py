@@ -37,7 +37,6 @@ from .job import (
     UNBOUNDED_SPP,
     RenderJob,
     default_spp_per_block,
-    require_no_clip,
     scene_tables,
     tables_digest,
 )
@@ -268,8 +267,6 @@ def render(
     pixel_filter = getattr(cs, "pixel_filter", BOX)
     near_clip = float(getattr(cs, "near_clip", 0.0))
     far_clip = getattr(cs, "far_clip", None)
-    if cs.integrator in SPLAT_INTEGRATORS:
-        require_no_clip(near_clip, cs.integrator, far_clip)
     tables = scene_tables(cs)
     meta = {
         "kind": "render",

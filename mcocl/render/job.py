@@ -35,7 +35,6 @@ import pyopencl as cl
 
 from .. import runtime
 from ..bsdf_registry import BSDFS
-from ..errors import InputError
 from ..layouts import MATERIAL_RECORD, Integrator, LightSampler
 from .device_scene import (
     LIGHT_BVH_ABSENT,
@@ -73,16 +72,6 @@ SPLAT_INTEGRATORS = ("lt", "bdpt")
 MIS_BETAS = {"balance": 1, "power": 2}
 # Light tracing starts its paths at emitters chosen by the power CDF: it takes no light BVH.
 LT_BUFFERS = tuple(name for name in KERNEL_BUFFERS if name not in ("light_bvh", "light_trail"))
-
-
-def require_no_clip(near_clip: float, integrator: str, far_clip: float | None = None) -> None:
-    """Refuse a camera near_clip or far_clip for a splatting integrator (its camera connections do not clip)."""
-    if near_clip > 0.0:
-        raise InputError(f"camera.near_clip works with the path integrators (path, nee, mis), not {integrator!r}: "
-                         "leave it out (0) or use mis")
-    if far_clip is not None:
-        raise InputError(f"camera.far_clip works with the path integrators (path, nee, mis), not {integrator!r}: "
-                         "leave it out or use mis")
 
 
 def has_smooth_transmission(materials: np.ndarray) -> bool:
@@ -178,8 +167,6 @@ class RenderJob:
             opts += sobol_render_defines(self.spp_per_block)
         if self.integrator == "bdpt":
             opts.append(f"-DBDPT_MIS_BETA={MIS_BETAS[self.mis]}")
-        if self.splats:
-            require_no_clip(self.near_clip, self.integrator, self.far_clip)
         if self.integrator == "bdpt":
             require_face_normals(self.tables)
         clip = [f"-DNEAR_CLIP={float(np.float32(self.near_clip))!r}f"] if self.near_clip > 0.0 else []
@@ -249,4 +236,4 @@ class RenderRunner:
 
 __all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "MIS_BETAS", "SPLAT_INTEGRATORS",
            "UNBOUNDED_SPP", "RenderJob", "RenderRunner",
-           "default_spp_per_block", "light_records", "require_no_clip", "light_tables", "prim_records", "scene_tables", "tables_digest"]
+           "default_spp_per_block", "light_records", "light_tables", "prim_records", "scene_tables", "tables_digest"]

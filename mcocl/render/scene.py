@@ -87,8 +87,8 @@ class Camera:
     focus_distance: float | None = None
     pixel_filter: PixelFilter = BOX  # camera.filter (mcocl/render/pixel_filter.py)
     crop: tuple[int, int, int, int] | None = None  # offset x, y, width, height of the rendered window
-    near_clip: float = 0.0  # primary rays start this far along the optical axis (path integrators)
-    far_clip: float | None = None  # ... and end this far along it (None: never; path integrators)
+    near_clip: float = 0.0  # primary rays start this far along the optical axis (camera connections too)
+    far_clip: float | None = None  # ... and end this far along it (None: never)
 
 
 @dataclass

@@ -138,7 +138,7 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     elif near > 0.0:
         cam["near_clip"] = near
         comments.append(f"near_clip {near:g}: primary rays start at that distance along the optical axis "
-                        "(path integrators only)")
+                        "(and camera connections of lt and bdpt only from there)")
     far = props.get("far_clip", ("float",), None)
     if far is None:
         comments.append(f"far_clip: Mitsuba's default {FAR_CLIP:g} is not applied (nothing is clipped)")
@@ -147,7 +147,7 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
     else:
         cam["far_clip"] = far
         comments.append(f"far_clip {far:g}: primary rays end at that distance along the optical axis "
-                        "(path integrators only)")
+                        "(and camera connections of lt and bdpt only from before it)")
     rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", "near_clip", "far_clip",
                                         *lens_keys),
                  comments)
