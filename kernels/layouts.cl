@@ -459,6 +459,7 @@ typedef struct {
     int bdpt_only_s;
     int bdpt_only_t;
     int bdpt_unweighted;
+    int bdpt_power_mis;
     float4 env_radiance;
 } render_params;
 

@@ -290,8 +290,9 @@ RENDER_PARAMS = Record("render_params", (
     ("ntris", "uint", 1), ("nspheres", "uint", 1),
     ("nlights", "uint", 1), ("light_top", "uint", 1),  # light_top: largest power of two <= nlights (0: none)
     ("env_threshold", "float", 1), ("env_pmf", "float", 1),
-    # bdpt's one strategy (s, t) to render, -1: all; and whether without its MIS weight
-    ("bdpt_only_s", "int", 1), ("bdpt_only_t", "int", 1), ("bdpt_unweighted", "int", 1),
+    # bdpt's one strategy (s, t) to render, -1: all; whether without its MIS weight; the power
+    # heuristic (1) or the balance heuristic (0)
+    ("bdpt_only_s", "int", 1), ("bdpt_only_t", "int", 1), ("bdpt_unweighted", "int", 1), ("bdpt_power_mis", "int", 1),
     ("env_radiance", "float4", 1),
 ), "scalar parameters of render_blocks (kernels/render/integrator.cl)")
 

@@ -46,7 +46,7 @@
  * (s' <= light vertices, t' >= 1, t' <= camera vertices); a vertex sampled
  * through a delta lobe gets pdf_fwd = pdf_rev = 0 (counted as 1 in the
  * ratios) and the strategies that would connect at it or next to it are left
- * out of the sum.  beta = BDPT_MIS_BETA: 1 the balance heuristic, 2 the power
+ * out of the sum.  beta (render_params.bdpt_power_mis): 1 the balance heuristic, 2 the power
  * heuristic.  The camera's lens is not a target of light paths (t = 0 is
  * not a strategy), as in lt.cl.
  *
@@ -106,18 +106,15 @@
  * packet instead of once per strategy gained nothing measurable either, so
  * neither is kept.
  *
- * Options: -DBDPT_MIS_BETA=1|2.  render_params.bdpt_only_s/_t (>= 0) render one
- * strategy, its MIS weight kept unless bdpt_unweighted: launch parameters, not
- * build options, so that every strategy of a scene runs on one build.
+ * Launch parameters (render_params), not build options, so that one build
+ * serves every choice: bdpt_power_mis (1: beta 2, 0: beta 1); bdpt_only_s/_t
+ * (>= 0) render one strategy, its MIS weight kept unless bdpt_unweighted.
  */
 #define LT_NO_TRACE_KERNEL
 #include "render/lt.cl"
 
 #ifndef BDPT_MAX_VERTICES
 #define BDPT_MAX_VERTICES 24
-#endif
-#ifndef BDPT_MIS_BETA
-#define BDPT_MIS_BETA 2
 #endif
 
 /* One vertex of every lane's subpath (lane vectors). */
@@ -152,6 +149,7 @@ typedef struct {
     float pixels;
     int has_env;      /* an environment: escaped camera rays end in a vertex at infinity */
     int only_s, only_t, unweighted; /* the one strategy rendered (-1: all), without its weight */
+    int power_mis;                  /* the power heuristic (beta 2), else the balance heuristic */
 } bdpt_scene;
 
 /* The area density at q (normal nq) of a light ray from infinity along d: the disk's 1 / (pi R^2), projected. */
@@ -311,35 +309,31 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
     }
 }
 
-/* (pdf_rev / pdf_fwd)^beta with zero densities (delta vertices) counted as 1. */
-MC_INLINE floatv mis_ratio(floatv rev, floatv fwd) {
+/* (pdf_rev / pdf_fwd)^beta with zero densities (delta vertices) counted as 1; beta 2 where power. */
+MC_INLINE floatv mis_ratio(int power, floatv rev, floatv fwd) {
     floatv r = lane_select((floatv)(1.0f), rev, rev != 0.0f) / lane_select((floatv)(1.0f), fwd, fwd != 0.0f);
-#if BDPT_MIS_BETA == 2
-    return r * r;
-#else
-    return r;
-#endif
+    return power ? r * r : r;
 }
 
 /* The MIS weight of strategy (s, t), the connection's reverse densities
  * already in place; nl_cap, nc_cap: the most light and camera vertices a
  * strategy of this render may use. */
-MC_INLINE floatv bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *cam, int s, int t, int nl_cap,
-                                 int nc_cap) {
+MC_INLINE floatv bdpt_mis_weight(const bdpt_scene *sc, const bdpt_vertex *light, const bdpt_vertex *cam, int s,
+                                 int t, int nl_cap, int nc_cap) {
     floatv sum = (floatv)(0.0f), r = (floatv)(1.0f);
     /* (1, 1) is no strategy for a light at infinity */
     const intv no_11 = s + t == 2 ? (s > 0 ? light[0].infinite : cam[t - 1].infinite) : (intv)(0);
     /* strategies (s + t - i, i): the camera vertex z_i is taken by the light subpath instead */
     for (int i = t - 1; i > 0; --i) {
         if (s + t - i > nl_cap) break;
-        r *= mis_ratio(cam[i].pdf_rev, cam[i].pdf_fwd);
+        r *= mis_ratio(sc->power_mis, cam[i].pdf_rev, cam[i].pdf_fwd);
         sum += lane_select(r, (floatv)(0.0f), cam[i].delta | cam[i - 1].delta | (i == 1 ? no_11 : (intv)(0)));
     }
     r = (floatv)(1.0f);
     /* strategies (i, s + t - i): the light vertex y_i is taken by the camera subpath instead */
     for (int i = s - 1; i >= 0; --i) {
         if (s + t - i > nc_cap) break;
-        r *= mis_ratio(light[i].pdf_rev, light[i].pdf_fwd);
+        r *= mis_ratio(sc->power_mis, light[i].pdf_rev, light[i].pdf_fwd);
         intv delta_before = i > 0 ? light[i - 1].delta : light[0].delta_light;
         sum += lane_select(r, (floatv)(0.0f), light[i].delta | delta_before);
     }
@@ -349,12 +343,12 @@ MC_INLINE floatv bdpt_mis_weight(const bdpt_vertex *light, const bdpt_vertex *ca
 /* bdpt_mis_weight for a path that strategy (s, t) joined at cam[t - 1] and light[s - 1]: the path scatters
  * there by the connection's smooth lobe, whatever lobe the walk went on with (a plastic's delta coat), so
  * the two endpoints count as non-delta (pbrt-v3's MISWeight does the same). */
-MC_INLINE floatv bdpt_connection_weight(bdpt_vertex *light, bdpt_vertex *cam, int s, int t, int nl_cap,
+MC_INLINE floatv bdpt_connection_weight(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, int t, int nl_cap,
                                         int nc_cap) {
     intv dz = cam[t - 1].delta, dy = s > 0 ? light[s - 1].delta : (intv)(0);
     cam[t - 1].delta = (intv)(0);
     if (s > 0) light[s - 1].delta = (intv)(0);
-    floatv w = bdpt_mis_weight(light, cam, s, t, nl_cap, nc_cap);
+    floatv w = bdpt_mis_weight(sc, light, cam, s, t, nl_cap, nc_cap);
     cam[t - 1].delta = dz;
     if (s > 0) light[s - 1].delta = dy;
     return w;
@@ -393,7 +387,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
             ptm->pdf_rev = lane_select(ptm->pdf_rev, infinite_to_area(sc, dir, ptm->n), inf);
             ok = ok | inf;
         }
-        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap), ok);
+        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap), ok);
     } else if (s == 1) {
         ok = active & bsdf_is_smooth(&zb->m);
         if (!lane_any(ok)) return zero;
@@ -459,7 +453,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
             pt->pdf_rev = lane_select(pt->pdf_rev, infinite_to_area(sc, ls.wo, pt->n), inf);
         }
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
-        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap), ok);
+        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap), ok);
         light[0] = y0;
     } else {
         bdpt_vertex *qs = &light[s - 1], *qsm = &light[s - 2];
@@ -485,7 +479,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         qs->pdf_rev = to_area(pz, pt->p, qs->p, qs->n);
         ptm->pdf_rev = to_area(prz, pt->p, ptm->p, ptm->n);
         qsm->pdf_rev = lane_select(to_area(pry, qs->p, qsm->p, qsm->n), pry, qsm->infinite);
-        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(light, cam, s, t, nl_cap, nc_cap), ok);
+        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap), ok);
         qs->pdf_rev = save_qs;
         qsm->pdf_rev = save_qsm;
     }
@@ -537,10 +531,10 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
         bdpt_vertex *qsm = &light[s - 2];
         floatv save_qsm = qsm->pdf_rev;
         qsm->pdf_rev = lane_select(to_area(pr, qs->p, qsm->p, qsm->n), pr, qsm->infinite);
-        *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(sc, light, cam, s, 1, nl_cap, nc_cap);
         qsm->pdf_rev = save_qsm;
     } else {
-        *w = bdpt_connection_weight(light, cam, s, 1, nl_cap, nc_cap);
+        *w = bdpt_connection_weight(sc, light, cam, s, 1, nl_cap, nc_cap);
     }
     qs->pdf_rev = save_qs;
     *w = lane_select((floatv)(0.0f), *w, ok);
@@ -576,6 +570,7 @@ MC_INLINE bdpt_scene bdpt_scene_of(const render_params *params, const scene_geom
     sc.only_s = params->bdpt_only_s;
     sc.only_t = params->bdpt_only_t;
     sc.unweighted = params->bdpt_unweighted;
+    sc.power_mis = params->bdpt_power_mis;
     return sc;
 }
 

@@ -89,7 +89,7 @@ MC_INLINE floatv path_weight_sum(const bdpt_scene *sc, const bdpt_vertex *x, int
             light[j].pdf_fwd = pl[k - j];
             light[j].pdf_rev = pc[k - j];
         }
-        floatv w = bdpt_mis_weight(light, cam, ss, tt, nl_cap, nc_cap);
+        floatv w = bdpt_mis_weight(sc, light, cam, ss, tt, nl_cap, nc_cap);
         sum += lane_select((floatv)(0.0f), w, joinable);
         if (ss == s && tt == t) *w_st = w;
     }

@@ -166,8 +166,6 @@ class RenderJob:
         if self.sampler == "sobol":
             opts += sobol_render_defines(self.spp_per_block)
         if self.integrator == "bdpt":
-            opts.append(f"-DBDPT_MIS_BETA={MIS_BETAS[self.mis]}")
-        if self.integrator == "bdpt":
             require_face_normals(self.tables)
         clip = [f"-DNEAR_CLIP={float(np.float32(self.near_clip))!r}f"] if self.near_clip > 0.0 else []
         if self.far_clip is not None:
@@ -181,6 +179,7 @@ class RenderJob:
         p["spp_per_block"], p["spp_limit"] = self.spp_per_block, self.spp_limit
         p["width"], p["height"], p["tile_pixels"], p["ntiles"] = self.width, self.height, self.tile_pixels, self.ntiles
         p["max_depth"], p["rr_depth"] = self.max_depth, self.rr_depth
+        p["bdpt_power_mis"] = int(MIS_BETAS[self.mis] == 2)
         if self.integrator == "bdpt" and self.strategy is not None:
             p["bdpt_only_s"], p["bdpt_only_t"] = int(self.strategy[0]), int(self.strategy[1])
             p["bdpt_unweighted"] = int(bool(self.unweighted))
