@@ -202,7 +202,8 @@ def test_reported_stderr_matches_the_spread_over_seeds(dim: int) -> None:
     assert 0.75 <= spread / reported <= 1.25, (spread, reported)
 
 
-def test_rmse_falls_at_least_like_n_to_the_minus_1_3_on_a_smooth_integrand() -> None:
+@pytest.mark.parametrize("scrambling", [None, "linear"])  # the default (hashed Owen) and the linear one
+def test_rmse_falls_at_least_like_n_to_the_minus_1_3_on_a_smooth_integrand(scrambling: str | None) -> None:
     # a polynomial (float products, no built-ins): its float rounding stays
     # far below the quasi-Monte Carlo error up to 2^20 samples
     f = "x[0]*x[0]*x[1] + x[0]*x[1]*x[1]*x[1] + 0.5f*x[1]"
@@ -210,7 +211,8 @@ def test_rmse_falls_at_least_like_n_to_the_minus_1_3_on_a_smooth_integrand() -> 
     ns = [1 << k for k in range(10, 21, 2)]
     rmse = []
     for n in ns:
-        e = [mcocl.integrate(f, dim=2, samples=n, sampler="sobol", seed=s).estimate - exact for s in range(8)]
+        e = [mcocl.integrate(f, dim=2, samples=n, sampler="sobol", scrambling=scrambling, seed=s).estimate - exact
+             for s in range(8)]
         rmse.append(math.sqrt(np.mean(np.square(e))))
     slope = np.polyfit(np.log(ns), np.log(rmse), 1)[0]
     assert slope <= -1.3, (slope, rmse)

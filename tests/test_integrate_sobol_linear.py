@@ -87,16 +87,7 @@ def test_reported_stderr_matches_the_spread_over_seeds(dim: int) -> None:
     assert 0.75 <= spread / reported <= 1.25, (spread, reported)
 
 
-def test_rmse_falls_at_least_like_n_to_the_minus_1_3_on_a_smooth_integrand() -> None:
-    f = "x[0]*x[0]*x[1] + x[0]*x[1]*x[1]*x[1] + 0.5f*x[1]"
-    exact = 1.0 / 6 + 1.0 / 8 + 0.25
-    ns = [1 << k for k in range(10, 21, 2)]
-    rmse = []
-    for n in ns:
-        e = [mcocl.integrate(f, dim=2, samples=n, seed=s, **LINEAR).estimate - exact for s in range(8)]
-        rmse.append(math.sqrt(np.mean(np.square(e))))
-    slope = np.polyfit(np.log(ns), np.log(rmse), 1)[0]
-    assert slope <= -1.3, (slope, rmse)
+# The rate test runs for both scramblings in test_integrate_sobol.py.
 
 
 def test_lanes_launch_splits_and_resume_give_the_same_result(tmp_path) -> None:
