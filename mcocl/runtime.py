@@ -134,7 +134,7 @@ def default_lanes(device: cl.Device) -> int:
 
     CPUs get their preferred float vector width (8 with AVX2, 16 with AVX-512:
     measured fastest on PoCL, see bench/), or the host's SIMD width where the
-    device reports less (PoCL reports 1 on CPUs its LLVM does not recognise);
+    device reports less than 4 (a driver may report 1 for a CPU with wide vectors);
     GPUs vectorise across work-items by themselves and get 1.  ``MCOCL_LANES``
     overrides.
     """

@@ -15,7 +15,7 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:  # no
     import platform
 
     from mcocl import runtime
-    from mcocl.host_simd import host_simd_width
+    from mcocl.host_simd import cpuinfo_value, host_simd_width
 
     try:
         d = runtime.device_context(None).device
@@ -23,7 +23,6 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:  # no
                 f"{d.preferred_vector_width_float}, lanes {runtime.default_lanes(d)}")
     except Exception as e:  # the summary must never hide the tests' own outcome
         line = f"no device ({e})"
-    cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")), "?") \
-        if platform.system() == "Linux" else platform.processor()
+    cpu = cpuinfo_value(("model name",)) or platform.processor() or "?"
     terminalreporter.write_line(f"mcocl device: {line}; CPU {cpu}, host SIMD width {host_simd_width()}, "
                                 f"Python {platform.python_version()}")

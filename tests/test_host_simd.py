@@ -9,7 +9,7 @@ import pyopencl as cl
 import pytest
 
 from mcocl import runtime
-from mcocl.host_simd import host_simd_width, simd_width_from_flags
+from mcocl.host_simd import cpuinfo_value, host_simd_width, simd_width_from_flags
 
 
 @pytest.mark.parametrize(("flags", "width"), [
@@ -27,8 +27,9 @@ def test_width_from_flags(flags: str, width: int) -> None:
 def test_width_from_a_cpuinfo_file(tmp_path: Path) -> None:
     info = tmp_path / "cpuinfo"
     info.write_text("processor\t: 0\nmodel name\t: Some CPU\nflags\t\t: fpu sse2 avx2\n\nprocessor\t: 1\n")
-    assert host_simd_width.__wrapped__(str(info)) == 8
-    assert host_simd_width.__wrapped__(str(tmp_path / "missing")) == 1
+    assert host_simd_width(str(info)) == 8
+    assert cpuinfo_value(("model name",), str(info)) == "Some CPU"
+    assert host_simd_width(str(tmp_path / "missing")) == 1
 
 
 def _cpu(preferred: int, native: int) -> SimpleNamespace:
