@@ -116,6 +116,11 @@
 #ifndef BDPT_MAX_VERTICES
 #define BDPT_MAX_VERTICES 24
 #endif
+/* The connection roulette's threshold (connection_roulette): this fraction of the largest
+ * channel of the sample's own pixel estimate from the strategies evaluated before. */
+#ifndef BDPT_ROULETTE_FRACTION
+#define BDPT_ROULETTE_FRACTION 0.1f
+#endif
 
 /* One vertex of every lane's subpath (lane vectors). */
 typedef struct {
@@ -354,13 +359,35 @@ MC_INLINE floatv bdpt_connection_weight(const bdpt_scene *sc, bdpt_vertex *light
     return w;
 }
 
+/* Connection roulette: Russian roulette on a connection's shadow ray by its
+ * weighted contribution (Veach's thesis §10.4.1, efficiency-optimised
+ * Russian roulette).  A lane whose weighted contribution w max(c) is below
+ * thr traces its shadow ray with probability q = w max(c) / thr and, if it
+ * does, counts c / q: E[c / q 1{u < q}] = c for the uniform u, which is its
+ * own (RNG_STREAM_BDPT_ROULETTE, dimension 4 (s BDPT_MAX_VERTICES + t) of the
+ * sample), so the estimate stays unbiased; q may depend on anything drawn
+ * before u, here the sample's own pixel estimate so far (the caller's thr).
+ * A rouletted lane adds at most thr^2 / 4 to the variance (c^2 (1/q - 1) with
+ * w max(c) = q thr) and saves the shadow ray.  thr <= 0: no roulette.
+ * Scales *c of the surviving lanes by 1 / q; returns the lanes that go on. */
+MC_INLINE intv connection_roulette(vec3v *c, floatv w, floatv thr, const rng_t *rr, int s, int t, intv ok) {
+    const floatv q = lane_min(v3_maxc(*c) * w / thr, (floatv)(1.0f));
+    const intv play = ok & (thr > 0.0f) & (q < 1.0f);
+    if (!lane_any(play)) return ok;
+    const floatv u = u01(rng_block(*rr, (uintv)((uint)(s * BDPT_MAX_VERTICES + t))).v0);
+    *c = v3_select(*c, v3_scale(*c, 1.0f / q), play);
+    return ok & (!play | (u < q));
+}
+
 /* Strategy (s, t) with t >= 2 for the lanes in `active`: its unweighted contribution to the
  * sample's own pixel, zero where a lane has none, times its weight into *w.  ue: the s = 1 light
  * point's four uniforms (emitter choice and position).  zb: camera vertex z_{t-1}'s material
- * and frame. */
+ * and frame.  The weight is computed before the shadow ray, for connection_roulette with
+ * threshold thr and the sample's roulette numbers rr (thr <= 0: none); a rouletted lane
+ * gets weight zero, a surviving one its contribution over its probability. */
 MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, int t,
                              const floatv *ue, const vertex_bsdf *zb, intv active, int nl_cap, int nc_cap,
-                             floatv *w) {
+                             floatv thr, const rng_t *rr, floatv *w) {
     vec3v zero = v3s(0.0f);
     *w = (floatv)(0.0f);
     bdpt_vertex *pt = &cam[t - 1], *ptm = &cam[t - 2];
@@ -422,16 +449,6 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         }
         ok = ok & (v3_maxc(c) > 0.0f);
         if (!lane_any(ok)) return zero;
-        if (special) {
-            const intv at_inf = ok & inf;
-            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok & !inf);
-            if (lane_any(at_inf))
-                ok = ok | (at_inf & !trace_any_v(sc->geom, offset_origin(pt->p, pt->n, ls.wo), ls.wo,
-                                                 (floatv)(INFINITY), at_inf));
-        } else {
-            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok);
-        }
-        if (!lane_any(ok)) return zero;
         bdpt_vertex y0 = light[0];
         light[0].p = er.pos;
         light[0].n = er.n;
@@ -455,6 +472,22 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
         *w = lane_select((floatv)(0.0f), bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap), ok);
         light[0] = y0;
+        pt->pdf_rev = save_pt;
+        ptm->pdf_rev = save_ptm;
+        ok = connection_roulette(&c, *w, thr, rr, s, t, ok & (*w > 0.0f));
+        if (!lane_any(ok)) {
+            *w = (floatv)(0.0f);
+            return zero;
+        }
+        if (special) {
+            const intv at_inf = ok & inf;
+            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok & !inf);
+            if (lane_any(at_inf))
+                ok = ok | (at_inf & !trace_any_v(sc->geom, offset_origin(pt->p, pt->n, ls.wo), ls.wo,
+                                                 (floatv)(INFINITY), at_inf));
+        } else {
+            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok);
+        }
     } else {
         bdpt_vertex *qs = &light[s - 1], *qsm = &light[s - 2];
         ok = active & bsdf_is_smooth(&zb->m);
@@ -472,8 +505,6 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         c = v3_scale(v3_mul(v3_mul(qs->beta, fy), v3_mul(fz, pt->beta)), 1.0f / d2);
         ok = ok & (v3_maxc(c) > 0.0f);
         if (!lane_any(ok)) return zero;
-        ok = segment_clear(sc, qs->p, qs->n, pt->p, ok);
-        if (!lane_any(ok)) return zero;
         floatv save_qs = qs->pdf_rev, save_qsm = qsm->pdf_rev;
         pt->pdf_rev = to_area(py, qs->p, pt->p, pt->n);
         qs->pdf_rev = to_area(pz, pt->p, qs->p, qs->n);
@@ -482,9 +513,14 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         *w = lane_select((floatv)(0.0f), bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap), ok);
         qs->pdf_rev = save_qs;
         qsm->pdf_rev = save_qsm;
+        pt->pdf_rev = save_pt;
+        ptm->pdf_rev = save_ptm;
+        ok = connection_roulette(&c, *w, thr, rr, s, t, ok & (*w > 0.0f));
+        if (lane_any(ok)) ok = segment_clear(sc, qs->p, qs->n, pt->p, ok);
     }
     pt->pdf_rev = save_pt;
     ptm->pdf_rev = save_ptm;
+    *w = lane_select((floatv)(0.0f), *w, ok);
     return v3_select(zero, c, ok);
 }
 
@@ -682,6 +718,7 @@ kernel void bdpt_trace(
 
         /* ---- every strategy, for all lanes at once ---- */
         vec3v L = v3s(0.0f);
+        const rng_t rr = rng_init(index, seed, RNG_STREAM_BDPT_ROULETTE);
         for (int t = 1; lane_any(nc >= t); ++t) {
             const intv has_t = nc >= t;
             /* s = 1 with t >= 2 samples its own light point, so it needs no light subpath */
@@ -709,7 +746,10 @@ kernel void bdpt_trace(
                         sampler_seek(&cs, (uintv)(RENDER_DIM_LIGHT((uint)(t - 2))));
                         sampler_next_nd(&cs, 4, ul);
                     }
-                    vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &w);
+                    /* roulette against a fraction of the pixel's estimate so far (not for one strategy
+                     * alone, whose image is to be that strategy's own estimate) */
+                    const floatv thr = sc.only_s < 0 ? BDPT_ROULETTE_FRACTION * v3_maxc(L) : (floatv)(0.0f);
+                    vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, thr, &rr, &w);
                     L = v3_add(L, v3_select(v3s(0.0f), v3_scale(c, strategy_weight(&sc, w)), w > 0.0f));
                 }
             }
