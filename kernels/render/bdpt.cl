@@ -63,6 +63,18 @@
  * any weights that sum to 1 over the strategies of a path keep every
  * strategy's sum unbiased (Veach's thesis §9.2).
  *
+ * Connection roulette (connection_roulette, Veach's thesis §10.4): a
+ * connection with t >= 2 and s >= 1 whose weighted contribution is below
+ * BDPT_ROULETTE_FRACTION of the sample's own pixel estimate from the
+ * strategies before it traces its shadow ray only with probability
+ * (weighted contribution) / threshold, and then counts its contribution
+ * over that probability: unbiased, and it skips the shadow rays of
+ * negligible connections (on the Cornell box with a mirror and a glass
+ * sphere, 29 % of the traced shadow-ray packets and 42 % of their lanes).
+ * Hence the weight of such a connection is computed before its shadow ray.
+ * A rendered single strategy (bdpt_only_s) is not rouletted, so that its
+ * image is that strategy's own estimate.
+ *
  * Depths (Mitsuba 3's max_depth: path length in segments).  A strategy (s, t)
  * counts when s + t - 1 <= max_depth; the camera subpath holds at most
  * max_depth + 1 vertices, the light subpath max_depth, both capped at
@@ -360,7 +372,7 @@ MC_INLINE floatv bdpt_connection_weight(const bdpt_scene *sc, bdpt_vertex *light
 }
 
 /* Connection roulette: Russian roulette on a connection's shadow ray by its
- * weighted contribution (Veach's thesis §10.4.1, efficiency-optimised
+ * weighted contribution (Veach's thesis §10.4, efficiency-optimised
  * Russian roulette).  A lane whose weighted contribution w max(c) is below
  * thr traces its shadow ray with probability q = w max(c) / thr and, if it
  * does, counts c / q: E[c / q 1{u < q}] = c for the uniform u, which is its
