@@ -730,6 +730,10 @@ kernel void bdpt_trace(
 
         /* ---- every strategy, for all lanes at once ---- */
         vec3v L = v3s(0.0f);
+        /* every strategy's weighted sum for the sample's pixel, the roulette's reference: also when one
+         * strategy is rendered (weighted), so that it makes the full render's roulette choices and the
+         * strategies' images add up to the full render */
+        vec3v L_all = v3s(0.0f);
         const rng_t rr = rng_init(index, seed, RNG_STREAM_BDPT_ROULETTE);
         for (int t = 1; lane_any(nc >= t); ++t) {
             const intv has_t = nc >= t;
@@ -738,7 +742,9 @@ kernel void bdpt_trace(
             vertex_bsdf zb;
             if (t >= 2) zb = vertex_bsdf_of(&sc, &cam[t - 1]);
             for (int s = 0; lane_any(has_t & (ns >= s)); ++s) {
-                if (s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth) || !strategy_on(&sc, s, t)) continue;
+                if (s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth)) continue;
+                const int on = strategy_on(&sc, s, t);
+                if (!on && (sc.unweighted || t == 1)) continue;
                 /* only (0, t) ends at infinity */
                 const intv run = has_t & (ns >= s) & (s > 0 ? !cam[t - 1].infinite : has_t);
                 floatv w;
@@ -758,11 +764,13 @@ kernel void bdpt_trace(
                         sampler_seek(&cs, (uintv)(RENDER_DIM_LIGHT((uint)(t - 2))));
                         sampler_next_nd(&cs, 4, ul);
                     }
-                    /* roulette against a fraction of the pixel's estimate so far (not for one strategy
-                     * alone, whose image is to be that strategy's own estimate) */
-                    const floatv thr = sc.only_s < 0 ? BDPT_ROULETTE_FRACTION * v3_maxc(L) : (floatv)(0.0f);
+                    /* roulette against a fraction of the pixel's estimate so far (not for an unweighted
+                     * strategy, whose image is to be that strategy's own estimate) */
+                    const floatv thr = sc.unweighted ? (floatv)(0.0f) : BDPT_ROULETTE_FRACTION * v3_maxc(L_all);
                     vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, thr, &rr, &w);
-                    L = v3_add(L, v3_select(v3s(0.0f), v3_scale(c, strategy_weight(&sc, w)), w > 0.0f));
+                    const vec3v cw = v3_select(v3s(0.0f), v3_scale(c, strategy_weight(&sc, w)), w > 0.0f);
+                    L_all = v3_add(L_all, cw);
+                    if (on) L = v3_add(L, cw);
                 }
             }
         }
