@@ -168,7 +168,7 @@ kernel void bdpt_weight_check(
                                         &w);
                 } else {
                     floatv ul[4] = {(floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f)};
-                    bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, (floatv)(0.0f), 0, &w);
+                    bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &w);
                 }
                 const intv joined = w > 0.0f;  /* not joined: occluded, no contribution */
                 if (!lane_any(joined)) continue;

@@ -49,11 +49,6 @@
 #define LT_DIM_BSDF(depth) (8u + 8u * (depth))  /* lobe, direction 2D, roulette at light vertex `depth` */
 #define LT_DIM_LENS(depth) (12u + 8u * (depth)) /* the lens point of light vertex `depth`'s connection */
 
-/* ---- bidirectional path tracing (render/bdpt.cl) ---- */
-/* The connection roulette of sample i (index as RNG_STREAM_RENDER's): strategy
- * (s, t) draws word 0 of block s * BDPT_MAX_VERTICES + t. */
-#define RNG_STREAM_BDPT_ROULETTE 12u
-
 /* ---- sampling tests (render/bsdf_sample_test.cl, render/light_sample_test.cl) ---- */
 #define RNG_STREAM_BSDF_TEST 9u
 #define RNG_STREAM_LIGHT_TEST 10u
