@@ -144,8 +144,8 @@ def test_scene_keys_and_tables_per_material() -> None:
                            "c": {"type": "roughplastic", "alpha": 0.5, "distribution": "beckmann", "twosided": True}},
              "shapes": [{"type": "rectangle", "material": k} for k in "abc"]}
     mats = compile_scene(parse_scene(scene, "p.json")).materials
-    assert mats.shape == (3 + 2 * 5, 16)
-    assert mats[0, 15] == 0 and mats[1, 15] == 48 and mats[2, 15] == 48 + 80
+    assert mats.shape == (3 + 2 * 4, 20)
+    assert mats[0, 15] == 0 and mats[1, 15] == 3 * 20 and mats[2, 15] == 3 * 20 + 80
     assert int(mats[2, 7]) == FLAG_BITS["beckmann"] | FLAG_BITS["twosided"]
     assert mats[1, 5] == np.float32(1.49) and mats[1, 6] == np.float32(1.000277)  # Mitsuba's defaults
     # t(1) is the coat's normal-incidence transmittance, about 1 - F(1)

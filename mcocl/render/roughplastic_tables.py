@@ -32,7 +32,7 @@ import numpy as np
 from ..bsdf_registry import FLAG_BITS
 
 RES = 64  # transmittance entries, mu = 0, 1/63, ..., 1 (Mitsuba's MTS_ROUGH_TRANSMITTANCE_RES)
-TABLE_FLOATS = 80  # RES entries, then R_int, padded to whole 16-float rows
+TABLE_FLOATS = 80  # RES entries, then R_int, padded to whole rows of the materials table (20 floats)
 _NQ_T, _NQ_P = 96, 48  # quadrature nodes in tan theta_m and in phi (phi over [0, pi]); 160 x 96 moves t by < 4e-5
 
 
@@ -124,7 +124,7 @@ def roughplastic_table(alpha: float, eta: float, beckmann: bool) -> np.ndarray:
 
 
 def append_tables(materials, records: np.ndarray, table_field: int) -> np.ndarray:
-    """The materials table: ``records`` (M, 16) with every roughplastic material's table appended as rows.
+    """The materials table: ``records`` (M, 20) with every roughplastic material's table appended as rows.
 
     ``materials``: the scene's Material list (kind, alpha, int_ior, ext_ior, flags);
     ``table_field``: the column of the record's ``table`` field, set to the table's first float.
