@@ -407,8 +407,8 @@ def test_one_image_one_copy_and_mesh_corner_order() -> None:
 
 
 @pytest.mark.parametrize("bsdf, match", [
-    ('<bsdf type="dielectric"><texture type="checkerboard" name="specular_reflectance"/></bsdf>',
-     r"t\.xml:\d+: <texture .*a texture for 'specular_reflectance' is not supported on a 'dielectric' BSDF"),
+    ('<bsdf type="plastic"><texture type="checkerboard" name="specular_reflectance"/></bsdf>',
+     r"t\.xml:\d+: <texture .*a texture for 'specular_reflectance' is not supported on a 'plastic' BSDF"),
     ('<bsdf type="diffuse"><texture type="perlin" name="reflectance"/></bsdf>',
      r"t\.xml:\d+: <texture .*unsupported texture plugin 'perlin'"),
     ('<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="no.png"/>'
