@@ -58,6 +58,7 @@
 #define MAT_FLAG_ANISOTROPIC 4
 #define MAT_FLAG_COMPLEX_IOR 8
 #define MAT_FLAG_TRANSMITTANCE 16
+#define MAT_FLAG_ALPHA_GRID 32
 
 /* A field of a float4-stored record gathered by <RECORD>_GATHER(q, ...) into rec4v q0, q1, ...:
  * REC_FIELD(q, PRIM_RECORD_AREA) is q0.w.  The gather macros read `index` once per float4:

@@ -56,9 +56,12 @@ RECORD_FIELDS: dict[str, object] = {"rgb": (1.0, 1.0, 1.0), "alpha": 0.0, "int_i
 # anisotropic: alpha is the roughness along the first tangent, alpha_v along the second;
 # complex_ior: a conductor's Fresnel term from eta_rgb, k_rgb (kernels/render/fresnel_conductor.cl);
 # transmittance: a dielectric's transmission is tinted by transmittance_rgb, not by rgb (set by
-# :func:`transmittance_flag`; without it both lobes share rgb, and the record's last quad is not read).
+# :func:`transmittance_flag`; without it both lobes share rgb, and the record's last quad is not read);
+# alpha_grid: a roughplastic's alpha is a texture: its tables are a grid over alpha, interpolated per hit
+# (mcocl/render/roughplastic_tables.py, alpha_grid_tables).
 # The BSDFs read the record's extended fields only for lanes with these bits (render/material.cl).
-FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2, "anisotropic": 4, "complex_ior": 8, "transmittance": 16}
+FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2, "anisotropic": 4, "complex_ior": 8, "transmittance": 16,
+                             "alpha_grid": 32}
 
 DISPATCHER_PATH = "render/bsdf.cl"  # relative to the kernels folder
 
@@ -182,6 +185,11 @@ class BsdfSpec:
         with the ``"name"`` keys and the given optional keys); ``(key, message)`` when they conflict."""
         return None
 
+    def texture_flags(self, values: dict[str, object], textured: set[str]) -> int:
+        """Bits of ``flags`` that follow from which record fields are textures (``textured``) and the
+        derived ``values``."""
+        return transmittance_flag(self, values, textured)
+
 
 BSDFS: dict[str, BsdfSpec] = {}
 
@@ -228,9 +236,8 @@ def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]
     return out
 
 
-ALPHA = Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0)
-# roughconductor's and roughdielectric's alpha may be a texture (its luminance, clamped to [1e-4, 1]);
-# roughplastic's may not: its coat's tables are computed per material for one alpha.
+# The rough BSDFs' alpha may be a texture (its luminance, clamped to [1e-4, 1]); roughplastic's coat tables
+# are then a grid over the texture's range of alpha (FLAG_BITS alpha_grid).
 ALPHA_TEXTURED = Param("alpha", "number", "alpha", "a texture's luminance, clamped to [1e-4, 1]", default=0.1,
                        lo=1e-4, hi=1.0, texturable=True)
 DISTRIBUTION = Param("distribution", "choice", "flags", "the microfacet distribution", default="ggx",
@@ -403,10 +410,14 @@ class RoughPlastic(BsdfSpec):
     params = (Param("diffuse_reflectance", "rgb", "rgb", "base albedo", default=0.5, texturable=True),
               Param("int_ior", "number", "int_ior", "polypropylene", default=1.49, lo=0.0, lo_open=True, hi=IOR_LIMIT),
               Param("ext_ior", "number", "ext_ior", "air", default=1.000277, lo=0.0, lo_open=True, hi=IOR_LIMIT),
-              ALPHA, DISTRIBUTION, TWOSIDED)
+              ALPHA_TEXTURED, DISTRIBUTION, TWOSIDED)
     summary = ("rough plastic: a microfacet coat (GGX or Beckmann, roughness α) over a Lambertian base, the "
                "light between them summed with the coat's tabulated transmittance (Mitsuba's `roughplastic`, "
                "linear); one-sided unless `twosided`")
+
+    def texture_flags(self, values: dict[str, object], textured: set[str]) -> int:
+        """A textured alpha reads its coat's tables from a grid over alpha."""
+        return FLAG_BITS["alpha_grid"] if "alpha" in textured else 0
 
 
 def _distinct_iors(values: dict[str, object]) -> tuple[str, str] | None:

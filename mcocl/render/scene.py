@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..bsdf_registry import BSDFS, BsdfSpec, record_values, transmittance_flag
+from ..bsdf_registry import BSDFS, BsdfSpec, record_values
 from ..datafile import decode_utf8
 from ..errors import InputError
 from ..layouts import Integrator, MaterialKind
@@ -486,7 +486,7 @@ def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec, roots: 
     bad = spec.derive(values) or spec.check(values)
     if bad is not None:
         c.fail(f"{key}.{bad[0]}", bad[1])
-    flags = int(values["flags"]) | transmittance_flag(spec, values, set(textures))  # type: ignore[call-overload]
+    flags = int(values["flags"]) | spec.texture_flags(values, set(textures))  # type: ignore[call-overload]
     return Material(name, spec.name, np.array(values["rgb"], np.float64).reshape(3), alpha=float(values["alpha"]),
                     int_ior=float(values["int_ior"]), ext_ior=float(values["ext_ior"]), flags=flags,
                     alpha_second=float(values["alpha_second"]),  # type: ignore[arg-type]
