@@ -358,7 +358,7 @@ def test_bad_texture_files(tmp_path: Path, filename: str, content: bytes | None,
 def test_texture_keys_are_checked(tmp_path: Path) -> None:
     p = checker_scene(tmp_path, 0.5, 0.5, "k.json")
     base = json.loads(p.read_text())
-    cases = [({"type": "roughplastic", "alpha": {"type": "checkerboard"}}, "alpha"),  # its tables need one alpha
+    cases = [({"type": "thindielectric", "ext_ior": {"type": "checkerboard"}}, "ext_ior"),
              ({"type": "dielectric", "int_ior": {"type": "checkerboard"}}, "int_ior"),
              ({"type": "diffuse", "reflectance": {"type": "wood"}}, "type"),
              ({"type": "diffuse", "reflectance": {"type": "bitmap"}}, "filename"),
