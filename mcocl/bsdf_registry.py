@@ -47,7 +47,7 @@ IOR_LIMIT = 1e6
 
 RECORD_FIELDS: dict[str, object] = {"rgb": (1.0, 1.0, 1.0), "alpha": 0.0, "int_ior": 1.0, "ext_ior": 1.0,
                                     "flags": 0, "alpha_second": 0.0, "eta_rgb": (0.0, 0.0, 0.0), "k_rgb": (0.0, 0.0, 0.0),
-                                    "transmittance_rgb": (1.0, 1.0, 1.0)}
+                                    "transmittance_rgb": (0.0, 0.0, 0.0)}
 
 # Bits of material_record.flags (``MAT_FLAG_<NAME>`` in kernels/layouts.cl), set by the ``"flag"`` keys
 # (bit named as the key) and the ``"choice"`` keys (bit named as the choice; the first choice sets none).

@@ -358,6 +358,14 @@ def _element(body: _Body, el: Element, start: int, want: set[str]) -> tuple[dict
     return out, int(q[-1])
 
 
+def _columns(values: dict[str, np.ndarray], names: tuple[str, ...]) -> np.ndarray:
+    """The properties ``names`` side by side as float64 (N, len(names)), written straight into one array."""
+    out = np.empty((len(values[names[0]]), len(names)))
+    for k, name in enumerate(names):
+        out[:, k] = values[name]
+    return out
+
+
 def parse_ply(data: bytes, label: str) -> PlyMesh:
     """The mesh of a PLY file's bytes: vertices float64, fan triangles int64 (0-based, not range-checked).
 
@@ -397,11 +405,10 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
     if vert.count == 0:
         return PlyMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64))
     with np.errstate(invalid="ignore", over="ignore"):  # non-finite coordinates are refused by check_mesh
-        vertices = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(np.float64)
-    normals = (np.stack([v["nx"], v["ny"], v["nz"]], axis=1).astype(np.float64)
-               if {"nx", "ny", "nz"} <= v.keys() else None)
+        vertices = _columns(v, ("x", "y", "z"))
+    normals = _columns(v, ("nx", "ny", "nz")) if {"nx", "ny", "nz"} <= v.keys() else None
     uv = next((pair for pair in UV_NAMES if set(pair) <= v.keys()), None)
-    uvs = np.stack([v[uv[0]], v[uv[1]]], axis=1).astype(np.float64) if uv else None
+    uvs = _columns(v, uv) if uv else None
     faces = np.zeros((0, 3), np.int64)
     if got.get("face"):
         per_face, idx = got["face"][index_name]

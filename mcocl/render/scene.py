@@ -110,7 +110,7 @@ class Material:
     eta_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))  # a conductor's complex IOR
     k_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))
     # a dielectric's transmission tint when it is not rgb (flags bit "transmittance"; mcocl/bsdf_registry.py)
-    transmittance_rgb: np.ndarray = field(default_factory=lambda: np.ones(3))
+    transmittance_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))
     # Record fields ("rgb", "alpha", "transmittance_rgb") given by a texture (mcocl/render/textures.py), looked up per hit.
     textures: dict[str, Texture] = field(default_factory=dict)
 
