@@ -52,6 +52,14 @@
 #define FILM_NONFINITE 7
 #define FILM_STATS 8
 
+/* Bits of material_record.flags (mcocl/bsdf_registry.py, FLAG_BITS). */
+#define MAT_FLAG_TWOSIDED 1
+#define MAT_FLAG_BECKMANN 2
+#define MAT_FLAG_ANISOTROPIC 4
+#define MAT_FLAG_COMPLEX_IOR 8
+#define MAT_FLAG_TRANSMITTANCE 16
+#define MAT_FLAG_ALPHA_GRID 32
+
 /* A field of a float4-stored record gathered by <RECORD>_GATHER(q, ...) into rec4v q0, q1, ...:
  * REC_FIELD(q, PRIM_RECORD_AREA) is q0.w.  The gather macros read `index` once per float4:
  * pass a variable, not a call (a search repeated per float4 cost the render kernel ~7 %). */
@@ -175,10 +183,12 @@ typedef struct {
     float eta_rgb[3];
     float k_rgb[3];
     float table;
+    float transmittance_rgb[3];
+    float pad;
 } material_record;
-#define MATERIAL_RECORD_QUADS 4u
-/* Every lane's record `index` of a float4 table into rec4v q0 .. q3 (render/lane_io.cl's gather_rec4). */
-#define MATERIAL_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 4u + 0u), q##1 = gather_rec4((table), (index) * 4u + 1u), q##2 = gather_rec4((table), (index) * 4u + 2u), q##3 = gather_rec4((table), (index) * 4u + 3u)
+#define MATERIAL_RECORD_QUADS 5u
+/* Every lane's record `index` of a float4 table into rec4v q0 .. q4 (render/lane_io.cl's gather_rec4). */
+#define MATERIAL_RECORD_GATHER(q, table, index) rec4v q##0 = gather_rec4((table), (index) * 5u + 0u), q##1 = gather_rec4((table), (index) * 5u + 1u), q##2 = gather_rec4((table), (index) * 5u + 2u), q##3 = gather_rec4((table), (index) * 5u + 3u), q##4 = gather_rec4((table), (index) * 5u + 4u)
 #define MATERIAL_RECORD_KIND_QUAD 0
 #define MATERIAL_RECORD_KIND_COMP x
 #define MATERIAL_RECORD_RGB_QUAD 0
@@ -205,6 +215,12 @@ typedef struct {
 #define MATERIAL_RECORD_K_RGB_COMP2 z
 #define MATERIAL_RECORD_TABLE_QUAD 3
 #define MATERIAL_RECORD_TABLE_COMP w
+#define MATERIAL_RECORD_TRANSMITTANCE_RGB_QUAD 4
+#define MATERIAL_RECORD_TRANSMITTANCE_RGB_COMP x
+#define MATERIAL_RECORD_TRANSMITTANCE_RGB_COMP1 y
+#define MATERIAL_RECORD_TRANSMITTANCE_RGB_COMP2 z
+#define MATERIAL_RECORD_PAD_QUAD 4
+#define MATERIAL_RECORD_PAD_COMP w
 
 /* perspective camera: origin and the right/up/forward axes (right, up scaled by the fov); thin lens: aperture radius (0: a pinhole) and focus distance; a film crop's centre in the crop's NDC units */
 typedef struct {

@@ -46,16 +46,22 @@ from .conductor_iors import CONDUCTOR_IORS
 IOR_LIMIT = 1e6
 
 RECORD_FIELDS: dict[str, object] = {"rgb": (1.0, 1.0, 1.0), "alpha": 0.0, "int_ior": 1.0, "ext_ior": 1.0,
-                                    "flags": 0, "alpha_second": 0.0, "eta_rgb": (0.0, 0.0, 0.0), "k_rgb": (0.0, 0.0, 0.0)}
+                                    "flags": 0, "alpha_second": 0.0, "eta_rgb": (0.0, 0.0, 0.0), "k_rgb": (0.0, 0.0, 0.0),
+                                    "transmittance_rgb": (0.0, 0.0, 0.0)}
 
-# Bits of material_record.flags (``MAT_FLAG_<NAME>`` in kernels/render/bsdf.cl), set by the ``"flag"`` keys
+# Bits of material_record.flags (``MAT_FLAG_<NAME>`` in kernels/layouts.cl), set by the ``"flag"`` keys
 # (bit named as the key) and the ``"choice"`` keys (bit named as the choice; the first choice sets none).
 # twosided: the BSDF is mirrored onto the back side (Mitsuba's `twosided` wrapper), see dispatcher_source;
 # beckmann: the microfacet distribution of the rough BSDFs (kernels/render/bsdf_roughconductor.cl);
 # anisotropic: alpha is the roughness along the first tangent, alpha_v along the second;
-# complex_ior: a conductor's Fresnel term from eta_rgb, k_rgb (kernels/render/fresnel_conductor.cl).
+# complex_ior: a conductor's Fresnel term from eta_rgb, k_rgb (kernels/render/fresnel_conductor.cl);
+# transmittance: a dielectric's transmission is tinted by transmittance_rgb, not by rgb (set by
+# :func:`transmittance_flag`; without it both lobes share rgb, and the record's last quad is not read);
+# alpha_grid: a roughplastic's alpha is a texture: its tables are a grid over alpha, interpolated per hit
+# (mcocl/render/roughplastic_tables.py, alpha_grid_tables).
 # The BSDFs read the record's extended fields only for lanes with these bits (render/material.cl).
-FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2, "anisotropic": 4, "complex_ior": 8}
+FLAG_BITS: dict[str, int] = {"twosided": 1, "beckmann": 2, "anisotropic": 4, "complex_ior": 8, "transmittance": 16,
+                             "alpha_grid": 32}
 
 DISPATCHER_PATH = "render/bsdf.cl"  # relative to the kernels folder
 
@@ -179,6 +185,11 @@ class BsdfSpec:
         with the ``"name"`` keys and the given optional keys); ``(key, message)`` when they conflict."""
         return None
 
+    def texture_flags(self, values: dict[str, object], textured: set[str]) -> int:
+        """Bits of ``flags`` that follow from which record fields are textures (``textured``) and the
+        derived ``values``."""
+        return transmittance_flag(self, values, textured)
+
 
 BSDFS: dict[str, BsdfSpec] = {}
 
@@ -225,14 +236,34 @@ def record_values(spec: BsdfSpec, given: dict[str, object]) -> dict[str, object]
     return out
 
 
-ALPHA = Param("alpha", "number", "alpha", "", default=0.1, lo=1e-4, hi=1.0)
-# roughconductor's and roughdielectric's alpha may be a texture (its luminance, clamped to [1e-4, 1]);
-# roughplastic's may not: its coat's tables are computed per material for one alpha.
+# The rough BSDFs' alpha may be a texture (its luminance, clamped to [1e-4, 1]); roughplastic's coat tables
+# are then a grid over the texture's range of alpha (FLAG_BITS alpha_grid).
 ALPHA_TEXTURED = Param("alpha", "number", "alpha", "a texture's luminance, clamped to [1e-4, 1]", default=0.1,
                        lo=1e-4, hi=1.0, texturable=True)
 DISTRIBUTION = Param("distribution", "choice", "flags", "the microfacet distribution", default="ggx",
                      choices=("ggx", "beckmann"))
 TWOSIDED = Param("twosided", "flag", "flags", "the same BSDF mirrored onto the back side, as Mitsuba's `twosided`", default=False)
+# The tints of a dielectric's two lobes (Mitsuba 3's names): they scale the reflected and the transmitted
+# weight, not the choice between the lobes (which stays the Fresnel term's).
+SPECULAR_REFLECTANCE = Param("specular_reflectance", "rgb", "rgb", "tint of the reflection", default=1.0,
+                             texturable=True)
+SPECULAR_TRANSMITTANCE = Param("specular_transmittance", "rgb", "transmittance_rgb", "tint of the transmission",
+                               default=1.0, texturable=True)
+TINTS = (SPECULAR_REFLECTANCE, SPECULAR_TRANSMITTANCE)
+
+
+def transmittance_flag(spec: BsdfSpec, values: dict[str, object], textured: set[str]) -> int:
+    """The ``transmittance`` bit of a material's flags: set when its transmission's tint is not its reflection's.
+
+    ``values``: the record fields (:func:`record_values`); ``textured``: the record fields given by a
+    texture.  Without the bit the kernels tint both lobes by ``rgb`` (render/material.cl), so a material
+    whose two tints are the same constant renders as the one-tint dielectric did.
+    """
+    if not any(p.field == "transmittance_rgb" for p in spec.params):
+        return 0
+    split = tuple(values["transmittance_rgb"]) != tuple(values["rgb"]) or bool(  # type: ignore[arg-type]
+        {"rgb", "transmittance_rgb"} & textured)
+    return FLAG_BITS["transmittance"] if split else 0
 
 
 @register_bsdf
@@ -331,8 +362,7 @@ class Dielectric(BsdfSpec):
     name = "dielectric"
     code = 3
     params = (Param("int_ior", "number", "int_ior", "BK7", default=1.5046, lo=0.0, lo_open=True, hi=IOR_LIMIT),
-              Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT))
-    fixed = {"rgb": (1.0, 1.0, 1.0)}
+              Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT), *TINTS)
     delta = True
     transmissive = True
     summary = "smooth glass: Fresnel reflection and refraction; `int_ior` is inside (behind the front side)"
@@ -380,10 +410,14 @@ class RoughPlastic(BsdfSpec):
     params = (Param("diffuse_reflectance", "rgb", "rgb", "base albedo", default=0.5, texturable=True),
               Param("int_ior", "number", "int_ior", "polypropylene", default=1.49, lo=0.0, lo_open=True, hi=IOR_LIMIT),
               Param("ext_ior", "number", "ext_ior", "air", default=1.000277, lo=0.0, lo_open=True, hi=IOR_LIMIT),
-              ALPHA, DISTRIBUTION, TWOSIDED)
+              ALPHA_TEXTURED, DISTRIBUTION, TWOSIDED)
     summary = ("rough plastic: a microfacet coat (GGX or Beckmann, roughness α) over a Lambertian base, the "
                "light between them summed with the coat's tabulated transmittance (Mitsuba's `roughplastic`, "
                "linear); one-sided unless `twosided`")
+
+    def texture_flags(self, values: dict[str, object], textured: set[str]) -> int:
+        """A textured alpha reads its coat's tables from a grid over alpha."""
+        return FLAG_BITS["alpha_grid"] if "alpha" in textured else 0
 
 
 def _distinct_iors(values: dict[str, object]) -> tuple[str, str] | None:
@@ -405,8 +439,7 @@ class RoughDielectric(BsdfSpec):
     code = 5
     params = (Param("int_ior", "number", "int_ior", "BK7", default=1.5046, lo=0.0, lo_open=True, hi=IOR_LIMIT),
               Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT),
-              ALPHA_TEXTURED, ALPHA_U, ALPHA_V, DISTRIBUTION)
-    fixed = {"rgb": (1.0, 1.0, 1.0)}
+              ALPHA_TEXTURED, ALPHA_U, ALPHA_V, DISTRIBUTION, *TINTS)
     transmissive = True
     eval_mode = True
     summary = ("rough glass (Walter et al. 2007): microfacet reflection and refraction with roughness α, GGX "
@@ -428,8 +461,7 @@ class ThinDielectric(BsdfSpec):
     name = "thindielectric"
     code = 6
     params = (Param("int_ior", "number", "int_ior", "BK7", default=1.5046, lo=0.0, lo_open=True, hi=IOR_LIMIT),
-              Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT))
-    fixed = {"rgb": (1.0, 1.0, 1.0)}
+              Param("ext_ior", "number", "ext_ior", "", default=1.0, lo=0.0, lo_open=True, hi=IOR_LIMIT), *TINTS)
     delta = True
     transmissive = True  # goes through the surface (eta stays 1: no change of medium)
     summary = ("a thin glass sheet: Fresnel reflection with the inter-reflections of its two faces summed, "
@@ -484,8 +516,6 @@ def dispatcher_source() -> str:
         "#define TRANSPORT_RADIANCE 0",
         "#define TRANSPORT_IMPORTANCE 1",
         "",
-        "/* Bits of material_record.flags (mcocl/bsdf_registry.py, FLAG_BITS). */",
-        *[f"#define MAT_FLAG_{k.upper()} {v}" for k, v in FLAG_BITS.items()],
         *[f'#include "{s.kernel_file}"' for s in specs],
         "",
         "/* Lanes that see a twosided material from behind.  There the BSDF is the",
@@ -588,4 +618,4 @@ def markdown_table() -> str:
 
 
 __all__ = ["BSDFS", "DISPATCHER_PATH", "FLAG_BITS", "RECORD_FIELDS", "TWOSIDED", "TABLE_BEGIN", "TABLE_END", "BsdfSpec", "Param",
-           "dispatcher_source", "markdown_table", "record_values", "register_bsdf"]
+           "dispatcher_source", "markdown_table", "record_values", "register_bsdf", "transmittance_flag"]

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bsdf_registry import BSDFS, DISPATCHER_PATH, dispatcher_source, markdown_table
+from .bsdf_registry import BSDFS, DISPATCHER_PATH, FLAG_BITS, dispatcher_source, markdown_table
 
 HEADER_PATH = "layouts.cl"  # relative to the kernels folder
 
@@ -237,13 +237,15 @@ LIGHT_BVH_NODE = _quad_record(
 # kernel: render/material.cl material_load).
 MATERIAL_RECORD = _quad_record(
     "material_record", "a material: its MaterialKind code (as a float) and parameters",
-    ("kind", "float"), ("rgb", "float", 3),  # albedo (diffuse) or specular reflectance (conductors)
+    ("kind", "float"), ("rgb", "float", 3),  # albedo (diffuse) or specular reflectance (conductors, dielectrics)
     ("alpha", "float"), ("int_ior", "float"), ("ext_ior", "float"),
     ("flags", "float"),  # FLAG_BITS of mcocl/bsdf_registry.py (an integer stored as a float): twosided, beckmann, ...
     # Read only by the BSDFs and lanes that use them (render/material.cl):
     ("alpha_second", "float"),  # roughness along the second tangent (anisotropic; the key alpha_v)
     ("eta_rgb", "float", 3), ("k_rgb", "float", 3),  # complex index of refraction of a conductor
     ("table", "float"),  # index of the first float of the material's table in the materials table (roughplastic)
+    # a dielectric's specular transmittance when it differs from its reflectance `rgb` (MAT_FLAG_TRANSMITTANCE)
+    ("transmittance_rgb", "float", 3), ("pad", "float"),
 )
 
 # Camera (host: compiled.camera_matrix; kernel: camera.cl), one per scene.
@@ -331,6 +333,9 @@ def c_header() -> str:
         parts.append(f"/* {en.__name__}: {(en.__doc__ or '').strip()} */")
         parts += [f"#define {prefix}{m.name} {int(m)}" for m in en]
     parts.append(f"#define FILM_STATS {len(FilmStat)}")
+    parts.append("")
+    parts.append("/* Bits of material_record.flags (mcocl/bsdf_registry.py, FLAG_BITS). */")
+    parts += [f"#define MAT_FLAG_{k.upper()} {v}" for k, v in FLAG_BITS.items()]
     parts.append("")
     parts.append("/* A field of a float4-stored record gathered by <RECORD>_GATHER(q, ...) into rec4v q0, q1, ...:")
     parts.append(" * REC_FIELD(q, PRIM_RECORD_AREA) is q0.w.  The gather macros read `index` once per float4:")

@@ -175,7 +175,7 @@ def test_convert_keeps_the_new_materials(tmp_path: Path) -> None:
     out = tmp_path / "s.json"
     assert main(["convert", str(xml), "-o", str(out)]) == 0
     a, b = compile_scene(out).materials, compile_scene(xml).materials
-    assert a.shape == (7 + 5, 16) and np.array_equal(a, b)
+    assert a.shape == (7 + 4, 20) and np.array_equal(a, b)  # 7 records, one table of 4 rows
 
 
 # scene -> (block row, block column) of the power check: a lit block where 2 % is at least 6.5 standard errors

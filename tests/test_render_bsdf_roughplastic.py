@@ -48,7 +48,7 @@ def _unit(theta_deg: float, phi_deg: float = 30.0) -> np.ndarray:
 def test_tables_match_the_device_roughdielectric(alpha: float, eta: float, beck: bool) -> None:
     mats = _table(alpha=alpha, int_ior=eta, ext_ior=1.0, distribution="beckmann" if beck else "ggx")
     start = int(mats[0, 15])
-    assert start == 16
+    assert start == 20  # after the one record (mcocl.layouts.MATERIAL_RECORD: 20 floats)
     t = mats.reshape(-1)[start:start + RES]
     r_int = mats.reshape(-1)[start + RES]
     glass = np.array([ROUGHDIEL, 1, 1, 1, alpha, eta, 1.0, FLAG_BITS["beckmann"] if beck else 0], np.float32)
@@ -144,9 +144,9 @@ def test_scene_keys_and_tables_per_material() -> None:
                            "c": {"type": "roughplastic", "alpha": 0.5, "distribution": "beckmann", "twosided": True}},
              "shapes": [{"type": "rectangle", "material": k} for k in "abc"]}
     mats = compile_scene(parse_scene(scene, "p.json")).materials
-    assert mats.shape == (3 + 2 * 5, 16)
-    assert mats[0, 15] == 0 and mats[1, 15] == 48 and mats[2, 15] == 48 + 80
+    assert mats.shape == (3 + 2 * 4, 20)
+    assert mats[0, 15] == 0 and mats[1, 15] == 3 * 20 and mats[2, 15] == 3 * 20 + 80
     assert int(mats[2, 7]) == FLAG_BITS["beckmann"] | FLAG_BITS["twosided"]
     assert mats[1, 5] == np.float32(1.49) and mats[1, 6] == np.float32(1.000277)  # Mitsuba's defaults
     # t(1) is the coat's normal-incidence transmittance, about 1 - F(1)
-    assert abs(mats.reshape(-1)[48 + RES - 1] - (1 - _fresnel(1.0, 1.49 / 1.000277))) < 0.01
+    assert abs(mats.reshape(-1)[3 * 20 + RES - 1] - (1 - _fresnel(1.0, 1.49 / 1.000277))) < 0.01

@@ -96,6 +96,26 @@ def test_ply_forms_equal_the_obj_twin(tmp_path, kind):
     assert mesh.vertices.dtype == np.float64 and mesh.faces.dtype == np.int64
 
 
+def test_ascii_integer_elements_parse_alike_however_laid_out():
+    """The faces' integers are parsed apart from the vertices' floats (ply_reader.ascii_numbers): records
+    across lines, integers written as floats and a body without faces read as the plain layout does."""
+    want = parse_ply(ascii_ply(), "a")
+    head, body = ascii_ply().split(b"end_header\n")
+    lines = body.split(b"\n")
+    for label, text in (("records across lines", b"\n".join(lines).replace(b" ", b"\n", 7)),
+                        ("one line", b" ".join(lines)),
+                        ("float indices", b"\n".join(lines[:6] + [x + b".0" if x else x for x in lines[6:]])),
+                        ("CRLF", b"\r\n".join(lines))):
+        got = parse_ply(head + b"end_header\n" + text, label)
+        np.testing.assert_array_equal(got.vertices, want.vertices, err_msg=label)
+        np.testing.assert_array_equal(got.faces, want.faces, err_msg=label)
+        np.testing.assert_array_equal(got.uvs, want.uvs, err_msg=label)
+    empty = header("ascii", 1, 0) + b"1 2 3\n\n"  # no faces: the whitespace after the vertex is no number
+    assert len(parse_ply(empty, "e").faces) == 0
+    with pytest.raises(InputError, match="after the last element"):
+        parse_ply(header("ascii", 1, 0) + b"1 2 3\n 4\n", "x")
+
+
 @pytest.mark.parametrize("order", ["ascii", "<", ">"])
 def test_equal_polygons_read_as_a_block_and_mixed_by_the_scan_agree(order):
     tris = [[i, (i + 1) % 6, (i + 3) % 6] for i in range(6)] * 50

@@ -58,7 +58,7 @@ def test_base_scene_is_valid(tmp_path):
     cs = compile_scene(write(tmp_path, BASE))
     assert cs.num_triangles == 2 + 12 + 1 and cs.num_spheres == 1
     assert (cs.integrator, cs.max_depth, cs.rr_depth, cs.spp) == ("nee", 3, 2, 4)
-    assert cs.materials.shape == (2, 16) and cs.materials[1, 0] == 2 and cs.materials[1, 4] == np.float32(0.2)
+    assert cs.materials.shape == (2, 20) and cs.materials[1, 0] == 2 and cs.materials[1, 4] == np.float32(0.2)
     np.testing.assert_array_equal(cs.materials[1, 1:4], 1.0)  # specular reflectance defaults to 1
     assert list(cs.shape_emitter) == [-1, -1, 0, -1]
     assert list(cs.light_prims) == [cs.num_triangles] and list(cs.light_cdf) == [0.0, 1.0]

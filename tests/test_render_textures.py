@@ -358,7 +358,7 @@ def test_bad_texture_files(tmp_path: Path, filename: str, content: bytes | None,
 def test_texture_keys_are_checked(tmp_path: Path) -> None:
     p = checker_scene(tmp_path, 0.5, 0.5, "k.json")
     base = json.loads(p.read_text())
-    cases = [({"type": "roughplastic", "alpha": {"type": "checkerboard"}}, "alpha"),  # its tables need one alpha
+    cases = [({"type": "thindielectric", "ext_ior": {"type": "checkerboard"}}, "ext_ior"),
              ({"type": "dielectric", "int_ior": {"type": "checkerboard"}}, "int_ior"),
              ({"type": "diffuse", "reflectance": {"type": "wood"}}, "type"),
              ({"type": "diffuse", "reflectance": {"type": "bitmap"}}, "filename"),
@@ -407,8 +407,8 @@ def test_one_image_one_copy_and_mesh_corner_order() -> None:
 
 
 @pytest.mark.parametrize("bsdf, match", [
-    ('<bsdf type="dielectric"><texture type="checkerboard" name="specular_reflectance"/></bsdf>',
-     r"t\.xml:\d+: <texture .*a texture for 'specular_reflectance' is not supported on a 'dielectric' BSDF"),
+    ('<bsdf type="plastic"><texture type="checkerboard" name="specular_reflectance"/></bsdf>',
+     r"t\.xml:\d+: <texture .*a texture for 'specular_reflectance' is not supported on a 'plastic' BSDF"),
     ('<bsdf type="diffuse"><texture type="perlin" name="reflectance"/></bsdf>',
      r"t\.xml:\d+: <texture .*unsupported texture plugin 'perlin'"),
     ('<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="no.png"/>'

@@ -25,11 +25,6 @@
 #define TRANSPORT_RADIANCE 0
 #define TRANSPORT_IMPORTANCE 1
 
-/* Bits of material_record.flags (mcocl/bsdf_registry.py, FLAG_BITS). */
-#define MAT_FLAG_TWOSIDED 1
-#define MAT_FLAG_BECKMANN 2
-#define MAT_FLAG_ANISOTROPIC 4
-#define MAT_FLAG_COMPLEX_IOR 8
 #include "render/bsdf_diffuse.cl"
 #include "render/bsdf_conductor.cl"
 #include "render/bsdf_roughconductor.cl"

@@ -8,7 +8,9 @@
  * (light paths, TRANSPORT_IMPORTANCE of bsdf.cl) is not: the adjoint BSDF of a
  * refraction lacks that factor (Veach's thesis §5.2, eq. 5.14).  The path's
  * `eta` factor tracks it for Russian roulette as Mitsuba does.  The
- * material's colour tints both reflection and transmission.
+ * material's colour tints the reflection, its `transmit` the transmission
+ * (Mitsuba's specular_reflectance and specular_transmittance); the lobe is
+ * chosen by the Fresnel term alone.
  */
 #ifndef MCOCL_BSDF_DIELECTRIC_CL
 #define MCOCL_BSDF_DIELECTRIC_CL
@@ -39,12 +41,11 @@ MC_INLINE floatv fresnel_dielectric(floatv cos_i, floatv eta, floatv *cos_t, flo
 
 /* Returns the weight; *pdf is the discrete probability of the chosen lobe,
  * *eta_path the factor eta_t / eta_i of the move (1 on reflection).  u picks
- * the lobe; (u1, u2) are unused (both lobes are deltas).  mat->color is the tint,
+ * the lobe; (u1, u2) are unused (both lobes are deltas).  mat->color and mat->transmit tint them,
  * mat->eta = int_ior / ext_ior.  mode TRANSPORT_IMPORTANCE (light paths) leaves
  * out the radiance scaling (eta_i / eta_t)^2 of refraction (Veach's thesis §5.2). */
 MC_INLINE vec3v dielectric_bsdf_sample(const material_v *mat, vec3v wi, floatv u, floatv u1, floatv u2,
                                        vec3v *wo, floatv *pdf, floatv *eta_path, int mode) {
-    vec3v tint = mat->color;
     const int importance = mode == TRANSPORT_IMPORTANCE;
     floatv cos_t, eta_it, eta_ti;
     floatv r = fresnel_dielectric(wi.z, mat->eta, &cos_t, &eta_it, &eta_ti);
@@ -55,7 +56,7 @@ MC_INLINE vec3v dielectric_bsdf_sample(const material_v *mat, vec3v wi, floatv u
     *pdf = lane_select(1.0f - r, r, refl);
     *eta_path = lane_select(eta_it, (floatv)(1.0f), refl);
     floatv scale = lane_select(eta_ti * eta_ti, (floatv)(1.0f), refl | (intv)(importance ? -1 : 0));
-    return v3_scale(tint, scale);
+    return v3_scale(v3_select(mat->transmit, mat->color, refl), scale);
 }
 
 #endif

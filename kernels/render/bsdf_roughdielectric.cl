@@ -16,6 +16,8 @@
  *   refraction:                   f cos o = (1 - F) D(h) G |i.h| |o.h| eta_p^2
  *                                           / (|cos i| (i.h + eta_p o.h)^2) * s                   (Walter eq. 21)
  *
+ * each times its lobe's tint, mat->color or mat->transmit (Mitsuba's specular_reflectance and
+ * specular_transmittance; the sampling ignores them).
  * s = 1 / eta_p^2 for radiance (TRANSPORT_RADIANCE: the solid-angle
  * compression of Veach's thesis §5.2, eq. 5.12), 1 for importance (the
  * adjoint BSDF, eq. 5.14), as the smooth dielectric (bsdf_dielectric.cl); so
@@ -98,7 +100,7 @@ MC_INLINE vec3v roughdielectric_bsdf_eval(const material_v *mat, vec3v wi, vec3v
     floatv pr = f * pm / (4.0f * lane_abs(doh));
     floatv pt = (1.0f - f) * pm * jac_t;
     *pdf = lane_select((floatv)(0.0f), lane_select(pt, pr, refl), ok);
-    return v3_scale(mat->color, lane_select((floatv)(0.0f), lane_select(ft, fr, refl), ok));
+    return v3_scale(v3_select(mat->transmit, mat->color, refl), lane_select((floatv)(0.0f), lane_select(ft, fr, refl), ok));
 }
 
 /* u_lobe picks reflection or refraction, (u1, u2) the microfacet normal;
@@ -148,7 +150,7 @@ MC_INLINE vec3v roughdielectric_bsdf_sample(const material_v *mat, vec3v wi, flo
     w = lane_select(w * s, w, refl);
     *pdf = lane_select((floatv)(0.0f), lane_select(pt, pr, refl), ok);
     *eta = lane_select(eta_it, (floatv)(1.0f), refl);
-    return v3_scale(mat->color, lane_select((floatv)(0.0f), w, ok));
+    return v3_scale(v3_select(mat->transmit, mat->color, refl), lane_select((floatv)(0.0f), w, ok));
 }
 
 #endif

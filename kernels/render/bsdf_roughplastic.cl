@@ -39,6 +39,51 @@ MC_INLINE floatv roughplastic_transmittance(const material_v *mat, floatv table,
     return a + (x - i0) * (b - a);
 }
 
+/* Floats per table (mcocl/render/roughplastic_tables.py TABLE_FLOATS): a grid's tables follow each other. */
+#define ROUGHPLASTIC_TABLE_FLOATS 80
+
+/* A textured alpha's tables (MAT_FLAG_ALPHA_GRID; roughplastic_tables.py alpha_grid_tables): the first
+ * float of the table below alpha on the grid evenly spaced in log alpha, *step the floats to the one
+ * above (0 when the grid has one alpha), *w the weight of the one above. */
+MC_INLINE floatv roughplastic_grid(const material_v *mat, floatv table, floatv alpha, floatv *step, floatv *w) {
+    global const float *base = (global const float *)mat->mats;
+    uintv head = to_uintv(table) + (uint)ROUGHPLASTIC_RES;
+    floatv log_lo = gather_float(base, head + 1u), inv_step = gather_float(base, head + 2u);
+    floatv last = gather_float(base, head + 3u);
+    floatv x = lane_min(lane_max((log(alpha) - log_lo) * inv_step, 0.0f), last);
+    floatv i0 = lane_min(floor(x), lane_max(last - 1.0f, 0.0f));
+    *w = x - i0;
+    *step = lane_select((floatv)(0.0f), (floatv)((float)ROUGHPLASTIC_TABLE_FLOATS), last > 0.0f);
+    return table + i0 * (float)ROUGHPLASTIC_TABLE_FLOATS;
+}
+
+/* The coat's t(mu_i), t(mu_o) and R_int: the material's table, or on MAT_FLAG_ALPHA_GRID lanes the grid's
+ * two tables around the lanes' alpha, interpolated linearly in log alpha. */
+MC_INLINE void roughplastic_coat(const material_v *mat, floatv alpha, floatv mu_i, floatv mu_o, floatv *t_i,
+                                 floatv *t_o, floatv *r_int) {
+    global const float *base = (global const float *)mat->mats;
+    floatv table = material_table(mat);
+    intv grid = (mat->flags & MAT_FLAG_ALPHA_GRID) != 0;
+    if (lane_any(grid)) {
+        floatv step, w;
+        floatv t0 = lane_select(table, roughplastic_grid(mat, table, alpha, &step, &w), grid);
+        floatv t1 = t0 + lane_select((floatv)(0.0f), step, grid);
+        w = lane_select((floatv)(0.0f), w, grid);
+        floatv a = roughplastic_transmittance(mat, t0, mu_i), b = roughplastic_transmittance(mat, t1, mu_i);
+        *t_i = a + w * (b - a);
+        a = roughplastic_transmittance(mat, t0, mu_o);
+        b = roughplastic_transmittance(mat, t1, mu_o);
+        *t_o = a + w * (b - a);
+        a = gather_float(base, to_uintv(t0) + (uint)ROUGHPLASTIC_RES);
+        b = gather_float(base, to_uintv(t1) + (uint)ROUGHPLASTIC_RES);
+        *r_int = a + w * (b - a);
+        return;
+    }
+    *t_i = roughplastic_transmittance(mat, table, mu_i);
+    *t_o = roughplastic_transmittance(mat, table, mu_o);
+    *r_int = gather_float(base, to_uintv(table) + (uint)ROUGHPLASTIC_RES);
+}
+
 /* f cos and the pdf of sampling wo (both lobes), for wi, wo above the surface (else 0). */
 MC_INLINE vec3v roughplastic_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo, floatv *pdf) {
     floatv alpha = lane_max(mat->alpha, GGX_MIN_ALPHA);
@@ -49,9 +94,8 @@ MC_INLINE vec3v roughplastic_bsdf_eval(const material_v *mat, vec3v wi, vec3v wo
     floatv ct, it, ti;
     floatv f = fresnel_dielectric(v3_dot(wi, h), mat->eta, &ct, &it, &ti);
     floatv spec = f * roughdielectric_dg(wi, wo, h, alpha, alpha, beck, none) / (4.0f * wi.z);
-    floatv table = material_table(mat);
-    floatv t_i = roughplastic_transmittance(mat, table, wi.z), t_o = roughplastic_transmittance(mat, table, wo.z);
-    floatv r_int = gather_float((global const float *)mat->mats, to_uintv(table) + (uint)ROUGHPLASTIC_RES);
+    floatv t_i, t_o, r_int;
+    roughplastic_coat(mat, alpha, wi.z, wo.z, &t_i, &t_o, &r_int);
     floatv kd = t_i * t_o * wo.z * RT_INV_PI / ((1.0f - r_int) * mat->eta * mat->eta);
     floatv d_mean = (mat->color.x + mat->color.y + mat->color.z) * (1.0f / 3.0f);
     floatv s = 1.0f / (1.0f + d_mean);
@@ -71,7 +115,8 @@ MC_INLINE vec3v roughplastic_bsdf_sample(const material_v *mat, vec3v wi, floatv
     intv beck = (mat->flags & MAT_FLAG_BECKMANN) != 0;
     intv front = wi.z > 0.0f;
     vec3v wiv = v3_select(v3(0.0f, 0.0f, 1.0f), wi, front);
-    floatv t_i = roughplastic_transmittance(mat, material_table(mat), wiv.z);
+    floatv t_i, t_o, r_int;
+    roughplastic_coat(mat, alpha, wiv.z, wiv.z, &t_i, &t_o, &r_int);
     floatv d_mean = (mat->color.x + mat->color.y + mat->color.z) * (1.0f / 3.0f);
     floatv s = 1.0f / (1.0f + d_mean);
     floatv ps = (1.0f - t_i) * s, pd = t_i * (1.0f - s);

@@ -11,7 +11,8 @@
  *
  * (Mitsuba 3's thindielectric, after its documentation; absorption inside the
  * sheet is not modelled.)  Both lobes are Dirac deltas: reflection is chosen
- * with probability R', so each sample's weight is the tint.  Two-sided by
+ * with probability R', so each sample's weight is its lobe's tint
+ * (Mitsuba's specular_reflectance, specular_transmittance).  Two-sided by
  * nature and symmetric: no radiance scaling (no change of medium along the
  * path), eta 1 in both transport modes.
  */
@@ -29,7 +30,8 @@ MC_INLINE floatv thindielectric_reflectance(floatv cos_i, floatv eta) {
     return lane_select(r, r + t * t * r / (1.0f - r * r), r < 1.0f);
 }
 
-/* u picks the lobe; (u1, u2) unused.  mat->color tints both lobes, mat->eta = int_ior / ext_ior. */
+/* u picks the lobe; (u1, u2) unused.  mat->color tints the reflection, mat->transmit the transmission;
+ * mat->eta = int_ior / ext_ior. */
 MC_INLINE vec3v thindielectric_bsdf_sample(const material_v *mat, vec3v wi, floatv u, floatv u1, floatv u2,
                                            vec3v *wo, floatv *pdf, floatv *eta, int mode) {
     floatv r = thindielectric_reflectance(wi.z, mat->eta);
@@ -37,7 +39,7 @@ MC_INLINE vec3v thindielectric_bsdf_sample(const material_v *mat, vec3v wi, floa
     *wo = v3_select(v3_neg(wi), v3(-wi.x, -wi.y, wi.z), refl);
     *pdf = lane_select(1.0f - r, r, refl);
     *eta = (floatv)(1.0f);
-    return v3_select(v3s(0.0f), mat->color, wi.z != 0.0f);
+    return v3_select(v3s(0.0f), v3_select(mat->transmit, mat->color, refl), wi.z != 0.0f);
 }
 
 #endif

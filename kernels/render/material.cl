@@ -3,7 +3,7 @@
  * Materials come from CompiledScene.materials, one material_record each
  * (layouts.cl, from mcocl/layouts.py): kind (a MaterialKind code, MAT_<NAME>,
  * one per BSDF registered in mcocl/bsdf_registry.py), rgb, alpha, int_ior,
- * ext_ior, flags, and the extended alpha_second, eta_rgb, k_rgb, table.  Every
+ * ext_ior, flags, and the extended alpha_second, eta_rgb, k_rgb, table, transmittance_rgb.  Every
  * BSDF kernel file (render/bsdf_<name>.cl) reads its parameters from a material_v; the dispatcher render/bsdf.cl is generated.
  */
 #ifndef MCOCL_MATERIAL_CL
@@ -16,7 +16,8 @@
 
 typedef struct {
     intv kind;
-    vec3v color;  /* albedo (diffuse), specular reflectance (conductors), tint (dielectric) */
+    vec3v color;  /* albedo (diffuse), specular reflectance (conductors, dielectrics) */
+    vec3v transmit; /* a dielectric's specular transmittance: color unless MAT_FLAG_TRANSMITTANCE */
     floatv alpha; /* roughness (along the first tangent when anisotropic) */
     floatv eta;   /* int_ior / ext_ior */
     intv flags;   /* MAT_FLAG_* bits (render/bsdf.cl): twosided, beckmann, anisotropic, complex_ior, tabulated */
@@ -40,6 +41,14 @@ MC_INLINE material_v material_load(global const float4 *mats, uintv index) {
     m.flags = to_intv(REC_FIELD(q, MATERIAL_RECORD_FLAGS));
     m.mats = mats;
     m.index = index;
+    /* the record's last quad only where a dielectric's two tints differ (mcocl/bsdf_registry.py,
+     * transmittance_flag): other materials load nothing more */
+    m.transmit = m.color;
+    intv split = (m.flags & MAT_FLAG_TRANSMITTANCE) != 0;
+    if (lane_any(split)) {
+        rec4v q4 = gather_rec4(mats, index * MATERIAL_RECORD_QUADS + 4u);
+        m.transmit = v3_select(m.transmit, REC_VEC3(q, MATERIAL_RECORD_TRANSMITTANCE_RGB), split);
+    }
     return m;
 }
 

@@ -126,19 +126,26 @@ MC_INLINE vec3v texture_eval(global const float4 *tex, intv id, floatv u, floatv
     return v3_select(v3s(0.0f), out, active);
 }
 
-/* The material map's row of the lanes' materials: (x, y) = the textures of colour and roughness, -1: none. */
+/* The material map's row of the lanes' materials: (x, y, z) = the textures of colour, roughness and a
+ * dielectric's transmittance, -1: none. */
 MC_INLINE rec4v material_texture_ids(const material_v *m, global const float4 *tex, intv active) {
     const uint mat_row = as_uint(tex[0].x);
     return gather_rec4(tex, mat_row + lane_select((uintv)(0u), m->index, active));
 }
 
-/* Replace the colour (and the roughness) of the lanes' materials by their textures at (u, v);
- * r: their material_texture_ids. */
+/* Replace the colour (the transmittance, the roughness) of the lanes' materials by their textures at (u, v);
+ * r: their material_texture_ids.  A textured colour of a dielectric without a transmittance of its own
+ * (no MAT_FLAG_TRANSMITTANCE) tints both lobes, as its constant colour does. */
 MC_INLINE void material_texture_apply(material_v *m, global const float4 *tex, rec4v r, floatv u, floatv v,
                                       intv active) {
-    intv rgb_tex = lane_as_int(r.x), alpha_tex = lane_as_int(r.y);
+    intv rgb_tex = lane_as_int(r.x), alpha_tex = lane_as_int(r.y), trans_tex = lane_as_int(r.z);
     intv use = active & (rgb_tex >= 0);
-    if (lane_any(use)) m->color = v3_select(m->color, texture_eval(tex, rgb_tex, u, v, use), use);
+    if (lane_any(use)) {
+        m->color = v3_select(m->color, texture_eval(tex, rgb_tex, u, v, use), use);
+        m->transmit = v3_select(m->transmit, m->color, use & ((m->flags & MAT_FLAG_TRANSMITTANCE) == 0));
+    }
+    use = active & (trans_tex >= 0);
+    if (lane_any(use)) m->transmit = v3_select(m->transmit, texture_eval(tex, trans_tex, u, v, use), use);
     use = active & (alpha_tex >= 0);
     if (lane_any(use)) {
         /* a roughness texture: the luminance of its RGB (Rec. 709 weights), within the alpha key's range */
@@ -148,7 +155,7 @@ MC_INLINE void material_texture_apply(material_v *m, global const float4 *tex, r
     }
 }
 
-/* Replace the colour (and the roughness) of the lanes' materials by their textures at (u, v). */
+/* Replace the colour (the transmittance, the roughness) of the lanes' materials by their textures at (u, v). */
 MC_INLINE void material_texture(material_v *m, global const float4 *tex, floatv u, floatv v, intv active) {
     material_texture_apply(m, tex, material_texture_ids(m, tex, active), u, v, active);
 }
@@ -158,7 +165,7 @@ MC_INLINE void material_texture(material_v *m, global const float4 *tex, floatv 
 MC_INLINE void material_texture_at_hit(material_v *m, global const float4 *tex, const prim_tables *pt, uintv prim,
                                        floatv b1, floatv b2, vec3v p, intv active) {
     rec4v r = material_texture_ids(m, tex, active);
-    intv need = active & ((lane_as_int(r.x) >= 0) | (lane_as_int(r.y) >= 0));
+    intv need = active & ((lane_as_int(r.x) >= 0) | (lane_as_int(r.y) >= 0) | (lane_as_int(r.z) >= 0));
     if (!lane_any(need)) return;
     floatv u, v;
     texture_uv(tex, pt, prim, b1, b2, p, need, &u, &v);

@@ -29,11 +29,11 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   Degenerate triangles (zero area) are left out of the BVH: no ray hits them.
 - ``shape_material``: uint32 (num_shapes,); ``shape_emitter``: int32
   (num_shapes,), index into ``emitter_radiance`` or −1.
-- ``materials``: float32 (M + T, 16), one :data:`mcocl.layouts.MATERIAL_RECORD` per row, then T rows of
+- ``materials``: float32 (M + T, 20), one :data:`mcocl.layouts.MATERIAL_RECORD` per row, then T rows of
   the materials' tables (roughplastic: mcocl/render/roughplastic_tables.py):
   ``[kind, r, g, b, alpha, int_ior, ext_ior, 0]`` with kind a
   :class:`mcocl.layouts.MaterialKind` code (:data:`MATERIAL_CODES` by name);
-  (r, g, b) = albedo (diffuse) or specular reflectance (conductors; 1 for dielectrics).
+  (r, g, b) = albedo (diffuse) or specular reflectance (conductors, dielectrics).
 - ``emitter_radiance``: float32 (E, 4): RGB radiance (a textured emitter's mean texel), texture id + 1 or 0
   (render/texture_table.py).
 - ``light_prims``: uint32 (L,): every primitive of every emissive shape

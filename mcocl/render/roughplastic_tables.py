@@ -22,7 +22,9 @@ Mitsuba integrates the same quantities by sampling.
 
 All roughplastic materials' tables go after the material records in the one
 materials table (:func:`append_tables`); a record's ``table`` field holds the
-index of its first float.
+index of its first float.  A textured alpha gets one table per alpha of a grid
+over the texture's range (:func:`alpha_grid`), which the kernel interpolates
+linearly in log alpha at the alpha of the hit.
 """
 
 from __future__ import annotations
@@ -32,7 +34,10 @@ import numpy as np
 from ..bsdf_registry import FLAG_BITS
 
 RES = 64  # transmittance entries, mu = 0, 1/63, ..., 1 (Mitsuba's MTS_ROUGH_TRANSMITTANCE_RES)
-TABLE_FLOATS = 80  # RES entries, then R_int, padded to whole 16-float rows
+TABLE_FLOATS = 80  # RES entries, then R_int, padded to whole rows of the materials table (20 floats)
+# A textured alpha's tables (alpha_grid): neighbours at most this ratio apart, at most this many tables
+# (t(mu) moves by < 5e-4 between the linear interpolation over one step and the table there).
+GRID_RATIO, GRID_MAX = 1.1, 48
 _NQ_T, _NQ_P = 96, 48  # quadrature nodes in tan theta_m and in phi (phi over [0, pi]); 160 x 96 moves t by < 4e-5
 
 
@@ -123,22 +128,52 @@ def roughplastic_table(alpha: float, eta: float, beckmann: bool) -> np.ndarray:
     return out
 
 
-def append_tables(materials, records: np.ndarray, table_field: int) -> np.ndarray:
-    """The materials table: ``records`` (M, 16) with every roughplastic material's table appended as rows.
+def alpha_grid(texels: np.ndarray) -> np.ndarray:
+    """The alphas of the tables of a textured alpha: from the least to the greatest luminance of the
+    texture's ``texels`` (N, 3) (Rec. 709 weights, clamped to [1e-4, 1] as the kernel clamps them),
+    evenly spaced in log alpha at most :data:`GRID_RATIO` apart and at most :data:`GRID_MAX` of them;
+    one alpha when the texture's luminance is constant."""
+    lum = np.clip(texels.astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722]), 1e-4, 1.0)
+    lo, hi = float(lum.min()), float(lum.max())
+    if hi <= lo * (1 + 1e-6):
+        return np.array([lo])
+    n = min(int(np.ceil(np.log(hi / lo) / np.log(GRID_RATIO))) + 1, GRID_MAX)
+    return np.exp(np.linspace(np.log(lo), np.log(hi), n))
 
-    ``materials``: the scene's Material list (kind, alpha, int_ior, ext_ior, flags);
+
+def alpha_grid_tables(alphas: np.ndarray, eta: float, beckmann: bool) -> np.ndarray:
+    """The tables at ``alphas`` (:func:`alpha_grid`), one after the other; the first one's floats
+    RES + 1 .. RES + 3 hold the grid: log of the first alpha, the inverse step in log alpha (0 for one
+    alpha) and the number of alphas less one (kernels/render/bsdf_roughplastic.cl, roughplastic_grid)."""
+    out = np.concatenate([roughplastic_table(float(a), eta, beckmann) for a in alphas])
+    out[RES + 1] = np.log(alphas[0])
+    out[RES + 2] = (len(alphas) - 1) / np.log(alphas[-1] / alphas[0]) if len(alphas) > 1 else 0.0
+    out[RES + 3] = len(alphas) - 1
+    return out
+
+
+def append_tables(materials, records: np.ndarray, table_field: int) -> np.ndarray:
+    """The materials table: ``records`` (M, 20) with every roughplastic material's table appended as rows.
+
+    ``materials``: the scene's Material list (kind, alpha, int_ior, ext_ior, flags, textures);
     ``table_field``: the column of the record's ``table`` field, set to the table's first float.
+    A material with a textured alpha (flag ``alpha_grid``) gets the tables of :func:`alpha_grid_tables`.
     """
     rows = [records]
     at = records.size
     for i, m in enumerate(materials):
         if m.kind != "roughplastic":
             continue
-        t = roughplastic_table(max(m.alpha, 1e-4), m.int_ior / m.ext_ior, bool(m.flags & FLAG_BITS["beckmann"]))
+        eta, beckmann = m.int_ior / m.ext_ior, bool(m.flags & FLAG_BITS["beckmann"])
+        if m.flags & FLAG_BITS["alpha_grid"]:
+            t = alpha_grid_tables(alpha_grid(m.textures["alpha"].texels()), eta, beckmann)
+        else:
+            t = roughplastic_table(max(m.alpha, 1e-4), eta, beckmann)
         records[i, table_field] = at
         rows.append(t.reshape(-1, records.shape[1]))
         at += t.size
     return np.concatenate(rows) if len(rows) > 1 else records
 
 
-__all__ = ["RES", "TABLE_FLOATS", "append_tables", "roughplastic_table"]
+__all__ = ["GRID_MAX", "GRID_RATIO", "RES", "TABLE_FLOATS", "alpha_grid", "alpha_grid_tables", "append_tables",
+           "roughplastic_table"]

@@ -109,7 +109,9 @@ class Material:
     alpha_second: float = 0.0  # anisotropic roughness along the second tangent (the key alpha_v)
     eta_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))  # a conductor's complex IOR
     k_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    # Record fields ("rgb", "alpha") given by a texture (mcocl/render/textures.py), looked up per hit.
+    # a dielectric's transmission tint when it is not rgb (flags bit "transmittance"; mcocl/bsdf_registry.py)
+    transmittance_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    # Record fields ("rgb", "alpha", "transmittance_rgb") given by a texture (mcocl/render/textures.py), looked up per hit.
     textures: dict[str, Texture] = field(default_factory=dict)
 
 
@@ -484,11 +486,13 @@ def _material(c: _Checker, m: dict, key: str, name: str, spec: BsdfSpec, roots: 
     bad = spec.derive(values) or spec.check(values)
     if bad is not None:
         c.fail(f"{key}.{bad[0]}", bad[1])
+    flags = int(values["flags"]) | spec.texture_flags(values, set(textures))  # type: ignore[call-overload]
     return Material(name, spec.name, np.array(values["rgb"], np.float64).reshape(3), alpha=float(values["alpha"]),
-                    int_ior=float(values["int_ior"]), ext_ior=float(values["ext_ior"]), flags=int(values["flags"]),
+                    int_ior=float(values["int_ior"]), ext_ior=float(values["ext_ior"]), flags=flags,
                     alpha_second=float(values["alpha_second"]),  # type: ignore[arg-type]
                     eta_rgb=np.array(values["eta_rgb"], np.float64).reshape(3),
-                    k_rgb=np.array(values["k_rgb"], np.float64).reshape(3), textures=textures)
+                    k_rgb=np.array(values["k_rgb"], np.float64).reshape(3),
+                    transmittance_rgb=np.array(values["transmittance_rgb"], np.float64).reshape(3), textures=textures)
 
 
 def _transform(c: _Checker, v: Any, key: str) -> np.ndarray:

@@ -5,7 +5,8 @@ float4 rows; fields marked (int) hold int32/uint32 bits:
 - row 0, the header (int): first row of the material map, of the triangles'
   UVs, of the spheres' frames, of the texture descriptors;
 - the material map, one row per material (int): the texture of its colour
-  (``rgb``), of its roughness (``alpha``), −1 for none, 0, 0;
+  (``rgb``), of its roughness (``alpha``), of a dielectric's transmittance
+  (``transmittance_rgb``), −1 for none, and 0;
 - the triangles' UVs, two rows per triangle: (u0, v0, u1, v1), (u2, v2, 0, 0)
   (mcocl/render/shape_uvs.py), at least one triangle's worth;
 - the spheres' frames, three rows per sphere: the world -> local rows, at least one sphere's worth;
@@ -34,7 +35,7 @@ from .textures import FILTERS, KINDS, MAX_TEXELS, WRAPS, Texture
 # What the kernels read for textures when the scene has none (OpenCL has no empty buffers).
 TEXTURES_ABSENT = {"textures": np.zeros((1, 4), np.float32)}
 # The record fields a texture can replace, in the material map's column order.
-TEXTURED_FIELDS = ("rgb", "alpha")
+TEXTURED_FIELDS = ("rgb", "alpha", "transmittance_rgb")
 DESCRIPTOR_ROWS = 3
 
 
@@ -89,7 +90,7 @@ def texture_table(materials: list, shapes: list) -> np.ndarray | None:
     table[0] = _ints(mat_row, tri_row, sph_row, desc_row)
     for i, m in enumerate(materials):
         ids = [next((k for k, t in enumerate(textures) if t is m.textures.get(f)), -1) for f in TEXTURED_FIELDS]
-        table[mat_row + i] = _ints(*ids, 0, 0)
+        table[mat_row + i] = _ints(*ids, 0)
     tri = table[tri_row:tri_row + 2 * len(uvs)].reshape(-1, 8)
     tri[:, :6] = uvs.reshape(-1, 6)
     table[sph_row:sph_row + 3 * len(frames), :3] = frames.reshape(-1, 3)

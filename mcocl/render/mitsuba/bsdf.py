@@ -113,15 +113,8 @@ def translate_bsdf(node: Node, rep: Reporter, resolve, scene_folder: Path | None
     elif kind in ("conductor", "roughconductor"):
         mat = _conductor(node, kind, props, rep, comments)
     elif kind == "dielectric":
-        ni = _ior(props, "int_ior", "bk7", comments)
-        ne = _ior(props, "ext_ior", "air", comments)
-        for k in ("specular_reflectance", "specular_transmittance"):
-            v = props.colour(k, 1.0)
-            if np.any(v != 1.0):
-                rep.unsupported(props.node(k), f"{k} other than 1", "1 (leave it out)", "1", comments)
-        mat = {"type": "dielectric", "int_ior": ni, "ext_ior": ne}
-        rep.leftover(node, props.unread(), ("int_ior", "ext_ior", "specular_reflectance",
-                                            "specular_transmittance"), comments)
+        mat = _dielectric_iors(node, "dielectric", props, rep, comments)
+        rep.leftover(node, props.unread(), ("int_ior", "ext_ior", *DIELECTRIC_TINTS), comments)
     elif kind in ("plastic", "roughplastic"):
         mat = _plastic(node, props, rep, comments, kind=kind)
     elif kind == "roughdielectric":
@@ -278,14 +271,18 @@ def _conductor(node: Node, kind: str, props, rep: Reporter, comments: list[str])
     return mat
 
 
+# The tints of a (rough, thin) dielectric's reflection and transmission: mcocl's keys of the same names.
+DIELECTRIC_TINTS = ("specular_reflectance", "specular_transmittance")
+
+
 def _dielectric_iors(node: Node, kind: str, props, rep: Reporter, comments: list[str]) -> dict:
-    """The iors of a (rough, thin) dielectric; a specular reflectance/transmittance other than 1 is unsupported."""
-    mat = {"type": kind, "int_ior": _ior(props, "int_ior", "bk7", comments),
-           "ext_ior": _ior(props, "ext_ior", "air", comments)}
-    for k in ("specular_reflectance", "specular_transmittance"):
-        v = props.colour(k, 1.0)
-        if np.any(v != 1.0):
-            rep.unsupported(props.node(k), f"{k} other than 1", "1 (leave it out)", "1", comments)
+    """The iors and the constant tints (those given; a textured one is put in by apply_textures) of a
+    (rough, thin) dielectric."""
+    mat: dict[str, Any] = {"type": kind, "int_ior": _ior(props, "int_ior", "bk7", comments),
+                           "ext_ior": _ior(props, "ext_ior", "air", comments)}
+    for k in DIELECTRIC_TINTS:
+        if k in props:
+            mat[k] = rgb_json(props.colour(k, 1.0))
     return mat
 
 
@@ -293,16 +290,14 @@ def _rough_dielectric(node: Node, props, rep: Reporter, comments: list[str]) -> 
     """Mitsuba 3's ``roughdielectric`` (kernels/render/bsdf_roughdielectric.cl)."""
     mat = _dielectric_iors(node, "roughdielectric", props, rep, comments)
     _roughness(node, "roughdielectric", props, rep, comments, mat)
-    rep.leftover(node, props.unread(), ("int_ior", "ext_ior", "specular_reflectance", "specular_transmittance",
-                                        *ROUGHNESS_PROPS), comments)
+    rep.leftover(node, props.unread(), ("int_ior", "ext_ior", *DIELECTRIC_TINTS, *ROUGHNESS_PROPS), comments)
     return mat
 
 
 def _thin_dielectric(node: Node, props, rep: Reporter, comments: list[str]) -> dict:
     """Mitsuba 3's ``thindielectric`` (kernels/render/bsdf_thindielectric.cl)."""
     mat = _dielectric_iors(node, "thindielectric", props, rep, comments)
-    rep.leftover(node, props.unread(), ("int_ior", "ext_ior", "specular_reflectance", "specular_transmittance"),
-                 comments)
+    rep.leftover(node, props.unread(), ("int_ior", "ext_ior", *DIELECTRIC_TINTS), comments)
     return mat
 
 
