@@ -882,9 +882,13 @@ def snippet_cases() -> list[Case]:
         checks=(estimate_near(3e38),))
     add("index-beyond-dim", "x[5]", "--dim", "2", expect="error")
     add("index-beyond-dim-walk", "x[0]", expect="ok", checks=(estimate_near(0.5),))
+    # past mcocl's 8,000-operator limit (mcocl/snippet_size.py): refused before compiling; below it: compiled
+    add("expression-5000", "+".join(["x[0]"] * 5000), "--samples", "1e3", expect="ok",
+        checks=(estimate_near(2500.0),), limit=240)
     for n in (12000, 18000):
-        add(f"expression-{n}", "+".join(["x[0]"] * n), "--samples", "1e3",
-            expect="any", checks=(estimate_near(float(n) / 2),), limit=240)
+        add(f"expression-{n}", "+".join(["x[0]"] * n), "--samples", "1e3", expect="error", checks=(says("8,000"),),
+            limit=30)
+    add("nested-not-9000", "!" * 9000 + "(x[0] > 0.5f)", expect="error", checks=(says("8,000"),), limit=30)
     # 120,000 characters: past mcocl's snippet limit, inside the kernel's 128 KiB limit on one argument
     add("expression-120k-chars", "+".join(["x[0]"] * 24000), "--samples", "1e3", expect="error", limit=240)
     add("printf-flood", 'printf("x"); return 1.0f;', "--samples", "1e3", expect="any", checks=())

@@ -10,17 +10,18 @@ than linearly with them.  Measured on this project's machine (PoCL 3.1, LLVM
   18,000-term sum did (12,000 had worked);
 - on the 1 GiB stack mcocl builds on (:func:`mcocl.runtime.build`) 49,000
   nested unary minus, 20,000 nested ``!`` and 18,000-term sums and products
-  compiled, but took 9 s, 127 s and about 50 s; 4,500 nested conditionals
-  (13,500 operators) took 197 s, during which ``--time`` does not run (a
-  supervisor does not count compile time against it, :mod:`mcocl.cli.supervise`).
+  compiled, in 9 s, 127 s and about 50 s; 1,000, 2,000 and 4,500 nested
+  conditionals (2 operators each) in 78 s, 74 s and 197 s.  Compile time does
+  not count against ``--time`` (:mod:`mcocl.cli.supervise`), so it is bounded
+  only by the snippet's size.
 
 So a snippet is refused before compiling when it has more than
-``MAX_SNIPPET_OPERATORS`` operators, which bounds both the depth of any
-chain or nesting (brackets are bounded separately, by clang's 256) and the
-compile time: 8,000 keeps a sum's compile under about a minute on that host
-(44 s for 8,000 terms at a load of 12), a third below the 12,000-term sum that
-worked on the small stack, and the 1 GiB stack leaves a margin of more than 100
-over the shallowest crash seen on 8 MiB (3,000 nested ``!``).
+``MAX_SNIPPET_OPERATORS`` operators, which bounds the depth of any chain or
+nesting (brackets are bounded separately, by clang's 256) and the compile
+time: 8,000 is a third below the 12,000-term sum that worked on the small
+stack, the 1 GiB stack leaves a margin of more than 100 over the shallowest
+crash seen on 8 MiB (3,000 nested ``!``), and an 8,000-term sum compiled in
+44 s at a load of 12.
 ``MAX_SNIPPET_CHARS`` bounds the text itself (long names, comments).
 """
 
