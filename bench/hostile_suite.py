@@ -7,7 +7,8 @@ outcome automatically:
 - ``traceback``  a Python traceback on stderr;
 - ``crash``      killed by a signal, an exit status other than 0/2/130/143, or a
                  failure without a message line;
-- ``hang``       outlived ``--time`` by more than 5 s (or the case's time limit);
+- ``hang``       outlived ``--time`` by more than 5 s, not counting the compile time the
+                 supervisor names (or the case's time limit);
 - ``silent``     a silently wrong result: exit 0 where a refusal was due, or a
                  numeric result that misses an independent expected value by
                  more than 5 reported standard errors (or is not finite while
@@ -23,6 +24,7 @@ may appear there).  The repository's ``scenes/`` and ``docs/bench/`` are
 hashed before and after the whole run.
 
     PYTHONPATH=. python bench/hostile_suite.py                 # everything
+    PYTHONPATH=. python bench/hostile_suite.py --every 4       # ~110 cases from every class, ~6 min
     PYTHONPATH=. python bench/hostile_suite.py --class signal,env
     PYTHONPATH=. python bench/hostile_suite.py --list
     PYTHONPATH=. python bench/hostile_suite.py --case snippet-oob-write -v
@@ -40,6 +42,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -221,7 +224,14 @@ def furnace_is_one(name: str) -> Check:
 
 
 def ended_in_time(o: Outcome, budget: float) -> str | None:
-    return f"hang: ran {o.wall:.1f} s with --time {budget:g}" if o.wall > budget + 5.0 else None
+    """The run ended within 5 s of ``--time``, not counting the compiling (and, once sampling began,
+    start-up) that the supervisor leaves out of the budget and names when it stops a run: a fresh
+    compile on a busy machine takes longer than the budget itself."""
+    m = re.search(r"not counting ([\d.]+) s of", o.err)
+    uncounted = float(m.group(1)) if m else 0.0
+    if o.wall - uncounted > budget + 5.0:
+        return f"hang: ran {o.wall:.1f} s ({uncounted:.1f} s of it not counted) with --time {budget:g}"
+    return None
 
 
 # ---------------------------------------------------------------- inputs
@@ -821,7 +831,9 @@ def signal_cases() -> list[Case]:
                   expect="signal", signals=((6.0, signal.SIGINT),), outputs=("b",), limit=60))
     c.append(Case("sig-resume-after-sigint", "signal", ["integrate", "exp(-x[0]*x[0])", "--samples", "1e14",
                                                         "--checkpoint", "{in}/int.ckpt", "--resume", "{in}/int.ckpt"],
-                  expect="signal", signals=((2.5, signal.SIGINT),), checks=(printed_estimate,), limit=60,
+                  # late enough that sampling has begun on a busy machine (an interrupt while the child
+                  # still imports ends it with "nothing was computed", the checkpoint unchanged)
+                  expect="signal", signals=((8.0, signal.SIGINT),), checks=(printed_estimate,), limit=60,
                   mutable=("int.ckpt",)))
     return c
 
