@@ -94,6 +94,11 @@ def _run(argv: list[str] | None) -> int:
         return supervise.run(sys.argv[1:], args.command, getattr(args, "time_budget", None))
     if args.verbose:
         set_build_log(True)
+    if args.command in supervise.SUPERVISED:  # the commands that run on a device
+        from ..engine.contract import InterruptFlag
+
+        # a run stopped by Ctrl-C or SIGTERM still reports and saves its result when the request is repeated
+        InterruptFlag.linger = True
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         try:
@@ -104,6 +109,9 @@ def _run(argv: list[str] | None) -> int:
         except KeyboardInterrupt:
             print(f"mcocl {args.command}: interrupted", file=sys.stderr)
             return 130
+        finally:
+            if "mcocl.engine.contract" in sys.modules:  # in-process callers (tests) get the default back
+                sys.modules["mcocl.engine.contract"].InterruptFlag.linger = False
 
 
 if __name__ == "__main__":  # python -m mcocl.cli
