@@ -815,7 +815,10 @@ def signal_cases() -> list[Case]:
         for sname, sigs in [("sigint", (("c.ckpt", signal.SIGINT),)),
                             ("2sigint", (("c.ckpt", signal.SIGINT), (0.05, signal.SIGINT))),
                             ("sigterm", (("c.ckpt", signal.SIGTERM),)),
-                            ("sigint-sigterm", (("c.ckpt", signal.SIGINT), (0.05, signal.SIGTERM)))]:
+                            ("sigint-sigterm", (("c.ckpt", signal.SIGINT), (0.05, signal.SIGTERM))),
+                            # the second request lands while the stopped run reports and saves its result
+                            ("sigint-late-sigint", (("c.ckpt", signal.SIGINT), (0.4, signal.SIGINT))),
+                            ("sigint-late-sigterm", (("c.ckpt", signal.SIGINT), (1.0, signal.SIGTERM)))]:
             c.append(Case(f"sig-{what}-{sname}", "signal", argv, expect="signal", signals=sigs, outputs=outs,
                           checks=extra, limit=90))
     c.append(Case("sig-loop-sigint", "signal", ["integrate", LOOP, "--samples", "1e6"], expect="signal",

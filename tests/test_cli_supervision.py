@@ -189,3 +189,29 @@ def test_a_run_stopped_at_its_time_names_the_seconds_not_counted() -> None:
     assert child.running_seconds(110.0) == 3.0  # what --time is held against: the rest
     child.started, child.compile_seconds, child.compile_before_start = 100.0, 0.0, 0.0
     assert child.uncounted(110.0) == ""
+
+
+def test_a_command_stopped_on_request_ignores_further_requests_as_it_exits(monkeypatch) -> None:
+    """Python resets its own signal handlers while it exits, so a SIGTERM a moment after the reported
+    stop killed the process (exit -15 in place of 130); once stopped and reported, the command ignores
+    both (the console entry point only: in-process callers keep their handlers)."""
+    import signal
+
+    import mcocl.cli as cli
+
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        for code, ignored in ((130, True), (143, True), (0, False)):
+            monkeypatch.setattr(cli, "_run", lambda argv, code=code: code)
+            for s, h in before.items():
+                signal.signal(s, h)
+            assert cli.main() == code
+            assert (signal.getsignal(signal.SIGTERM) is signal.SIG_IGN) is ignored
+            assert (signal.getsignal(signal.SIGINT) is signal.SIG_IGN) is ignored
+        for s, h in before.items():
+            signal.signal(s, h)
+        monkeypatch.setattr(cli, "_run", lambda argv: 130)
+        assert cli.main(["integrate"]) == 130 and signal.getsignal(signal.SIGTERM) is before[signal.SIGTERM]
+    finally:
+        for s, h in before.items():
+            signal.signal(s, h)

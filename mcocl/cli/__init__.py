@@ -71,12 +71,19 @@ def main(argv: list[str] | None = None) -> int:
     if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:  # see mcocl/__init__.py: from here on, KeyboardInterrupt
         signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
-        return _run(argv)
+        code = _run(argv)
     except KeyboardInterrupt:
         # Ctrl-C before the command's own handling is set up (while the
         # sub-commands import NumPy and pyopencl): nothing ran yet, no traceback.
         print("mcocl: interrupted", file=sys.stderr)
-        return 130
+        code = 130
+    if code in (130, 143) and argv is None:
+        # Stopped on request and reported: a repeated request has nothing left to stop.  Python resets
+        # its own handlers as it exits, and a SIGTERM then killed the process (exit -15 in place of the
+        # reported 130, issue 10); an ignored signal stays ignored.
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+    return code
 
 
 def _run(argv: list[str] | None) -> int:
