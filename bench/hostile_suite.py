@@ -7,7 +7,8 @@ outcome automatically:
 - ``traceback``  a Python traceback on stderr;
 - ``crash``      killed by a signal, an exit status other than 0/2/130/143, or a
                  failure without a message line;
-- ``hang``       outlived ``--time`` by more than 5 s (or the case's time limit);
+- ``hang``       outlived ``--time`` by more than 5 s, not counting the compile time the
+                 supervisor names (or the case's time limit);
 - ``silent``     a silently wrong result: exit 0 where a refusal was due, or a
                  numeric result that misses an independent expected value by
                  more than 5 reported standard errors (or is not finite while
@@ -23,6 +24,7 @@ may appear there).  The repository's ``scenes/`` and ``docs/bench/`` are
 hashed before and after the whole run.
 
     PYTHONPATH=. python bench/hostile_suite.py                 # everything
+    PYTHONPATH=. python bench/hostile_suite.py --every 4       # ~110 cases from every class, ~2-4 min
     PYTHONPATH=. python bench/hostile_suite.py --class signal,env
     PYTHONPATH=. python bench/hostile_suite.py --list
     PYTHONPATH=. python bench/hostile_suite.py --case snippet-oob-write -v
@@ -40,6 +42,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -221,7 +224,14 @@ def furnace_is_one(name: str) -> Check:
 
 
 def ended_in_time(o: Outcome, budget: float) -> str | None:
-    return f"hang: ran {o.wall:.1f} s with --time {budget:g}" if o.wall > budget + 5.0 else None
+    """The run ended within 5 s of ``--time``, not counting the compiling (and, once sampling began,
+    start-up) that the supervisor leaves out of the budget and names when it stops a run: a fresh
+    compile on a busy machine takes longer than the budget itself."""
+    m = re.search(r"not counting ([\d.]+) s of", o.err)
+    uncounted = float(m.group(1)) if m else 0.0
+    if o.wall - uncounted > budget + 5.0:
+        return f"hang: ran {o.wall:.1f} s ({uncounted:.1f} s of it not counted) with --time {budget:g}"
+    return None
 
 
 # ---------------------------------------------------------------- inputs
@@ -805,7 +815,10 @@ def signal_cases() -> list[Case]:
         for sname, sigs in [("sigint", (("c.ckpt", signal.SIGINT),)),
                             ("2sigint", (("c.ckpt", signal.SIGINT), (0.05, signal.SIGINT))),
                             ("sigterm", (("c.ckpt", signal.SIGTERM),)),
-                            ("sigint-sigterm", (("c.ckpt", signal.SIGINT), (0.05, signal.SIGTERM)))]:
+                            ("sigint-sigterm", (("c.ckpt", signal.SIGINT), (0.05, signal.SIGTERM))),
+                            # the second request lands while the stopped run reports and saves its result
+                            ("sigint-late-sigint", (("c.ckpt", signal.SIGINT), (0.4, signal.SIGINT))),
+                            ("sigint-late-sigterm", (("c.ckpt", signal.SIGINT), (1.0, signal.SIGTERM)))]:
             c.append(Case(f"sig-{what}-{sname}", "signal", argv, expect="signal", signals=sigs, outputs=outs,
                           checks=extra, limit=90))
     c.append(Case("sig-loop-sigint", "signal", ["integrate", LOOP, "--samples", "1e6"], expect="signal",
@@ -821,7 +834,9 @@ def signal_cases() -> list[Case]:
                   expect="signal", signals=((6.0, signal.SIGINT),), outputs=("b",), limit=60))
     c.append(Case("sig-resume-after-sigint", "signal", ["integrate", "exp(-x[0]*x[0])", "--samples", "1e14",
                                                         "--checkpoint", "{in}/int.ckpt", "--resume", "{in}/int.ckpt"],
-                  expect="signal", signals=((2.5, signal.SIGINT),), checks=(printed_estimate,), limit=60,
+                  # late enough that sampling has begun on a busy machine (an interrupt while the child
+                  # still imports ends it with "nothing was computed", the checkpoint unchanged)
+                  expect="signal", signals=((8.0, signal.SIGINT),), checks=(printed_estimate,), limit=60,
                   mutable=("int.ckpt",)))
     return c
 
@@ -882,9 +897,13 @@ def snippet_cases() -> list[Case]:
         checks=(estimate_near(3e38),))
     add("index-beyond-dim", "x[5]", "--dim", "2", expect="error")
     add("index-beyond-dim-walk", "x[0]", expect="ok", checks=(estimate_near(0.5),))
+    # past mcocl's 8,000-operator limit (mcocl/snippet_size.py): refused before compiling; below it: compiled
+    add("expression-5000", "+".join(["x[0]"] * 5000), "--samples", "1e3", expect="ok",
+        checks=(estimate_near(2500.0),), limit=240)
     for n in (12000, 18000):
-        add(f"expression-{n}", "+".join(["x[0]"] * n), "--samples", "1e3",
-            expect="any", checks=(estimate_near(float(n) / 2),), limit=240)
+        add(f"expression-{n}", "+".join(["x[0]"] * n), "--samples", "1e3", expect="error", checks=(says("8,000"),),
+            limit=30)
+    add("nested-not-9000", "!" * 9000 + "(x[0] > 0.5f)", expect="error", checks=(says("8,000"),), limit=30)
     # 120,000 characters: past mcocl's snippet limit, inside the kernel's 128 KiB limit on one argument
     add("expression-120k-chars", "+".join(["x[0]"] * 24000), "--samples", "1e3", expect="error", limit=240)
     add("printf-flood", 'printf("x"); return 1.0f;', "--samples", "1e3", expect="any", checks=())

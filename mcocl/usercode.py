@@ -21,6 +21,7 @@ import re
 from dataclasses import dataclass
 
 from .errors import InputError, KernelBuildError
+from .snippet_size import check_snippet_size
 
 _RETURN = re.compile(r"\breturn\b")
 # A decimal floating literal with an f suffix (1.5f, .5f, 2e-3f, 1.f); not hex
@@ -28,12 +29,6 @@ _RETURN = re.compile(r"\breturn\b")
 _FLOAT_LITERAL = re.compile(r"(?<![\w.])((?:\d+\.\d*|\.\d+)(?:[eE][+-]?\d+)?|\d+[eE][+-]?\d+)[fF]\b")
 # The snippet types of each precision (scalar, lane vector).
 REAL_TYPES = {"float": ("float", "floatv"), "double": ("double", "doublev")}
-# The longest snippet accepted, in characters.  Compile time grows faster than
-# the length: an 18,000-term sum (90,000 characters) takes about a minute to
-# build, and one of 200,000 terms would hold the terminal for hours before
-# anything ran (issue 10).  Longer code belongs in a table (a tabulated
-# proposal) or in several shorter statements.
-MAX_SNIPPET_CHARS = 100_000
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 # clang prints "file:line:col: error: msg"; PoCL's log "error: file:line:col: msg".
 _DIAG = (
@@ -72,10 +67,7 @@ class UserFunction:
     def __post_init__(self) -> None:
         if not isinstance(self.code, str) or not self.code.strip():
             raise InputError(f"{self.label}: expected OpenCL C code (an expression or a body that returns), got {self.code!r}")
-        if len(self.code) > MAX_SNIPPET_CHARS:
-            raise InputError(f"{self.label}: the code is {len(self.code):,} characters long; the limit is "
-                             f"{MAX_SNIPPET_CHARS:,} (the OpenCL compiler would take many minutes on it). Shorten "
-                             "it, or tabulate the function and use a tabulated proposal")
+        check_snippet_size(self.label, self.code)
         if not _IDENT.match(self.func):
             raise ValueError(f"bad function name {self.func!r}")
         if self.real not in REAL_TYPES:

@@ -171,3 +171,47 @@ def test_ctrl_c_twice_in_quick_succession_never_kills_the_supervisor() -> None:
     # -2: the second Ctrl-C came as the interpreter shut down, after the message; a shell shows 130 for both
     assert p.returncode in (130, -signal.SIGINT), err
     assert "Traceback" not in err and ("interrupted" in err or "stopped" in err or "estimate" in out), (out, err)
+
+
+def test_a_run_stopped_at_its_time_names_the_seconds_not_counted() -> None:
+    """The supervisor leaves compiling (and, once sampling began, start-up) out of --time; when it stops a
+    run, the message says how long that was, so a wall time past --time + GRACE is explained."""
+    from mcocl.cli.supervise import _Child
+
+    child = object.__new__(_Child)  # the bookkeeping only: no process
+    child.launched, child.compiling, child.compile_since = 100.0, 0, 0.0
+    child.compile_seconds, child.compile_before_start, child.started = 4.0, 4.0, None
+    assert child.uncounted(110.0) == " (not counting 4.0 s of compiling)"
+    child.compiling, child.compile_since = 1, 108.5  # a second build under way for 1.5 s
+    assert child.uncounted(110.0) == " (not counting 5.5 s of compiling)"
+    child.compiling, child.started = 0, 107.0  # sampling began at 107 after 4 s of compiling; nothing since
+    assert child.uncounted(110.0) == " (not counting 7.0 s of start-up and compiling)"
+    assert child.running_seconds(110.0) == 3.0  # what --time is held against: the rest
+    child.started, child.compile_seconds, child.compile_before_start = 100.0, 0.0, 0.0
+    assert child.uncounted(110.0) == ""
+
+
+def test_a_command_stopped_on_request_ignores_further_requests_as_it_exits(monkeypatch) -> None:
+    """Python resets its own signal handlers while it exits, so a SIGTERM a moment after the reported
+    stop killed the process (exit -15 in place of 130); once stopped and reported, the command ignores
+    both (the console entry point only: in-process callers keep their handlers)."""
+    import signal
+
+    import mcocl.cli as cli
+
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        for code, ignored in ((130, True), (143, True), (0, False)):
+            monkeypatch.setattr(cli, "_run", lambda argv, code=code: code)
+            for s, h in before.items():
+                signal.signal(s, h)
+            assert cli.main() == code
+            assert (signal.getsignal(signal.SIGTERM) is signal.SIG_IGN) is ignored
+            assert (signal.getsignal(signal.SIGINT) is signal.SIG_IGN) is ignored
+        for s, h in before.items():
+            signal.signal(s, h)
+        monkeypatch.setattr(cli, "_run", lambda argv: 130)
+        assert cli.main(["integrate"]) == 130 and signal.getsignal(signal.SIGTERM) is before[signal.SIGTERM]
+    finally:
+        for s, h in before.items():
+            signal.signal(s, h)

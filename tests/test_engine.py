@@ -240,6 +240,28 @@ def test_stop_requests_escalate_and_sigterm_counts_as_ctrl_c():
     assert {s: signal.getsignal(s) for s in before} == before
 
 
+def test_on_the_command_line_requests_after_a_stopped_run_are_still_counted(monkeypatch):
+    """With ``linger`` (the command line's setting), a second Ctrl-C or a SIGTERM that arrives after the
+    stopped run has returned, while its result is being reported and saved, does not raise: only the
+    third request in all does (issue 10: a second request a moment after the first lost the result)."""
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    monkeypatch.setattr(InterruptFlag, "linger", True)
+    try:
+        with InterruptFlag() as flag:
+            os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), signal.SIGTERM)  # after the run: counted, not raised, not fatal
+        assert flag.urgent
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+        assert {s: signal.getsignal(s) for s in before} == before
+    finally:
+        for s, h in before.items():
+            signal.signal(s, h)
+    with InterruptFlag() as flag:  # a run that was not stopped restores the handlers as it ends
+        pass
+    assert {s: signal.getsignal(s) for s in before} == before
+
+
 # -- one context per device ------------------------------------------------------------
 
 

@@ -159,7 +159,7 @@ def test_an_absurdly_long_snippet_is_refused_before_compiling():
     import time
 
     import mcocl
-    from mcocl.usercode import MAX_SNIPPET_CHARS
+    from mcocl.snippet_size import MAX_SNIPPET_CHARS
 
     t0 = time.perf_counter()
     with pytest.raises(InputError, match=rf"integrand: the code is [\d,]+ characters long; the limit is "

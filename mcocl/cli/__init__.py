@@ -71,12 +71,19 @@ def main(argv: list[str] | None = None) -> int:
     if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:  # see mcocl/__init__.py: from here on, KeyboardInterrupt
         signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
-        return _run(argv)
+        code = _run(argv)
     except KeyboardInterrupt:
         # Ctrl-C before the command's own handling is set up (while the
         # sub-commands import NumPy and pyopencl): nothing ran yet, no traceback.
         print("mcocl: interrupted", file=sys.stderr)
-        return 130
+        code = 130
+    if code in (130, 143) and argv is None:
+        # Stopped on request and reported: a repeated request has nothing left to stop.  Python resets
+        # its own handlers as it exits, and a SIGTERM then killed the process (exit -15 in place of the
+        # reported 130, issue 10); an ignored signal stays ignored.
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+    return code
 
 
 def _run(argv: list[str] | None) -> int:
@@ -94,6 +101,11 @@ def _run(argv: list[str] | None) -> int:
         return supervise.run(sys.argv[1:], args.command, getattr(args, "time_budget", None))
     if args.verbose:
         set_build_log(True)
+    if args.command in supervise.SUPERVISED:  # the commands that run on a device
+        from ..engine.contract import InterruptFlag
+
+        # a run stopped by Ctrl-C or SIGTERM still reports and saves its result when the request is repeated
+        InterruptFlag.linger = True
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         try:
@@ -104,6 +116,9 @@ def _run(argv: list[str] | None) -> int:
         except KeyboardInterrupt:
             print(f"mcocl {args.command}: interrupted", file=sys.stderr)
             return 130
+        finally:
+            if "mcocl.engine.contract" in sys.modules:  # in-process callers (tests) get the default back
+                sys.modules["mcocl.engine.contract"].InterruptFlag.linger = False
 
 
 if __name__ == "__main__":  # python -m mcocl.cli

@@ -217,6 +217,17 @@ class _Child:
             return now - self.launched - self.compile_seconds - compiling
         return now - self.started - (self.compile_seconds - self.compile_before_start) - compiling
 
+    def uncounted(self, now: float) -> str:
+        """What ``running_seconds`` left out, for the message of a run stopped at its --time: the wall
+        time then exceeds --time plus GRACE by this much, and the user should see why."""
+        seconds = self.compile_seconds + (now - self.compile_since if self.compiling else 0.0)
+        if self.started is not None:
+            seconds += self.started - self.launched - self.compile_before_start
+            what = "start-up and compiling"
+        else:
+            what = "compiling"
+        return f" (not counting {seconds:.1f} s of {what})" if seconds >= 0.05 else ""
+
     def kill(self, why: str) -> None:
         self.killed_for = why
         try:
@@ -297,8 +308,8 @@ def _run_once(
                 child.kill(f"it did not stop within {wait:g} s of the request (a kernel launch is stuck)")
             elif time_budget is not None and child.running_seconds(now) > time_budget + GRACE:
                 child.kill(
-                    f"it outlived --time {time_budget:g} by {GRACE:g} s: a kernel launch did not return "
-                    "(an endless loop in the user code?)"
+                    f"it outlived --time {time_budget:g} by {GRACE:g} s{child.uncounted(now)}: a kernel launch "
+                    "did not return (an endless loop in the user code?)"
                 )
         code = child.proc.wait()
         child.drain()

@@ -233,7 +233,13 @@ class InterruptFlag:
 
     A terminating service manager sends SIGTERM where a user presses Ctrl-C;
     both mean "stop and keep what you have".  Leaving the context restores
-    the previous handlers.
+    the previous handlers, except where :attr:`linger` is set (the command
+    line sets it) and a stop was asked for: then requests go on being counted
+    until the process ends, and only the third in all raises
+    :class:`KeyboardInterrupt`.  The stopped run's result is reported and
+    saved after the context ends; without this, a second Ctrl-C or a SIGTERM
+    that came a moment after the first (a supervisor, a service manager)
+    landed there and lost it (issue 10).
 
     Attributes:
         requested: True once a stop was asked for.
@@ -241,6 +247,8 @@ class InterruptFlag:
     """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
+    # Keep counting requests after a stopped run (see the class docstring); a process-wide choice.
+    linger = False
 
     def __init__(self) -> None:
         self.requested = False
@@ -268,6 +276,8 @@ class InterruptFlag:
         self.urgent = self._count >= 2
 
     def __exit__(self, *exc: object) -> None:
+        if self.requested and InterruptFlag.linger and self._old:
+            return  # the handler stays, and counts on towards the third request
         self._restore()
 
 
