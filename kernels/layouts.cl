@@ -460,6 +460,8 @@ typedef struct {
     int bdpt_only_t;
     int bdpt_unweighted;
     int bdpt_power_mis;
+    float near_clip;
+    float far_clip;
     float4 env_radiance;
 } render_params;
 

@@ -335,7 +335,7 @@ def test_near_clip_hides_what_lies_nearer(tmp_path: Path) -> None:
     p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
                              '<float name="near_clip" value="0.25"/>'))
     assert compile_scene(p).near_clip == 0.25
-    assert compile_scene(_xml(tmp_path, "")).near_clip == 0.0  # Mitsuba's 0.01 default is not applied
+    assert compile_scene(_xml(tmp_path, "")).near_clip == 0.01  # Mitsuba's default
 
 
 def test_far_clip_hides_what_lies_farther(tmp_path: Path) -> None:
@@ -361,7 +361,7 @@ def test_far_clip_hides_what_lies_farther(tmp_path: Path) -> None:
     p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
                              '<float name="far_clip" value="25"/>'))
     assert compile_scene(p).far_clip == 25.0
-    assert compile_scene(_xml(tmp_path, "")).far_clip is None  # Mitsuba's 1e4 default is not applied
+    assert compile_scene(_xml(tmp_path, "")).far_clip == 1e4  # Mitsuba's default
     p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
                              '<float name="far_clip" value="0"/>'))
     with pytest.raises(InputError, match=r"clip\.xml:\d+: .*far_clip must exceed near_clip"):

@@ -50,7 +50,7 @@
  * heuristic.  The camera's lens is not a target of light paths (t = 0 is
  * not a strategy), as in lt.cl.
  *
- * The camera's clip planes (-DNEAR_CLIP, -DFAR_CLIP; render/camera.cl): the
+ * The camera's clip planes (render_params near_clip, far_clip; render/camera.cl): the
  * camera ray leaves from the near clip plane (z_0 stays the lens point) and a
  * hit beyond the far one is a miss, as the megakernel's primary rays; a
  * (s, 1) connection counts only for a point between the planes, its shadow
@@ -142,6 +142,7 @@ typedef struct {
     const prim_tables *pt;
     const light_tables *lt;
     global const float4 *camera;
+    camera_clip clip; /* the camera's clip planes (render/camera.cl) */
     global const float4 *materials;
     global const float4 *textures; /* render/texture.cl (bound, and read, only with -DTEXTURES) */
     float4 bsphere;
@@ -223,11 +224,10 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
     vertex_bsdf pb; /* path[n - 1]'s material, frame and geometric wi, from the step that sampled it */
     for (int n = 1; n < maxv && lane_any(alive); ) {
         hitv h = trace_closest_v(sc->geom, o, d, alive);
-#ifdef FAR_CLIP
         /* a camera ray ends at the far clip plane, as the megakernel's (render/camera.cl): what lies
          * beyond is a miss */
-        if (n == 1 && mode == TRANSPORT_RADIANCE) h.hit = h.hit & !camera_beyond_far_clip(sc->camera, d, h.t);
-#endif
+        if (n == 1 && mode == TRANSPORT_RADIANCE && camera_has_far_clip(sc->clip))
+            h.hit = h.hit & !camera_beyond_far_clip(sc->camera, sc->clip, d, h.t);
         intv hit = alive & h.hit;
         /* a camera ray that escapes into an environment: a vertex at infinity in direction d */
         const intv esc = mode == TRANSPORT_RADIANCE && sc->has_env ? alive & !h.hit : (intv)(0);
@@ -507,7 +507,7 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
         ok = ok & bsdf_is_smooth(&yb.m);
         if (!lane_any(ok)) return zero;
     }
-    camera_connection_v k = camera_connect(sc->camera, qs->p, ul1, ul2, sc->width, sc->height);
+    camera_connection_v k = camera_connect(sc->camera, sc->clip, qs->p, ul1, ul2, sc->width, sc->height);
     ok = ok & k.valid;
     if (!lane_any(ok)) return zero;
     vec3v f;
@@ -561,6 +561,7 @@ MC_INLINE bdpt_scene bdpt_scene_of(const render_params *params, const scene_geom
     sc.pt = pt;
     sc.lt = lt;
     sc.camera = camera;
+    sc.clip = camera_clip_of(params);
     sc.materials = materials;
     sc.textures = textures;
     sc.bsphere = bsphere;
@@ -639,7 +640,7 @@ kernel void bdpt_trace(
         cam[0] = lens_vertex(co, forward);
         intv nc = lane_select((intv)(0), (intv)(1), active);
         /* z_0 stays the lens point; the ray leaves from the near clip plane (render/camera.cl) */
-        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, co, cd), cd, v3s(1.0f),
+        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, sc.clip, co, cd), cd, v3s(1.0f),
                   cdir.pdf_solid_angle, TRANSPORT_RADIANCE, rr_depth, (floatv)(1.0f));
 
         /* ---- the light subpaths ---- */

@@ -134,7 +134,7 @@ kernel void bdpt_weight_check(
         cam[0] = lens_vertex(co, forward);
         floatv pdf_cam = camera_importance(camera, co, cd, width, height).pdf_solid_angle;
         intv nc = lane_select((intv)(0), (intv)(1), active);
-        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, co, cd), cd, v3s(1.0f), pdf_cam,
+        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, sc.clip, co, cd), cd, v3s(1.0f), pdf_cam,
                   TRANSPORT_RADIANCE, params.rr_depth, (floatv)(1.0f));
         mc_sampler_t ls = sampler_start(params.seed, index, RNG_STREAM_LIGHT_TRACE);
         floatv ue[8];

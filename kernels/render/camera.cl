@@ -105,78 +105,75 @@ MC_INLINE vec3v camera_ray_lens(global const float4 *cam, floatv sx, floatv sy, 
     return v3_normalize(v3_sub(focal, *origin));
 }
 
-/* Mitsuba's near_clip (-DNEAR_CLIP, scene units along the optical axis): the
- * primary ray starts where it crosses the plane at that distance in front of
- * its origin, o + d near / (d . forward), so geometry nearer than the plane
- * is not seen.  The camera rays of bdpt start there too (render/bdpt.cl). */
-MC_INLINE vec3v camera_clip_origin(global const float4 *cam, vec3v o, vec3v d) {
-#ifdef NEAR_CLIP
-    return v3_madd(o, NEAR_CLIP / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD])), d);
-#else
-    return o;
-#endif
+/* Mitsuba's clip planes, in scene units along the optical axis, from the
+ * launch's render_params (near_clip, far_clip; host: mcocl/render/job.py):
+ * near 0 and far +INFINITY clip nothing.  Launch values rather than build
+ * options, so one build serves every clip; each use below branches on the
+ * scalar (the same in every lane), so an unclipped render runs the very
+ * arithmetic it ran before clips existed and stays bit-identical. */
+typedef struct {
+    float near_clip, far_clip;
+} camera_clip;
+
+MC_INLINE camera_clip camera_clip_of(const render_params *p) {
+    camera_clip c;
+    c.near_clip = p->near_clip;
+    c.far_clip = p->far_clip;
+    return c;
 }
 
-#ifdef FAR_CLIP
-/* Mitsuba's far_clip (-DFAR_CLIP, scene units along the optical axis): a
- * primary ray ends where it crosses the plane at that distance, maxt =
- * (far - near) / (d . forward) from its near-clipped origin (Mitsuba 3's
- * perspective and thinlens sample_ray), so geometry beyond the plane is not
- * seen and the ray escapes to the environment.  That maxt. */
-MC_INLINE floatv camera_far_extent(global const float4 *cam, vec3v d) {
-#ifdef NEAR_CLIP
-    const float span = FAR_CLIP - NEAR_CLIP;
-#else
-    const float span = FAR_CLIP;
-#endif
+MC_INLINE bool camera_has_near_clip(camera_clip clip) { return clip.near_clip > 0.0f; }
+MC_INLINE bool camera_has_far_clip(camera_clip clip) { return clip.far_clip < INFINITY; }
+
+/* Mitsuba's near_clip: the primary ray starts where it crosses the plane at
+ * that distance in front of its origin, o + d near / (d . forward), so
+ * geometry nearer than the plane is not seen.  The camera rays of bdpt start
+ * there too (render/bdpt.cl). */
+MC_INLINE vec3v camera_clip_origin(global const float4 *cam, camera_clip clip, vec3v o, vec3v d) {
+    if (!camera_has_near_clip(clip)) return o;
+    return v3_madd(o, clip.near_clip / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD])), d);
+}
+
+/* Mitsuba's far_clip: a primary ray ends where it crosses the plane at that
+ * distance, maxt = (far - near) / (d . forward) from its near-clipped origin
+ * (Mitsuba 3's perspective and thinlens sample_ray), so geometry beyond the
+ * plane is not seen and the ray escapes to the environment.  That maxt (with
+ * a far clip). */
+MC_INLINE floatv camera_far_extent(global const float4 *cam, camera_clip clip, vec3v d) {
+    const float span = camera_has_near_clip(clip) ? clip.far_clip - clip.near_clip : clip.far_clip;
     return span / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD]));
 }
-#endif
 
 /* Whether the hit at distance t of the (near-clipped) primary ray in
- * direction d lies beyond the far clip plane (never without -DFAR_CLIP). */
-MC_INLINE intv camera_beyond_far_clip(global const float4 *cam, vec3v d, floatv t) {
-#ifdef FAR_CLIP
-    return t > camera_far_extent(cam, d);
-#else
-    return (intv)(0);
-#endif
+ * direction d lies beyond the far clip plane (never without a far clip). */
+MC_INLINE intv camera_beyond_far_clip(global const float4 *cam, camera_clip clip, vec3v d, floatv t) {
+    if (!camera_has_far_clip(clip)) return (intv)(0);
+    return t > camera_far_extent(cam, clip, d);
 }
 
 /* How far a ray from the (near-clipped) origin of a primary ray in direction
  * d may look: to the far clip plane, or without end. */
-MC_INLINE floatv camera_ray_extent(global const float4 *cam, vec3v d) {
-#ifdef FAR_CLIP
-    return camera_far_extent(cam, d);
-#else
-    return (floatv)(INFINITY);
-#endif
+MC_INLINE floatv camera_ray_extent(global const float4 *cam, camera_clip clip, vec3v d) {
+    if (!camera_has_far_clip(clip)) return (floatv)(INFINITY);
+    return camera_far_extent(cam, clip, d);
 }
 
 /* Whether a scene point at depth z = (p - lens) . forward along the optical
- * axis lies between the clip planes: what the clipped primary rays can see
- * (always without -DNEAR_CLIP and -DFAR_CLIP). */
-MC_INLINE intv camera_depth_seen(floatv z) {
+ * axis lies between the clip planes: what the clipped primary rays can see. */
+MC_INLINE intv camera_depth_seen(camera_clip clip, floatv z) {
     intv seen = z == z;
-#ifdef NEAR_CLIP
-    seen = seen & (z >= NEAR_CLIP);
-#endif
-#ifdef FAR_CLIP
-    seen = seen & (z <= FAR_CLIP);
-#endif
+    if (camera_has_near_clip(clip)) seen = seen & (z >= clip.near_clip);
+    if (camera_has_far_clip(clip)) seen = seen & (z <= clip.far_clip);
     return seen;
 }
 
 /* The part of a segment of length dist from a scene point toward the lens,
  * at cos_theta to the optical axis, that the camera sees through: up to the
  * near clip plane (geometry nearer than it is invisible and does not block;
- * the whole segment without -DNEAR_CLIP). */
-MC_INLINE floatv camera_unclipped_length(floatv dist, floatv cos_theta) {
-#ifdef NEAR_CLIP
-    return dist - NEAR_CLIP / cos_theta;
-#else
-    return dist;
-#endif
+ * the whole segment without a near clip). */
+MC_INLINE floatv camera_unclipped_length(camera_clip clip, floatv dist, floatv cos_theta) {
+    if (!camera_has_near_clip(clip)) return dist;
+    return dist - clip.near_clip / cos_theta;
 }
 
 /* Where the ray from lens point xl in the unit direction d meets the film:
@@ -244,10 +241,11 @@ typedef struct {
     camera_direction_v film;
     floatv pdf_solid_angle;
     intv valid;
+    camera_clip clip;  /* the clip planes it was checked against (its shadow ray stops at the near one) */
 } camera_connection_v;
 
-MC_INLINE camera_connection_v camera_connect(global const float4 *cam, vec3v p, floatv ul1, floatv ul2, uint width,
-                                             uint height) {
+MC_INLINE camera_connection_v camera_connect(global const float4 *cam, camera_clip clip, vec3v p, floatv ul1,
+                                             floatv ul2, uint width, uint height) {
     camera_connection_v k;
     k.lens = camera_lens_point(cam, ul1, ul2);
     vec3v v = v3_sub(k.lens, p);
@@ -256,10 +254,10 @@ MC_INLINE camera_connection_v camera_connect(global const float4 *cam, vec3v p, 
     k.wo = v3_scale(v, 1.0f / k.dist);
     k.film = camera_importance(cam, k.lens, v3_neg(k.wo), width, height);
     k.valid = k.film.valid & (d2 > 0.0f);
-#if defined(NEAR_CLIP) || defined(FAR_CLIP)
+    k.clip = clip;
     /* the point must lie between the clip planes, as for the primary rays that could see it */
-    k.valid = k.valid & camera_depth_seen(k.dist * k.film.cos_theta);
-#endif
+    if (camera_has_near_clip(clip) || camera_has_far_clip(clip))
+        k.valid = k.valid & camera_depth_seen(clip, k.dist * k.film.cos_theta);
     k.pdf_solid_angle = lane_select((floatv)(0.0f), d2 / (k.film.cos_theta * camera_lens_area(cam)), k.valid);
     return k;
 }

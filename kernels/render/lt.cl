@@ -27,7 +27,7 @@
  * it: those paths (camera - delta ... - first non-delta vertex) need a
  * camera subpath (path tracing, BDPT).
  *
- * The camera's clip planes (-DNEAR_CLIP, -DFAR_CLIP; render/camera.cl): a
+ * The camera's clip planes (render_params near_clip, far_clip; render/camera.cl): a
  * connection counts only for a point whose depth along the optical axis lies
  * between them (camera_connect), and its shadow ray stops at the near plane
  * (camera_visible), which is what the clipped primary rays of the path
@@ -245,7 +245,7 @@ MC_INLINE intv assign_paths(intv need, ulong *next, ulong total, ulongv *j) {
  * not block (render/camera.cl, camera_unclipped_length). */
 MC_INLINE intv camera_visible(const scene_geom *geom, vec3v p, vec3v n, const camera_connection_v *k, intv active) {
     vec3v so = offset_origin(p, n, k->wo);
-    floatv dist = camera_unclipped_length(lane_sqrt(v3_len2(v3_sub(k->lens, so))), k->film.cos_theta);
+    floatv dist = camera_unclipped_length(k->clip, lane_sqrt(v3_len2(v3_sub(k->lens, so))), k->film.cos_theta);
     return active & !trace_any_v(geom, so, k->wo, dist * (1.0f - SHADOW_EPSILON), active);
 }
 
@@ -259,6 +259,7 @@ kernel void lt_trace(
     SPLAT_TRACE_PRELUDE;
     const float pixels = (float)npix;
     const float lens_area = camera_lens_area(camera);
+    const camera_clip clip = camera_clip_of(&params);
     const uint depth_limit = max_depth >= 0 ? min((uint)max_depth, (uint)DEPTH_GUARD) : (uint)DEPTH_GUARD;
 
     /* per-lane path state */
@@ -284,7 +285,7 @@ kernel void lt_trace(
             intv area = er.valid & !er.env & !er.delta; /* no camera connection sees a delta light */
             if (lane_any(area)) {
                 /* the light vertex itself: L_e(y_0 -> camera) cos_y W_e / (pdf_area pdf_camera) */
-                camera_connection_v k = camera_connect(camera, er.pos, ue[6], ue[7], width, height);
+                camera_connection_v k = camera_connect(camera, clip, er.pos, ue[6], ue[7], width, height);
                 floatv cos_y = v3_dot(er.n, k.wo);
                 floatv w = pixels * cos_y * k.film.importance / (er.pdf_area * k.pdf_solid_angle);
                 intv ok = area & k.valid & (cos_y > 0.0f);
@@ -301,8 +302,8 @@ kernel void lt_trace(
                 floatv w = pixels * lens_area * c.importance * c.cos_theta / (lt.env_pmf * er.pdf_solid_angle);
                 intv ok = env & c.valid;
                 /* the primary ray along look: from the near clip plane to the far one (render/camera.cl) */
-                ok = ok & !trace_any_v(&geom, camera_clip_origin(camera, xl, look), look,
-                                       camera_ray_extent(camera, look), ok);
+                ok = ok & !trace_any_v(&geom, camera_clip_origin(camera, clip, xl, look), look,
+                                       camera_ray_extent(camera, clip, look), ok);
                 if (lane_any(ok)) splat_filtered(img, &c, v3_scale(er.radiance, w), ok, width, height);
             }
             /* beta_1 = L_e cos / (pdf_area pdf_solid_angle); the ray leaves y_0 */
@@ -343,7 +344,7 @@ kernel void lt_trace(
             floatv ul[2];
             sampler_seek(&smp, LT_DIM_LENS(depth));
             sampler_next_2d(&smp, ul);
-            camera_connection_v k = camera_connect(camera, p, ul[0], ul[1], width, height);
+            camera_connection_v k = camera_connect(camera, clip, p, ul[0], ul[1], width, height);
             floatv bpdf;
             vec3v f = bsdf_eval_mode(&m, wi, frame_to_local(fr, k.wo), &bpdf, TRANSPORT_IMPORTANCE);
             vec3v c = v3_scale(v3_mul(beta, f), pixels * k.film.importance / k.pdf_solid_angle);
