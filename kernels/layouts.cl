@@ -462,6 +462,9 @@ typedef struct {
     int bdpt_power_mis;
     float near_clip;
     float far_clip;
+    int filter_kind;
+    float filter_radius;
+    float filter_stddev;
     float4 env_radiance;
 } render_params;
 

@@ -48,7 +48,7 @@ def _offsets(f: PixelFilter, n: int = N, seed: int = 3, lanes: int = 1) -> np.nd
     out = np.empty(n, np.float32)
     buf = cl.Buffer(ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
     g, lsz = ctx.work_size(n // lanes)
-    runtime.kernel(prg, "filter_offsets")(ctx.queue, g, lsz, np.uint64(seed), np.uint32(n), buf)
+    runtime.kernel(prg, "filter_offsets")(ctx.queue, g, lsz, *f.launch_values(), np.uint64(seed), np.uint32(n), buf)
     cl.enqueue_copy(ctx.queue, out, buf)
     return out
 
@@ -97,7 +97,7 @@ def test_offsets_are_the_exact_quantiles(f: PixelFilter) -> None:
     out = np.empty(n, np.float32)
     bo = cl.Buffer(ctx.context, mf.WRITE_ONLY, out.nbytes)
     g, lsz = ctx.work_size(n // 8)
-    runtime.kernel(prg, "filter_offsets_of")(ctx.queue, g, lsz, np.uint32(n), bu, bo)
+    runtime.kernel(prg, "filter_offsets_of")(ctx.queue, g, lsz, *f.launch_values(), np.uint32(n), bu, bo)
     cl.enqueue_copy(ctx.queue, out, bo)
     exact = _inverse_cdf(f, u.astype(np.float64))
     peak = f.profile(np.array([0.0]))[0]

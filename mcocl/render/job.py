@@ -182,6 +182,7 @@ class RenderJob:
             p["bdpt_unweighted"] = int(bool(self.unweighted))
         p["near_clip"] = self.near_clip
         p["far_clip"] = np.inf if self.far_clip is None else self.far_clip
+        p["filter_kind"], p["filter_radius"], p["filter_stddev"] = self.pixel_filter.launch_values()
         return p
 
     def spp_done(self, blocks: int) -> int:
