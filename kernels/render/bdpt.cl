@@ -704,7 +704,9 @@ kernel void bdpt_trace(
                     camera_direction_v film;
                     vec3v c = bdpt_connect_camera(&sc, light, cam, s, ul[0], ul[1], run, nl_cap, nc_cap, &film, &w);
                     intv got = w > 0.0f;
-                    if (lane_any(got)) splat_filtered(img, &sc.cam_set.filter, &film, v3_scale(c, strategy_weight(&sc, w)), got, width, height);
+                    if (lane_any(got))
+                        splat_filtered(img, &sc.cam_set.filter, &film, v3_scale(c, strategy_weight(&sc, w)), got, width,
+                                       height);
                 } else {
                     floatv ul[4] = {(floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f)};
                     if (s == 1) {

@@ -295,7 +295,8 @@ kernel void lt_trace(
                 floatv w = pixels * cos_y * k.film.importance / (er.pdf_area * k.pdf_solid_angle);
                 intv ok = area & k.valid & (cos_y > 0.0f);
                 ok = camera_visible(&geom, er.pos, er.n, &k, ok);
-                if (lane_any(ok)) splat_filtered(img, &cam_set.filter, &k.film, v3_scale(er.radiance, w), ok, width, height);
+                if (lane_any(ok))
+                    splat_filtered(img, &cam_set.filter, &k.film, v3_scale(er.radiance, w), ok, width, height);
             }
             intv env = er.valid & er.env;
             if (lane_any(env)) {
