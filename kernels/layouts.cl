@@ -476,6 +476,11 @@ typedef struct {
     int bdpt_only_t;
     int bdpt_unweighted;
     int bdpt_power_mis;
+    float near_clip;
+    float far_clip;
+    int filter_kind;
+    float filter_radius;
+    float filter_stddev;
     float4 env_radiance;
 } render_params;
 

@@ -295,6 +295,12 @@ RENDER_PARAMS = Record("render_params", (
     # bdpt's one strategy (s, t) to render, -1: all; whether without its MIS weight; the power
     # heuristic (1) or the balance heuristic (0)
     ("bdpt_only_s", "int", 1), ("bdpt_only_t", "int", 1), ("bdpt_unweighted", "int", 1), ("bdpt_power_mis", "int", 1),
+    # the camera's clip planes along its optical axis (kernels/render/camera.cl, camera_clip): near 0 and
+    # far +inf clip nothing; launch values, not build options, so that one build serves every clip
+    ("near_clip", "float", 1), ("far_clip", "float", 1),
+    # the reconstruction filter of a -DPIXEL_FILTER_SHAPED build (kernels/render/pixel_filter.cl): its kind
+    # (mcocl/render/pixel_filter.py FILTER_CODES), radius and stddev in pixels; launch values for the same reason
+    ("filter_kind", "int", 1), ("filter_radius", "float", 1), ("filter_stddev", "float", 1),
     ("env_radiance", "float4", 1),
 ), "scalar parameters of render_blocks (kernels/render/integrator.cl)")
 

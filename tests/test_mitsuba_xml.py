@@ -19,6 +19,7 @@ from mcocl.cli import main
 from mcocl.errors import InputError, SceneSubstitutionWarning
 from mcocl.render.compiled import CompiledScene, compile_scene
 from mcocl.render.mitsuba import read_mitsuba
+from mcocl.render.mitsuba.sensor import FAR_CLIP, NEAR_CLIP
 from mcocl.render.scene import parse_scene
 from mcocl.render.scene_file import load_scene
 
@@ -68,7 +69,8 @@ def test_twin_compiles_to_the_same_arrays(name):
 def test_twin_renders_bit_identically(name):
     w, h = TINY[name]
     data = json.loads((SCENES / f"{name}.json").read_text())
-    data["camera"].update(width=w, height=h)
+    # the XML sensor takes Mitsuba's clip planes by default (mcocl/render/mitsuba/sensor.py)
+    data["camera"].update(width=w, height=h, near_clip=NEAR_CLIP, far_clip=FAR_CLIP)
     r_json = mcocl.render(parse_scene(data, SCENES / f"{name}.json"), spp=2, seed=3)
     r_xml = mcocl.render(SCENES / "xml" / f"{name}.xml", spp=2, seed=3, params={"resx": w, "resy": h})
     assert r_xml.mean.shape == (h, w, 3)

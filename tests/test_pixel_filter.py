@@ -48,7 +48,7 @@ def _offsets(f: PixelFilter, n: int = N, seed: int = 3, lanes: int = 1) -> np.nd
     out = np.empty(n, np.float32)
     buf = cl.Buffer(ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
     g, lsz = ctx.work_size(n // lanes)
-    runtime.kernel(prg, "filter_offsets")(ctx.queue, g, lsz, np.uint64(seed), np.uint32(n), buf)
+    runtime.kernel(prg, "filter_offsets")(ctx.queue, g, lsz, *f.launch_values(), np.uint64(seed), np.uint32(n), buf)
     cl.enqueue_copy(ctx.queue, out, buf)
     return out
 
@@ -97,7 +97,7 @@ def test_offsets_are_the_exact_quantiles(f: PixelFilter) -> None:
     out = np.empty(n, np.float32)
     bo = cl.Buffer(ctx.context, mf.WRITE_ONLY, out.nbytes)
     g, lsz = ctx.work_size(n // 8)
-    runtime.kernel(prg, "filter_offsets_of")(ctx.queue, g, lsz, np.uint32(n), bu, bo)
+    runtime.kernel(prg, "filter_offsets_of")(ctx.queue, g, lsz, *f.launch_values(), np.uint32(n), bu, bo)
     cl.enqueue_copy(ctx.queue, out, bo)
     exact = _inverse_cdf(f, u.astype(np.float64))
     peak = f.profile(np.array([0.0]))[0]
@@ -335,7 +335,7 @@ def test_near_clip_hides_what_lies_nearer(tmp_path: Path) -> None:
     p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
                              '<float name="near_clip" value="0.25"/>'))
     assert compile_scene(p).near_clip == 0.25
-    assert compile_scene(_xml(tmp_path, "")).near_clip == 0.0  # Mitsuba's 0.01 default is not applied
+    assert compile_scene(_xml(tmp_path, "")).near_clip == 0.01  # Mitsuba's default
 
 
 def test_far_clip_hides_what_lies_farther(tmp_path: Path) -> None:
@@ -361,7 +361,7 @@ def test_far_clip_hides_what_lies_farther(tmp_path: Path) -> None:
     p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
                              '<float name="far_clip" value="25"/>'))
     assert compile_scene(p).far_clip == 25.0
-    assert compile_scene(_xml(tmp_path, "")).far_clip is None  # Mitsuba's 1e4 default is not applied
+    assert compile_scene(_xml(tmp_path, "")).far_clip == 1e4  # Mitsuba's default
     p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
                              '<float name="far_clip" value="0"/>'))
     with pytest.raises(InputError, match=r"clip\.xml:\d+: .*far_clip must exceed near_clip"):

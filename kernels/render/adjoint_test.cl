@@ -35,7 +35,8 @@ kernel void camera_directions(global const float4 *camera, uint width, uint heig
     if (base >= n) return;
     vec3v d = v3(load_floatv(dirs + 0 * n + base), load_floatv(dirs + 1 * n + base), load_floatv(dirs + 2 * n + base));
     vec3v xl = camera_lens_point(camera, (floatv)(lens_u.x), (floatv)(lens_u.y));
-    camera_direction_v c = camera_importance(camera, xl, d, width, height);
+    const camera_settings plain = {0.0f, INFINITY, {PIXEL_FILTER_BOX, 0.5f, 0.0f}}; /* no clip, the box */
+    camera_direction_v c = camera_importance(camera, &plain, xl, d, width, height);
     floatv comp[7] = {c.raster_x, c.raster_y, to_floatv(c.pixel), c.importance, c.pdf_solid_angle, c.cos_theta,
                       to_floatv(mask_bit(c.valid))};
     for (int k = 0; k < 7; ++k) store_floatv(comp[k], out + k * n + base);

@@ -50,7 +50,7 @@
  * heuristic.  The camera's lens is not a target of light paths (t = 0 is
  * not a strategy), as in lt.cl.
  *
- * The camera's clip planes (-DNEAR_CLIP, -DFAR_CLIP; render/camera.cl): the
+ * The camera's clip planes (render_params near_clip, far_clip; render/camera.cl): the
  * camera ray leaves from the near clip plane (z_0 stays the lens point) and a
  * hit beyond the far one is a miss, as the megakernel's primary rays; a
  * (s, 1) connection counts only for a point between the planes, its shadow
@@ -155,6 +155,7 @@ typedef struct {
     const prim_tables *pt;
     const light_tables *lt;
     global const float4 *camera;
+    camera_settings cam_set; /* the camera's clip planes and filter (render/camera.cl) */
     global const float4 *materials;
     global const float4 *textures; /* render/texture.cl (bound, and read, only with -DTEXTURES) */
     float4 bsphere;
@@ -236,11 +237,10 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
     vertex_bsdf pb; /* path[n - 1]'s material, frame and geometric wi, from the step that sampled it */
     for (int n = 1; n < maxv && lane_any(alive); ) {
         hitv h = trace_closest_v(sc->geom, o, d, alive);
-#ifdef FAR_CLIP
         /* a camera ray ends at the far clip plane, as the megakernel's (render/camera.cl): what lies
          * beyond is a miss */
-        if (n == 1 && mode == TRANSPORT_RADIANCE) h.hit = h.hit & !camera_beyond_far_clip(sc->camera, d, h.t);
-#endif
+        if (n == 1 && mode == TRANSPORT_RADIANCE && camera_has_far_clip(sc->cam_set))
+            h.hit = h.hit & !camera_beyond_far_clip(sc->camera, sc->cam_set, d, h.t);
         intv hit = alive & h.hit;
         /* a camera ray that escapes into an environment: a vertex at infinity in direction d */
         const intv esc = mode == TRANSPORT_RADIANCE && sc->has_env ? alive & !h.hit : (intv)(0);
@@ -520,7 +520,7 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
         ok = ok & bsdf_is_smooth(&yb.m);
         if (!lane_any(ok)) return zero;
     }
-    camera_connection_v k = camera_connect(sc->camera, qs->p, ul1, ul2, sc->width, sc->height);
+    camera_connection_v k = camera_connect(sc->camera, sc->cam_set, qs->p, ul1, ul2, sc->width, sc->height);
     ok = ok & k.valid;
     if (!lane_any(ok)) return zero;
     vec3v f;
@@ -574,6 +574,7 @@ MC_INLINE bdpt_scene bdpt_scene_of(const render_params *params, const scene_geom
     sc.pt = pt;
     sc.lt = lt;
     sc.camera = camera;
+    sc.cam_set = camera_settings_of(params);
     sc.materials = materials;
     sc.textures = textures;
     sc.bsphere = bsphere;
@@ -639,7 +640,8 @@ kernel void bdpt_trace(
         sampler_next_2d(&cs, uc);
         uintv py = pixel / width;
         /* the film point: filter importance sampling around the pixel (render/pixel_filter.cl) */
-        floatv sx = film_coordinate(to_floatv(pixel - py * width), uc[0]), sy = film_coordinate(to_floatv(py), uc[1]);
+        floatv sx = film_coordinate(&sc.cam_set.filter, to_floatv(pixel - py * width), uc[0]);
+        floatv sy = film_coordinate(&sc.cam_set.filter, to_floatv(py), uc[1]);
         vec3v co, cd;
         if (thin_lens) {
             floatv ul[2];
@@ -648,11 +650,11 @@ kernel void bdpt_trace(
         } else {
             cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
         }
-        camera_direction_v cdir = camera_importance(camera, co, cd, width, height);
+        camera_direction_v cdir = camera_importance(camera, &sc.cam_set, co, cd, width, height);
         cam[0] = lens_vertex(co, forward);
         intv nc = lane_select((intv)(0), (intv)(1), active);
         /* z_0 stays the lens point; the ray leaves from the near clip plane (render/camera.cl) */
-        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, co, cd), cd, v3s(1.0f),
+        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, sc.cam_set, co, cd), cd, v3s(1.0f),
                   cdir.pdf_solid_angle, TRANSPORT_RADIANCE, rr_depth, (floatv)(1.0f));
 
         /* ---- the light subpaths ---- */
@@ -715,7 +717,9 @@ kernel void bdpt_trace(
                     camera_direction_v film;
                     vec3v c = bdpt_connect_camera(&sc, light, cam, s, ul[0], ul[1], run, nl_cap, nc_cap, &film, &w);
                     intv got = w > 0.0f;
-                    if (lane_any(got)) splat_filtered(img, &film, v3_scale(c, strategy_weight(&sc, w)), got, width, height);
+                    if (lane_any(got))
+                        splat_filtered(img, &sc.cam_set.filter, &film, v3_scale(c, strategy_weight(&sc, w)), got, width,
+                                       height);
                 } else {
                     floatv ul[4] = {(floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f)};
                     if (s == 1) {

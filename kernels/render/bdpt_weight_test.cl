@@ -53,7 +53,8 @@ MC_INLINE floatv path_weight_sum(const bdpt_scene *sc, const bdpt_vertex *x, int
     for (int i = 1; i <= k; ++i) {  /* x_i from x_{i-1} (given x_{i-2}) */
         floatv pdf;
         if (i == 1) {
-            pdf = camera_importance(sc->camera, x[0].p, unit_to(x[0].p, x[1].p), sc->width, sc->height).pdf_solid_angle;
+            pdf = camera_importance(sc->camera, &sc->cam_set, x[0].p, unit_to(x[0].p, x[1].p), sc->width, sc->height)
+                      .pdf_solid_angle;
         } else {
             pdf = pdf_at(sc, &x[i - 1], unit_to(x[i - 1].p, x[i - 2].p), unit_to(x[i - 1].p, x[i].p), TRANSPORT_RADIANCE);
             pdf = lane_select(pdf, (floatv)(0.0f), x[i - 1].delta);
@@ -132,10 +133,10 @@ kernel void bdpt_weight_check(
         cd = thin_lens ? camera_ray_lens(camera, sx, sy, 1.0f / width, 1.0f / height, uc[2], uc[3], &co)
                        : camera_ray(camera, sx, sy, 1.0f / width, 1.0f / height, &co);
         cam[0] = lens_vertex(co, forward);
-        floatv pdf_cam = camera_importance(camera, co, cd, width, height).pdf_solid_angle;
+        floatv pdf_cam = camera_importance(camera, &sc.cam_set, co, cd, width, height).pdf_solid_angle;
         intv nc = lane_select((intv)(0), (intv)(1), active);
-        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, co, cd), cd, v3s(1.0f), pdf_cam,
-                  TRANSPORT_RADIANCE, params.rr_depth, (floatv)(1.0f));
+        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, sc.cam_set, co, cd), cd, v3s(1.0f),
+                  pdf_cam, TRANSPORT_RADIANCE, params.rr_depth, (floatv)(1.0f));
         mc_sampler_t ls = sampler_start(params.seed, index, RNG_STREAM_LIGHT_TRACE);
         floatv ue[8];
         sampler_seek(&ls, (uintv)(LT_DIM_EMIT));

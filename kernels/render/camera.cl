@@ -105,85 +105,85 @@ MC_INLINE vec3v camera_ray_lens(global const float4 *cam, floatv sx, floatv sy, 
     return v3_normalize(v3_sub(focal, *origin));
 }
 
-/* Mitsuba's near_clip (-DNEAR_CLIP, scene units along the optical axis): the
- * primary ray starts where it crosses the plane at that distance in front of
- * its origin, o + d near / (d . forward), so geometry nearer than the plane
- * is not seen.  The camera rays of bdpt start there too (render/bdpt.cl). */
-MC_INLINE vec3v camera_clip_origin(global const float4 *cam, vec3v o, vec3v d) {
-#ifdef NEAR_CLIP
-    return v3_madd(o, NEAR_CLIP / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD])), d);
-#else
-    return o;
-#endif
+/* The launch's camera settings (render_params; host: mcocl/render/job.py):
+ * Mitsuba's clip planes, in scene units along the optical axis (near 0 and
+ * far +INFINITY clip nothing), and the reconstruction filter
+ * (render/pixel_filter.cl).  Launch values rather than build options, so one
+ * build serves every clip and filter; each use below branches on a scalar
+ * (the same in every lane), so an unclipped render runs the very arithmetic
+ * it ran before clips existed and stays bit-identical. */
+typedef struct {
+    float near_clip, far_clip;
+    pixel_filter filter;
+} camera_settings;
+
+MC_INLINE camera_settings camera_settings_of(const render_params *p) {
+    camera_settings c;
+    c.near_clip = p->near_clip;
+    c.far_clip = p->far_clip;
+    c.filter = pixel_filter_of(p);
+    return c;
 }
 
-#ifdef FAR_CLIP
-/* Mitsuba's far_clip (-DFAR_CLIP, scene units along the optical axis): a
- * primary ray ends where it crosses the plane at that distance, maxt =
- * (far - near) / (d . forward) from its near-clipped origin (Mitsuba 3's
- * perspective and thinlens sample_ray), so geometry beyond the plane is not
- * seen and the ray escapes to the environment.  That maxt. */
-MC_INLINE floatv camera_far_extent(global const float4 *cam, vec3v d) {
-#ifdef NEAR_CLIP
-    const float span = FAR_CLIP - NEAR_CLIP;
-#else
-    const float span = FAR_CLIP;
-#endif
+MC_INLINE bool camera_has_near_clip(camera_settings settings) { return settings.near_clip > 0.0f; }
+MC_INLINE bool camera_has_far_clip(camera_settings settings) { return settings.far_clip < INFINITY; }
+
+/* Mitsuba's near_clip: the primary ray starts where it crosses the plane at
+ * that distance in front of its origin, o + d near / (d . forward), so
+ * geometry nearer than the plane is not seen.  The camera rays of bdpt start
+ * there too (render/bdpt.cl). */
+MC_INLINE vec3v camera_clip_origin(global const float4 *cam, camera_settings settings, vec3v o, vec3v d) {
+    if (!camera_has_near_clip(settings)) return o;
+    return v3_madd(o, settings.near_clip / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD])), d);
+}
+
+/* Mitsuba's far_clip: a primary ray ends where it crosses the plane at that
+ * distance, maxt = (far - near) / (d . forward) from its near-clipped origin
+ * (Mitsuba 3's perspective and thinlens sample_ray), so geometry beyond the
+ * plane is not seen and the ray escapes to the environment.  That maxt (with
+ * a far clip). */
+MC_INLINE floatv camera_far_extent(global const float4 *cam, camera_settings settings, vec3v d) {
+    const float span = camera_has_near_clip(settings) ? settings.far_clip - settings.near_clip : settings.far_clip;
     return span / v3_dot(d, cam_row(cam[CAMERA_RECORD_FORWARD_QUAD]));
 }
-#endif
 
 /* Whether the hit at distance t of the (near-clipped) primary ray in
- * direction d lies beyond the far clip plane (never without -DFAR_CLIP). */
-MC_INLINE intv camera_beyond_far_clip(global const float4 *cam, vec3v d, floatv t) {
-#ifdef FAR_CLIP
-    return t > camera_far_extent(cam, d);
-#else
-    return (intv)(0);
-#endif
+ * direction d lies beyond the far clip plane (never without a far clip). */
+MC_INLINE intv camera_beyond_far_clip(global const float4 *cam, camera_settings settings, vec3v d, floatv t) {
+    if (!camera_has_far_clip(settings)) return (intv)(0);
+    return t > camera_far_extent(cam, settings, d);
 }
 
 /* How far a ray from the (near-clipped) origin of a primary ray in direction
  * d may look: to the far clip plane, or without end. */
-MC_INLINE floatv camera_ray_extent(global const float4 *cam, vec3v d) {
-#ifdef FAR_CLIP
-    return camera_far_extent(cam, d);
-#else
-    return (floatv)(INFINITY);
-#endif
+MC_INLINE floatv camera_ray_extent(global const float4 *cam, camera_settings settings, vec3v d) {
+    if (!camera_has_far_clip(settings)) return (floatv)(INFINITY);
+    return camera_far_extent(cam, settings, d);
 }
 
 /* Whether a scene point at depth z = (p - lens) . forward along the optical
- * axis lies between the clip planes: what the clipped primary rays can see
- * (always without -DNEAR_CLIP and -DFAR_CLIP). */
-MC_INLINE intv camera_depth_seen(floatv z) {
+ * axis lies between the clip planes: what the clipped primary rays can see. */
+MC_INLINE intv camera_depth_seen(camera_settings settings, floatv z) {
     intv seen = z == z;
-#ifdef NEAR_CLIP
-    seen = seen & (z >= NEAR_CLIP);
-#endif
-#ifdef FAR_CLIP
-    seen = seen & (z <= FAR_CLIP);
-#endif
+    if (camera_has_near_clip(settings)) seen = seen & (z >= settings.near_clip);
+    if (camera_has_far_clip(settings)) seen = seen & (z <= settings.far_clip);
     return seen;
 }
 
 /* The part of a segment of length dist from a scene point toward the lens,
  * at cos_theta to the optical axis, that the camera sees through: up to the
  * near clip plane (geometry nearer than it is invisible and does not block;
- * the whole segment without -DNEAR_CLIP). */
-MC_INLINE floatv camera_unclipped_length(floatv dist, floatv cos_theta) {
-#ifdef NEAR_CLIP
-    return dist - NEAR_CLIP / cos_theta;
-#else
-    return dist;
-#endif
+ * the whole segment without a near clip). */
+MC_INLINE floatv camera_unclipped_length(camera_settings settings, floatv dist, floatv cos_theta) {
+    if (!camera_has_near_clip(settings)) return dist;
+    return dist - settings.near_clip / cos_theta;
 }
 
 /* Where the ray from lens point xl in the unit direction d meets the film:
  * raster position (sx, sy) in pixels and the pixel index (row-major; the
  * nearest pixel for a point past the edge); cos theta to `forward`.  Valid
  * when d points forwards and lands inside the image, or within the
- * FILTER_MARGIN that a reconstruction filter's camera samples reach past its
+ * filter_margin that a reconstruction filter's camera samples reach past its
  * edge (render/pixel_filter.cl; 0 for the box). */
 typedef struct {
     floatv raster_x, raster_y;
@@ -194,8 +194,8 @@ typedef struct {
     intv valid;
 } camera_direction_v;
 
-MC_INLINE camera_direction_v camera_importance(global const float4 *cam, vec3v xl, vec3v d, uint width,
-                                               uint height) {
+MC_INLINE camera_direction_v camera_importance(global const float4 *cam, const camera_settings *cs, vec3v xl, vec3v d,
+                                               uint width, uint height) {
     vec3v fwd = cam_row(cam[CAMERA_RECORD_FORWARD_QUAD]);
     vec3v right = cam_row(cam[CAMERA_RECORD_RIGHT_QUAD]);
     vec3v up = cam_row(cam[CAMERA_RECORD_UP_QUAD]);
@@ -218,8 +218,9 @@ MC_INLINE camera_direction_v camera_importance(global const float4 *cam, vec3v x
     floatv ndc_y = v3_dot(v, up) / (vz * u2) - camera_crop_shift_y(cam);
     c.raster_x = 0.5f * (ndc_x + 1.0f) * (float)width;
     c.raster_y = 0.5f * (1.0f - ndc_y) * (float)height;
-    intv inside = front & (c.raster_x >= -FILTER_MARGIN) & (c.raster_x < (float)width + FILTER_MARGIN) &
-                  (c.raster_y >= -FILTER_MARGIN) & (c.raster_y < (float)height + FILTER_MARGIN);
+    const float margin = filter_margin(&cs->filter);
+    intv inside = front & (c.raster_x >= -margin) & (c.raster_x < (float)width + margin) &
+                  (c.raster_y >= -margin) & (c.raster_y < (float)height + margin);
     floatv rx = lane_max(lane_select((floatv)(0.0f), c.raster_x, inside), (floatv)(0.0f));
     floatv ry = lane_max(lane_select((floatv)(0.0f), c.raster_y, inside), (floatv)(0.0f));
     uintv px = lane_min_u(to_uintv_rtz(rx), (uintv)(width - 1u));
@@ -244,22 +245,23 @@ typedef struct {
     camera_direction_v film;
     floatv pdf_solid_angle;
     intv valid;
+    camera_settings settings;  /* the clip planes it was checked against (its shadow ray stops at the near one) */
 } camera_connection_v;
 
-MC_INLINE camera_connection_v camera_connect(global const float4 *cam, vec3v p, floatv ul1, floatv ul2, uint width,
-                                             uint height) {
+MC_INLINE camera_connection_v camera_connect(global const float4 *cam, camera_settings settings, vec3v p, floatv ul1,
+                                             floatv ul2, uint width, uint height) {
     camera_connection_v k;
     k.lens = camera_lens_point(cam, ul1, ul2);
     vec3v v = v3_sub(k.lens, p);
     floatv d2 = v3_len2(v);
     k.dist = lane_sqrt(d2);
     k.wo = v3_scale(v, 1.0f / k.dist);
-    k.film = camera_importance(cam, k.lens, v3_neg(k.wo), width, height);
+    k.film = camera_importance(cam, &settings, k.lens, v3_neg(k.wo), width, height);
     k.valid = k.film.valid & (d2 > 0.0f);
-#if defined(NEAR_CLIP) || defined(FAR_CLIP)
+    k.settings = settings;
     /* the point must lie between the clip planes, as for the primary rays that could see it */
-    k.valid = k.valid & camera_depth_seen(k.dist * k.film.cos_theta);
-#endif
+    if (camera_has_near_clip(settings) || camera_has_far_clip(settings))
+        k.valid = k.valid & camera_depth_seen(settings, k.dist * k.film.cos_theta);
     k.pdf_solid_angle = lane_select((floatv)(0.0f), d2 / (k.film.cos_theta * camera_lens_area(cam)), k.valid);
     return k;
 }

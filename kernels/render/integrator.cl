@@ -201,6 +201,7 @@ kernel void render_blocks(
     const vec3v env_le = v3((floatv)(env_radiance.x), (floatv)(env_radiance.y), (floatv)(env_radiance.z));
     const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;
     const bool thin_lens = camera_aperture(camera) > 0.0f;
+    const camera_settings cam_set = camera_settings_of(&params);
 
     /* per-lane path state */
     intv alive = (intv)(0);
@@ -239,8 +240,8 @@ kernel void render_blocks(
             smp = sampler_select(smp, fs, fresh);
             uintv py = px / width;
             /* the film point: the pixel filter's sample (render/pixel_filter.cl) */
-            floatv sx = film_coordinate(to_floatv(px - py * width), uc[0]);
-            floatv sy = film_coordinate(to_floatv(py), uc[1]);
+            floatv sx = film_coordinate(&cam_set.filter, to_floatv(px - py * width), uc[0]);
+            floatv sy = film_coordinate(&cam_set.filter, to_floatv(py), uc[1]);
             vec3v co, cd;
             if (thin_lens) {
                 floatv ul[2]; /* the lens point: dimensions 2-3 of the camera's block */
@@ -249,7 +250,7 @@ kernel void render_blocks(
             } else {
                 cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
             }
-            co = camera_clip_origin(camera, co, cd);
+            co = camera_clip_origin(camera, cam_set, co, cd);
             pixel = lane_select(pixel, px, fresh);
             o = v3_select(o, co, fresh);
             d = v3_select(d, cd, fresh);
@@ -265,10 +266,9 @@ kernel void render_blocks(
 
         /* ---- intersect ---- */
         hitv h = trace_closest_v(&geom, o, d, alive);
-#ifdef FAR_CLIP
         /* a primary ray ends at the far clip plane (render/camera.cl): what lies beyond is a miss */
-        h.hit = h.hit & !(camera_beyond_far_clip(camera, d, h.t) & (depth == (uintv)(0u)));
-#endif
+        if (camera_has_far_clip(cam_set))
+            h.hit = h.hit & !(camera_beyond_far_clip(camera, cam_set, d, h.t) & (depth == (uintv)(0u)));
         intv hit = alive & h.hit;
         intv miss = alive & !h.hit;
 

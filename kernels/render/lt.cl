@@ -27,7 +27,7 @@
  * it: those paths (camera - delta ... - first non-delta vertex) need a
  * camera subpath (path tracing, BDPT).
  *
- * The camera's clip planes (-DNEAR_CLIP, -DFAR_CLIP; render/camera.cl): a
+ * The camera's clip planes (render_params near_clip, far_clip; render/camera.cl): a
  * connection counts only for a point whose depth along the optical axis lies
  * between them (camera_connect), and its shadow ray stops at the near plane
  * (camera_visible), which is what the clipped primary rays of the path
@@ -116,11 +116,15 @@ MC_INLINE void splat(global film_t *img, uintv pixel, vec3v c, intv ok) {
  * the reconstruction filter reaches, lane after lane (the box: splat to the pixel it landed in).
  * A filter weighs a contribution by its normalised value at each pixel centre, pbrt-v4's splat
  * (render/pixel_filter.cl); a non-finite contribution is counted once, in the nearest pixel. */
-MC_INLINE void splat_filtered(global film_t *img, const camera_direction_v *film, vec3v c, intv ok, uint width,
-                              uint height) {
-#if PIXEL_FILTER == PIXEL_FILTER_BOX
+MC_INLINE void splat_filtered(global film_t *img, const pixel_filter *f, const camera_direction_v *film, vec3v c,
+                              intv ok, uint width, uint height) {
+#ifndef PIXEL_FILTER_SHAPED
     splat(img, film->pixel, c, ok);
 #else
+    if (f->kind == PIXEL_FILTER_BOX) {
+        splat(img, film->pixel, c, ok);
+        return;
+    }
     float_lanes lx, ly, lz, fx, fy;
     uint_lanes px;
     int_lanes k_ok;
@@ -137,13 +141,14 @@ MC_INLINE void splat_filtered(global film_t *img, const camera_direction_v *film
         }
         /* the film point in units where pixel i's centre is at i */
         const float x = fx.a[k] - 0.5f, y = fy.a[k] - 0.5f;
-        const int x0 = max((int)ceil(x - FILTER_RADIUS), 0), x1 = min((int)floor(x + FILTER_RADIUS), (int)width - 1);
-        const int y0 = max((int)ceil(y - FILTER_RADIUS), 0), y1 = min((int)floor(y + FILTER_RADIUS), (int)height - 1);
+        const float rad = f->radius;
+        const int x0 = max((int)ceil(x - rad), 0), x1 = min((int)floor(x + rad), (int)width - 1);
+        const int y0 = max((int)ceil(y - rad), 0), y1 = min((int)floor(y + rad), (int)height - 1);
         for (int iy = y0; iy <= y1; ++iy) {
-            const float wy = filter_weight(y - (float)iy);
+            const float wy = filter_weight(f, y - (float)iy);
             if (wy <= 0.0f) continue;
             for (int ix = x0; ix <= x1; ++ix) {
-                const float w = wy * filter_weight(x - (float)ix);
+                const float w = wy * filter_weight(f, x - (float)ix);
                 if (w > 0.0f) splat_one(img, (uint)iy * width + (uint)ix, r * w, g * w, b * w);
             }
         }
@@ -245,7 +250,7 @@ MC_INLINE intv assign_paths(intv need, ulong *next, ulong total, ulongv *j) {
  * not block (render/camera.cl, camera_unclipped_length). */
 MC_INLINE intv camera_visible(const scene_geom *geom, vec3v p, vec3v n, const camera_connection_v *k, intv active) {
     vec3v so = offset_origin(p, n, k->wo);
-    floatv dist = camera_unclipped_length(lane_sqrt(v3_len2(v3_sub(k->lens, so))), k->film.cos_theta);
+    floatv dist = camera_unclipped_length(k->settings, lane_sqrt(v3_len2(v3_sub(k->lens, so))), k->film.cos_theta);
     return active & !trace_any_v(geom, so, k->wo, dist * (1.0f - SHADOW_EPSILON), active);
 }
 
@@ -259,6 +264,7 @@ kernel void lt_trace(
     SPLAT_TRACE_PRELUDE;
     const float pixels = (float)npix;
     const float lens_area = camera_lens_area(camera);
+    const camera_settings cam_set = camera_settings_of(&params);
     const uint depth_limit = max_depth >= 0 ? min((uint)max_depth, (uint)DEPTH_GUARD) : (uint)DEPTH_GUARD;
 
     /* per-lane path state */
@@ -284,12 +290,13 @@ kernel void lt_trace(
             intv area = er.valid & !er.env & !er.delta; /* no camera connection sees a delta light */
             if (lane_any(area)) {
                 /* the light vertex itself: L_e(y_0 -> camera) cos_y W_e / (pdf_area pdf_camera) */
-                camera_connection_v k = camera_connect(camera, er.pos, ue[6], ue[7], width, height);
+                camera_connection_v k = camera_connect(camera, cam_set, er.pos, ue[6], ue[7], width, height);
                 floatv cos_y = v3_dot(er.n, k.wo);
                 floatv w = pixels * cos_y * k.film.importance / (er.pdf_area * k.pdf_solid_angle);
                 intv ok = area & k.valid & (cos_y > 0.0f);
                 ok = camera_visible(&geom, er.pos, er.n, &k, ok);
-                if (lane_any(ok)) splat_filtered(img, &k.film, v3_scale(er.radiance, w), ok, width, height);
+                if (lane_any(ok))
+                    splat_filtered(img, &cam_set.filter, &k.film, v3_scale(er.radiance, w), ok, width, height);
             }
             intv env = er.valid & er.env;
             if (lane_any(env)) {
@@ -297,13 +304,13 @@ kernel void lt_trace(
                  * uniform on the lens (density 1 / A_lens); d had density env_pmf pdf_solid_angle */
                 vec3v look = v3_neg(er.d);
                 vec3v xl = camera_lens_point(camera, ue[6], ue[7]);
-                camera_direction_v c = camera_importance(camera, xl, look, width, height);
+                camera_direction_v c = camera_importance(camera, &cam_set, xl, look, width, height);
                 floatv w = pixels * lens_area * c.importance * c.cos_theta / (lt.env_pmf * er.pdf_solid_angle);
                 intv ok = env & c.valid;
                 /* the primary ray along look: from the near clip plane to the far one (render/camera.cl) */
-                ok = ok & !trace_any_v(&geom, camera_clip_origin(camera, xl, look), look,
-                                       camera_ray_extent(camera, look), ok);
-                if (lane_any(ok)) splat_filtered(img, &c, v3_scale(er.radiance, w), ok, width, height);
+                ok = ok & !trace_any_v(&geom, camera_clip_origin(camera, cam_set, xl, look), look,
+                                       camera_ray_extent(camera, cam_set, look), ok);
+                if (lane_any(ok)) splat_filtered(img, &cam_set.filter, &c, v3_scale(er.radiance, w), ok, width, height);
             }
             /* beta_1 = L_e cos / (pdf_area pdf_solid_angle); the ray leaves y_0 */
             vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
@@ -343,7 +350,7 @@ kernel void lt_trace(
             floatv ul[2];
             sampler_seek(&smp, LT_DIM_LENS(depth));
             sampler_next_2d(&smp, ul);
-            camera_connection_v k = camera_connect(camera, p, ul[0], ul[1], width, height);
+            camera_connection_v k = camera_connect(camera, cam_set, p, ul[0], ul[1], width, height);
             floatv bpdf;
             vec3v f = bsdf_eval_mode(&m, wi, frame_to_local(fr, k.wo), &bpdf, TRANSPORT_IMPORTANCE);
             vec3v c = v3_scale(v3_mul(beta, f), pixels * k.film.importance / k.pdf_solid_angle);
@@ -352,7 +359,7 @@ kernel void lt_trace(
 #endif
             intv ok = conn & k.valid & (v3_maxc(c) > 0.0f);
             ok = camera_visible(&geom, p, n, &k, ok);
-            if (lane_any(ok)) splat_filtered(img, &k.film, c, ok, width, height);
+            if (lane_any(ok)) splat_filtered(img, &cam_set.filter, &k.film, c, ok, width, height);
         }
 
         /* ---- the path grows while its next vertex may still connect ---- */

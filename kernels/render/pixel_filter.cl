@@ -8,9 +8,11 @@
  * The filters are separable, f(x, y) = f1(x) f1(y) (Mitsuba 3 weighs a
  * sample by the product of the 1-D filter on both axes), so each film
  * coordinate is drawn alone from one uniform of the camera's dimensions 0-1
- * (rng/streams.cl).  Chosen at build time by -DPIXEL_FILTER (the codes of
- * mcocl/render/pixel_filter.py), with -DFILTER_RADIUS and, for the Gaussian,
- * -DFILTER_STDDEV:
+ * (rng/streams.cl).  A build without -DPIXEL_FILTER_SHAPED has only the box;
+ * a build with it serves every tent and Gaussian, whose kind (the codes of
+ * mcocl/render/pixel_filter.py), radius and stddev are launch values
+ * (render_params filter_kind, filter_radius, filter_stddev; one branch on the
+ * kind, the same in every lane), so no filter setting costs a build of its own:
  *   PIXEL_FILTER_BOX       offset uniform on the pixel; the film point is
  *                          the pixel corner + u, exactly as before filters
  *                          existed, so box renders stay bit-identical;
@@ -41,7 +43,7 @@
  * pixel p estimates the same filter-weighted mean as its camera samples
  * (filter importance sampling draws x with density f(x - c_p): weight 1).
  * Camera samples of the pixels at the image's edge reach film points up to
- * FILTER_MARGIN pixels outside it, so camera connections are accepted there
+ * filter_margin pixels outside it, so camera connections are accepted there
  * too (camera.cl, camera_importance): a path that a camera subpath can
  * sample can then be sampled by a light subpath as well, and bdpt's MIS
  * weights, which do not depend on the pixel, still sum to 1 for it.
@@ -49,6 +51,7 @@
 #ifndef MCOCL_RENDER_PIXEL_FILTER_CL
 #define MCOCL_RENDER_PIXEL_FILTER_CL
 
+#include "layouts.cl"
 #include "lanes.cl"
 #include "lane_ops.cl"
 
@@ -56,38 +59,39 @@
 #define PIXEL_FILTER_TENT 1
 #define PIXEL_FILTER_GAUSSIAN 2
 
-#ifndef PIXEL_FILTER
-#define PIXEL_FILTER PIXEL_FILTER_BOX
-#endif
+/* The launch's filter (render_params filter_kind, filter_radius, filter_stddev); read only by a
+ * -DPIXEL_FILTER_SHAPED build, the box build ignores it. */
+typedef struct {
+    int kind;
+    float radius, stddev;
+} pixel_filter;
 
-#if PIXEL_FILTER != PIXEL_FILTER_BOX
-#ifndef FILTER_RADIUS
-#error "a non-box PIXEL_FILTER needs -DFILTER_RADIUS"
-#endif
-#endif
+MC_INLINE pixel_filter pixel_filter_of(const render_params *p) {
+    pixel_filter f;
+    f.kind = p->filter_kind;
+    f.radius = p->filter_radius;
+    f.stddev = p->filter_stddev;
+    return f;
+}
 
-#if PIXEL_FILTER == PIXEL_FILTER_GAUSSIAN
-#ifndef FILTER_STDDEV
-#error "PIXEL_FILTER_GAUSSIAN needs -DFILTER_STDDEV"
-#endif
+#ifdef PIXEL_FILTER_SHAPED
 #define FILTER_NEWTON_STEPS 3
 #define WINITZKI_A 0.147f
-/* H(t), the integral of the Gaussian filter over [0, t]; t in [0, FILTER_RADIUS]. */
+/* H(t), the integral of the Gaussian filter over [0, t]; t in [0, radius]. */
 MC_INLINE floatv filter_gauss_integral(floatv t, float scale, float k, float bias) {
     return scale * erf(t * k) - bias * t;
 }
-#endif
 
-/* The offset from the pixel centre, in pixels, drawn from the filter with the uniform u in [0, 1). */
-MC_INLINE floatv filter_offset(floatv u) {
-#if PIXEL_FILTER == PIXEL_FILTER_TENT
-    const float r = FILTER_RADIUS;
+/* The tent's offset from the pixel centre, in pixels, drawn with the uniform u in [0, 1). */
+MC_INLINE floatv filter_tent_offset(float r, floatv u) {
     intv low = u < 0.5f;
     floatv lo = -r + r * lane_sqrt(2.0f * u);
     floatv hi = r - r * lane_sqrt(lane_max(2.0f - 2.0f * u, (floatv)(0.0f)));
     return lane_select(hi, lo, low);
-#elif PIXEL_FILTER == PIXEL_FILTER_GAUSSIAN
-    const float r = FILTER_RADIUS, s = FILTER_STDDEV;
+}
+
+/* The Gaussian's offset from the pixel centre, in pixels, drawn with the uniform u in [0, 1). */
+MC_INLINE floatv filter_gauss_offset(float r, float s, floatv u) {
     const float k = M_SQRT1_2_F / s;                 /* 1 / (s sqrt 2) */
     const float scale = s * 1.2533141373155003f;     /* s sqrt(pi / 2) */
     const float bias = exp(-0.5f * (r / s) * (r / s));
@@ -112,43 +116,48 @@ MC_INLINE floatv filter_offset(floatv u) {
         t = lane_select(step, 0.5f * (lo + hi), bad);
     }
     return lane_select(t, -t, neg);
-#else
-    return u - 0.5f;
+}
 #endif
+
+/* The offset from the pixel centre, in pixels, drawn from the filter with the uniform u in [0, 1). */
+MC_INLINE floatv filter_offset(const pixel_filter *f, floatv u) {
+#ifdef PIXEL_FILTER_SHAPED
+    if (f->kind == PIXEL_FILTER_TENT) return filter_tent_offset(f->radius, u);
+    if (f->kind == PIXEL_FILTER_GAUSSIAN) return filter_gauss_offset(f->radius, f->stddev, u);
+#endif
+    return u - 0.5f;
 }
 
 /* How far past the image's edge, in pixels, a camera sample's film point may lie. */
-#if PIXEL_FILTER == PIXEL_FILTER_BOX
-#define FILTER_MARGIN 0.0f
-#else
-#define FILTER_MARGIN (FILTER_RADIUS - 0.5f)
+MC_INLINE float filter_margin(const pixel_filter *f) {
+#ifdef PIXEL_FILTER_SHAPED
+    if (f->kind != PIXEL_FILTER_BOX) return f->radius - 0.5f;
 #endif
+    return 0.0f;
+}
 
-#if PIXEL_FILTER != PIXEL_FILTER_BOX
-/* The 1-D filter f1 at offset x (pixels) over its integral: the density of filter_offset's offsets. */
-MC_INLINE float filter_weight(float x) {
-    const float r = FILTER_RADIUS;
+#ifdef PIXEL_FILTER_SHAPED
+/* The 1-D filter f1 at offset x (pixels) over its integral: the density of filter_offset's offsets
+ * (a tent or a Gaussian). */
+MC_INLINE float filter_weight(const pixel_filter *f, float x) {
+    const float r = f->radius;
     const float a = fabs(x);
-#if PIXEL_FILTER == PIXEL_FILTER_TENT
-    return a < r ? (1.0f - a / r) / r : 0.0f;
-#else
-    const float s = FILTER_STDDEV;
+    if (f->kind == PIXEL_FILTER_TENT) return a < r ? (1.0f - a / r) / r : 0.0f;
+    const float s = f->stddev;
     const float k = M_SQRT1_2_F / s;
     const float bias = exp(-0.5f * (r / s) * (r / s));
     const float total = 2.0f * (s * 1.2533141373155003f * erf(r * k) - bias * r); /* the integral over [-r, r] */
     return a < r ? fmax(exp(-(a * k) * (a * k)) - bias, 0.0f) / total : 0.0f;
-#endif
 }
 #endif
 
 /* The film coordinate of a camera sample in pixel column/row `base` (as a
  * float) from the uniform u: the box keeps base + u bit for bit. */
-MC_INLINE floatv film_coordinate(floatv base, floatv u) {
-#if PIXEL_FILTER == PIXEL_FILTER_BOX
-    return base + u;
-#else
-    return base + 0.5f + filter_offset(u);
+MC_INLINE floatv film_coordinate(const pixel_filter *f, floatv base, floatv u) {
+#ifdef PIXEL_FILTER_SHAPED
+    if (f->kind != PIXEL_FILTER_BOX) return base + 0.5f + filter_offset(f, u);
 #endif
+    return base + u;
 }
 
 #endif

@@ -177,6 +177,7 @@ def scene_params(tables: dict[str, np.ndarray]) -> np.ndarray:
     p["env_radiance"] = tables["env"]
     p["bdpt_only_s"] = p["bdpt_only_t"] = -1  # every strategy (the render job may pick one)
     p["bdpt_power_mis"] = 1  # the power heuristic, bdpt's default
+    p["far_clip"] = np.inf  # no clip planes (near_clip 0): the render job sets the camera's
     return p
 
 

@@ -137,8 +137,8 @@ class RenderJob:
     strategy: tuple[int, int] | None = None
     unweighted: bool = False
     pixel_filter: PixelFilter = BOX  # the reconstruction filter (mcocl/render/pixel_filter.py)
-    near_clip: float = 0.0  # camera.near_clip: -DNEAR_CLIP (kernels/render/camera.cl)
-    far_clip: float | None = None  # camera.far_clip: -DFAR_CLIP (kernels/render/camera.cl)
+    near_clip: float = 0.0  # camera.near_clip: render_params.near_clip (kernels/render/camera.cl)
+    far_clip: float | None = None  # camera.far_clip: render_params.far_clip, +inf for None (kernels/render/camera.cl)
     stat_shape: tuple[int, ...] = field(default=(0, 0, STATS))
 
     def __post_init__(self) -> None:
@@ -167,10 +167,7 @@ class RenderJob:
             opts += sobol_render_defines(self.spp_per_block)
         if self.integrator == "bdpt":
             require_face_normals(self.tables)
-        clip = [f"-DNEAR_CLIP={float(np.float32(self.near_clip))!r}f"] if self.near_clip > 0.0 else []
-        if self.far_clip is not None:
-            clip.append(f"-DFAR_CLIP={float(np.float32(self.far_clip))!r}f")
-        return opts + self.pixel_filter.defines() + shading_defines(self.tables) + texture_defines(self.tables) + clip
+        return opts + self.pixel_filter.defines() + shading_defines(self.tables) + texture_defines(self.tables)
 
     def params(self, first_block: int, nblocks: int) -> np.ndarray:
         """The kernel's ``render_params`` (mcocl/layouts.py) for a launch of ``nblocks`` from ``first_block``."""
@@ -183,6 +180,9 @@ class RenderJob:
         if self.integrator == "bdpt" and self.strategy is not None:
             p["bdpt_only_s"], p["bdpt_only_t"] = int(self.strategy[0]), int(self.strategy[1])
             p["bdpt_unweighted"] = int(bool(self.unweighted))
+        p["near_clip"] = self.near_clip
+        p["far_clip"] = np.inf if self.far_clip is None else self.far_clip
+        p["filter_kind"], p["filter_radius"], p["filter_stddev"] = self.pixel_filter.launch_values()
         return p
 
     def spp_done(self, blocks: int) -> int:

@@ -32,7 +32,7 @@ import numpy as np
 from ..errors import InputError
 
 PIXEL_FILTERS = ("box", "tent", "gaussian")
-# The -DPIXEL_FILTER codes of kernels/render/pixel_filter.cl.
+# The filter_kind codes of kernels/render/pixel_filter.cl (render_params.filter_kind).
 FILTER_CODES = {"box": 0, "tent": 1, "gaussian": 2}
 TENT_RADIUS = 1.0  # Mitsuba 3's tent default
 GAUSSIAN_STDDEV = 0.5  # Mitsuba 3's gaussian default; its radius is 4 stddev
@@ -73,13 +73,13 @@ class PixelFilter:
         return prim(b) - prim(a)
 
     def defines(self) -> list[str]:
-        """The kernel's build options (none for the box, whose build is unchanged)."""
-        if self.kind == "box":
-            return []
-        out = [f"-DPIXEL_FILTER={FILTER_CODES[self.kind]}", f"-DFILTER_RADIUS={float(np.float32(self.radius))!r}f"]
-        if self.kind == "gaussian":
-            out.append(f"-DFILTER_STDDEV={float(np.float32(self.stddev))!r}f")
-        return out
+        """The kernel's build options: none for the box, whose build is unchanged; one build for every tent and
+        Gaussian, which take their kind, radius and stddev at launch (:meth:`launch_values`)."""
+        return [] if self.kind == "box" else ["-DPIXEL_FILTER_SHAPED"]
+
+    def launch_values(self) -> tuple[np.int32, np.float32, np.float32]:
+        """``render_params`` filter_kind, filter_radius, filter_stddev (kernels/render/pixel_filter.cl)."""
+        return np.int32(FILTER_CODES[self.kind]), np.float32(self.radius), np.float32(self.stddev)
 
     def to_json(self) -> dict[str, Any]:
         """The filter as scene JSON (``camera.filter``)."""

@@ -16,10 +16,11 @@
   ``tent`` (``radius``, default 1) or ``gaussian`` (``stddev``, default 0.5; Mitsuba's default
   filter when the film names none) → ``camera.filter`` (mcocl/render/pixel_filter.py);
   ``crop_offset_x/y``, ``crop_width/height`` → ``camera.crop`` (the image is the window).
-- ``near_clip`` given in the file → ``camera.near_clip`` (Mitsuba's default 0.01 is not
-  applied, so that files without it render as their JSON twins); ``far_clip`` given → ``camera.far_clip``
-  (primary rays end on the plane at that distance along the optical axis; Mitsuba's default 10⁴ is
-  not applied either).
+- ``near_clip`` → ``camera.near_clip`` and ``far_clip`` → ``camera.far_clip``, with Mitsuba's
+  defaults 0.01 and 10⁴ when the file gives none (primary rays start on the near plane and end on
+  the far one, along the optical axis; the clips are launch parameters of the render kernels, so
+  they cost no build of their own).  An explicit ``near_clip`` of 0 clips nothing (Mitsuba
+  requires it positive).
 - samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
   ``ldsampler``: ``sample_count`` (default 4) → ``spp``; mcocl always draws from
   its counter-based Philox generator, so the sample pattern differs, not the
@@ -130,28 +131,39 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
             focus = FAR_CLIP
             comments.append(f"focus_distance: Mitsuba's default, far_clip = {FAR_CLIP:g}")
         cam.update({"aperture_radius": aperture, "focus_distance": focus})
-    near = props.get("near_clip", ("float",), None)
-    if near is None:
-        comments.append(f"near_clip: Mitsuba's default {NEAR_CLIP:g} is not applied (nothing is clipped)")
-    elif not 0.0 <= near < FAR_CLIP:
-        props.node("near_clip").fail(f"near_clip must lie in [0, {FAR_CLIP:g}), got {near:g}")
-    elif near > 0.0:
-        cam["near_clip"] = near
-        comments.append(f"near_clip {near:g}: primary rays start at that distance along the optical axis "
-                        "(and camera connections of lt and bdpt only from there)")
-    far = props.get("far_clip", ("float",), None)
-    if far is None:
-        comments.append(f"far_clip: Mitsuba's default {FAR_CLIP:g} is not applied (nothing is clipped)")
-    elif not far > (near or 0.0):
-        props.node("far_clip").fail(f"far_clip must exceed near_clip ({near or 0.0:g}), got {far:g}")
-    else:
-        cam["far_clip"] = far
-        comments.append(f"far_clip {far:g}: primary rays end at that distance along the optical axis "
-                        "(and camera connections of lt and bdpt only from before it)")
+    cam.update(_clip_planes(props, comments))
     rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", "near_clip", "far_clip",
                                         *lens_keys),
                  comments)
     return cam, spp
+
+
+def _clip_planes(props, comments: list[str]) -> dict[str, float]:
+    """``near_clip`` and ``far_clip`` of the sensor, Mitsuba's defaults where the file gives none.
+
+    Raises:
+        InputError: near_clip negative, or not below far_clip (at the property's line).
+    """
+    out: dict[str, float] = {}
+    near = props.get("near_clip", ("float",), None)
+    far = props.get("far_clip", ("float",), None)
+    near_default, far_default = near is None, far is None
+    near = NEAR_CLIP if near_default else near
+    far = FAR_CLIP if far_default else far
+    if not 0.0 <= near < (FAR_CLIP if far_default else math.inf):
+        props.node("near_clip").fail(f"near_clip must lie in [0, {FAR_CLIP:g}), got {near:g}")
+    if not far > near:  # a default far clip exceeds every near clip the line above lets through
+        props.node("far_clip").fail(f"far_clip must exceed near_clip ({near:g}), got {far:g}")
+    if near > 0.0:
+        out["near_clip"] = near
+        comments.append(f"near_clip {near:g}{' (Mitsuba default)' if near_default else ''}: primary rays start at "
+                        "that distance along the optical axis (and camera connections of lt and bdpt only from there)")
+    else:
+        comments.append("near_clip 0: nothing is clipped in front (Mitsuba would require it positive)")
+    out["far_clip"] = far
+    comments.append(f"far_clip {far:g}{' (Mitsuba default)' if far_default else ''}: primary rays end at that "
+                    "distance along the optical axis (and camera connections of lt and bdpt only from before it)")
+    return out
 
 
 def _orientation(node: Node, props, rep: Reporter, comments: list[str]) -> dict:
