@@ -154,6 +154,31 @@ MC_INLINE int lane_all(intv m) {
 }
 #endif
 
+/* The lanes of a mask as the bits of a uint (bit k: lane k set), OR-ed over vector halves; with
+ * popcount and clz it replaces loops over the lanes whose branch on each lane the CPU mispredicts. */
+#if LANES == 1
+#define lane_bits(m) ((uint)((m) != 0))
+#else
+MC_INLINE uint lane_bits(intv m) {
+    const uintv b = lane_as_uint(m) & ((uintv)(1u) << LANE_IOTA);
+#if LANES == 2
+    return b.s0 | b.s1;
+#elif LANES == 4
+    const uint2 a = b.lo | b.hi;
+    return a.s0 | a.s1;
+#elif LANES == 8
+    const uint4 c = b.lo | b.hi;
+    const uint2 a = c.lo | c.hi;
+    return a.s0 | a.s1;
+#else
+    const uint8 d = b.lo | b.hi;
+    const uint4 c = d.lo | d.hi;
+    const uint2 a = c.lo | c.hi;
+    return a.s0 | a.s1;
+#endif
+}
+#endif
+
 /* A lane vector seen as an array (type punning through a union: no vstore call). */
 typedef union { floatv v; float a[LANES]; } float_lanes;
 typedef union { uintv v; uint a[LANES]; } uint_lanes;
