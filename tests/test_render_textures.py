@@ -280,14 +280,18 @@ def block_z(a, b, block: int = 8) -> np.ndarray:
     return (ma - mb) / np.sqrt(va + vb + 1e-30)
 
 
-def test_light_tracing_and_bdpt_agree_with_mis_on_textures(tmp_path: Path) -> None:
-    p = textured_scene(tmp_path)
+def assert_splatting_agrees_with_mis(p: Path) -> None:
+    """lt and bdpt (64 spp) agree with a 256-spp mis render of ``p`` per 8x8 block, |z| < 4.5."""
     ref = mcocl.render(p, spp=256, seed=1, integrator="mis")
     assert ref.mean.max() > 0.05
     for seed, integ in ((2, "lt"), (3, "bdpt")):
         img = mcocl.render(p, spp=64, seed=seed, integrator=integ, spp_per_block=8)
         z = block_z(img, ref)
         assert np.abs(z).max() < 4.5, (integ, np.round(z[..., 0], 1))
+
+
+def test_light_tracing_and_bdpt_agree_with_mis_on_textures(tmp_path: Path) -> None:
+    assert_splatting_agrees_with_mis(textured_scene(tmp_path))
 
 
 # ---------------------------------------------------------------- files and errors
