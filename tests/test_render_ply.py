@@ -93,7 +93,11 @@ def test_ply_forms_equal_the_obj_twin(tmp_path, kind):
     np.testing.assert_array_equal(mesh.faces, FANS)
     np.testing.assert_array_equal(mesh.normals, NORMALS)
     np.testing.assert_array_equal(mesh.uvs, UVS)
-    assert mesh.vertices.dtype == np.float64 and mesh.faces.dtype == np.int64
+    # the file's values in the narrowest exact type (ply_reader.parse_ply): text parses to float64/int64,
+    # a binary file's float stays float32, its indices int32 (uint32 for uint)
+    real = np.float64 if kind == "ascii" else np.float32
+    index = np.int64 if kind == "ascii" else np.uint32 if kind == "<u4" else np.int32
+    assert mesh.vertices.dtype == mesh.normals.dtype == mesh.uvs.dtype == real and mesh.faces.dtype == index
 
 
 def test_ascii_integer_elements_parse_alike_however_laid_out():
