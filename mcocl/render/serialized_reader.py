@@ -90,7 +90,9 @@ def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMes
     packed = memoryview(data)[start + 4:end]  # no copy of the compressed bytes
     inflate = zlib.decompressobj()
     try:
-        head = inflate.decompress(packed, _HEAD_BYTES)
+        # one slice of the compressed bytes: far more than the header needs (deflate never shrinks
+        # data to less than about its size), and the rest is never copied (_inflate_body)
+        head = inflate.decompress(packed[:_INFLATE_STEP], _HEAD_BYTES)
     except zlib.error as e:
         raise InputError(f"{at}: corrupt zlib data ({e})") from None
     flags, name, nv, nt, pos = _header(head, int(version), at)
@@ -100,7 +102,7 @@ def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMes
     need = nv * per_vertex * real + nt * 3 * index
     if need > DEFLATE_MAX_RATIO * len(packed) + _HEAD_BYTES:
         raise InputError(f"{at}: {nv} vertices and {nt} triangles cannot come from {len(packed)} compressed bytes")
-    body = _inflate_body(inflate, head[pos:], need, at)
+    body = _inflate_body(inflate, head[pos:], packed, need, at)
     ftype = "<f8" if real == 8 else "<f4"
     off = 0
 
@@ -129,10 +131,11 @@ def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMes
 _INFLATE_STEP = 1 << 16  # compressed bytes fed per step: at most 1032 times that inflate at once
 
 
-def _inflate_body(inflate, start: bytes, need: int, at: str) -> np.ndarray:
-    """The ``need`` bytes of a mesh's body (``start`` already inflated), inflated step by step into one buffer.
+def _inflate_body(inflate, start: bytes, packed: memoryview, need: int, at: str) -> np.ndarray:
+    """The ``need`` bytes of a mesh's body (``start`` already inflated from the first slice of ``packed``),
+    inflated step by step into one buffer.
 
-    The compressed rest is fed a slice at a time, so neither it nor the body is ever copied whole.
+    The compressed bytes are fed a slice at a time, so neither they nor the body are ever copied whole.
 
     Raises:
         InputError: corrupt zlib data, or the stream ends before ``need`` bytes.
@@ -140,7 +143,7 @@ def _inflate_body(inflate, start: bytes, need: int, at: str) -> np.ndarray:
     body = np.empty(need, np.uint8)
     got = min(len(start), need)
     body[:got] = np.frombuffer(start, np.uint8, got)
-    src, fed, tail = memoryview(inflate.unconsumed_tail), 0, b""
+    src, fed, tail = packed, _INFLATE_STEP, inflate.unconsumed_tail
     try:
         while got < need and not inflate.eof:
             if not tail:
