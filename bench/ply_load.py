@@ -18,9 +18,11 @@ load, the BVH build and the rest of ``compile_scene``, the first image (1 spp,
 ``--size`` square, mis; with the kernel build) and a second one (the built
 program reused: the image alone), and the peak resident memory of the load and
 compile (and of the whole run) over the resident memory before, also as a
-multiple of the file's size.
+multiple of the file's size.  The kernel build of the first image comes from
+PoCL's and pyopencl's caches when they hold it; ``--cold`` gives the child an
+empty PoCL cache folder and no pyopencl cache, so that it is built.
 
-Usage: python bench/ply_load.py [--triangles N] [--out DIR] [--scene [--size PIXELS]]
+Usage: python bench/ply_load.py [--triangles N] [--out DIR] [--scene [--size PIXELS] [--cold]]
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 import tracemalloc
 from pathlib import Path
@@ -153,6 +156,7 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "big_scene")
     ap.add_argument("--scene", action="store_true", help="load, compile and render a scene around the binary PLY")
     ap.add_argument("--size", type=int, default=256, help="--scene: the image's width and height")
+    ap.add_argument("--cold", action="store_true", help="--scene: build the kernels without the caches")
     ap.add_argument("--measure", type=Path, help=argparse.SUPPRESS)  # the child's mode
     a = ap.parse_args()
     if a.measure:
@@ -174,8 +178,10 @@ def main() -> None:
         scene["camera"]["width"] = scene["camera"]["height"] = a.size
         path = a.out / "big_ply_scene.json"
         path.write_text(json.dumps(scene, indent=1) + "\n")
-        out = subprocess.run([sys.executable, __file__, "--measure", str(path), "--scene", "--size", str(a.size)],
-                             check=True, capture_output=True, text=True).stdout
+        with tempfile.TemporaryDirectory() as cache:
+            env = dict(os.environ, POCL_CACHE_DIR=cache, PYOPENCL_NO_CACHE="1") if a.cold else None
+            out = subprocess.run([sys.executable, __file__, "--measure", str(path), "--scene", "--size", str(a.size)],
+                                 env=env, check=True, capture_output=True, text=True).stdout
         print(out.strip().splitlines()[-1])
         return
     for binary in (True, False):
