@@ -384,8 +384,8 @@ def _index_type(item: np.dtype) -> type:
 def parse_ply(data: bytes, label: str) -> PlyMesh:
     """The mesh of a PLY file's bytes: vertices, fan triangles (0-based, not range-checked), normals, UVs.
 
-    The arrays hold the file's values exactly in the narrowest type that does (issue 13: a scene
-    holds at most twice its size): per-vertex data float32 when the file's properties are all
+    The arrays hold the file's values exactly in the narrowest type that does (issue 13: a binary
+    mesh costs about its file's size in memory): per-vertex data float32 when the file's properties are all
     ``float`` in a binary file, else float64 (:func:`_columns`); the triangles int32 when a binary
     file's index type fits in it (uint32 for ``uint``), else int64 (an ASCII file's).
 
@@ -444,7 +444,7 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
                 faces[...] = idx
         else:
             with np.errstate(invalid="ignore"):
-                faces = fan_triangles(idx.reshape(-1).astype(index_type), per_face)
+                faces = fan_triangles(np.ascontiguousarray(idx, index_type).reshape(-1), per_face)
     return PlyMesh(vertices, faces, normals, uvs)
 
 

@@ -90,8 +90,8 @@ def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMes
     packed = memoryview(data)[start + 4:end]  # no copy of the compressed bytes
     inflate = zlib.decompressobj()
     try:
-        # one slice of the compressed bytes: far more than the header needs (deflate never shrinks
-        # data to less than about its size), and the rest is never copied (_inflate_body)
+        # one slice of the compressed bytes: it inflates to far more than the header (deflate data
+        # inflate to at least about their own size unless the stream ends); the rest is never copied whole
         head = inflate.decompress(packed[:_INFLATE_STEP], _HEAD_BYTES)
     except zlib.error as e:
         raise InputError(f"{at}: corrupt zlib data ({e})") from None
@@ -114,7 +114,7 @@ def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMes
 
     # The arrays are views of the inflated body, in the file's precision (float32 or float64, exact;
     # compile_scene widens where it transforms) and uint32 indices: the mesh costs its body's size once
-    # (issue 13: a scene holds at most twice its size).  Vertex colours, unused, stay in the body.
+    # (issue 13: memory near the data's own size).  Vertex colours, unused, stay in the body.
     vertices = take(nv * 3, ftype).reshape(nv, 3)
     normals = take(nv * 3, ftype).reshape(nv, 3) if flags & HAS_NORMALS else None
     uvs = take(nv * 2, ftype).reshape(nv, 2) if flags & HAS_UVS else None
