@@ -150,14 +150,18 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
     """
     n = len(lo)
     order = morton_order(lo, hi)
-    leaf_box = np.concatenate([lo[order].T, hi[order].T])  # (6, N)
+    # Every node's box in one table (the tree's), leaves first: the merges are written into it as they
+    # happen, with no concatenated copy of the two halves at the end (issue 13: memory of big meshes).
+    node_box = np.empty((6, 2 * n - 1), np.float32)
+    leaf_box = node_box[:, :n]  # (6, N)
+    leaf_box[:3], leaf_box[3:] = lo[order].T, hi[order].T
     scale = _area_scale(leaf_box)
     # Clusters in curve order: their boxes (scaled by a power of two if needed) and node ids.
     box = leaf_box * np.float32(scale) if scale != 1.0 else leaf_box.copy()
     ids = np.arange(n, dtype=np.int64)
     left = np.empty(n - 1, np.int64)
     right = np.empty(n - 1, np.int64)
-    merged = np.empty((6, n - 1), np.float32)
+    merged = node_box[:, n:]
     rank_bits = int(np.ceil(np.log2(2 * radius)))
     batches: list[tuple[int, int]] = []
     done = 0
@@ -189,10 +193,7 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
         box = np.compress(keep, box, axis=1)
         batches.append((done, nm))
         done += nm
-    if scale == 1.0 or len(ids) > 1:
-        node_box = np.concatenate([leaf_box, merged], axis=1)
     if scale != 1.0:  # the scaled boxes may have lost bits: take the unions of the exact leaf boxes instead
-        node_box = np.concatenate([leaf_box, np.empty((6, n - 1), np.float32)], axis=1)
         for first, count in batches:
             lc, rc = left[first:first + count], right[first:first + count]
             p = slice(n + first, n + first + count)
