@@ -10,7 +10,19 @@ over its resident memory before the read (VmHWM after resetting it through
 tracemalloc sees (NumPy's included; tracing slows the read), and the mesh's size
 in memory (vertices, faces, normals, UVs).
 
-Usage: python bench/ply_load.py [--triangles N] [--out DIR]
+With ``--scene``, instead: writes the scene of bench/make_big_scene.py around
+the binary PLY (``OUT/big_ply_scene.json``) and, in a fresh child, loads,
+compiles and renders it once, printing the wall and CPU seconds of each stage:
+reading the mesh (``read_ply``, inside the scene load), the rest of the scene
+load, the BVH build and the rest of ``compile_scene``, the first image (1 spp,
+``--size`` square, mis; with the kernel build) and a second one (the built
+program reused: the image alone), and the peak resident memory of the load and
+compile (and of the whole run) over the resident memory before, also as a
+multiple of the file's size.  The kernel build of the first image comes from
+PoCL's and pyopencl's caches when they hold it; ``--cold`` gives the child an
+empty PoCL cache folder and no pyopencl cache, so that it is built.
+
+Usage: python bench/ply_load.py [--triangles N] [--out DIR] [--scene [--size PIXELS] [--cold]]
 """
 
 from __future__ import annotations
@@ -20,6 +32,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 import tracemalloc
 from pathlib import Path
@@ -27,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from make_big_scene import displaced_sphere  # noqa: E402
+from make_big_scene import big_scene, displaced_sphere  # noqa: E402
 
 REPEATS = 3
 VERTEX_PROPS = ("x", "y", "z", "nx", "ny", "nz", "u", "v")
@@ -86,18 +99,91 @@ def measure(path: Path) -> dict:
             "mesh_MB": round(held / 1e6, 1)}
 
 
+class _Timed:
+    """Wraps a module's function to add up the wall and CPU seconds of its calls (the stages of a load)."""
+
+    def __init__(self, module, name: str) -> None:
+        self.module, self.name, self.fn = module, name, getattr(module, name)
+        self.wall = self.cpu = 0.0
+        setattr(module, name, self)
+
+    def __call__(self, *args, **kwargs):
+        t0, c0 = time.perf_counter(), time.process_time()
+        try:
+            return self.fn(*args, **kwargs)
+        finally:
+            self.wall += time.perf_counter() - t0
+            self.cpu += time.process_time() - c0
+
+
+def _stage(fn):
+    """``fn()`` and its wall and CPU seconds."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    out = fn()
+    return out, time.perf_counter() - t0, time.process_time() - c0
+
+
+def measure_scene(path: Path, ply: Path, size: int) -> dict:
+    """In this process: load, compile and render the scene ``path`` (see the module docstring)."""
+    import mcocl
+    from mcocl.render import compiled, shapes
+    from mcocl.render.scene_file import load_scene
+
+    read, bvh = _Timed(shapes, "read_ply"), _Timed(compiled, "build_bvh")
+    Path("/proc/self/clear_refs").write_text("5")
+    before = _status_kb("VmRSS")
+    scene, load_wall, load_cpu = _stage(lambda: load_scene(path))
+    cs, comp_wall, comp_cpu = _stage(lambda: compiled.compile_scene(scene, integrator="mis"))
+    load_peak = _status_kb("VmHWM")
+    first = _stage(lambda: mcocl.render(cs, spp=1, seed=0))
+    again = _stage(lambda: mcocl.render(cs, spp=1, seed=1))
+    run_peak = _status_kb("VmHWM")
+    size_mb = ply.stat().st_size / 1e6
+    r = lambda x: round(x, 3)  # noqa: E731
+    return {"file": ply.name, "triangles": cs.num_triangles, "file_MB": round(size_mb, 1),
+            "read_mesh_s": [r(read.wall), r(read.cpu)], "rest_of_load_s": [r(load_wall - read.wall), r(load_cpu - read.cpu)],
+            "bvh_build_s": [r(bvh.wall), r(bvh.cpu)], "rest_of_compile_s": [r(comp_wall - bvh.wall), r(comp_cpu - bvh.cpu)],
+            "first_image_with_build_s": [r(first[1]), r(first[2])], "image_s": [r(again[1]), r(again[2])],
+            "image": f"{size}x{size} 1 spp mis", "load_compile_peak_MB": round((load_peak - before) / 1024, 1),
+            "load_compile_peak_x_file": round((load_peak - before) / 1024 / size_mb, 2),
+            "run_peak_MB": round((run_peak - before) / 1024, 1)}
+
+
 def main() -> None:
     """Write the two files (unless present) and measure each in a child."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--triangles", type=int, default=10**6)
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "big_scene")
+    ap.add_argument("--scene", action="store_true", help="load, compile and render a scene around the binary PLY")
+    ap.add_argument("--size", type=int, default=256, help="--scene: the image's width and height")
+    ap.add_argument("--cold", action="store_true", help="--scene: build the kernels without the caches")
     ap.add_argument("--measure", type=Path, help=argparse.SUPPRESS)  # the child's mode
     a = ap.parse_args()
     if a.measure:
-        print(json.dumps(measure(a.measure)))
+        if a.scene:
+            ply = a.measure.parent / json.loads(a.measure.read_text())["shapes"][1]["ply"]
+            print(json.dumps(measure_scene(a.measure, ply, a.size)))
+        else:
+            print(json.dumps(measure(a.measure)))
         return
     a.out.mkdir(parents=True, exist_ok=True)
     verts, faces = displaced_sphere(a.triangles)
+    if a.scene:
+        ply = a.out / f"sphere_{len(faces)}_binary.ply"
+        if not ply.exists():
+            write_ply(ply, verts, faces, True)
+        scene = big_scene(ply.name)
+        mesh = scene["shapes"][1]
+        mesh["ply"] = mesh.pop("obj")
+        scene["camera"]["width"] = scene["camera"]["height"] = a.size
+        path = a.out / "big_ply_scene.json"
+        path.write_text(json.dumps(scene, indent=1) + "\n")
+        with tempfile.TemporaryDirectory() as cache:
+            env = dict(os.environ, POCL_CACHE_DIR=cache, PYOPENCL_NO_CACHE="1") if a.cold else None
+            out = subprocess.run([sys.executable, __file__, "--measure", str(path), "--scene", "--size", str(a.size)],
+                                 env=env, check=True, capture_output=True, text=True).stdout
+        print(out.strip().splitlines()[-1])
+        return
     for binary in (True, False):
         path = a.out / f"sphere_{len(faces)}_{'binary' if binary else 'ascii'}.ply"
         if not path.exists():

@@ -3,6 +3,7 @@
 - ASCII and binary (both byte orders) PLY files written here with NumPy read as
   the same vertices and faces as their OBJ twin; polygons become fans; mixed
   polygon sizes take the vectorised scan and agree with the fixed-size block read;
+- a binary file's float32 data stays float32 and compiles to the same device tables as its float64 ASCII twin;
 - malformed headers, counts and truncated files are refused naming the file;
   a path outside the scene's folder is refused;
 - the disk's and cylinder's areas are the inscribed polygons' (→ π and 2π);
@@ -28,6 +29,7 @@ from mcocl.render.mitsuba import read_mitsuba
 from mcocl.render.ply_reader import parse_ply
 from mcocl.render.scene import parse_scene
 from mcocl.render.scene_file import load_scene
+from mcocl.render.shape_uvs import triangle_uvs
 from mcocl.render.shapes import read_obj, read_ply
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
@@ -93,7 +95,11 @@ def test_ply_forms_equal_the_obj_twin(tmp_path, kind):
     np.testing.assert_array_equal(mesh.faces, FANS)
     np.testing.assert_array_equal(mesh.normals, NORMALS)
     np.testing.assert_array_equal(mesh.uvs, UVS)
-    assert mesh.vertices.dtype == np.float64 and mesh.faces.dtype == np.int64
+    # the file's values in the narrowest exact type (ply_reader.parse_ply): text parses to float64/int64,
+    # a binary file's float stays float32, its indices int32 (uint32 for uint)
+    real = np.float64 if kind == "ascii" else np.float32
+    index = np.int64 if kind == "ascii" else np.uint32 if kind == "<u4" else np.int32
+    assert mesh.vertices.dtype == mesh.normals.dtype == mesh.uvs.dtype == real and mesh.faces.dtype == index
 
 
 def test_ascii_integer_elements_parse_alike_however_laid_out():
@@ -287,6 +293,28 @@ def test_cornell_with_ply_meshes_renders_as_with_obj_meshes(tmp_path):
     r_obj, r_ply = (mcocl.render(twins[k], spp=2, seed=3) for k in ("obj", "ply"))
     assert np.array_equal(r_obj.mean, r_ply.mean) and np.array_equal(r_obj.variance, r_ply.variance)
     assert (r_ply.mean.sum(-1) > 0).mean() > 0.5  # mostly lit: not two black images
+
+
+@pytest.mark.parametrize("order", ["<", ">"])
+def test_binary_float32_meshes_compile_as_their_float64_twins(tmp_path, order):
+    """A binary file's float32 data stays float32 (ply_reader.parse_ply) and widens in compile_scene: the device
+    tables, shading normals and UVs equal those of the ASCII twin, read as float64, under a mirroring transform."""
+    (tmp_path / "b.ply").write_bytes(binary_ply(order))
+    (tmp_path / "a.ply").write_bytes(ascii_ply())
+    assert read_ply(tmp_path / "b.ply", "b").vertices.dtype == np.float32
+    assert read_ply(tmp_path / "a.ply", "a").vertices.dtype == np.float64
+    tables = []
+    for name in ("b.ply", "a.ply"):
+        scene = {"camera": {"origin": [0, 0, 6], "target": [0, 0, 0], "fov": 40, "width": 4, "height": 4},
+                 "materials": {"m": {"type": "diffuse", "reflectance": 0.5}},
+                 "shapes": [{"type": "mesh", "ply": name, "material": "m", "emitter": {"type": "area", "radiance": 1},
+                             "transform": [{"scale": [1.3, -0.7, 0.9]}, {"rotate": {"axis": [1, 2, 3], "angle": 33}}]}]}
+        sc = parse_scene(scene, tmp_path / "s.json")
+        cs = compile_scene(sc)
+        tables.append({k: v for k, v in cs.__dict__.items() if isinstance(v, np.ndarray)} | {"uvs": triangle_uvs(sc.shapes)})
+    assert tables[0].keys() == tables[1].keys() and "vertex_normals" in tables[0]
+    for k in tables[0]:
+        assert tables[0][k].dtype == tables[1][k].dtype and np.array_equal(tables[0][k], tables[1][k]), k
 
 
 def test_mutated_files_raise_input_error_only():

@@ -62,6 +62,9 @@ def test_round_trip(tmp_path: Path, version: int, double: bool) -> None:
     np.testing.assert_allclose(q.normals, QUAD["normals"], atol=tol)
     np.testing.assert_allclose(q.uvs, QUAD["uvs"], atol=tol)
     assert q.name == ("quad" if version == 4 else "") and not q.face_normals
+    # the file's precision and uint32 indices, as views of one inflated body (serialized_reader.parse_serialized)
+    assert q.vertices.dtype == q.normals.dtype == q.uvs.dtype == (np.float64 if double else np.float32)
+    assert q.faces.dtype == np.uint32 and not (q.vertices.flags.owndata or q.faces.flags.owndata)
     t = parse_serialized(data, 1, "m")
     np.testing.assert_allclose(t.vertices, TET["vertices"], atol=tol)
     np.testing.assert_array_equal(t.faces, TET["faces"])

@@ -150,14 +150,18 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
     """
     n = len(lo)
     order = morton_order(lo, hi)
-    leaf_box = np.concatenate([lo[order].T, hi[order].T])  # (6, N)
+    # Every node's box in one table (the tree's), leaves first: the merges are written into it as they
+    # happen, with no concatenated copy of the two halves at the end (issue 13: memory of big meshes).
+    node_box = np.empty((6, 2 * n - 1), np.float32)
+    leaf_box = node_box[:, :n]  # (6, N)
+    leaf_box[:3], leaf_box[3:] = lo[order].T, hi[order].T
     scale = _area_scale(leaf_box)
     # Clusters in curve order: their boxes (scaled by a power of two if needed) and node ids.
     box = leaf_box * np.float32(scale) if scale != 1.0 else leaf_box.copy()
     ids = np.arange(n, dtype=np.int64)
     left = np.empty(n - 1, np.int64)
     right = np.empty(n - 1, np.int64)
-    merged = np.empty((6, n - 1), np.float32)
+    merged = node_box[:, n:]
     rank_bits = int(np.ceil(np.log2(2 * radius)))
     batches: list[tuple[int, int]] = []
     done = 0
@@ -189,10 +193,7 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
         box = np.compress(keep, box, axis=1)
         batches.append((done, nm))
         done += nm
-    if scale == 1.0 or len(ids) > 1:
-        node_box = np.concatenate([leaf_box, merged], axis=1)
     if scale != 1.0:  # the scaled boxes may have lost bits: take the unions of the exact leaf boxes instead
-        node_box = np.concatenate([leaf_box, np.empty((6, n - 1), np.float32)], axis=1)
         for first, count in batches:
             lc, rc = left[first:first + count], right[first:first + count]
             p = slice(n + first, n + first + count)
@@ -239,6 +240,9 @@ def join_clusters(tree: MergeTree, roots: np.ndarray, nodes: np.ndarray, prims: 
     return True
 
 
+_AREA_CHUNK = 1 << 16  # nodes per step of flatten_tree's float64 areas
+
+
 def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost: float):
     """Cut ``tree`` into SAH-optimal leaves and write it in the node layout of :mod:`mcocl.render.bvh`.
 
@@ -246,14 +250,18 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
     """
     n = len(tree.order)
     left, right, box = tree.left, tree.right, tree.box
-    ext = box[3:].astype(np.float64) - box[:3]
-    area = ext[0] * ext[1] + ext[1] * ext[2] + ext[2] * ext[0]  # half areas: only ratios matter
-    del ext
     total = 2 * n - 1
-    count = np.ones(total, np.int64)
+    # Per-node tables in int32 where every position fits, and the float64 areas a chunk at a time:
+    # the same numbers in about half the memory of a big mesh's build (issue 13).
+    itype = np.int32 if total < 2**31 else np.int64
+    area = np.empty(total)  # half areas: only ratios matter
+    for s in range(0, total, _AREA_CHUNK):
+        ext = box[3:, s:s + _AREA_CHUNK].astype(np.float64) - box[:3, s:s + _AREA_CHUNK]
+        area[s:s + _AREA_CHUNK] = ext[0] * ext[1] + ext[1] * ext[2] + ext[2] * ext[0]
+    count = np.ones(total, itype)
     cost = area.copy()  # a primitive alone: A · 1
     is_leaf = np.ones(total, bool)  # the subtree is one leaf
-    n_int = np.zeros(total, np.int64)  # internal nodes of the subtree once cut
+    n_int = np.zeros(total, itype)  # internal nodes of the subtree once cut
     for first, num in tree.batches:  # bottom-up: children come from earlier iterations
         p = slice(n + first, n + first + num)
         lc, rc = left[first:first + num], right[first:first + num]
@@ -271,9 +279,9 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
         n_int[root] = 1 + n_int[left[-1]] + n_int[right[-1]]
     # Top-down: first primitive position of every node (in-order: a subtree's primitives are contiguous),
     # depth-first index and depth of the internal nodes of the cut tree (left child right after its parent).
-    start = np.zeros(total, np.int64)
-    pre = np.zeros(total, np.int64)
-    depth = np.zeros(total, np.int64)
+    start = np.zeros(total, itype)
+    pre = np.zeros(total, itype)
+    depth = np.zeros(total, itype)
     internal = np.zeros(total, bool)  # an internal node of the cut tree
     internal[root] = True
     for first, num in reversed(tree.batches):

@@ -281,7 +281,8 @@ def _shape_triangles(shape, path) -> np.ndarray:
     Raises:
         InputError: the transform made a vertex of a face non-finite.
     """
-    v = tf.apply_points(shape.matrix, shape.vertices)
+    # a file's float32 vertices widen here, exactly (mcocl/render/ply_reader.py keeps them float32)
+    v = tf.apply_points(shape.matrix, np.asarray(shape.vertices, np.float64))
     f = shape.faces
     if tf.is_orientation_reversing(shape.matrix) != shape.flip_normals:
         f = f[:, [0, 2, 1]]

@@ -337,7 +337,9 @@ def _element(body: _Body, el: Element, start: int, want: set[str]) -> tuple[dict
         for p in el.props:
             if p.name in want:
                 v = cols[p.name]
-                out[p.name] = (np.full(el.count, v.shape[1], np.int64), v.reshape(-1)) if p.count_type else v
+                # a list stays (count, length): the fan of triangles is then one copy of it (parse_ply);
+                # the lengths, all equal, a broadcast scalar: no array of them
+                out[p.name] = (np.broadcast_to(np.int64(v.shape[1]), (el.count,)), v) if p.count_type else v
         return out, start + el.count * (first_end - start)
     if not any(p.count_type is not None for p in el.props):
         raise InputError(overrun)  # a fixed layout reads as a block unless it overruns
@@ -359,15 +361,33 @@ def _element(body: _Body, el: Element, start: int, want: set[str]) -> tuple[dict
 
 
 def _columns(values: dict[str, np.ndarray], names: tuple[str, ...]) -> np.ndarray:
-    """The properties ``names`` side by side as float64 (N, len(names)), written straight into one array."""
-    out = np.empty((len(values[names[0]]), len(names)))
+    """The properties ``names`` side by side (N, len(names)), written straight into one array.
+
+    float32 when every one is float32 (a binary file's usual ``float``: its values exactly, in half
+    the memory of float64; :func:`mcocl.render.compiled.compile_scene` widens them, exactly, where it
+    transforms them), else float64 (an ASCII file's numbers, doubles, integer types: all exact)."""
+    dtype = np.float32 if all(values[n].dtype.kind == "f" and values[n].dtype.itemsize == 4 for n in names) else np.float64
+    out = np.empty((len(values[names[0]]), len(names)), dtype)
     for k, name in enumerate(names):
         out[:, k] = values[name]
     return out
 
 
+def _index_type(item: np.dtype) -> type:
+    """The type of a binary file's triangles: int32 holds every index of a type up to 32 bits but
+    ``uint`` (uint32: negatives do not occur), int64 the 64-bit ones (a PLY has none; kept general)."""
+    if item.itemsize < 4 or (item.itemsize == 4 and item.kind == "i"):
+        return np.int32
+    return np.uint32 if item.itemsize == 4 else np.int64
+
+
 def parse_ply(data: bytes, label: str) -> PlyMesh:
-    """The mesh of a PLY file's bytes: vertices float64, fan triangles int64 (0-based, not range-checked).
+    """The mesh of a PLY file's bytes: vertices, fan triangles (0-based, not range-checked), normals, UVs.
+
+    The arrays hold the file's values exactly in the narrowest type that does (issue 13: a binary
+    mesh costs about its file's size in memory): per-vertex data float32 when the file's properties are all
+    ``float`` in a binary file, else float64 (:func:`_columns`); the triangles int32 when a binary
+    file's index type fits in it (uint32 for ``uint``), else int64 (an ASCII file's).
 
     Raises:
         InputError: a malformed header or body; the message starts with ``label``.
@@ -417,8 +437,14 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
         few = np.flatnonzero(per_face < 3)
         if len(few):
             raise InputError(f"{label}: face {int(few[0])} has {int(per_face[few[0]])} corners (at least 3 needed)")
-        with np.errstate(invalid="ignore"):  # an ASCII index beyond int64 becomes negative: refused by check_mesh
-            faces = fan_triangles(idx.astype(np.int64), per_face)
+        index_type = np.int64 if order is None else _index_type(idx.dtype)
+        if idx.ndim == 2 and idx.shape[1] == 3:  # a block of triangles (_element): one copy, no fan
+            faces = np.empty(idx.shape, index_type)
+            with np.errstate(invalid="ignore"):  # an ASCII index beyond int64 becomes negative: refused by check_mesh
+                faces[...] = idx
+        else:
+            with np.errstate(invalid="ignore"):
+                faces = fan_triangles(np.ascontiguousarray(idx, index_type).reshape(-1), per_face)
     return PlyMesh(vertices, faces, normals, uvs)
 
 

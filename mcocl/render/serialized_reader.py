@@ -87,10 +87,12 @@ def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMes
     magic, version = np.frombuffer(data, "<u2", 2, start)
     if magic != MAGIC or version not in VERSIONS:
         raise InputError(f"{at}: does not begin with 0x041C and version 3 or 4")
-    packed = data[start + 4:end]
+    packed = memoryview(data)[start + 4:end]  # no copy of the compressed bytes
     inflate = zlib.decompressobj()
     try:
-        head = inflate.decompress(packed, _HEAD_BYTES)
+        # one slice of the compressed bytes: it inflates to far more than the header (deflate data
+        # inflate to at least about their own size unless the stream ends); the rest is never copied whole
+        head = inflate.decompress(packed[:_INFLATE_STEP], _HEAD_BYTES)
     except zlib.error as e:
         raise InputError(f"{at}: corrupt zlib data ({e})") from None
     flags, name, nv, nt, pos = _header(head, int(version), at)
@@ -100,31 +102,63 @@ def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMes
     need = nv * per_vertex * real + nt * 3 * index
     if need > DEFLATE_MAX_RATIO * len(packed) + _HEAD_BYTES:
         raise InputError(f"{at}: {nv} vertices and {nt} triangles cannot come from {len(packed)} compressed bytes")
-    rest = need - (len(head) - pos)
-    try:
-        body = head[pos:] + (inflate.decompress(inflate.unconsumed_tail, rest) if rest > 0 else b"")
-    except zlib.error as e:
-        raise InputError(f"{at}: corrupt zlib data ({e})") from None
-    if len(body) < need:
-        raise InputError(f"{at}: the data ends early ({len(body)} of {need} bytes)")
+    body = _inflate_body(inflate, head[pos:], packed, need, at)
     ftype = "<f8" if real == 8 else "<f4"
     off = 0
 
     def take(count: int, dtype: str) -> np.ndarray:
         nonlocal off
-        a = np.frombuffer(body, dtype, count, off)
+        a = body[off:off + count * np.dtype(dtype).itemsize].view(dtype)
         off += count * np.dtype(dtype).itemsize
         return a
 
-    vertices = take(nv * 3, ftype).reshape(nv, 3).astype(np.float64)
-    normals = take(nv * 3, ftype).reshape(nv, 3).astype(np.float64) if flags & HAS_NORMALS else None
-    uvs = take(nv * 2, ftype).reshape(nv, 2).astype(np.float64) if flags & HAS_UVS else None
+    # The arrays are views of the inflated body, in the file's precision (float32 or float64, exact;
+    # compile_scene widens where it transforms) and uint32 indices: the mesh costs its body's size once
+    # (issue 13: memory near the data's own size).  Vertex colours, unused, stay in the body.
+    vertices = take(nv * 3, ftype).reshape(nv, 3)
+    normals = take(nv * 3, ftype).reshape(nv, 3) if flags & HAS_NORMALS else None
+    uvs = take(nv * 2, ftype).reshape(nv, 2) if flags & HAS_UVS else None
     if flags & HAS_COLORS:
         take(nv * 3, ftype)  # vertex colours: not used
     faces = take(nt * 3, "<u8" if index == 8 else "<u4").reshape(nt, 3)
     if nt and int(faces.max()) >= nv:
         raise InputError(f"{at}: a triangle's vertex index {int(faces.max())} is outside 0..{nv - 1}")
-    return SerializedMesh(vertices, faces.astype(np.int64), normals, uvs, name, bool(flags & FACE_NORMALS))
+    if index == 8:
+        faces = faces.astype(np.int64)
+    return SerializedMesh(vertices, faces, normals, uvs, name, bool(flags & FACE_NORMALS))
+
+
+_INFLATE_STEP = 1 << 16  # compressed bytes fed per step: at most 1032 times that inflate at once
+
+
+def _inflate_body(inflate, start: bytes, packed: memoryview, need: int, at: str) -> np.ndarray:
+    """The ``need`` bytes of a mesh's body (``start`` already inflated from the first slice of ``packed``),
+    inflated step by step into one buffer.
+
+    The compressed bytes are fed a slice at a time, so neither they nor the body are ever copied whole.
+
+    Raises:
+        InputError: corrupt zlib data, or the stream ends before ``need`` bytes.
+    """
+    body = np.empty(need, np.uint8)
+    got = min(len(start), need)
+    body[:got] = np.frombuffer(start, np.uint8, got)
+    src, fed, tail = packed, _INFLATE_STEP, inflate.unconsumed_tail
+    try:
+        while got < need and not inflate.eof:
+            if not tail:
+                if fed >= len(src):
+                    break
+                tail, fed = src[fed:fed + _INFLATE_STEP], fed + _INFLATE_STEP
+            part = inflate.decompress(tail, need - got)
+            tail = inflate.unconsumed_tail
+            body[got:got + len(part)] = np.frombuffer(part, np.uint8)
+            got += len(part)
+    except zlib.error as e:
+        raise InputError(f"{at}: corrupt zlib data ({e})") from None
+    if got < need:
+        raise InputError(f"{at}: the data ends early ({got} of {need} bytes)")
+    return body
 
 
 def _header(head: bytes, version: int, at: str) -> tuple[int, str, int, int, int]:

@@ -27,6 +27,9 @@ from .shape_registry import SHAPES
 VERTEX_NORMALS_ABSENT = {"vertex_normals": np.zeros((1, 4), np.float32)}
 
 
+_CHUNK = 1 << 15  # triangles per step of vertex_normal_table: its float64 temporaries stay small
+
+
 def _world_normals(shape) -> np.ndarray:
     """The shape's vertex normals in world space, unit length (zero rows stay zero), float64."""
     lin = np.asarray(shape.matrix, np.float64)[:3, :3]
@@ -53,13 +56,18 @@ def vertex_normal_table(shapes: list, world_triangles: np.ndarray) -> np.ndarray
             faces = sh.faces
             if tf.is_orientation_reversing(sh.matrix) != sh.flip_normals:
                 faces = faces[:, [0, 2, 1]]  # as compiled.py's _shape_triangles
-            corner = _world_normals(sh)[faces]  # (count, 3, 3)
-            tri = world_triangles[start:start + count].astype(np.float64)
-            face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-            behind = np.einsum("ij,ij->i", corner.sum(axis=1), face_n) < 0.0
-            corner[behind] *= -1.0
-            table[start:start + count, :, :3] = corner
-            table[start:start + count, :, 3] = 1.0
+            world = _world_normals(sh)
+            # a chunk of triangles at a time: the float64 corners and faces of a big mesh are never all
+            # held (each triangle's numbers are the same whatever the chunk)
+            for s in range(0, count, _CHUNK):
+                rows = slice(start + s, start + min(s + _CHUNK, count))
+                corner = world[faces[s:s + _CHUNK]]  # (chunk, 3, 3)
+                tri = world_triangles[rows].astype(np.float64)
+                face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+                behind = np.einsum("ij,ij->i", corner.sum(axis=1), face_n) < 0.0
+                corner[behind] *= -1.0
+                table[rows, :, :3] = corner
+                table[rows, :, 3] = 1.0
         start += count
     return table
 

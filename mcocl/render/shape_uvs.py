@@ -50,7 +50,12 @@ def _unwrap(phi: np.ndarray, known: np.ndarray) -> np.ndarray:
 
 
 def _corner_uvs(shape, faces: np.ndarray) -> np.ndarray:
-    """(T, 3, 2) float64 (u, v) of the corners of ``faces`` (local vertices of ``shape``)."""
+    """(T, 3, 2) (u, v) of the corners of ``faces`` (local vertices of ``shape``): float64, or a mesh
+    file's float32 UVs as they are (exact either way: :func:`triangle_uvs` rounds to float32 once)."""
+    if shape.kind not in ("rectangle", "cube", "disk", "cylinder"):  # a mesh: its own UVs, no positions needed
+        if shape.uvs is None:
+            return np.zeros(faces.shape + (2,))
+        return np.asarray(shape.uvs)[faces]
     p = np.asarray(shape.vertices, np.float64)[faces]
     if shape.kind == "rectangle":
         return (p[..., :2] + 1.0) / 2.0
@@ -68,12 +73,8 @@ def _corner_uvs(shape, faces: np.ndarray) -> np.ndarray:
         phi = _unwrap(_polar(p[..., :2]), known)
         mean = np.where(known, phi, 0.0).sum(axis=1, keepdims=True) / np.maximum(known.sum(axis=1, keepdims=True), 1)
         return np.stack([r, np.where(known, phi, mean)], axis=-1)
-    if shape.kind == "cylinder":
-        phi = _unwrap(_polar(p[..., :2]), np.ones(p.shape[:2], bool))
-        return np.stack([phi, p[..., 2]], axis=-1)
-    if shape.uvs is None:
-        return np.zeros(p.shape[:2] + (2,))
-    return np.asarray(shape.uvs, np.float64)[faces]
+    phi = _unwrap(_polar(p[..., :2]), np.ones(p.shape[:2], bool))  # the cylinder
+    return np.stack([phi, p[..., 2]], axis=-1)
 
 
 def triangle_uvs(shapes: list) -> np.ndarray:
