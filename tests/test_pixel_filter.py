@@ -330,12 +330,17 @@ def test_near_clip_hides_what_lies_nearer(tmp_path: Path) -> None:
     for integrator in ("lt", "bdpt"):
         # the splatting integrators see through the plane as mis does (kernels/render/camera.cl)
         _assert_sees(mcocl.render(p, spp=16, seed=1, integrator=integrator, spp_per_block=4), 1.0)
+    assert compile_scene(_clip_xml(tmp_path, "near_clip", "0.25")).near_clip == 0.25
+    assert compile_scene(_xml(tmp_path, "")).near_clip == 0.01  # Mitsuba's default
+
+
+def _clip_xml(tmp_path: Path, name: str, value: str) -> Path:
+    """``clip.xml``: the box-filter XML scene of :func:`_xml` with the sensor's float ``name`` set to ``value``."""
     xml = _xml(tmp_path, '<rfilter type="box"/>').read_text()
     p = tmp_path / "clip.xml"
-    p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
-                             '<float name="near_clip" value="0.25"/>'))
-    assert compile_scene(p).near_clip == 0.25
-    assert compile_scene(_xml(tmp_path, "")).near_clip == 0.01  # Mitsuba's default
+    p.write_text(xml.replace('<float name="fov" value="40"/>',
+                             f'<float name="fov" value="40"/><float name="{name}" value="{value}"/>'))
+    return p
 
 
 def test_far_clip_hides_what_lies_farther(tmp_path: Path) -> None:
@@ -356,13 +361,7 @@ def test_far_clip_hides_what_lies_farther(tmp_path: Path) -> None:
     p.write_text(json.dumps(data))
     with pytest.raises(InputError, match=r"camera\.far_clip"):
         compile_scene(p)
-    xml = _xml(tmp_path, '<rfilter type="box"/>').read_text()
-    p = tmp_path / "clip.xml"
-    p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
-                             '<float name="far_clip" value="25"/>'))
-    assert compile_scene(p).far_clip == 25.0
+    assert compile_scene(_clip_xml(tmp_path, "far_clip", "25")).far_clip == 25.0
     assert compile_scene(_xml(tmp_path, "")).far_clip == 1e4  # Mitsuba's default
-    p.write_text(xml.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/>'
-                             '<float name="far_clip" value="0"/>'))
     with pytest.raises(InputError, match=r"clip\.xml:\d+: .*far_clip must exceed near_clip"):
-        compile_scene(p)
+        compile_scene(_clip_xml(tmp_path, "far_clip", "0"))
