@@ -17,14 +17,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_render_textures import block_z  # 8 x 8 block z-scores of two renders
 
 import mcocl
 from mcocl.errors import InputError
 from mcocl.render.compiled import compile_scene
 from mcocl.render.device_scene import scene_tables
 from mcocl.render.job import RenderJob
-
-BLOCK = 8
 
 
 def uv_sphere(rings: int = 24, segments: int = 48) -> tuple[np.ndarray, np.ndarray]:
@@ -91,18 +90,6 @@ def scenes(tmp_path_factory) -> dict[str, Path]:
             "smooth": scene(tmp, {"type": "mesh", "ply": "smooth.ply"}, "s.json"),
             "flat": scene(tmp, {"type": "mesh", "ply": "smooth.ply", "face_normals": True}, "f.json"),
             "diffuse": scene(tmp, {"type": "mesh", "ply": "smooth.ply"}, "d.json", DIFFUSE)}
-
-
-def block_z(a, b) -> np.ndarray:
-    """z of the difference of two renders' 8 x 8 block means, per block and channel."""
-    def blocks(x: np.ndarray) -> np.ndarray:
-        h, w = x.shape[:2]
-        return x.reshape(h // BLOCK, BLOCK, w // BLOCK, BLOCK, -1)
-
-    ma, mb = blocks(a.mean).mean((1, 3)), blocks(b.mean).mean((1, 3))
-    va = (blocks(a.stderr) ** 2).sum((1, 3)) / BLOCK**4
-    vb = (blocks(b.stderr) ** 2).sum((1, 3)) / BLOCK**4
-    return (ma - mb) / np.sqrt(va + vb + 1e-30)
 
 
 def test_smooth_mesh_renders_like_the_analytic_sphere(scenes) -> None:
