@@ -271,12 +271,14 @@ def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: f
     return cam.view(np.float32).reshape(4, 4)
 
 
-def _shape_triangles(shape, path) -> np.ndarray:
-    """World-space float32 triangles (n, 3, 3) of a mesh-like shape, front side counter-clockwise.
+def _shape_triangles(shape, path, out: np.ndarray) -> None:
+    """Write the world-space triangles of a mesh-like shape into ``out`` (n, 3, 4) float32, w = 0.
 
-    The vertices are transformed in float64 and rounded to float32 once per
-    vertex, then gathered per face: the same numbers as rounding each gathered
-    float64 triangle, with a fifth of the float64 work and memory.
+    The front side is counter-clockwise.  The vertices are transformed in
+    float64 and rounded to float32 once per vertex (into rows of four floats,
+    w = 0), then gathered per face straight into ``out``: the same numbers as
+    rounding each gathered float64 triangle, with a fifth of the float64 work
+    and no (n, 3, 3) intermediate.
 
     Raises:
         InputError: the transform made a vertex of a face non-finite.
@@ -286,9 +288,27 @@ def _shape_triangles(shape, path) -> np.ndarray:
     f = shape.faces
     if tf.is_orientation_reversing(shape.matrix) != shape.flip_normals:
         f = f[:, [0, 2, 1]]
-    if not np.isfinite(v).all(axis=1)[f].all():
+    # (a non-finite vertex that no face uses is allowed: the per-face test only runs when one exists)
+    if not np.isfinite(v).all() and not np.isfinite(v).all(axis=1)[f].all():
         raise InputError(f"{path}: a transform produced non-finite vertices")
-    return v.astype(np.float32)[f]
+    v4 = np.zeros((len(v), 4), np.float32)
+    v4[:, :3] = v
+    np.take(v4, f, axis=0, out=out)
+
+
+def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:
+    """``op.reduce(tri[:, :, :3], axis=1)`` (the box corner of each triangle (T, 3, 4)), as three elementwise passes.
+
+    The reduction over the middle axis is several times slower than
+    ``op(op(v0, v1), v2)``; both give the same numbers except possibly the sign
+    of a zero (which of two equal zeros a min/max returns depends on the order
+    of evaluation), so rows with a zero in the result are taken from the reduction itself.
+    """
+    out = op(op(tri[:, 0, :3], tri[:, 1, :3]), tri[:, 2, :3])
+    zero = np.flatnonzero((out == 0).any(axis=1))
+    if len(zero):
+        out[zero] = op.reduce(tri[zero, :, :3], axis=1)
+    return out
 
 
 # Triangles per chunk of compile_scene's float64 area work: its temporaries stay in cache.
@@ -337,7 +357,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     """
     if not isinstance(scene, Scene):
         scene = load_scene(scene, mesh_folder=mesh_folder)
-    tris, tri_shape, spheres, sphere_flip, sphere_shape = [], [], [], [], []
+    tri_shape, spheres, sphere_flip, sphere_shape = [], [], [], []
     for k, sh in enumerate(scene.shapes):
         if SHAPES[sh.kind].sphere:
             s = tf.uniform_scale_of(sh.matrix)
@@ -346,17 +366,15 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
             sphere_flip.append(1 if sh.flip_normals else 0)
             sphere_shape.append(k)
         else:
-            t = _shape_triangles(sh, scene.path)
-            tris.append(t)
-            tri_shape.append(np.full(len(t), k, np.uint32))
+            tri_shape.append(np.full(len(sh.faces), k, np.uint32))
     sph64 = np.array(spheres, np.float64).reshape(-1, 4)
-    ntri, nsph = sum(len(t) for t in tris), len(sph64)
-    tri_vertices = np.zeros((ntri, 3, 4), np.float32)
+    ntri, nsph = sum(len(t) for t in tri_shape), len(sph64)
+    tri_vertices = np.empty((ntri, 3, 4), np.float32)
     start = 0
-    for t in tris:  # each shape's triangles straight into the table: no concatenated copy
-        tri_vertices[start:start + len(t), :, :3] = t
-        start += len(t)
-    del tris
+    for sh in scene.shapes:  # each shape's triangles straight into the table: no concatenated copy
+        if not SHAPES[sh.kind].sphere:
+            _shape_triangles(sh, scene.path, tri_vertices[start:start + len(sh.faces)])
+            start += len(sh.faces)
     sph32 = sph64.astype(np.float32)
     prim_shape = np.concatenate([*tri_shape, np.array(sphere_shape, np.uint32)]).astype(np.uint32)
 
@@ -367,9 +385,10 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
 
     # BVH over the non-degenerate primitives.
     # (the boxes of float32 vertices are float32 values: no float64 round trip)
-    t32 = tri_vertices[good_tri, :, :3]
-    lo = np.concatenate([t32.min(axis=1), (sph32[:, :3] - sph32[:, 3:])]).astype(np.float32)
-    hi = np.concatenate([t32.max(axis=1), (sph32[:, :3] + sph32[:, 3:])]).astype(np.float32)
+    all_good = bool(good_tri.all())
+    t32 = tri_vertices if all_good else tri_vertices[good_tri]
+    lo = np.concatenate([_corner_extreme(t32, np.minimum), (sph32[:, :3] - sph32[:, 3:])])
+    hi = np.concatenate([_corner_extreme(t32, np.maximum), (sph32[:, :3] + sph32[:, 3:])])
     del t32
     ids = np.concatenate([np.flatnonzero(good_tri), ntri + np.arange(nsph)]).astype(np.uint32)
     method = bvh_method or ("binned" if len(ids) <= BINNED_UP_TO else "ploc")
