@@ -33,7 +33,7 @@ _CHUNK = 1 << 15  # triangles per step of vertex_normal_table: its float64 tempo
 def _world_normals(shape) -> np.ndarray:
     """The shape's vertex normals in world space, unit length (zero rows stay zero), float64."""
     lin = np.asarray(shape.matrix, np.float64)[:3, :3]
-    n = np.asarray(shape.normals, np.float64) @ np.linalg.inv(lin)  # rows times M^-1: (M^-T n) as rows
+    n = tf.rows_times(np.asarray(shape.normals, np.float64), np.linalg.inv(lin))  # rows times M^-1: (M^-T n) as rows
     length = np.linalg.norm(n, axis=1, keepdims=True)
     return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 

@@ -52,9 +52,37 @@ def compose(ops: list[np.ndarray]) -> np.ndarray:
     return m
 
 
+# Rows per block of rows_times.  OpenBLAS computes a product of up to about 2.6e5 multiply-adds on one thread and
+# starts its threads above that; on a loaded 2-core machine they cost 0.1-0.2 s per product of 10^6 points
+# (bench/ply_load.py), a hundred times the product itself.
+_ROWS = 1 << 14
+
+
+def rows_times(p: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """``p @ a`` for rows ``p`` (..., k), computed in blocks of at most :data:`_ROWS` rows when there are more.
+
+    The same numbers as one product: OpenBLAS gives each row's entries the
+    same operations whatever the number of rows around it, except for a
+    single row (NumPy then calls a matrix-vector product, which may round
+    differently), so the blocks are of equal size, half of :data:`_ROWS` or
+    more (tests/test_render_scene.py checks the bits); only the threads that
+    a single big product would start are spared.
+    """
+    if p.ndim != 2 or len(p) <= _ROWS:
+        return p @ a
+    out = np.empty((len(p), a.shape[1]), np.result_type(p, a))
+    blocks = -(-len(p) // _ROWS)
+    edges = [len(p) * i // blocks for i in range(blocks + 1)]
+    for s, e in zip(edges[:-1], edges[1:]):
+        np.matmul(p[s:e], a, out=out[s:e])
+    return out
+
+
 def apply_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Transform points ``p`` (..., 3) by the affine matrix ``m``."""
-    return p @ m[:3, :3].T + m[:3, 3]
+    out = rows_times(p, m[:3, :3].T)
+    out += m[:3, 3]
+    return out
 
 
 def uniform_scale_of(m: np.ndarray, rtol: float = 1e-6) -> float | None:
@@ -83,6 +111,7 @@ def is_orientation_reversing(m: np.ndarray) -> bool:
 
 __all__ = [
     "apply_points",
+    "rows_times",
     "compose",
     "is_orientation_reversing",
     "rotate",
