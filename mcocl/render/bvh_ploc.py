@@ -252,7 +252,9 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
     left, right, box = tree.left, tree.right, tree.box
     total = 2 * n - 1
     # Per-node tables in int32 where every position fits, and the float64 areas a chunk at a time:
-    # the same numbers in about half the memory of a big mesh's build (issue 13).
+    # the same numbers in about half the memory of a big mesh's build (issue 13).  Each table is
+    # dropped once its pass is done: on this machine a page the process touches for the first time
+    # costs about as much as 4 KB of NumPy work, so the build's peak memory is also its time.
     itype = np.int32 if total < 2**31 else np.int64
     area = np.empty(total)  # half areas: only ratios matter
     for s in range(0, total, _AREA_CHUNK):
@@ -273,6 +275,7 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
         cost[p] = np.where(leaf, c_leaf, c_int)
         is_leaf[p] = leaf
         n_int[p] = np.where(leaf, 0, 1 + n_int[lc] + n_int[rc])
+    del area, cost
     root = total - 1
     if is_leaf[root]:  # the root is always internal, so the kernel starts from a node
         is_leaf[root] = False
@@ -299,29 +302,32 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
         pre[ir] = pre[ip] + 1 + n_int[il]
         depth[il] = depth[ip] + 1
         depth[ir] = depth[ip] + 1
+    del n_int
     out = np.empty(n, np.int64)
     out[start[:n]] = tree.order
     prims = ids[out].astype(np.uint32)
+    del out
     nodes_by_pre = np.flatnonzero(internal)
+    del internal
     k = len(nodes_by_pre)
+    max_depth = int(depth.take(nodes_by_pre).max())
+    del depth
     par = np.empty(k, np.int64)
     par[pre[nodes_by_pre]] = nodes_by_pre  # the internal nodes in depth-first order (pre: a permutation of 0..k-1)
     del nodes_by_pre
-    # Row block of node q: (lo0, ref0) (hi0, cnt0) (lo1, ref1) (hi1, cnt1); filled as 16 columns, then
-    # transposed once (writing the columns straight into the rows would touch every cache line 16 times).
-    cols = np.empty((2, 2, 4, k), np.float32)
+    # Row block of node q: (lo0, ref0) (hi0, cnt0) (lo1, ref1) (hi1, cnt1), written a column at a time
+    # straight into the nodes (a staging table in column order would be one more table of the nodes' size).
+    nodes = np.empty((1 + 4 * k, 4), np.float32)
+    cols = nodes[1:].reshape(k, 2, 2, 4)
     ucols = cols.view(np.uint32)
     num_leaves = 0
     for c, child in enumerate((left.take(par - n), right.take(par - n))):
-        cb = box.take(child, axis=1)
-        cols[c, 0, :3], cols[c, 1, :3] = cb[:3], cb[3:]
+        for a in range(6):
+            cols[:, c, a // 3, a % 3] = box[a].take(child)
         leaf = is_leaf.take(child)
         num_leaves += int(leaf.sum())
-        ucols[c, 0, 3] = np.where(leaf, start.take(child), pre.take(child))
-        ucols[c, 1, 3] = np.where(leaf, count.take(child), 0)
-    max_depth = int(depth[par].max())
-    nodes = np.empty((1 + 4 * k, 4), np.float32)
-    nodes[1:].reshape(k, 16)[...] = cols.reshape(16, k).T
+        ucols[:, c, 0, 3] = np.where(leaf, start.take(child), pre.take(child))
+        ucols[:, c, 1, 3] = np.where(leaf, count.take(child), 0)
     nodes[0] = 0.0
     nodes.view(np.uint32)[0] = (n, k, max_depth, 0)
     return nodes, prims, k, num_leaves, max_depth
