@@ -41,22 +41,44 @@ MORTON_BITS = 21  # per axis: 63-bit codes
 
 
 def _spread_bits(q: np.ndarray) -> np.ndarray:
-    """Put bit k of each 21-bit integer at bit 3k (the classic magic-number interleave)."""
-    x = q.astype(np.uint64) & np.uint64(0x1FFFFF)
+    """Put bit k of each 21-bit integer at bit 3k (the classic magic-number interleave).
+
+    Works in two uint64 buffers, in place (a big mesh's build touches no other table).
+    """
+    x = q.astype(np.uint64)
+    x &= np.uint64(0x1FFFFF)
+    t = np.empty_like(x)
     for shift, mask in ((32, 0x1F00000000FFFF), (16, 0x1F0000FF0000FF), (8, 0x100F00F00F00F00F),
                         (4, 0x10C30C30C30C30C3), (2, 0x1249249249249249)):
-        x = (x | (x << np.uint64(shift))) & np.uint64(mask)
+        np.left_shift(x, np.uint64(shift), out=t)
+        x |= t
+        x &= np.uint64(mask)
     return x
 
 
 def morton_order(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """Indices that sort the boxes ``[lo, hi]`` (N, 3) along the Morton curve of their centroids (stable)."""
-    c = lo.astype(np.float64) + hi  # doubled centroids: the factor 1/2 cancels in the normalisation
-    cmin = c.min(axis=0)
-    ext = float((c.max(axis=0) - cmin).max())
+    # doubled centroids, an axis at a time: the factor 1/2 cancels in the normalisation
+    # (the sign of a zero minimum, which may depend on the reduction's order, does not change c - cmin)
+    c = [lo[:, a].astype(np.float64) + hi[:, a] for a in range(3)]
+    cmin = [float(x.min()) for x in c]
+    ext = max(float(x.max()) - m for x, m in zip(c, cmin))
     scale = (2**MORTON_BITS - 1) / ext if ext > 0 else 0.0
-    q = np.minimum((c - cmin) * scale, 2**MORTON_BITS - 1).astype(np.uint64)
-    code = (_spread_bits(q[:, 0]) << np.uint64(2)) | (_spread_bits(q[:, 1]) << np.uint64(1)) | _spread_bits(q[:, 2])
+    code = None
+    for a in range(3):  # quantise in place, then interleave: x at bit 3k + 2, y at 3k + 1, z at 3k
+        x = c[a]
+        c[a] = None
+        x -= cmin[a]
+        x *= scale
+        np.minimum(x, 2**MORTON_BITS - 1, out=x)
+        bits = _spread_bits(x)
+        del x
+        if a < 2:
+            bits <<= np.uint64(2 - a)
+        if code is None:
+            code = bits
+        else:
+            code |= bits
     # NumPy's default sort is several times faster than its stable one on 64-bit keys, but may order
     # equal keys differently on another CPU: equal codes are put in index order afterwards.
     order = np.argsort(code)

@@ -305,8 +305,8 @@ def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:
     of evaluation), so rows with a zero in the result are taken from the reduction itself.
     """
     out = op(op(tri[:, 0, :3], tri[:, 1, :3]), tri[:, 2, :3])
-    zero = np.flatnonzero((out == 0).any(axis=1))
-    if len(zero):
+    if not out.all():
+        zero = np.flatnonzero((out == 0).any(axis=1))
         out[zero] = op.reduce(tri[zero, :, :3], axis=1)
     return out
 
@@ -315,15 +315,18 @@ def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:
 _AREA_CHUNK = 1 << 15
 
 
-def _triangle_areas(tri_vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _triangle_areas(tri_vertices: np.ndarray, area: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Float64 area of each float32 triangle (T, 3, 4) and whether it is non-degenerate, as the kernels see it.
+
+    The areas go into ``area`` (T,) float64 when given (compile_scene's table of every primitive's area).
 
     Degenerate: zero area, or so thin that its normal is numerical noise (sin angle < 1e-6).
     The same float64 operations, in the same order, as ``np.cross`` and
     ``np.linalg.norm``, chunk by chunk.
     """
     n = len(tri_vertices)
-    area, good = np.empty(n, np.float64), np.empty(n, bool)
+    area = np.empty(n, np.float64) if area is None else area
+    good = np.empty(n, bool)
     for s in range(0, n, _AREA_CHUNK):
         t = tri_vertices[s:s + _AREA_CHUNK, :, :3].astype(np.float64)
         e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
@@ -357,7 +360,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     """
     if not isinstance(scene, Scene):
         scene = load_scene(scene, mesh_folder=mesh_folder)
-    tri_shape, spheres, sphere_flip, sphere_shape = [], [], [], []
+    tri_counts, spheres, sphere_flip, sphere_shape = [], [], [], []
     for k, sh in enumerate(scene.shapes):
         if SHAPES[sh.kind].sphere:
             s = tf.uniform_scale_of(sh.matrix)
@@ -366,22 +369,25 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
             sphere_flip.append(1 if sh.flip_normals else 0)
             sphere_shape.append(k)
         else:
-            tri_shape.append(np.full(len(sh.faces), k, np.uint32))
+            tri_counts.append(len(sh.faces))
     sph64 = np.array(spheres, np.float64).reshape(-1, 4)
-    ntri, nsph = sum(len(t) for t in tri_shape), len(sph64)
+    ntri, nsph = sum(tri_counts), len(sph64)
     tri_vertices = np.empty((ntri, 3, 4), np.float32)
+    prim_shape = np.empty(ntri + nsph, np.uint32)
     start = 0
-    for sh in scene.shapes:  # each shape's triangles straight into the table: no concatenated copy
+    for k, sh in enumerate(scene.shapes):  # each shape's triangles straight into the table: no concatenated copy
         if not SHAPES[sh.kind].sphere:
             _shape_triangles(sh, scene.path, tri_vertices[start:start + len(sh.faces)])
+            prim_shape[start:start + len(sh.faces)] = k
             start += len(sh.faces)
+    prim_shape[ntri:] = sphere_shape
     sph32 = sph64.astype(np.float32)
-    prim_shape = np.concatenate([*tri_shape, np.array(sphere_shape, np.uint32)]).astype(np.uint32)
 
     # Areas and degeneracy as the kernels will see them (from the float32 vertices).
-    tri_area, good_tri = _triangle_areas(tri_vertices)
-    sph_area = 4.0 * math.pi * sph32[:, 3].astype(np.float64) ** 2
-    prim_area = np.concatenate([tri_area, sph_area])
+    prim_area = np.empty(ntri + nsph)
+    good_tri = _triangle_areas(tri_vertices, prim_area[:ntri])[1]
+    sph_area = prim_area[ntri:]
+    sph_area[:] = 4.0 * math.pi * sph32[:, 3].astype(np.float64) ** 2
 
     # BVH over the non-degenerate primitives.
     # (the boxes of float32 vertices are float32 values: no float64 round trip)
@@ -390,7 +396,10 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     lo = np.concatenate([_corner_extreme(t32, np.minimum), (sph32[:, :3] - sph32[:, 3:])])
     hi = np.concatenate([_corner_extreme(t32, np.maximum), (sph32[:, :3] + sph32[:, 3:])])
     del t32
-    ids = np.concatenate([np.flatnonzero(good_tri), ntri + np.arange(nsph)]).astype(np.uint32)
+    if all_good:  # the same ids, without the int64 tables
+        ids = np.arange(ntri + nsph, dtype=np.uint32)
+    else:
+        ids = np.concatenate([np.flatnonzero(good_tri), ntri + np.arange(nsph)]).astype(np.uint32)
     method = bvh_method or ("binned" if len(ids) <= BINNED_UP_TO else "ploc")
     bvh: BVH = build_bvh(lo, hi, ids, max_leaf=max_leaf, bins=bins, traversal_cost=traversal_cost,
                          all_axes=all_axes, method=method)
