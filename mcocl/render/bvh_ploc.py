@@ -176,10 +176,15 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
     # happen, with no concatenated copy of the two halves at the end (issue 13: memory of big meshes).
     node_box = np.empty((6, 2 * n - 1), np.float32)
     leaf_box = node_box[:, :n]  # (6, N)
-    leaf_box[:3], leaf_box[3:] = lo[order].T, hi[order].T
+    for a in range(3):  # an axis at a time: no (N, 3) gathered copies
+        leaf_box[a], leaf_box[3 + a] = lo[:, a].take(order), hi[:, a].take(order)
     scale = _area_scale(leaf_box)
-    # Clusters in curve order: their boxes (scaled by a power of two if needed) and node ids.
-    box = leaf_box * np.float32(scale) if scale != 1.0 else leaf_box.copy()
+    # Clusters in curve order: their boxes (scaled by a power of two if needed) and node ids.  The boxes
+    # live in the first columns of one (6, N) table, compacted in place as clusters merge (a compacted
+    # copy per iteration would hold two such tables at the start).
+    work = leaf_box * np.float32(scale) if scale != 1.0 else leaf_box.copy()
+    box = work
+    row = np.empty(n, np.float32)
     ids = np.arange(n, dtype=np.int64)
     left = np.empty(n - 1, np.int64)
     right = np.empty(n - 1, np.int64)
@@ -212,7 +217,10 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
         keep = np.ones(c, bool)
         keep[j] = False
         ids = np.compress(keep, ids)
-        box = np.compress(keep, box, axis=1)
+        for a in range(6):
+            np.compress(keep, box[a], out=row[:c - nm])
+            work[a, :c - nm] = row[:c - nm]
+        box = work[:, :c - nm]
         batches.append((done, nm))
         done += nm
     if scale != 1.0:  # the scaled boxes may have lost bits: take the unions of the exact leaf boxes instead

@@ -306,7 +306,7 @@ def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:
     """
     out = op(op(tri[:, 0, :3], tri[:, 1, :3]), tri[:, 2, :3])
     if not out.all():
-        zero = np.flatnonzero((out == 0).any(axis=1))
+        zero = np.unique(np.flatnonzero(out == 0) // 3)
         out[zero] = op.reduce(tri[zero, :, :3], axis=1)
     return out
 
