@@ -24,6 +24,7 @@ from mcocl.errors import InputError
 from mcocl.render.compiled import compile_scene
 from mcocl.render.device_scene import scene_tables
 from mcocl.render.job import RenderJob
+from mcocl.render.shading_normals import facing_dot
 
 
 def uv_sphere(rings: int = 24, segments: int = 48) -> tuple[np.ndarray, np.ndarray]:
@@ -152,3 +153,14 @@ def test_bdpt_refuses_shading_normals(scenes) -> None:
         mcocl.render(cs, spp=1, integrator="bdpt")
     job = RenderJob(scene_tables(compile_scene(scenes["analytic"])), 32, 32, "mis", 3, 5, seed=1, spp_per_block=1)
     assert "-DSHADING_NORMALS" not in job.options(1)
+
+
+def test_facing_dot_is_einsum_of_cross_bit_for_bit() -> None:
+    # vertex_normal_table's elementwise dot product repeats NumPy's operations (a changed order would round otherwise)
+    rng = np.random.default_rng(7)
+    n = 200_000
+    corner = rng.standard_normal((n, 3, 3)) * 10.0 ** rng.uniform(-3, 3, (n, 1, 1))
+    tri = (rng.standard_normal((n, 3, 3)) * 10.0 ** rng.uniform(-3, 3, (n, 1, 1))).astype(np.float32)
+    t = tri.astype(np.float64)
+    want = np.einsum("ij,ij->i", corner.sum(axis=1), np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]))
+    np.testing.assert_array_equal(facing_dot(corner, tri).view(np.uint64), want.view(np.uint64))

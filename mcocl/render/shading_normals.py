@@ -38,6 +38,28 @@ def _world_normals(shape) -> np.ndarray:
     return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
 
 
+def facing_dot(corner: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Float64 dot product of each triangle's corner-normal sum with its face normal, (n,).
+
+    ``corner`` (n, 3, 3) float64 normals, ``triangles`` (n, 3, 3) float32
+    vertices.  The same numbers as
+    ``np.einsum("ij,ij->i", corner.sum(axis=1), np.cross(v1 - v0, v2 - v0))``
+    in float64, in flat elementwise passes (5x faster): the cross product's
+    two rounded products and a difference per component, and the dot
+    product's terms summed in einsum's order for three terms, x + z first,
+    then y (tests/test_render_shading_normals.py checks both against NumPy's, bit for bit).
+    """
+    v0 = triangles[:, 0].astype(np.float64)
+    e1, e2 = triangles[:, 1] - v0, triangles[:, 2] - v0
+    n = [e1[:, a] * e2[:, b] - e1[:, b] * e2[:, a] for a, b in ((1, 2), (2, 0), (0, 1))]
+    total = corner[:, 0] + corner[:, 1]
+    total += corner[:, 2]
+    dot = total[:, 0] * n[0]
+    dot += total[:, 2] * n[2]
+    dot += total[:, 1] * n[1]
+    return dot
+
+
 def vertex_normal_table(shapes: list, world_triangles: np.ndarray) -> np.ndarray | None:
     """(T, 3, 4) float32 corner normals for the compiled triangles, or None when no shape has any.
 
@@ -61,10 +83,8 @@ def vertex_normal_table(shapes: list, world_triangles: np.ndarray) -> np.ndarray
             # held (each triangle's numbers are the same whatever the chunk)
             for s in range(0, count, _CHUNK):
                 rows = slice(start + s, start + min(s + _CHUNK, count))
-                corner = world[faces[s:s + _CHUNK]]  # (chunk, 3, 3)
-                tri = world_triangles[rows].astype(np.float64)
-                face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-                behind = np.einsum("ij,ij->i", corner.sum(axis=1), face_n) < 0.0
+                corner = np.take(world, faces[s:s + _CHUNK], axis=0)  # (chunk, 3, 3)
+                behind = facing_dot(corner, world_triangles[rows]) < 0.0
                 corner[behind] *= -1.0
                 table[rows, :, :3] = corner
                 table[rows, :, 3] = 1.0
@@ -85,4 +105,4 @@ def shading_defines(tables: dict) -> list[str]:
     return ["-DSHADING_NORMALS"] if "vertex_normals" in tables else []
 
 
-__all__ = ["VERTEX_NORMALS_ABSENT", "require_face_normals", "shading_defines", "vertex_normal_table"]
+__all__ = ["VERTEX_NORMALS_ABSENT", "facing_dot", "require_face_normals", "shading_defines", "vertex_normal_table"]
