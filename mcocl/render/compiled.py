@@ -315,10 +315,8 @@ def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:
 _AREA_CHUNK = 1 << 15
 
 
-def _triangle_areas(tri_vertices: np.ndarray, area: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _triangle_areas(tri_vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Float64 area of each float32 triangle (T, 3, 4) and whether it is non-degenerate, as the kernels see it.
-
-    The areas go into ``area`` (T,) float64 when given (compile_scene's table of every primitive's area).
 
     Degenerate: zero area, or so thin that its normal is numerical noise (sin angle < 1e-6).
     The same float64 operations, in the same order, as ``np.cross`` and
@@ -327,7 +325,7 @@ def _triangle_areas(tri_vertices: np.ndarray, area: np.ndarray | None = None) ->
     fewer than eight terms in order), without a reduction call per row.
     """
     n = len(tri_vertices)
-    area = np.empty(n, np.float64) if area is None else area
+    area = np.empty(n, np.float64)
     good = np.empty(n, bool)
 
     def norm(x: list[np.ndarray]) -> np.ndarray:
@@ -395,11 +393,10 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     prim_shape[ntri:] = sphere_shape
     sph32 = sph64.astype(np.float32)
 
-    # Areas and degeneracy as the kernels will see them (from the float32 vertices).
-    prim_area = np.empty(ntri + nsph)
-    good_tri = _triangle_areas(tri_vertices, prim_area[:ntri])[1]
-    sph_area = prim_area[ntri:]
-    sph_area[:] = 4.0 * math.pi * sph32[:, 3].astype(np.float64) ** 2
+    # Degeneracy as the kernels will see it (from the float32 vertices); the areas only the lights need
+    # are computed again for them below (the same numbers), rather than held through the BVH build.
+    good_tri = _triangle_areas(tri_vertices)[1]
+    sph_area = 4.0 * math.pi * sph32[:, 3].astype(np.float64) ** 2
 
     # BVH over the non-degenerate primitives.
     # (the boxes of float32 vertices are float32 values: no float64 round trip)
@@ -442,7 +439,10 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     is_light = (prim_emitter >= 0) & good_prim
     light_prims = np.flatnonzero(is_light).astype(np.uint32)
     lum = emitter_radiance[:, :3].astype(np.float64) @ LUMINANCE if len(radiance) else np.zeros(0)
-    power = lum[prim_emitter[light_prims]] * prim_area[light_prims] * math.pi if len(light_prims) else np.zeros(0)
+    light_tris = light_prims[light_prims < ntri]
+    light_prim_area = np.concatenate([_triangle_areas(tri_vertices[light_tris])[0],
+                                      sph_area[light_prims[len(light_tris):].astype(np.int64) - ntri]])
+    power = lum[prim_emitter[light_prims]] * light_prim_area * math.pi if len(light_prims) else np.zeros(0)
     bounds = np.ascontiguousarray(bvh.bounds if len(ids) else np.zeros((2, 3)), np.float32)
     # Point, spot and directional lights follow the light primitives in the choice table.
     dpower = delta_power(scene.lights, bounding_sphere(bounds)[1])
@@ -454,7 +454,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         dpower = np.zeros(0)
     prim_light = np.full(ntri + nsph, -1, np.int32)
     prim_light[light_prims] = np.arange(len(light_prims), dtype=np.int32)
-    light_area = prim_area[light_prims].astype(np.float32)
+    light_area = light_prim_area[:len(light_prims)].astype(np.float32)
 
     env = np.zeros(4, np.float32)
     env[:3] = scene.env_radiance
