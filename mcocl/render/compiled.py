@@ -288,12 +288,16 @@ def _shape_triangles(shape, path, out: np.ndarray) -> None:
     f = shape.faces
     if tf.is_orientation_reversing(shape.matrix) != shape.flip_normals:
         f = f[:, [0, 2, 1]]
+    if len(f) and (f.min() < 0 or f.max() >= len(v)):  # (the scene's parser checks this already)
+        raise InputError(f"{path}: a face of shape {shape.key} indexes a vertex outside 0..{len(v) - 1}")
     # (a non-finite vertex that no face uses is allowed: the per-face test only runs when one exists)
     if not np.isfinite(v).all() and not np.isfinite(v).all(axis=1)[f].all():
         raise InputError(f"{path}: a transform produced non-finite vertices")
     v4 = np.zeros((len(v), 4), np.float32)
     v4[:, :3] = v
-    np.take(v4, f, axis=0, out=out)
+    del v
+    # mode "clip" (the indices are in range): "raise" would gather into a temporary table of out's size first
+    np.take(v4, f, axis=0, out=out, mode="clip")
 
 
 def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:
@@ -412,6 +416,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     method = bvh_method or ("binned" if len(ids) <= BINNED_UP_TO else "ploc")
     bvh: BVH = build_bvh(lo, hi, ids, max_leaf=max_leaf, bins=bins, traversal_cost=traversal_cost,
                          all_axes=all_axes, method=method)
+    del lo, hi
 
     # Materials and emitters.
     mats = np.zeros(len(scene.materials), MATERIAL_RECORD.dtype())
