@@ -342,7 +342,7 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
     k = len(nodes_by_pre)
     max_depth = int(depth.take(nodes_by_pre).max())
     del depth
-    par = np.empty(k, np.int64)
+    par = np.empty(k, itype)
     par[pre[nodes_by_pre]] = nodes_by_pre  # the internal nodes in depth-first order (pre: a permutation of 0..k-1)
     del nodes_by_pre
     # Row block of node q: (lo0, ref0) (hi0, cnt0) (lo1, ref1) (hi1, cnt1), written a column at a time
@@ -351,7 +351,9 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
     cols = nodes[1:].reshape(k, 2, 2, 4)
     ucols = cols.view(np.uint32)
     num_leaves = 0
-    for c, child in enumerate((left.take(par - n), right.take(par - n))):
+    par -= n  # merge i is node n + i
+    for c, side in enumerate((left, right)):
+        child = side.take(par)
         for a in range(6):
             cols[:, c, a // 3, a % 3] = box[a].take(child)
         leaf = is_leaf.take(child)
