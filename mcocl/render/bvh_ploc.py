@@ -208,11 +208,14 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
             raise RuntimeError("BVH clustering made no progress (non-finite primitive bounds?)")
         left[done:done + nm] = ids.take(i)
         right[done:done + nm] = ids.take(j)
-        bi, bj = box.take(i, axis=1), box.take(j, axis=1)
-        np.minimum(bi[:3], bj[:3], out=bi[:3])
-        np.maximum(bi[3:], bj[3:], out=bi[3:])
-        merged[:, done:done + nm] = bi
-        box[:, i] = bi
+        # the merged boxes, a coordinate at a time, straight into the tree's table (no (6, nm) copies;
+        # mode "clip": the positions are valid, and "raise" would gather into a temporary first)
+        for a in range(6):
+            into, other = merged[a, done:done + nm], row[:nm]
+            np.take(box[a], i, out=into, mode="clip")
+            np.take(box[a], j, out=other, mode="clip")
+            (np.minimum if a < 3 else np.maximum)(into, other, out=into)
+            box[a, i] = into
         ids[i] = n + done + np.arange(nm)
         keep = np.ones(c, bool)
         keep[j] = False
