@@ -164,6 +164,12 @@ def _nearest(box: np.ndarray, r: int, rank_bits: int) -> np.ndarray:
     return best
 
 
+def _leaf_boxes(leaf_box: np.ndarray, lo: np.ndarray, hi: np.ndarray, order: np.ndarray) -> None:
+    """Write the boxes ``[lo, hi]`` (N, 3) in the order ``order`` into ``leaf_box`` (6, N), an axis at a time."""
+    for a in range(3):
+        leaf_box[a], leaf_box[3 + a] = lo[:, a].take(order), hi[:, a].take(order)
+
+
 def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> tuple[MergeTree, np.ndarray]:
     """Agglomerative clustering of the boxes ``[lo, hi]`` (N >= 2, float32) into a :class:`MergeTree`.
 
@@ -176,13 +182,13 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
     # happen, with no concatenated copy of the two halves at the end (issue 13: memory of big meshes).
     node_box = np.empty((6, 2 * n - 1), np.float32)
     leaf_box = node_box[:, :n]  # (6, N)
-    for a in range(3):  # an axis at a time: no (N, 3) gathered copies
-        leaf_box[a], leaf_box[3 + a] = lo[:, a].take(order), hi[:, a].take(order)
+    _leaf_boxes(leaf_box, lo, hi, order)
     scale = _area_scale(leaf_box)
     # Clusters in curve order: their boxes (scaled by a power of two if needed) and node ids.  The boxes
-    # live in the first columns of one (6, N) table, compacted in place as clusters merge (a compacted
-    # copy per iteration would hold two such tables at the start).
-    work = leaf_box * np.float32(scale) if scale != 1.0 else leaf_box.copy()
+    # live in the first columns of a (6, N) table, compacted in place as clusters merge (a compacted
+    # copy per iteration would hold two such tables at the start).  Unscaled, that table is the tree's
+    # own leaf boxes, written again from lo and hi at the end (no working copy of them).
+    work = leaf_box * np.float32(scale) if scale != 1.0 else leaf_box
     box = work
     row = np.empty(n, np.float32)
     ids = np.arange(n, dtype=np.int64)
@@ -226,7 +232,9 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
         box = work[:, :c - nm]
         batches.append((done, nm))
         done += nm
-    if scale != 1.0:  # the scaled boxes may have lost bits: take the unions of the exact leaf boxes instead
+    if scale == 1.0:
+        _leaf_boxes(leaf_box, lo, hi, order)
+    else:  # the scaled boxes may have lost bits: take the unions of the exact leaf boxes instead
         for first, count in batches:
             lc, rc = left[first:first + count], right[first:first + count]
             p = slice(n + first, n + first + count)
