@@ -320,6 +320,9 @@ def test_build_structure_on_adversarial_boxes(method, case):
     if case == "nested" and method == "ploc":  # the clustered chain is too deep: the binned build takes over
         from mcocl.render.bvh_ploc import cluster, flatten_tree
         assert flatten_tree(cluster(lo, hi)[0], np.arange(len(lo), dtype=np.uint32), 8, 1.0)[4] > MAX_DEPTH
+        # its input boxes come back from the clustering's leaves: the very tree of a binned build of them
+        binned = build_bvh(lo, hi, method="binned")
+        assert b.nodes.tobytes() == binned.nodes.tobytes() and b.prims.tobytes() == binned.prims.tobytes()
     again = build_bvh(lo.copy(), hi.copy(), method=method)  # deterministic: the same bytes
     assert again.nodes.tobytes() == b.nodes.tobytes() and again.prims.tobytes() == b.prims.tobytes()
 

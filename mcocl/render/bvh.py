@@ -227,10 +227,23 @@ def build_bvh(lo: np.ndarray, hi: np.ndarray, ids: np.ndarray | None = None,
                                 traversal_cost, True)
             if not join_clusters(tree, roots, top.nodes, top.prims):
                 tree, roots = cluster(lo, hi, radius)
+        bounds = _scene_box(lo, hi)
+        # The tree holds the boxes now (its leaves, in curve order): a caller that keeps no reference of
+        # its own (compile_scene) has them freed before the flattening's tables exist.
+        del lo, hi
         nodes, prims, k, leaves, depth = flatten_tree(tree, ids, max_leaf, traversal_cost)
         if depth <= MAX_DEPTH:
-            return BVH(nodes, prims, k, leaves, depth, _scene_box(lo, hi))
+            return BVH(nodes, prims, k, leaves, depth, bounds)
+        lo, hi = _tree_input_boxes(tree)
     return _build_binned(lo, hi, ids, max_leaf, bins, traversal_cost, all_axes)
+
+
+def _tree_input_boxes(tree) -> tuple[np.ndarray, np.ndarray]:
+    """The primitive boxes ``lo``, ``hi`` (N, 3) given to :func:`build_bvh`, in their order, from a clustering's leaves."""
+    n = len(tree.order)
+    lo, hi = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+    lo[tree.order], hi[tree.order] = tree.box[:3, :n].T, tree.box[3:, :n].T
+    return lo, hi
 
 
 def _build_binned(lo: np.ndarray, hi: np.ndarray, ids: np.ndarray, max_leaf: int, bins: int,
