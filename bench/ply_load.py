@@ -21,8 +21,11 @@ compile (and of the whole run) over the resident memory before, also as a
 multiple of the file's size.  The kernel build of the first image comes from
 PoCL's and pyopencl's caches when they hold it; ``--cold`` gives the child an
 empty PoCL cache folder and no pyopencl cache, so that it is built.
+``--repeat N`` runs N such children one after another (the machine is
+shared: one run's times say little) and prints each one's line, then a line
+of the medians of their times and peaks.
 
-Usage: python bench/ply_load.py [--triangles N] [--out DIR] [--scene [--size PIXELS] [--cold]]
+Usage: python bench/ply_load.py [--triangles N] [--out DIR] [--scene [--size PIXELS] [--cold] [--repeat N]]
 """
 
 from __future__ import annotations
@@ -149,6 +152,19 @@ def measure_scene(path: Path, ply: Path, size: int) -> dict:
             "run_peak_MB": round((run_peak - before) / 1024, 1)}
 
 
+def _medians(runs: list[dict]) -> dict:
+    """The median over ``runs`` of every number and [wall, CPU] pair of measure_scene's results."""
+    med = {"median_of_runs": len(runs)}
+    for key, value in runs[0].items():
+        if isinstance(value, list) and all(isinstance(x, float | int) for x in value):
+            med[key] = [round(float(np.median([r[key][i] for r in runs])), 3) for i in range(len(value))]
+        elif isinstance(value, int):
+            med[key] = int(np.median([r[key] for r in runs]))
+        elif isinstance(value, float):
+            med[key] = round(float(np.median([r[key] for r in runs])), 3)
+    return med
+
+
 def main() -> None:
     """Write the two files (unless present) and measure each in a child."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -157,6 +173,7 @@ def main() -> None:
     ap.add_argument("--scene", action="store_true", help="load, compile and render a scene around the binary PLY")
     ap.add_argument("--size", type=int, default=256, help="--scene: the image's width and height")
     ap.add_argument("--cold", action="store_true", help="--scene: build the kernels without the caches")
+    ap.add_argument("--repeat", type=int, default=1, help="--scene: children to run, then their medians")
     ap.add_argument("--measure", type=Path, help=argparse.SUPPRESS)  # the child's mode
     a = ap.parse_args()
     if a.measure:
@@ -178,11 +195,16 @@ def main() -> None:
         scene["camera"]["width"] = scene["camera"]["height"] = a.size
         path = a.out / "big_ply_scene.json"
         path.write_text(json.dumps(scene, indent=1) + "\n")
-        with tempfile.TemporaryDirectory() as cache:
-            env = dict(os.environ, POCL_CACHE_DIR=cache, PYOPENCL_NO_CACHE="1") if a.cold else None
-            out = subprocess.run([sys.executable, __file__, "--measure", str(path), "--scene", "--size", str(a.size)],
-                                 env=env, check=True, capture_output=True, text=True).stdout
-        print(out.strip().splitlines()[-1])
+        runs = []
+        for _ in range(max(1, a.repeat)):
+            with tempfile.TemporaryDirectory() as cache:
+                env = dict(os.environ, POCL_CACHE_DIR=cache, PYOPENCL_NO_CACHE="1") if a.cold else None
+                out = subprocess.run([sys.executable, __file__, "--measure", str(path), "--scene", "--size",
+                                      str(a.size)], env=env, check=True, capture_output=True, text=True).stdout
+            print(out.strip().splitlines()[-1], flush=True)
+            runs.append(json.loads(out.strip().splitlines()[-1]))
+        if len(runs) > 1:
+            print(json.dumps(_medians(runs)))
         return
     for binary in (True, False):
         path = a.out / f"sphere_{len(faces)}_{'binary' if binary else 'ascii'}.ply"
