@@ -68,6 +68,7 @@ def rows_times(p: np.ndarray, a: np.ndarray) -> np.ndarray:
     more (tests/test_render_scene.py checks the bits); only the threads that
     a single big product would start are spared.
     """
+    p = np.asarray(p)
     if p.ndim != 2 or len(p) <= _ROWS:
         return p @ a
     out = np.empty((len(p), a.shape[1]), np.result_type(p, a))
