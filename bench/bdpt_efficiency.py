@@ -46,7 +46,10 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
 from render_throughput import cornell_spheres  # noqa: E402
 
-INTEGRATORS = ("mis", "lt", "bdpt")
+INTEGRATORS = ("mis", "lt", "bdpt", "bdpt-exact")
+# What each name renders: bdpt-exact is bdpt without its Russian roulette on connection shadow rays.
+RENDER_KWARGS = {"mis": {"integrator": "mis"}, "lt": {"integrator": "lt"}, "bdpt": {"integrator": "bdpt"},
+                 "bdpt-exact": {"integrator": "bdpt", "roulette": False}}
 
 
 def cpu_seconds() -> float:
@@ -67,7 +70,7 @@ def scene_at(name: str, width: int, folder: Path):
 def timed(scene, integrator: str, seed: int, budget: float):
     """Render for ``budget`` wall seconds; the result, its CPU seconds and wall seconds."""
     c0, t0 = cpu_seconds(), time.perf_counter()
-    r = render(scene, time_budget=budget, integrator=integrator, seed=seed)
+    r = render(scene, time_budget=budget, seed=seed, **RENDER_KWARGS[integrator])
     return r, cpu_seconds() - c0, time.perf_counter() - t0
 
 
@@ -75,7 +78,7 @@ def main() -> None:
     """Print, per scene and integrator, paths per second, MSE and efficiency, and the ratios to ``mis``."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", nargs="+", default=["caustic", "cornell", "cornell_spheres"])
-    ap.add_argument("--integrators", nargs="+", default=list(INTEGRATORS), choices=INTEGRATORS)
+    ap.add_argument("--integrators", nargs="+", default=["mis", "lt", "bdpt"], choices=INTEGRATORS)
     ap.add_argument("--size", type=int, default=128, help="image width in pixels")
     ap.add_argument("--budget", type=float, default=10.0, help="wall seconds of each timed render")
     ap.add_argument("--ref-budget", type=float, default=120.0, help="wall seconds of the bdpt reference")
@@ -98,7 +101,7 @@ def main() -> None:
                 print(f"   pixels lt cannot see (black in a long lt render, not in the reference): {blind.sum()}")
             eff_all, eff_seen = {}, {}
             for integrator in args.integrators:
-                render(scene, spp=1, integrator=integrator, seed=0)  # builds the kernel
+                render(scene, spp=1, seed=0, **RENDER_KWARGS[integrator])  # builds the kernel
                 rows = []
                 for seed in range(1, args.runs + 1):
                     r, cpu, wall = timed(scene, integrator, seed, args.budget)
@@ -107,7 +110,7 @@ def main() -> None:
                 spp, cpu, wall, mse, mse_seen = (float(np.mean(c)) for c in zip(*rows, strict=True))
                 eff_all[integrator] = 1.0 / (mse * cpu)
                 eff_seen[integrator] = 1.0 / (mse_seen * cpu)
-                print(f"   {integrator:4s} {spp:7.0f} spp  {spp * npix / cpu / 1e6:6.3f} M paths/cpu-s  "
+                print(f"   {integrator:10s} {spp:7.0f} spp  {spp * npix / cpu / 1e6:6.3f} M paths/cpu-s  "
                       f"{spp * npix / wall / 1e6:6.3f} M paths/s  cpu {cpu:5.1f} s  MSE {mse:.4g}  "
                       f"(seen by lt {mse_seen:.4g})  efficiency {eff_all[integrator]:.4g}", flush=True)
             if "mis" in eff_all:
