@@ -17,6 +17,15 @@ cannot see a mirror or glass seen directly through a pinhole
 reference does not leave exactly black where the ``bdpt`` reference is not
 (the other integrators' MSE over all pixels, and over those pixels too).
 
+A second efficiency, 1 / (mean reported variance x CPU-seconds), takes the
+render's own variance of the mean (per sample for ``mis``, from independent
+batches for ``lt`` and ``bdpt``) instead of the MSE: it needs no reference,
+so it is far less noisy than the MSE of a short render against a reference
+whose own variance is of the same order (heavy-tailed caustic pixels); it
+assumes the integrators unbiased, which tests/test_render_bdpt.py checks.
+``bdpt-exact`` is ``bdpt`` with ``roulette=False`` (every connection's
+shadow ray traced).
+
 Reading the ratios: in a pixel that sees a caustic through glass or in a
 mirror (a specular-diffuse-specular path), only the camera subpath hitting
 the emitter (s = 0) samples the path, as in ``mis``, so there ``bdpt`` is
@@ -99,25 +108,29 @@ def main() -> None:
                 blind = (lt_ref.mean.reshape(npix, 3) == 0).all(axis=1) & (ref_mean.reshape(npix, 3) > 0).any(axis=1)
                 seen = ~blind.reshape(seen.shape)
                 print(f"   pixels lt cannot see (black in a long lt render, not in the reference): {blind.sum()}")
-            eff_all, eff_seen = {}, {}
+            eff_all, eff_seen, eff_var = {}, {}, {}
             for integrator in args.integrators:
                 render(scene, spp=1, seed=0, **RENDER_KWARGS[integrator])  # builds the kernel
                 rows = []
                 for seed in range(1, args.runs + 1):
                     r, cpu, wall = timed(scene, integrator, seed, args.budget)
                     err = (r.mean.astype(np.float64) - ref_mean) ** 2 - ref_var
-                    rows.append((r.spp, cpu, wall, float(err.mean()), float(err[seen].mean())))
-                spp, cpu, wall, mse, mse_seen = (float(np.mean(c)) for c in zip(*rows, strict=True))
+                    rows.append((r.spp, cpu, wall, float(err.mean()), float(err[seen].mean()),
+                                 float(r.variance.astype(np.float64).mean())))
+                spp, cpu, wall, mse, mse_seen, var = (float(np.mean(c)) for c in zip(*rows, strict=True))
                 eff_all[integrator] = 1.0 / (mse * cpu)
                 eff_seen[integrator] = 1.0 / (mse_seen * cpu)
+                eff_var[integrator] = 1.0 / (var * cpu)
                 print(f"   {integrator:10s} {spp:7.0f} spp  {spp * npix / cpu / 1e6:6.3f} M paths/cpu-s  "
                       f"{spp * npix / wall / 1e6:6.3f} M paths/s  cpu {cpu:5.1f} s  MSE {mse:.4g}  "
-                      f"(seen by lt {mse_seen:.4g})  efficiency {eff_all[integrator]:.4g}", flush=True)
+                      f"(seen by lt {mse_seen:.4g})  efficiency {eff_all[integrator]:.4g}  "
+                      f"(from its own variance {eff_var[integrator]:.4g})", flush=True)
             if "mis" in eff_all:
                 for integrator in args.integrators:
                     if integrator != "mis":
                         print(f"   {integrator} / mis efficiency: {eff_all[integrator] / eff_all['mis']:.2f}  "
-                              f"(pixels lt sees: {eff_seen[integrator] / eff_seen['mis']:.2f})", flush=True)
+                              f"(pixels lt sees: {eff_seen[integrator] / eff_seen['mis']:.2f}; from the own "
+                              f"variances: {eff_var[integrator] / eff_var['mis']:.2f})", flush=True)
 
 
 if __name__ == "__main__":
