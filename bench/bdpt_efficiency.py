@@ -22,7 +22,9 @@ render's own variance of the mean (per sample for ``mis``, from independent
 batches for ``lt`` and ``bdpt``) instead of the MSE: it needs no reference,
 so it is far less noisy than the MSE of a short render against a reference
 whose own variance is of the same order (heavy-tailed caustic pixels); it
-assumes the integrators unbiased, which tests/test_render_bdpt.py checks.
+assumes the integrators unbiased, which tests/test_render_bdpt.py checks
+(not so ``lt`` in the pixels it cannot see, where it reports no variance:
+its figure is an upper bound).
 ``bdpt-exact`` is ``bdpt`` with ``roulette=False`` (every connection's
 shadow ray traced).
 
