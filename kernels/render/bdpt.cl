@@ -115,12 +115,26 @@
  * (render_params.bdpt_roulette); a single strategy (bdpt_only_s >= 0) is
  * never rouletted, and roulette=False renders the exact sum of every
  * strategy, which tests/test_render_bdpt.py compares with the strategies'
- * images.  Measured on the Cornell box with a mirror and a glass sphere
- * (128 px, the same seed): 11 % less CPU time per sample at 3 % more
- * variance with the fraction 1; 0.1 saved nothing measurable (few
- * connections fall below a tenth of the estimate so far), 3 saved no more
- * time than 1 at 12 % more variance.  A packet's shadow ray is saved only
- * when all its lanes lose.
+ * images.  Measured (128 px, LANES 16, CPU time of 3 interleaved renders
+ * of 192 spp each, on a shared machine: +-10 %): on the Cornell box with a
+ * mirror and a glass sphere 6 to 11 % less CPU time per sample at 3 to 5 %
+ * more variance with the fraction 1 (efficiency +1 to +8 %), on
+ * scenes/caustic.json 7 % less at the same variance; the fraction 0.1 saved
+ * nothing measurable (few connections fall below a tenth of the estimate so
+ * far), 3 no more time than 1 at 12 % more variance.  A packet's shadow ray
+ * is saved only when all its lanes lose; one roulette uniform shared by 16
+ * consecutive samples (so that lanes lose together) saved no more time, and
+ * evaluating every t's s <= 1 strategies before the connections (a better
+ * estimate to compare against) cost more than it saved.
+ *
+ * Where the time goes now (the Cornell box with two spheres, 128 px, LANES
+ * 16, by switching parts off): camera walk about 30 %, light walk 15 %, the
+ * strategies 55 %: the (s >= 2, t >= 2) connections 26 % (their BSDF
+ * evaluations 10 %, their shadow rays and weights 16 %), the (s, 1) camera
+ * connections 9 %, the MIS weights nothing measurable.  perf puts about 9 %
+ * of the kernel's samples on one instruction: the (s, 1) splats' adds into
+ * random pixels of the work-item's group image (a double image of 512 KB at
+ * 128 x 128), i.e. cache misses.
  *
  * Launch parameters (render_params), not build options, so that one build
  * serves every choice: bdpt_power_mis (1: beta 2, 0: beta 1); bdpt_only_s/_t
@@ -375,8 +389,8 @@ MC_INLINE floatv bdpt_connection_weight(const bdpt_scene *sc, bdpt_vertex *light
 /* Russian roulette on the shadow ray of a connection (s >= 1, t >= 2), for the lanes in `ok` whose
  * weighted contribution w max(c) falls below `threshold` (BDPT_ROULETTE_FRACTION of the sample's
  * pixel estimate so far): the ray is traced with probability q = w max(c) / threshold and the
- * contribution c becomes c / q, so its expectation is unchanged (Veach's thesis §10.3.5 suggests
- * such a test for the many dim connections of a path; pbrt-v3 rouletted shadow rays likewise).
+ * contribution c becomes c / q, so its expectation is unchanged (the efficiency-optimized Russian
+ * roulette of visibility tests that Veach's thesis, chapter 10, proposes for bidirectional path tracing).
  * threshold and w do not depend on the uniform: it comes from its own stream and dimension
  * (RNG_STREAM_BDPT_ROULETTE, BDPT_DIM_ROULETTE(s, t)), one per strategy.  Returns the lanes that
  * survive; off (sc->roulette 0) it returns `ok` and leaves c as it is. */
