@@ -19,6 +19,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +31,7 @@ from test_render_lt import LE, RHO, assert_blocks_agree, assert_pixels_agree, do
 from mcocl.errors import InputError
 from mcocl.render.api import render
 from mcocl.render.compiled import compile_scene
+from mcocl.render.image_io import read_exr
 from mcocl.render.scene import parse_scene
 from mcocl.render.scene_file import load_scene
 
@@ -262,3 +265,18 @@ def test_environment_renders_like_mis() -> None:
     assert b.nonfinite == 0
     z = (a.mean - b.mean) / np.sqrt(a.variance + b.variance + 1e-30)
     assert 2 * stats.norm.sf(np.abs(z).max()) > 1 - (1 - 1e-3) ** (1 / z.size), np.abs(z).max()
+
+
+def test_cli_no_roulette(tmp_path: Path) -> None:
+    """``mcocl render --no-roulette`` renders what ``roulette=False`` does, and is refused for another integrator."""
+    out = tmp_path / "b.exr"
+    args = [sys.executable, "-m", "mcocl", "render", str(SCENES / "furnace.json"), "--spp", "8", "--max-depth", "3",
+            "--seed", "5"]
+    p = subprocess.run([*args, "--integrator", "bdpt", "--no-roulette", "--out", str(out)], capture_output=True,
+                       text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    want = render(SCENES / "furnace.json", spp=8, integrator="bdpt", max_depth=3, seed=5, roulette=False).mean
+    np.testing.assert_allclose(read_exr(out).mean, want, rtol=1e-6)
+    p = subprocess.run([*args, "--integrator", "mis", "--no-roulette", "--out", str(tmp_path / "m.exr")],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode != 0 and "bdpt's settings" in p.stderr
