@@ -476,6 +476,7 @@ typedef struct {
     int bdpt_only_t;
     int bdpt_unweighted;
     int bdpt_power_mis;
+    int bdpt_roulette;
     float near_clip;
     float far_clip;
     int filter_kind;

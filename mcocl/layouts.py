@@ -293,8 +293,9 @@ RENDER_PARAMS = Record("render_params", (
     ("nlights", "uint", 1), ("light_top", "uint", 1),  # light_top: largest power of two <= nlights (0: none)
     ("env_threshold", "float", 1), ("env_pmf", "float", 1),
     # bdpt's one strategy (s, t) to render, -1: all; whether without its MIS weight; the power
-    # heuristic (1) or the balance heuristic (0)
+    # heuristic (1) or the balance heuristic (0); Russian roulette on connection shadow rays (1: on)
     ("bdpt_only_s", "int", 1), ("bdpt_only_t", "int", 1), ("bdpt_unweighted", "int", 1), ("bdpt_power_mis", "int", 1),
+    ("bdpt_roulette", "int", 1),
     # the camera's clip planes along its optical axis (kernels/render/camera.cl, camera_clip): near 0 and
     # far +inf clip nothing; launch values, not build options, so that one build serves every clip
     ("near_clip", "float", 1), ("far_clip", "float", 1),

@@ -19,6 +19,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +31,7 @@ from test_render_lt import LE, RHO, assert_blocks_agree, assert_pixels_agree, do
 from mcocl.errors import InputError
 from mcocl.render.api import render
 from mcocl.render.compiled import compile_scene
+from mcocl.render.image_io import read_exr
 from mcocl.render.scene import parse_scene
 from mcocl.render.scene_file import load_scene
 
@@ -114,9 +117,10 @@ def test_weights_follow_the_vertices(strategies: list[tuple[int, int]]) -> None:
 
 def test_weighted_strategies_sum_to_the_full_render() -> None:
     """One seed: the weighted strategies' images add up to the render of all strategies (float rounding
-    apart), and the part of path length 2 matches its closed form: its MIS weights sum to 1."""
+    apart), and the part of path length 2 matches its closed form: its MIS weights sum to 1.  The full
+    render without its connection roulette, which a single strategy never plays."""
     kw = {"spp": 32, "integrator": "bdpt", "max_depth": 2, "seed": 5}
-    full = render(SCENES / "furnace.json", **kw).mean.astype(np.float64)
+    full = render(SCENES / "furnace.json", roulette=False, **kw).mean.astype(np.float64)
     parts = {st: render(SCENES / "furnace.json", strategy=st, **kw).mean.astype(np.float64)
              for st in [(0, 2), (1, 1), (0, 3), (1, 2), (2, 1)]}
     np.testing.assert_allclose(sum(parts.values()), full, rtol=1e-5, atol=1e-6)
@@ -219,6 +223,7 @@ def test_lane_builds_agree_with_the_scalar_build(scene: str) -> None:
     ({"strategy": (3, 3)}, "max_depth"),
     ({"strategy": "ab"}, "whole numbers"),
     ({"unweighted": True}, "only with a strategy"),
+    ({"roulette": 0}, "True or False"),
 ])
 def test_bad_settings(kw: dict, match: str) -> None:
     with pytest.raises(InputError, match=match):
@@ -228,6 +233,22 @@ def test_bad_settings(kw: dict, match: str) -> None:
 def test_bdpt_settings_are_bdpts_only() -> None:
     with pytest.raises(InputError, match="bdpt's settings"):
         render(SCENES / "furnace.json", spp=1, integrator="mis", mis="balance")
+    with pytest.raises(InputError, match="bdpt's settings"):
+        render(SCENES / "furnace.json", spp=1, integrator="lt", roulette=False)
+
+
+def test_connection_roulette_is_on_by_default_and_unbiased() -> None:
+    """The roulette on connection shadow rays (kernels/render/bdpt.cl, connection_roulette) changes the
+    image of a seed (so it plays) but not its expectation: inside the emitting sphere at max_depth 3 the
+    estimate with it matches the closed form L_e (1 + rho + rho^2), within 5 standard errors, as without."""
+    kw = {"spp": 64, "integrator": "bdpt", "max_depth": 3, "seed": 7}
+    on = render(SCENES / "furnace_sphere.json", **kw)
+    off = render(SCENES / "furnace_sphere.json", roulette=False, **kw)
+    assert not np.array_equal(on.mean, off.mean)
+    want = LE * (1 + RHO + RHO**2)
+    for r in (on, off):
+        est, se = _mean_and_se(r)
+        assert np.all(np.abs(est - want) <= 5 * se + 1e-6), (est, want, se)
 
 
 def test_environment_renders_like_mis() -> None:
@@ -244,3 +265,18 @@ def test_environment_renders_like_mis() -> None:
     assert b.nonfinite == 0
     z = (a.mean - b.mean) / np.sqrt(a.variance + b.variance + 1e-30)
     assert 2 * stats.norm.sf(np.abs(z).max()) > 1 - (1 - 1e-3) ** (1 / z.size), np.abs(z).max()
+
+
+def test_cli_no_roulette(tmp_path: Path) -> None:
+    """``mcocl render --no-roulette`` renders what ``roulette=False`` does, and is refused for another integrator."""
+    out = tmp_path / "b.exr"
+    args = [sys.executable, "-m", "mcocl", "render", str(SCENES / "furnace.json"), "--spp", "8", "--max-depth", "3",
+            "--seed", "5"]
+    p = subprocess.run([*args, "--integrator", "bdpt", "--no-roulette", "--out", str(out)], capture_output=True,
+                       text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    want = render(SCENES / "furnace.json", spp=8, integrator="bdpt", max_depth=3, seed=5, roulette=False).mean
+    np.testing.assert_allclose(read_exr(out).mean, want, rtol=1e-6)
+    p = subprocess.run([*args, "--integrator", "mis", "--no-roulette", "--out", str(tmp_path / "m.exr")],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode != 0 and "bdpt's settings" in p.stderr

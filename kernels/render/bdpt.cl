@@ -104,24 +104,42 @@
  * cut the traces' time by about 40 % but the compaction's scalar copies cost
  * as much again on PoCL, and loading each light vertex's material once per
  * packet instead of once per strategy gained nothing measurable either, so
- * neither is kept.  Russian roulette on the shadow rays of connections
- * (t >= 2, s >= 1) by their weighted contribution against a tenth of the
- * sample's pixel estimate so far (trace with probability contribution /
- * threshold, count contribution / probability: unbiased) cut the traced
- * shadow-ray packets on the Cornell box with a mirror and a glass sphere by
- * 29 % (42 % of their lanes; a packet is saved only when all its lanes
- * lose) and raised bdpt's efficiency there by about 10 % at an unchanged
- * MSE; a threshold of 0.3 of the estimate by about 15 % at 1.5 % more MSE.
- * It is not kept because it changes the estimator that the exactness tests
- * of tests/test_render_bdpt.py pin down: a rouletted connection is no
- * longer the zero-variance estimate test_weights_follow_the_vertices
- * compares, and the weighted strategies' images add up to the full render
- * only if a single rendered strategy makes the same roulette choices.  As a
- * launch option (off in those tests) it would be a measured gain.
+ * neither is kept.
+ *
+ * Russian roulette on the shadow rays of connections (t >= 2, s >= 1;
+ * connection_roulette): a connection whose weighted contribution w max(c)
+ * falls below the sample's pixel estimate so far (BDPT_ROULETTE_FRACTION of
+ * it) is traced with probability w max(c) / threshold and counted divided by
+ * it, so the estimate stays unbiased; the weight comes before the shadow ray
+ * for that (it does not depend on visibility).  On by default
+ * (render_params.bdpt_roulette); a single strategy (bdpt_only_s >= 0) is
+ * never rouletted, and roulette=False renders the exact sum of every
+ * strategy, which tests/test_render_bdpt.py compares with the strategies'
+ * images.  Measured (128 px, LANES 16, CPU time of 3 interleaved renders
+ * of 192 spp each, on a shared machine: +-10 %): on the Cornell box with a
+ * mirror and a glass sphere 6 to 11 % less CPU time per sample at 3 to 5 %
+ * more variance with the fraction 1 (efficiency +1 to +8 %), on
+ * scenes/caustic.json 7 % less at the same variance; the fraction 0.1 saved
+ * nothing measurable (few connections fall below a tenth of the estimate so
+ * far), 3 no more time than 1 at 12 % more variance.  A packet's shadow ray
+ * is saved only when all its lanes lose; one roulette uniform shared by 16
+ * consecutive samples (so that lanes lose together) saved no more time, and
+ * evaluating every t's s <= 1 strategies before the connections (a better
+ * estimate to compare against) cost more than it saved.
+ *
+ * Where the time goes now (the Cornell box with two spheres, 128 px, LANES
+ * 16, by switching parts off): camera walk about 30 %, light walk 15 %, the
+ * strategies 55 %: the (s >= 2, t >= 2) connections 26 % (their BSDF
+ * evaluations 10 %, their shadow rays and weights 16 %), the (s, 1) camera
+ * connections 9 %, the MIS weights nothing measurable.  perf puts about 9 %
+ * of the kernel's samples on one instruction: the (s, 1) splats' adds into
+ * random pixels of the work-item's group image (a double image of 512 KB at
+ * 128 x 128), i.e. cache misses.
  *
  * Launch parameters (render_params), not build options, so that one build
  * serves every choice: bdpt_power_mis (1: beta 2, 0: beta 1); bdpt_only_s/_t
- * (>= 0) render one strategy, its MIS weight kept unless bdpt_unweighted.
+ * (>= 0) render one strategy, its MIS weight kept unless bdpt_unweighted;
+ * bdpt_roulette (1: the connection roulette above).
  */
 #define LT_NO_TRACE_KERNEL
 #include "render/lt.cl"
@@ -164,6 +182,7 @@ typedef struct {
     int has_env;      /* an environment: escaped camera rays end in a vertex at infinity */
     int only_s, only_t, unweighted; /* the one strategy rendered (-1: all), without its weight */
     int power_mis;                  /* the power heuristic (beta 2), else the balance heuristic */
+    int roulette;                   /* Russian roulette on the connections' shadow rays (see connection_roulette) */
 } bdpt_scene;
 
 /* The area density at q (normal nq) of a light ray from infinity along d: the disk's 1 / (pi R^2), projected. */
@@ -367,13 +386,36 @@ MC_INLINE floatv bdpt_connection_weight(const bdpt_scene *sc, bdpt_vertex *light
     return w;
 }
 
+/* Russian roulette on the shadow ray of a connection (s >= 1, t >= 2), for the lanes in `ok` whose
+ * weighted contribution w max(c) falls below `threshold` (BDPT_ROULETTE_FRACTION of the sample's
+ * pixel estimate so far): the ray is traced with probability q = w max(c) / threshold and the
+ * contribution c becomes c / q, so its expectation is unchanged (the efficiency-optimized Russian
+ * roulette of visibility tests that Veach's thesis, chapter 10, proposes for bidirectional path tracing).
+ * threshold and w do not depend on the uniform: it comes from its own stream and dimension
+ * (RNG_STREAM_BDPT_ROULETTE, BDPT_DIM_ROULETTE(s, t)), one per strategy.  Returns the lanes that
+ * survive; off (sc->roulette 0) it returns `ok` and leaves c as it is. */
+#define BDPT_ROULETTE_FRACTION 1.0f
+#define BDPT_DIM_ROULETTE(s, t) ((uint)(s) * (uint)(2 * BDPT_MAX_VERTICES) + (uint)(t))
+MC_INLINE intv connection_roulette(const bdpt_scene *sc, mc_sampler_t *smp, int s, int t, floatv threshold, floatv w,
+                                   vec3v *c, intv ok) {
+    if (!sc->roulette) return ok;
+    const floatv wc = w * v3_maxc(*c);
+    const intv play = ok & (wc < threshold);
+    if (!lane_any(play)) return ok;
+    sampler_seek(smp, (uintv)(BDPT_DIM_ROULETTE(s, t)));
+    const floatv u = sampler_next_1d(smp);
+    const floatv q = wc / threshold; /* in [0, 1) where play; zero (a zero weight) never survives */
+    *c = v3_select(*c, v3_scale(*c, 1.0f / q), play & (u < q));
+    return ok & !(play & (u >= q));
+}
+
 /* Strategy (s, t) with t >= 2 for the lanes in `active`: its unweighted contribution to the
  * sample's own pixel, zero where a lane has none, times its weight into *w.  ue: the s = 1 light
  * point's four uniforms (emitter choice and position).  zb: camera vertex z_{t-1}'s material
  * and frame. */
 MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, int t,
                              const floatv *ue, const vertex_bsdf *zb, intv active, int nl_cap, int nc_cap,
-                             floatv *w) {
+                             mc_sampler_t *smp, floatv threshold, floatv *w) {
     vec3v zero = v3s(0.0f);
     *w = (floatv)(0.0f);
     bdpt_vertex *pt = &cam[t - 1], *ptm = &cam[t - 2];
@@ -401,6 +443,8 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
             ok = ok | inf;
         }
         *w = lane_select((floatv)(0.0f), bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap), ok);
+        pt->pdf_rev = save_pt;
+        ptm->pdf_rev = save_ptm;
     } else if (s == 1) {
         ok = active & bsdf_is_smooth(&zb->m);
         if (!lane_any(ok)) return zero;
@@ -435,16 +479,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         }
         ok = ok & (v3_maxc(c) > 0.0f);
         if (!lane_any(ok)) return zero;
-        if (special) {
-            const intv at_inf = ok & inf;
-            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok & !inf);
-            if (lane_any(at_inf))
-                ok = ok | (at_inf & !trace_any_v(sc->geom, offset_origin(pt->p, pt->n, ls.wo), ls.wo,
-                                                 (floatv)(INFINITY), at_inf));
-        } else {
-            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok);
-        }
-        if (!lane_any(ok)) return zero;
+        /* the weight before the shadow ray, which the roulette needs (it does not depend on visibility) */
         bdpt_vertex y0 = light[0];
         light[0].p = er.pos;
         light[0].n = er.n;
@@ -466,8 +501,20 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
             pt->pdf_rev = lane_select(pt->pdf_rev, infinite_to_area(sc, ls.wo, pt->n), inf);
         }
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
-        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap), ok);
+        *w = bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap);
         light[0] = y0;
+        pt->pdf_rev = save_pt;
+        ptm->pdf_rev = save_ptm;
+        ok = connection_roulette(sc, smp, s, t, threshold, *w, &c, ok);
+        if (special && lane_any(ok)) {
+            const intv at_inf = ok & inf;
+            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok & !inf);
+            if (lane_any(at_inf))
+                ok = ok | (at_inf & !trace_any_v(sc->geom, offset_origin(pt->p, pt->n, ls.wo), ls.wo,
+                                                 (floatv)(INFINITY), at_inf));
+        } else if (lane_any(ok)) {
+            ok = segment_clear(sc, pt->p, pt->n, er.pos, ok);
+        }
     } else {
         bdpt_vertex *qs = &light[s - 1], *qsm = &light[s - 2];
         ok = active & bsdf_is_smooth(&zb->m);
@@ -485,19 +532,20 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         c = v3_scale(v3_mul(v3_mul(qs->beta, fy), v3_mul(fz, pt->beta)), 1.0f / d2);
         ok = ok & (v3_maxc(c) > 0.0f);
         if (!lane_any(ok)) return zero;
-        ok = segment_clear(sc, qs->p, qs->n, pt->p, ok);
-        if (!lane_any(ok)) return zero;
         floatv save_qs = qs->pdf_rev, save_qsm = qsm->pdf_rev;
         pt->pdf_rev = to_area(py, qs->p, pt->p, pt->n);
         qs->pdf_rev = to_area(pz, pt->p, qs->p, qs->n);
         ptm->pdf_rev = to_area(prz, pt->p, ptm->p, ptm->n);
         qsm->pdf_rev = lane_select(to_area(pry, qs->p, qsm->p, qsm->n), pry, qsm->infinite);
-        *w = lane_select((floatv)(0.0f), bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap), ok);
+        *w = bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap);
         qs->pdf_rev = save_qs;
         qsm->pdf_rev = save_qsm;
+        pt->pdf_rev = save_pt;
+        ptm->pdf_rev = save_ptm;
+        ok = connection_roulette(sc, smp, s, t, threshold, *w, &c, ok);
+        if (lane_any(ok)) ok = segment_clear(sc, qs->p, qs->n, pt->p, ok);
     }
-    pt->pdf_rev = save_pt;
-    ptm->pdf_rev = save_ptm;
+    *w = lane_select((floatv)(0.0f), *w, ok);
     return v3_select(zero, c, ok);
 }
 
@@ -585,6 +633,8 @@ MC_INLINE bdpt_scene bdpt_scene_of(const render_params *params, const scene_geom
     sc.only_t = params->bdpt_only_t;
     sc.unweighted = params->bdpt_unweighted;
     sc.power_mis = params->bdpt_power_mis;
+    /* a single strategy is rendered exactly as drawn (teaching, tests), never rouletted */
+    sc.roulette = params->bdpt_roulette && sc.only_s < 0;
     return sc;
 }
 
@@ -696,6 +746,7 @@ kernel void bdpt_trace(
         }
 
         /* ---- every strategy, for all lanes at once ---- */
+        mc_sampler_t rs = sampler_start(seed, index, RNG_STREAM_BDPT_ROULETTE);
         vec3v L = v3s(0.0f);
         for (int t = 1; lane_any(nc >= t); ++t) {
             const intv has_t = nc >= t;
@@ -726,7 +777,8 @@ kernel void bdpt_trace(
                         sampler_seek(&cs, (uintv)(RENDER_DIM_LIGHT((uint)(t - 2))));
                         sampler_next_nd(&cs, 4, ul);
                     }
-                    vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &w);
+                    const floatv threshold = BDPT_ROULETTE_FRACTION * v3_maxc(L);
+                    vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &rs, threshold, &w);
                     L = v3_add(L, v3_select(v3s(0.0f), v3_scale(c, strategy_weight(&sc, w)), w > 0.0f));
                 }
             }

@@ -169,7 +169,8 @@ kernel void bdpt_weight_check(
                                         &w);
                 } else {
                     floatv ul[4] = {(floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f)};
-                    bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &w);
+                    /* threshold 0: no connection roulette (every weight is the exact one) */
+                    bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &ls, (floatv)(0.0f), &w);
                 }
                 const intv joined = w > 0.0f;  /* not joined: occluded, no contribution */
                 if (!lane_any(joined)) continue;

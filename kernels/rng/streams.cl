@@ -48,6 +48,9 @@
 #define LT_DIM_EMIT 0u /* environment or area, which light, position 2D, direction 2D, lens point 2D */
 #define LT_DIM_BSDF(depth) (8u + 8u * (depth))  /* lobe, direction 2D, roulette at light vertex `depth` */
 #define LT_DIM_LENS(depth) (12u + 8u * (depth)) /* the lens point of light vertex `depth`'s connection */
+/* bdpt's Russian roulette on connection shadow rays (render/bdpt.cl): "sample" = the sample's index,
+ * one dimension per strategy (s, t) */
+#define RNG_STREAM_BDPT_ROULETTE 12u
 
 /* ---- sampling tests (render/bsdf_sample_test.cl, render/light_sample_test.cl) ---- */
 #define RNG_STREAM_BSDF_TEST 9u

@@ -78,6 +78,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--strategy", type=strategy_pair, default=None, metavar="S,T",
                    help="bdpt: render strategy (s, t) only (s light, t camera vertices), MIS-weighted")
     p.add_argument("--unweighted", action="store_true", help="bdpt --strategy: leave out the MIS weight")
+    p.add_argument("--no-roulette", action="store_true",
+                   help="bdpt: trace every connection's shadow ray (no Russian roulette on dim connections)")
     p.add_argument("--max-depth", type=int, default=None,
                    help="longest path in segments, Mitsuba's convention (-1 unbounded, 1 emitters only, 2 direct light)")
     p.add_argument("--rr-depth", type=int, default=None, help="depth from which Russian roulette may end paths")
@@ -109,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
             args.scene, spp=args.spp, integrator=args.integrator, max_depth=args.max_depth,
             rr_depth=args.rr_depth, params=dict(args.define) or None, lenient=args.lenient,
             mesh_folder=args.mesh_folder, sampler=args.sampler, mis=args.mis_heuristic, strategy=args.strategy,
-            unweighted=args.unweighted, **run_option_kwargs(args),
+            unweighted=args.unweighted, roulette=not args.no_roulette, **run_option_kwargs(args),
         )
     for w in caught:
         if issubclass(w.category, (NonFiniteSampleWarning, DeviceFailureWarning)):

@@ -196,6 +196,7 @@ def render(
     mis: str = "power",
     strategy: tuple[int, int] | None = None,
     unweighted: bool = False,
+    roulette: bool = True,
 ) -> RenderResult:
     """Render a scene by path tracing.
 
@@ -234,6 +235,8 @@ def render(
         mis: ``bdpt``'s MIS heuristic, ``power`` (beta 2, the default) or ``balance``.
         strategy: ``bdpt`` renders only strategy (s, t) (s light, t >= 1 camera vertices),
             MIS-weighted unless ``unweighted``.
+        roulette: ``bdpt``'s unbiased Russian roulette on the shadow rays of dim connections (on by
+            default; off renders the exact sum of every strategy, as a single ``strategy`` always is).
 
     The shared options (seed, time_budget, target_error, placement, lanes,
     checkpoint, resume, progress) are checked by :class:`mcocl.run_options.RunOptions`.
@@ -263,7 +266,7 @@ def render(
     if spp is not None and spp >= UNBOUNDED_SPP:
         raise InputError(f"spp must be below {UNBOUNDED_SPP}, got {spp}")
 
-    bdpt = bdpt_settings(cs, mis, strategy, unweighted)
+    bdpt = bdpt_settings(cs, mis, strategy, unweighted, roulette)
     pixel_filter = getattr(cs, "pixel_filter", BOX)
     near_clip = float(getattr(cs, "near_clip", 0.0))
     far_clip = getattr(cs, "far_clip", None)

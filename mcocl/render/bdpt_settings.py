@@ -9,19 +9,20 @@ from .compiled import CompiledScene
 from .job import MIS_BETAS
 
 
-def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, unweighted: Any = False) -> dict[str, Any]:
-    """The RenderJob keywords ``mis``, ``strategy``, ``unweighted`` for scene ``cs``.
+def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, unweighted: Any = False,
+                  roulette: Any = True) -> dict[str, Any]:
+    """The RenderJob keywords ``mis``, ``strategy``, ``unweighted``, ``roulette`` for scene ``cs``.
 
     Empty unless ``cs.integrator`` is ``bdpt`` (the other integrators take none
     of them, so that giving one to them is an error, not silently ignored).
 
     Raises:
         InputError: an unknown heuristic, a malformed strategy, ``unweighted``
-            without a strategy, or one of them for another integrator.
+            without a strategy, ``roulette`` not a bool, or one of them for another integrator.
     """
     if cs.integrator != "bdpt":
-        if mis != "power" or strategy is not None or unweighted:
-            raise InputError(f"mis, strategy and unweighted are bdpt's settings, not {cs.integrator}'s")
+        if mis != "power" or strategy is not None or unweighted or roulette is not True:
+            raise InputError(f"mis, strategy, unweighted and roulette are bdpt's settings, not {cs.integrator}'s")
         return {}
     if mis not in MIS_BETAS:
         raise InputError(f"mis: unknown heuristic {mis!r}; choose one of {', '.join(MIS_BETAS)}")
@@ -40,7 +41,9 @@ def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, u
         strategy = (s, t)
     elif unweighted:
         raise InputError("unweighted: only with a strategy")
-    return {"mis": mis, "strategy": strategy, "unweighted": bool(unweighted)}
+    if not isinstance(roulette, bool):
+        raise InputError(f"roulette: expected True or False, got {roulette!r}")
+    return {"mis": mis, "strategy": strategy, "unweighted": bool(unweighted), "roulette": roulette}
 
 
 __all__ = ["bdpt_settings"]

@@ -114,6 +114,8 @@ class RenderJob:
         mis: ``bdpt``'s MIS heuristic, ``balance`` or ``power`` (beta 2).
         strategy: ``bdpt`` renders only strategy (s, t) when given.
         unweighted: with ``strategy``, leave out its MIS weight.
+        roulette: ``bdpt``'s Russian roulette on connection shadow rays (kernels/render/bdpt.cl,
+            connection_roulette); a single ``strategy`` is never rouletted.
 
     The light sampler follows the tables: those of a scene whose
     ``light_sampler`` is ``bvh`` hold the light BVH and get the BVH build;
@@ -136,6 +138,7 @@ class RenderJob:
     mis: str = "power"
     strategy: tuple[int, int] | None = None
     unweighted: bool = False
+    roulette: bool = True
     pixel_filter: PixelFilter = BOX  # the reconstruction filter (mcocl/render/pixel_filter.py)
     near_clip: float = 0.0  # camera.near_clip: render_params.near_clip (kernels/render/camera.cl)
     far_clip: float | None = None  # camera.far_clip: render_params.far_clip, +inf for None (kernels/render/camera.cl)
@@ -177,6 +180,7 @@ class RenderJob:
         p["width"], p["height"], p["tile_pixels"], p["ntiles"] = self.width, self.height, self.tile_pixels, self.ntiles
         p["max_depth"], p["rr_depth"] = self.max_depth, self.rr_depth
         p["bdpt_power_mis"] = int(MIS_BETAS[self.mis] == 2)
+        p["bdpt_roulette"] = int(self.integrator == "bdpt" and bool(self.roulette))
         if self.integrator == "bdpt" and self.strategy is not None:
             p["bdpt_only_s"], p["bdpt_only_t"] = int(self.strategy[0]), int(self.strategy[1])
             p["bdpt_unweighted"] = int(bool(self.unweighted))
