@@ -206,50 +206,36 @@ MC_INLINE void packet_closest(const scene_geom *g, vec3v o, vec3v d, intv active
     *t_out = lane_select((floatv)(INFINITY), tbest, active);
 }
 
-/* Occlusion of the segments o + t d, 0 < t < tmax, of the active lanes. */
+/* Occlusion of the segments o + t d, 0 < t < tmax, of the active lanes, over the 8-wide tree
+ * (bvh.cl's layout, mcocl/render/bvh_wide.py): each visit tests the children one box at a time for
+ * the whole packet, intersects the leaves hit at once and stacks the internal children hit. */
 MC_INLINE intv packet_any(const scene_geom *g, vec3v o, vec3v d, floatv tmax, intv active) {
     intv occ = active & (intv)(0);
     if (as_uint(g->nodes[0].x) == 0u || !packet_any_lane(active)) return occ;
     vec3v inv = packet_inv_dir(d);
     floatv tm = lane_select((floatv)(-1.0f), tmax, active);
-    uint stack[PACKET_STACK];
+    uint stack[BVH_WIDE_STACK];
     uint sp = 0, node = 0;
     for (;;) {
-        global const float4 *nd = g->nodes + 1 + 4 * node;
-        float4 a0 = nd[0], a1 = nd[1], c0 = nd[2], c1 = nd[3];
-        floatv tn0, tn1;
-        intv h0 = packet_box(a0, a1, o, inv, tm, &tn0);
-        intv h1 = packet_box(c0, c1, o, inv, tm, &tn1);
-        uint r0 = as_uint(a0.w), n0 = as_uint(a1.w), r1 = as_uint(c0.w), n1 = as_uint(c1.w);
-        bool any0 = packet_any_lane(h0), any1 = packet_any_lane(h1);
-        /* the child most of the packet reaches first goes first: an occluder found early ends
-         * those lanes (tm = -1) and prunes the rest of their walk (many_lights: 10 % fewer nodes) */
-        if (any0 && any1 && 2u * mask_count(h0 & h1 & (tn1 < tn0)) > mask_count(h0 & h1)) {
-            uint tr = r0; r0 = r1; r1 = tr;
-            uint tc = n0; n0 = n1; n1 = tc;
-            intv th = h0; h0 = h1; h1 = th;
+        global const float *nf = (global const float *)(g->wide + BVH_WIDE_NODE_QUADS * node);
+        global const uint *nu = (global const uint *)nf;
+        for (uint c = 0; c < 8u; ++c) {
+            const uint cnt = nu[56u + c];
+            if (cnt == BVH_EMPTY_SLOT) continue;
+            float4 lo = (float4)(nf[c], nf[8u + c], nf[16u + c], 0.0f);
+            float4 hi = (float4)(nf[24u + c], nf[32u + c], nf[40u + c], 0.0f);
+            floatv tn;
+            intv h = packet_box(lo, hi, o, inv, tm, &tn);
+            if (!packet_any_lane(h)) continue;
+            const uint ref = nu[48u + c];
+            if (cnt) {
+                occ |= packet_leaf_any(g, ref, cnt, o, d, h, tm);
+                tm = lane_select(tm, (floatv)(-1.0f), occ);
+            } else if (sp < BVH_WIDE_STACK) {
+                stack[sp++] = ref;
+            }
         }
-        if (any0 && n0) {
-            occ |= packet_leaf_any(g, r0, n0, o, d, h0, tm);
-            any0 = false;
-        }
-        if (any1 && n1) {
-            occ |= packet_leaf_any(g, r1, n1, o, d, h1, tm);
-            any1 = false;
-        }
-        /* occluded lanes are done: make every later box test fail for them */
-        tm = lane_select(tm, (floatv)(-1.0f), occ);
-        if (packet_all_lane(occ | !active)) break;
-        if (any0) {
-            if (any1 && sp < PACKET_STACK) stack[sp++] = r1;
-            node = r0;
-            continue;
-        }
-        if (any1) {
-            node = r1;
-            continue;
-        }
-        if (sp == 0) break;
+        if (sp == 0 || packet_all_lane(occ | !active)) break;
         node = stack[--sp];
     }
     return occ;
