@@ -20,10 +20,10 @@
  * a visit tests up to eight child boxes for the whole packet, so a packet
  * makes fewer visits (the wide tree is about a third as deep), and a visit
  * ends in branches the CPU mispredicts; occlusion is an "or" over the
- * primitives, so the walk cannot change the answer (8-9 % less CPU per spp
- * on scenes/many_lights.json and veach_mis.json).  The ray–primitive tests
- * reproduce intersect.cl's (Möller–Trumbore with the
- * same widened edges, the same stable sphere quadratic) over lanes, and
+ * primitives, so the walk cannot change the answer (5-6 % less CPU per spp
+ * on scenes/many_lights.json, 4-5 % on veach_mis.json).  The ray–primitive
+ * tests reproduce intersect.cl's (Möller–Trumbore with the same widened
+ * edges, the same stable sphere quadratic) over lanes, and
  * tests/test_render_trace.py checks the packet traversal against bvh.cl's
  * trace_closest / trace_any ray by ray.
  */
@@ -34,25 +34,6 @@
 #include "render/bvh.cl"
 
 #define PACKET_STACK 64 /* > bvh.py MAX_DEPTH */
-
-/* lane_any / lane_all of a mask (every lane 0 or -1) for the traversal loops, whose every
- * node visit branches on them.  Clang's vector reductions let LLVM test the compare's mask
- * register directly (kortest, or kmov and test) instead of narrowing the mask to bytes in
- * vector registers first: a shorter chain from the node's load to the branch, which the CPU
- * waits on whenever it mispredicts.  Measured: 7-9 % less CPU per spp on
- * scenes/many_lights.json and veach_mis.json (16 lanes, PoCL 3.1); images unchanged. */
-#if defined(__has_builtin)
-#if LANES >= 4 && __has_builtin(__builtin_reduce_or) && __has_builtin(__builtin_reduce_and)
-#define PACKET_REDUCE_BUILTINS 1
-#endif
-#endif
-#ifdef PACKET_REDUCE_BUILTINS
-#define packet_any_lane(m) (__builtin_reduce_or(m) != 0)
-#define packet_all_lane(m) (__builtin_reduce_and(m) != 0)
-#else
-#define packet_any_lane(m) lane_any(m)
-#define packet_all_lane(m) lane_all(m)
-#endif
 
 /* Möller–Trumbore for every lane against one triangle: v0 = a, edges e1, e2 (intersect_triangle_edges). */
 MC_INLINE intv packet_triangle(float4 a, float4 e1, float4 e2, vec3v o, vec3v d, floatv tmax, floatv *t_out,
@@ -141,7 +122,7 @@ MC_INLINE intv packet_leaf_any(const scene_geom *g, uint first, uint count, vec3
             ok = packet_sphere(r1, o, d, tmax, &t);
         }
         occ |= ok & m;
-        if (packet_all_lane(occ | !m)) break;
+        if (lane_all(occ | !m)) break;
     }
     return occ;
 }
@@ -170,7 +151,7 @@ MC_INLINE void packet_closest(const scene_geom *g, vec3v o, vec3v d, intv active
     *prim = (uintv)(0u);
     *b1 = (floatv)(0.0f);
     *b2 = (floatv)(0.0f);
-    if (as_uint(g->nodes[0].x) != 0u && packet_any_lane(active)) {
+    if (as_uint(g->nodes[0].x) != 0u && lane_any(active)) {
         vec3v inv = packet_inv_dir(d);
         uint stack[PACKET_STACK];
         uint sp = 0, node = 0;
@@ -181,7 +162,7 @@ MC_INLINE void packet_closest(const scene_geom *g, vec3v o, vec3v d, intv active
             intv h0 = packet_box(a0, a1, o, inv, tbest, &tn0);
             intv h1 = packet_box(c0, c1, o, inv, tbest, &tn1);
             uint r0 = as_uint(a0.w), n0 = as_uint(a1.w), r1 = as_uint(c0.w), n1 = as_uint(c1.w);
-            bool any0 = packet_any_lane(h0), any1 = packet_any_lane(h1);
+            bool any0 = lane_any(h0), any1 = lane_any(h1);
             /* the child most of the packet reaches first goes first */
             if (any0 && any1 && 2u * mask_count(h0 & h1 & (tn1 < tn0)) > mask_count(h0 & h1)) {
                 uint tr = r0; r0 = r1; r1 = tr;
@@ -231,7 +212,7 @@ MC_INLINE void packet_closest(const scene_geom *g, vec3v o, vec3v d, intv active
  * the whole packet, intersects the leaves hit at once and stacks the internal children hit. */
 MC_INLINE intv packet_any(const scene_geom *g, vec3v o, vec3v d, floatv tmax, intv active) {
     intv occ = active & (intv)(0);
-    if (as_uint(g->nodes[0].x) == 0u || !packet_any_lane(active)) return occ;
+    if (as_uint(g->nodes[0].x) == 0u || !lane_any(active)) return occ;
     vec3v inv = packet_inv_dir(d);
     floatv tm = lane_select((floatv)(-1.0f), tmax, active);
     uint stack[BVH_WIDE_STACK];
@@ -246,7 +227,7 @@ MC_INLINE intv packet_any(const scene_geom *g, vec3v o, vec3v d, floatv tmax, in
             float4 hi = (float4)(nf[WIDE_HI_X + c], nf[WIDE_HI_Y + c], nf[WIDE_HI_Z + c], 0.0f);
             floatv tn;
             intv h = packet_box(lo, hi, o, inv, tm, &tn);
-            if (!packet_any_lane(h)) continue;
+            if (!lane_any(h)) continue;
             const uint ref = nu[WIDE_REF + c];
             if (cnt) {
                 occ |= packet_leaf_any(g, ref, cnt, o, d, h, tm);
@@ -255,7 +236,7 @@ MC_INLINE intv packet_any(const scene_geom *g, vec3v o, vec3v d, floatv tmax, in
                 stack[sp++] = ref;
             }
         }
-        if (sp == 0 || packet_all_lane(occ | !active)) break;
+        if (sp == 0 || lane_all(occ | !active)) break;
         node = stack[--sp];
     }
     return occ;
