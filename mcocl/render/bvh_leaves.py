@@ -22,13 +22,23 @@ from ..layouts import BVH_HEADER, LEAF_PRIM
 from .bvh_wide import wide_nodes
 
 LEAF_ROWS = LEAF_PRIM.itemsize // 16  # float4 rows per record
+_FILL_CHUNK = 1 << 16  # records per chunk of _fill_leaf_records
 
 
 def _fill_leaf_records(out: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray) -> None:
     """Write one LEAF_PRIM per entry of ``prims`` into ``out``, float32 (P, 12) (a view of the device table).
 
     Column blocks of the record: v0 | prim, e1 | pad1, e2 | pad2 (mcocl/layouts.py).
+    Chunk by chunk of :data:`_FILL_CHUNK` records: the gathered vertices and
+    the edges of 10^6 triangles would be 60 MB of temporaries at once.
     """
+    prims = np.asarray(prims)
+    for s in range(0, len(prims), _FILL_CHUNK):
+        _fill_chunk(out[s:s + _FILL_CHUNK], prims[s:s + _FILL_CHUNK], tri_vertices, spheres)
+
+
+def _fill_chunk(out: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray) -> None:
+    """:func:`_fill_leaf_records` for one chunk of records."""
     prims = np.asarray(prims, np.int64)
     nt = len(tri_vertices)
     out.view(np.uint32)[:, 3] = prims

@@ -33,6 +33,10 @@ from .light_bvh import build_light_bvh
 LIGHT_BVH_ABSENT = {"light_bvh": np.zeros((1, 4), np.float32), "light_trail": np.zeros(1, np.uint32)}
 
 
+# Triangles per chunk of prim_records' float64 work: for 10^6 triangles its temporaries would be 200 MB at once.
+_RECORD_CHUNK = 1 << 16
+
+
 def _as_quads(rec: np.ndarray, width: int) -> np.ndarray:
     """A record array as float32 rows of ``width`` (the float4 tables the kernels gather from)."""
     return np.ascontiguousarray(rec).view(np.float32).reshape(-1, width)
@@ -62,13 +66,13 @@ def prim_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
     """One :data:`~mcocl.layouts.PRIM_RECORD` per primitive for the shading of a hit, as float32 (N, 8)."""
     nt, ns = cs.num_triangles, cs.num_spheres
     rec = np.zeros(max(nt + ns, 1), PRIM_RECORD.dtype())
-    if nt:
-        v = cs.tri_vertices[:, :, :3].astype(np.float64)
+    for s in range(0, nt, _RECORD_CHUNK):  # row by row the same numbers; float64 temporaries of a chunk only
+        v = cs.tri_vertices[s:s + _RECORD_CHUNK, :, :3].astype(np.float64)
         cr = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
         length = np.linalg.norm(cr, axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
-            rec["normal"][:nt] = np.where(length[:, None] > 0, cr / length[:, None], 0.0)
-        rec["area"][:nt] = 0.5 * length
+            rec["normal"][s:s + len(v)] = np.where(length[:, None] > 0, cr / length[:, None], 0.0)
+        rec["area"][s:s + len(v)] = 0.5 * length
     if ns:
         rec["area"][nt:nt + ns] = 4.0 * math.pi * cs.spheres[:, 3].astype(np.float64) ** 2
         rec["inward"][nt:nt + ns] = cs.sphere_flip.astype(np.float32)
@@ -183,15 +187,14 @@ def scene_params(tables: dict[str, np.ndarray]) -> np.ndarray:
 
 def scene_buffers(cs: CompiledScene, ctx) -> dict:
     """One read-only pyopencl Buffer per array of :func:`scene_tables`, cached on ``cs`` per context."""
-    import pyopencl as cl
+    from .table_buffers import table_buffer
 
     key = ctx.context.int_ptr
     with cs.buffer_lock:
         bufs = cs.buffer_cache.get(key)
         if bufs is None:
-            mf = cl.mem_flags
-            bufs = {name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
-                    for name, a in scene_tables(cs).items()}
+            # over the tables themselves where the device shares host memory (render/table_buffers.py)
+            bufs = {name: table_buffer(ctx.context, ctx.device, a) for name, a in scene_tables(cs).items()}
             cs.buffer_cache[key] = bufs
         return bufs
 
