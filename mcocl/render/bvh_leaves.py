@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..host_memory import release_free_heap
 from ..layouts import BVH_HEADER, LEAF_PRIM
 from .bvh_wide import wide_nodes
 
@@ -78,6 +79,7 @@ def device_nodes(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray,
     if len(prims) == 0 or len(nodes) == 0:
         return nodes
     wide = wide_nodes(nodes)
+    release_free_heap()  # the wide nodes' build leaves ~130 MB of freed heap for 10^6 triangles (mcocl/host_memory.py)
     leaf_row, p = len(nodes), len(prims)
     out = np.empty((leaf_row + LEAF_ROWS * p + len(wide), 4), np.float32)
     out[:leaf_row] = nodes
