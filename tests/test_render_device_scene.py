@@ -106,7 +106,7 @@ def test_every_consumer_uploads_the_same_tables(cs):
         cl.enqueue_copy(ctx.queue, got, bufs[name])
         assert got.tobytes() == want.tobytes(), name
     geom = geom_args(cs, ctx)
-    assert geom[:5] == [bufs[k] for k in ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip")]
+    assert geom[:5] == [bufs[k] for k in ("bvh_nodes", "bvh_prims", "tri_rows", "spheres", "sphere_flip")]
     assert [int(x) for x in geom[5:]] == [int(x) for x in tables["geometry_counts"]]
 
 

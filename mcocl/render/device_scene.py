@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from ..layouts import LIGHT_RECORD, PRIM_RECORD, RENDER_PARAMS, LightShape
-from .bvh_leaves import device_nodes
+from .bvh_leaves import device_geometry
 from .compiled import CompiledScene
 from .delta_lights import delta_records
 from .envmap import envmap_tables
@@ -123,7 +123,8 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
 
     The tables of ``SCENE_GEOM_PARAMS`` (``bvh_nodes``: the tree followed by
     its leaves' primitives in leaf order, :mod:`mcocl.render.bvh_leaves`; ``bvh_prims``,
-    ``tri_vertices``, ``spheres``, ``sphere_flip``, ``geometry_counts``), the
+    ``tri_rows``: where each triangle's record lies in ``bvh_nodes``, the kernels'
+    one copy of the triangles; ``spheres``, ``sphere_flip``, ``geometry_counts``), the
     shading and light records, the materials, the emitter choice
     (``light_cdf``, ``prim_pmf``, ``light_scalars`` = (L, light_top),
     ``env_choice`` = (env_threshold, env_pmf)) and the environment ``env``;
@@ -134,12 +135,13 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         a = np.ascontiguousarray(a, dtype=dtype)
         return a if a.size else np.zeros(width, dtype)
 
+    nodes, tri_rows = device_geometry(cs.bvh_nodes, cs.bvh_prims, cs.tri_vertices, cs.spheres)
     lt = light_tables(cs)
     tables = {
         "camera": nonempty(cs.camera, np.float32),
-        "bvh_nodes": nonempty(device_nodes(cs.bvh_nodes, cs.bvh_prims, cs.tri_vertices, cs.spheres), np.float32),
+        "bvh_nodes": nonempty(nodes, np.float32),
         "bvh_prims": nonempty(cs.bvh_prims, np.uint32),
-        "tri_vertices": nonempty(cs.tri_vertices, np.float32),
+        "tri_rows": nonempty(tri_rows, np.uint32),
         "spheres": nonempty(cs.spheres, np.float32),
         "sphere_flip": nonempty(cs.sphere_flip, np.uint32),
         "prim_rec": prim_records(cs, lt["prim_pmf"]),
@@ -200,9 +202,9 @@ def scene_buffers(cs: CompiledScene, ctx) -> dict:
 
 
 def geom_args(cs: CompiledScene, ctx) -> list:
-    """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, prims, triangles, spheres, flips, T, S)."""
+    """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, prims, triangle rows, spheres, flips, T, S)."""
     b = scene_buffers(cs, ctx)
-    return [b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
+    return [b["bvh_nodes"], b["bvh_prims"], b["tri_rows"], b["spheres"], b["sphere_flip"],
             np.uint32(cs.num_triangles), np.uint32(cs.num_spheres)]
 
 
