@@ -54,7 +54,6 @@ typedef struct {
     global const float4 *nodes;   /* BVH, layout of mcocl/render/bvh.py */
     global const float4 *leaves;  /* leaf_prim records in leaf order (mcocl/render/bvh_leaves.py) */
     global const float4 *wide;    /* 8-wide nodes of the single-ray traversal (mcocl/render/bvh_wide.py) */
-    global const uint *prims;     /* BVH leaf primitive ids */
     global const uint *tri_rows;  /* row of each triangle's leaf record after `leaves` (bvh_leaves.py device_geometry) */
     global const float4 *spheres; /* centre, radius */
     global const uint *sphere_flip;
@@ -70,7 +69,7 @@ typedef struct {
 
 /* The geometry's buffers as kernel parameters, in the order of CompiledScene.geom_args(). */
 #define SCENE_GEOM_BUFFERS                                                                   \
-    global const float4 *bvh_nodes, global const uint *bvh_prims, global const uint *tri_rows,       \
+    global const float4 *bvh_nodes, global const uint *tri_rows,                             \
     global const float4 *scene_spheres, global const uint *scene_sphere_flip
 /* ... followed by the counts T and S: all of CompiledScene.geom_args().  A kernel with a
  * parameter struct takes SCENE_GEOM_BUFFERS and defines scene_ntris, scene_nspheres itself. */
@@ -78,7 +77,7 @@ typedef struct {
 /* Declare `scene_geom name` from SCENE_GEOM_PARAMS inside a kernel. */
 #define SCENE_GEOM_MAKE(name)                                                                \
     scene_geom name;                                                                         \
-    name.nodes = bvh_nodes; name.prims = bvh_prims; name.tri_rows = tri_rows;                \
+    name.nodes = bvh_nodes; name.tri_rows = tri_rows;                                        \
     name.leaves = bvh_nodes + as_uint(bvh_nodes[0].w);                                       \
     name.wide = name.leaves + 3u * as_uint(bvh_nodes[0].x);                                  \
     name.spheres = scene_spheres; name.sphere_flip = scene_sphere_flip;                      \

@@ -122,8 +122,8 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     """Every array a kernel reads, as plain NumPy arrays (never empty: OpenCL has no empty buffers).
 
     The tables of ``SCENE_GEOM_PARAMS`` (``bvh_nodes``: the tree followed by
-    its leaves' primitives in leaf order, :mod:`mcocl.render.bvh_leaves`; ``bvh_prims``,
-    ``tri_rows``: where each triangle's record lies in ``bvh_nodes``, the kernels'
+    its leaves' primitives in leaf order, :mod:`mcocl.render.bvh_leaves`, whose records hold the
+    primitive ids; ``tri_rows``: where each triangle's record lies in ``bvh_nodes``, the kernels'
     one copy of the triangles; ``spheres``, ``sphere_flip``, ``geometry_counts``), the
     shading and light records, the materials, the emitter choice
     (``light_cdf``, ``prim_pmf``, ``light_scalars`` = (L, light_top),
@@ -140,7 +140,6 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     tables = {
         "camera": nonempty(cs.camera, np.float32),
         "bvh_nodes": nonempty(nodes, np.float32),
-        "bvh_prims": nonempty(cs.bvh_prims, np.uint32),
         "tri_rows": nonempty(tri_rows, np.uint32),
         "spheres": nonempty(cs.spheres, np.float32),
         "sphere_flip": nonempty(cs.sphere_flip, np.uint32),
@@ -202,9 +201,9 @@ def scene_buffers(cs: CompiledScene, ctx) -> dict:
 
 
 def geom_args(cs: CompiledScene, ctx) -> list:
-    """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, prims, triangle rows, spheres, flips, T, S)."""
+    """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, triangle rows, spheres, flips, T, S)."""
     b = scene_buffers(cs, ctx)
-    return [b["bvh_nodes"], b["bvh_prims"], b["tri_rows"], b["spheres"], b["sphere_flip"],
+    return [b["bvh_nodes"], b["tri_rows"], b["spheres"], b["sphere_flip"],
             np.uint32(cs.num_triangles), np.uint32(cs.num_spheres)]
 
 

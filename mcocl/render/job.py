@@ -64,7 +64,7 @@ UNBOUNDED_SPP = 0xFFFFFFFF
 PATHS_PER_BLOCK = 1 << 20
 TILE_PIXELS = 64
 # The scene arrays the render kernel takes after its render_params, in its argument order.
-KERNEL_BUFFERS = ("camera", "bvh_nodes", "bvh_prims", "tri_rows", "spheres", "sphere_flip", "prim_rec",
+KERNEL_BUFFERS = ("camera", "bvh_nodes", "tri_rows", "spheres", "sphere_flip", "prim_rec",
                   "materials", "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail",
                   "vertex_normals", "env_map", "env_cdf", "textures")
 # The integrators on the splatting film (mcocl/render/splat_film.py).
