@@ -7,7 +7,8 @@ child process loads, compiles and renders it once (``--spp`` samples,
 ``--size`` square, ``--integrator``) and prints, for each stage, the peak
 resident memory during the stage and the resident memory after it, both over
 the child's resident memory before the load (Linux: VmHWM after resetting it
-through /proc/self/clear_refs, and VmRSS).  The OpenCL runtime (PoCL, its
+through /proc/self/clear_refs, and VmRSS; that base is printed too, since
+what the process freed but kept before the load is reused by the stages).  The OpenCL runtime (PoCL, its
 LLVM, a built program) is loaded before that, by a render of scenes/cornell.json
 at 8 x 8 pixels, and reported apart (``runtime``: a fixed cost, not the scene's).
 The stages:
@@ -120,7 +121,7 @@ def measure(path: Path, size: int, spp: int, integrator: str) -> dict:
     device = sum(found["buffers"].values())
     biggest = sorted(found["buffers"].items(), key=lambda kv: -kv[1])[:6]
     return {"scene": path.name, "triangles": nt, "image": f"{size}x{size} {spp} spp {integrator}",
-            "opencl_runtime_MB": runtime_mb,
+            "opencl_runtime_MB": runtime_mb, "base_MB": round(stages.base / 1024, 1),
             "stages_MB_peak_resident": stages.rows,
             "device_scene_MB": round(device / 1e6, 1), "device_bytes_per_triangle": round(device / max(nt, 1), 1),
             "largest_buffers_MB": {k: round(v / 1e6, 1) for k, v in biggest},
@@ -164,7 +165,8 @@ def main() -> None:
     out = subprocess.run([sys.executable, __file__, str(path), "--measure", "--size", str(a.size), "--spp", str(a.spp),
                           "--integrator", a.integrator], check=True, capture_output=True, text=True).stdout
     r = json.loads(out.strip().splitlines()[-1])
-    print(f"{r['scene']}: {r['triangles']} triangles, {r['image']}; the OpenCL runtime: {r['opencl_runtime_MB']} MB")
+    print(f"{r['scene']}: {r['triangles']} triangles, {r['image']}; the OpenCL runtime: {r['opencl_runtime_MB']} MB, "
+          f"resident before the load: {r['base_MB']} MB")
     print(f"{'stage':10s} {'peak MB':>9s} {'resident MB':>12s}   (over the process before the load)")
     for name, (peak, now) in r["stages_MB_peak_resident"].items():
         print(f"{name:10s} {peak:9.1f} {now:12.1f}")

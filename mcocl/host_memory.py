@@ -14,6 +14,10 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import functools
+from collections.abc import Callable
+from typing import TypeVar
+
+F = TypeVar("F", bound=Callable)
 
 
 @functools.cache
@@ -35,4 +39,16 @@ def release_free_heap() -> bool:
     return True
 
 
-__all__ = ["release_free_heap"]
+def releases_free_heap(fn: F) -> F:
+    """Decorate ``fn`` to call :func:`release_free_heap` when it returns or raises (its own big tables
+    are freed by then: what a render built for the device does not stay resident after it)."""
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            release_free_heap()
+    return wrapper  # type: ignore[return-value]
+
+
+__all__ = ["release_free_heap", "releases_free_heap"]

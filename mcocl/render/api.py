@@ -26,7 +26,7 @@ from ..accumulate import Accumulator
 from ..engine.contract import Progress
 from ..engine.dispatch import execute
 from ..errors import InputError, NonFiniteSampleWarning
-from ..host_memory import release_free_heap
+from ..host_memory import release_free_heap, releases_free_heap
 from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
 from .bdpt_settings import bdpt_settings
@@ -169,6 +169,7 @@ def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any, mesh_fo
     raise InputError(f"scene must be a scene file path, a Scene or a CompiledScene, got {type(scene).__name__}")
 
 
+@releases_free_heap
 def render(
     scene: str | os.PathLike[str] | Scene | CompiledScene,
     spp: int | None = None,
