@@ -77,7 +77,7 @@ def bench(path: Path, points: int, rounds: int) -> tuple[float, float, float]:
     prg = runtime.build(ctx, src, [f"-DLANES={ctx.lanes}", f"-DLIGHT_SAMPLER={int(LightSampler.BVH)}"],
                         what="light walk bench")
     b = scene_buffers(cs, ctx)
-    names = ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
+    names = ("bvh_nodes", "tri_rows", "spheres", "sphere_flip", "prim_rec",
              "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail")
     args = [scene_params(scene_tables(cs)), *(b[k] for k in names)]
     lo = np.float32([*cs.bounds[0][:3], 0])

@@ -141,6 +141,25 @@ def test_degenerate_triangles_never_hit():
     assert np.all(np.isfinite(hits.b1)) and np.all(np.isfinite(hits.b2))
 
 
+def test_primitive_queries_read_every_triangle_from_the_device_table():
+    """prim_normal, prim_area and prim_sample_area read a triangle's leaf record through tri_rows, those the
+    BVH leaves out (degenerate) included: the float32 edges give what the vertices give."""
+    rng = np.random.default_rng(6)
+    v = [[0, 0, 0], [1, 0, 0], [2, 0, 0],  # collinear: left out of the BVH
+         [-1, -1, 0], [1, -1, 0], [-1, 1, 0]]  # area 2, normal +z
+    scene = soup_scene(rng, 0, 1)
+    scene["shapes"].append({"type": "mesh", "material": "m", "vertices": v, "faces": [[0, 1, 2], [3, 4, 5]]})
+    cs = compile_scene(parse_scene(scene, "rows.json"))
+    assert cs.bvh_stats["degenerate_triangles"] == 1 and cs.num_triangles == 2
+    u = np.full((2, 2), 0.25, np.float32)
+    normals, areas, points, point_normals = query_prims(cs, np.arange(2), np.zeros((2, 3), np.float32), u)
+    assert areas[0] == 0.0 and areas[1] == 2.0
+    np.testing.assert_array_equal(normals[1], [0, 0, 1])
+    np.testing.assert_array_equal(point_normals[1], [0, 0, 1])
+    # b1 = 1 - sqrt(0.25) = 0.5, b2 = 0.25 * 0.5: v0 + 0.5 e1 + 0.125 e2, exact in float32
+    np.testing.assert_array_equal(points, [[0.75, 0, 0], [0, -0.75, 0]])
+
+
 def test_degenerate_triangle_kernel_test_rejects_directly():
     """The kernel's own test rejects a degenerate triangle even inside the BVH (no reliance on the build)."""
     rng = np.random.default_rng(4)

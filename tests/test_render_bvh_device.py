@@ -7,7 +7,7 @@ import pytest
 
 from mcocl.layouts import BVH_HEADER, BVH_WIDE_NODE, LEAF_PRIM
 from mcocl.render.bvh import build_bvh
-from mcocl.render.bvh_leaves import device_nodes, leaf_records
+from mcocl.render.bvh_leaves import device_geometry, device_nodes, leaf_records
 from mcocl.render.bvh_wide import EMPTY_SLOT, MERGED_LEAF, WIDE_ROWS, WIDTH, wide_nodes
 
 
@@ -108,3 +108,32 @@ def test_device_table_layout():
     # an empty hierarchy stays the header alone: every ray misses before anything else is read
     empty = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
     assert np.array_equal(device_nodes(empty.nodes, empty.prims, tv[:0], np.zeros((0, 4), np.float32)), empty.nodes)
+
+
+@pytest.mark.parametrize("in_tree", ["some", "none", "empty"])
+def test_every_triangle_has_its_record_at_its_row(in_tree):
+    """device_geometry: triangle t's record (v0 | t, e1, e2, the float32 edges) lies at leaf_row + tri_rows[t],
+    those no leaf holds (left out of the BVH: degenerate) included; with spheres in the leaves, or
+    with no tree at all (leaf_row 0: the records follow the header)."""
+    rng = np.random.default_rng(5)
+    nt = 60
+    tv = np.zeros((nt, 3, 4), np.float32)
+    tv[:, :, :3] = rng.normal(size=(nt, 3, 3))
+    spheres = np.array([[0, 0, 0, 0.5], [1, 2, 3, 0.25]], np.float32)[:0 if in_tree == "empty" else 2]
+    kept = np.flatnonzero(rng.random(nt) < 0.8) if in_tree == "some" else np.zeros(0, np.int64)
+    ids = np.concatenate([kept, nt + np.arange(len(spheres))]).astype(np.uint32)
+    lo = np.concatenate([tv[kept, :, :3].min(1), spheres[:, :3] - spheres[:, 3:]])
+    hi = np.concatenate([tv[kept, :, :3].max(1), spheres[:, :3] + spheres[:, 3:]])
+    b = build_bvh(lo, hi, ids)
+    table, rows = device_geometry(b.nodes, b.prims, tv, spheres)
+    assert len(kept) < nt and rows.dtype == np.uint32 and len(rows) == nt
+    leaf_row = int(table[:1].view(BVH_HEADER.dtype())[0, 0]["leaf_row"])
+    rec = table[leaf_row + rows[:, None] + np.arange(3)]  # (T, 3, 4)
+    assert np.array_equal(rec[:, 0, 3].view(np.uint32), np.arange(nt))
+    assert np.array_equal(rec[:, 0, :3], tv[:, 0, :3])
+    assert np.array_equal(rec[:, 1, :3], tv[:, 1, :3] - tv[:, 0, :3])
+    assert np.array_equal(rec[:, 2, :3], tv[:, 2, :3] - tv[:, 0, :3])
+    # the tree's own part is device_nodes' table unchanged; the left-out triangles' records follow it
+    tree = device_nodes(b.nodes, b.prims, tv, spheres)
+    assert np.array_equal(table[:len(tree)].view(np.uint32), tree.view(np.uint32))
+    assert len(table) == len(tree) + 3 * (nt - len(kept))

@@ -106,8 +106,8 @@ def test_every_consumer_uploads_the_same_tables(cs):
         cl.enqueue_copy(ctx.queue, got, bufs[name])
         assert got.tobytes() == want.tobytes(), name
     geom = geom_args(cs, ctx)
-    assert geom[:5] == [bufs[k] for k in ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip")]
-    assert [int(x) for x in geom[5:]] == [int(x) for x in tables["geometry_counts"]]
+    assert geom[:4] == [bufs[k] for k in ("bvh_nodes", "tri_rows", "spheres", "sphere_flip")]
+    assert [int(x) for x in geom[4:]] == [int(x) for x in tables["geometry_counts"]]
 
 
 def test_render_params_follow_the_tables(cs):

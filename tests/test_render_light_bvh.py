@@ -80,7 +80,7 @@ class BVHKernels:
         self.prg = runtime.build(self.ctx, src, [f"-DLANES={lanes}", f"-DLIGHT_SAMPLER={int(LightSampler.BVH)}"],
                                  what="light BVH test kernels")
         b = scene_buffers(self.cs, self.ctx)
-        names = ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
+        names = ("bvh_nodes", "tri_rows", "spheres", "sphere_flip", "prim_rec",
                  "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail")
         self.args = [scene_params(self.t), *(b[k] for k in names)]
 

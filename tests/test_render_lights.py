@@ -87,7 +87,7 @@ class LightKernels:
         self.lanes = lanes
         src = runtime.compose(["render/light_sample_test.cl"])
         self.prg = runtime.build(self.ctx, src, [f"-DLANES={lanes}"], what="light test kernels")
-        self.names = ("bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
+        self.names = ("bvh_nodes", "tri_rows", "spheres", "sphere_flip", "prim_rec",
                       "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail")
         mf = cl.mem_flags
         self.buf = {**{k: cl.Buffer(self.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)

@@ -2,9 +2,10 @@
  * normals, areas and uniform area sampling of primitives.
  *
  * Scalar code (one ray per call); valid in any LANES build.  The data are the
- * arrays of mcocl/render/compiled.py:
- *   tris:    float4 (3T): v0, v1, v2 of triangle p at 3p, 3p+1, 3p+2 (w unused);
- *            the front side is counter-clockwise, n = normalize(cross(v1-v0, v2-v0));
+ * tables of mcocl/render/device_scene.py:
+ *   triangles: the BVH's leaf records (v0 | p, e1 = v1 - v0, e2 = v2 - v0), triangle p's at
+ *            leaves + tri_rows[p] (mcocl/render/bvh_leaves.py); the front side is
+ *            counter-clockwise, n = normalize(cross(e1, e2));
  *   spheres: float4 (S): centre xyz, radius; sphere_flip[s] = 1: normal points inwards.
  * Primitive ids: p < ntris is triangle p, p >= ntris is sphere p - ntris.
  *
@@ -53,8 +54,7 @@ typedef struct {
     global const float4 *nodes;   /* BVH, layout of mcocl/render/bvh.py */
     global const float4 *leaves;  /* leaf_prim records in leaf order (mcocl/render/bvh_leaves.py) */
     global const float4 *wide;    /* 8-wide nodes of the single-ray traversal (mcocl/render/bvh_wide.py) */
-    global const uint *prims;     /* BVH leaf primitive ids */
-    global const float4 *tris;    /* 3 float4 per triangle */
+    global const uint *tri_rows;  /* row of each triangle's leaf record after `leaves` (bvh_leaves.py device_geometry) */
     global const float4 *spheres; /* centre, radius */
     global const uint *sphere_flip;
     uint ntris;
@@ -69,7 +69,7 @@ typedef struct {
 
 /* The geometry's buffers as kernel parameters, in the order of CompiledScene.geom_args(). */
 #define SCENE_GEOM_BUFFERS                                                                   \
-    global const float4 *bvh_nodes, global const uint *bvh_prims, global const float4 *tri_vertices, \
+    global const float4 *bvh_nodes, global const uint *tri_rows,                             \
     global const float4 *scene_spheres, global const uint *scene_sphere_flip
 /* ... followed by the counts T and S: all of CompiledScene.geom_args().  A kernel with a
  * parameter struct takes SCENE_GEOM_BUFFERS and defines scene_ntris, scene_nspheres itself. */
@@ -77,7 +77,7 @@ typedef struct {
 /* Declare `scene_geom name` from SCENE_GEOM_PARAMS inside a kernel. */
 #define SCENE_GEOM_MAKE(name)                                                                \
     scene_geom name;                                                                         \
-    name.nodes = bvh_nodes; name.prims = bvh_prims; name.tris = tri_vertices;                \
+    name.nodes = bvh_nodes; name.tri_rows = tri_rows;                                        \
     name.leaves = bvh_nodes + as_uint(bvh_nodes[0].w);                                       \
     name.wide = name.leaves + 3u * as_uint(bvh_nodes[0].x);                                  \
     name.spheres = scene_spheres; name.sphere_flip = scene_sphere_flip;                      \
@@ -136,12 +136,16 @@ MC_INLINE bool intersect_sphere(float4 s, float3 o, float3 d, float tmax, float 
     return false;
 }
 
+/* Triangle prim's leaf record (v0 | prim, e1, e2): its edges are the float32 v1 − v0 and v2 − v0 the
+ * functions below computed from the vertices before, bit for bit (mcocl/render/bvh_leaves.py). */
+MC_INLINE global const float4 *tri_record(const scene_geom *g, uint prim) { return g->leaves + g->tri_rows[prim]; }
+
 /* The unit geometric normal on the front side at point p of primitive prim. */
 MC_INLINE float3 prim_normal(const scene_geom *g, uint prim, float3 p)
 {
     if (prim < g->ntris) {
-        float3 v0 = g->tris[3 * prim].xyz, v1 = g->tris[3 * prim + 1].xyz, v2 = g->tris[3 * prim + 2].xyz;
-        return normalize(cross(v1 - v0, v2 - v0));
+        global const float4 *r = tri_record(g, prim);
+        return normalize(cross(r[1].xyz, r[2].xyz));
     }
     float4 s = g->spheres[prim - g->ntris];
     float3 n = normalize(p - s.xyz);
@@ -152,8 +156,8 @@ MC_INLINE float3 prim_normal(const scene_geom *g, uint prim, float3 p)
 MC_INLINE float prim_area(const scene_geom *g, uint prim)
 {
     if (prim < g->ntris) {
-        float3 v0 = g->tris[3 * prim].xyz, v1 = g->tris[3 * prim + 1].xyz, v2 = g->tris[3 * prim + 2].xyz;
-        return 0.5f * length(cross(v1 - v0, v2 - v0));
+        global const float4 *r = tri_record(g, prim);
+        return 0.5f * length(cross(r[1].xyz, r[2].xyz));
     }
     float r = g->spheres[prim - g->ntris].w;
     return 4.0f * M_PI_F * r * r;
@@ -165,11 +169,12 @@ MC_INLINE float prim_area(const scene_geom *g, uint prim)
 MC_INLINE float3 prim_sample_area(const scene_geom *g, uint prim, float2 u, float3 *n)
 {
     if (prim < g->ntris) {
-        float3 v0 = g->tris[3 * prim].xyz, v1 = g->tris[3 * prim + 1].xyz, v2 = g->tris[3 * prim + 2].xyz;
+        global const float4 *r = tri_record(g, prim);
+        float3 v0 = r[0].xyz, e1 = r[1].xyz, e2 = r[2].xyz;
         float su = sqrt(u.x);
         float b1 = 1.0f - su, b2 = u.y * su;
-        *n = normalize(cross(v1 - v0, v2 - v0));
-        return v0 + b1 * (v1 - v0) + b2 * (v2 - v0);
+        *n = normalize(cross(e1, e2));
+        return v0 + b1 * e1 + b2 * e2;
     }
     float4 s = g->spheres[prim - g->ntris];
     float z = 1.0f - 2.0f * u.x;

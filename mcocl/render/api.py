@@ -26,6 +26,7 @@ from ..accumulate import Accumulator
 from ..engine.contract import Progress
 from ..engine.dispatch import execute
 from ..errors import InputError, NonFiniteSampleWarning
+from ..host_memory import release_free_heap, releases_free_heap
 from ..run_options import RunOptions, renamed_keyword
 from ..validate import whole_number
 from .bdpt_settings import bdpt_settings
@@ -168,6 +169,7 @@ def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any, mesh_fo
     raise InputError(f"scene must be a scene file path, a Scene or a CompiledScene, got {type(scene).__name__}")
 
 
+@releases_free_heap
 def render(
     scene: str | os.PathLike[str] | Scene | CompiledScene,
     spp: int | None = None,
@@ -270,7 +272,10 @@ def render(
     pixel_filter = getattr(cs, "pixel_filter", BOX)
     near_clip = float(getattr(cs, "near_clip", 0.0))
     far_clip = getattr(cs, "far_clip", None)
+    # what compiling and building the tables freed stays resident otherwise (mcocl/host_memory.py)
+    release_free_heap()
     tables = scene_tables(cs)
+    release_free_heap()
     meta = {
         "kind": "render",
         "scene": tables_digest(tables),

@@ -12,23 +12,42 @@ differences of float32 vertices, exactly what the kernel computed before, so
 hits are bit-identical to the indirect layout.
 
 The header's ``leaf_row`` (``nodes[0].w``) is the row of the first record.
+
+The same records serve the shading of a hit (``prim_normal``, ``prim_area``,
+``prim_sample_area`` of ``render/intersect.cl``), which need only v0 and the
+edges: :func:`device_geometry` gives every triangle the row of its record
+(``tri_rows``, after the leaves' first row), appending records for the
+triangles the BVH leaves out (degenerate ones), so that the kernels need no
+second triangle table (48 bytes a triangle less on the device).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
+from ..host_memory import release_free_heap
 from ..layouts import BVH_HEADER, LEAF_PRIM
 from .bvh_wide import wide_nodes
 
 LEAF_ROWS = LEAF_PRIM.itemsize // 16  # float4 rows per record
+_FILL_CHUNK = 1 << 16  # records per chunk of _fill_leaf_records
 
 
 def _fill_leaf_records(out: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray) -> None:
     """Write one LEAF_PRIM per entry of ``prims`` into ``out``, float32 (P, 12) (a view of the device table).
 
     Column blocks of the record: v0 | prim, e1 | pad1, e2 | pad2 (mcocl/layouts.py).
+    Chunk by chunk of :data:`_FILL_CHUNK` records: the gathered vertices and
+    the edges of 10^6 triangles would be 60 MB of temporaries at once.
     """
+    prims = np.asarray(prims)
+    for s in range(0, len(prims), _FILL_CHUNK):
+        _fill_chunk(out[s:s + _FILL_CHUNK], prims[s:s + _FILL_CHUNK], tri_vertices, spheres)
+
+
+def _fill_chunk(out: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray) -> None:
+    """:func:`_fill_leaf_records` for one chunk of records."""
     prims = np.asarray(prims, np.int64)
     nt = len(tri_vertices)
     out.view(np.uint32)[:, 3] = prims
@@ -56,26 +75,55 @@ def leaf_records(prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarra
     return out.reshape(-1, 4)
 
 
-def device_nodes(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray) -> np.ndarray:
-    """The float32 (1 + 4K + 3P + 16W, 4) table the kernels read as ``bvh_nodes``.
+def device_nodes(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray,
+                 extra: np.ndarray | None = None) -> np.ndarray:
+    """The float32 (1 + 4K + 3P + 16W + 3E, 4) table the kernels read as ``bvh_nodes``.
 
     The binary nodes (the packet traversal's), the leaf records, then the
     8-wide nodes of the single-ray traversal (:mod:`mcocl.render.bvh_wide`),
-    which start at row ``leaf_row + 3P``.  Each part is written in place into
-    the one table (for 10^6 triangles it is about 170 MB: no concatenated copy).
+    which start at row ``leaf_row + 3P``, then the records of the E primitive
+    ids ``extra`` (those no leaf holds: :func:`device_geometry`).  Each part
+    is written in place into the one table (for 10^6 triangles it is about
+    110 MB: no concatenated copy).
     """
     nodes = np.asarray(nodes, np.float32)
-    if len(prims) == 0 or len(nodes) == 0:
-        return nodes
+    extra = np.zeros(0, np.int64) if extra is None else np.asarray(extra, np.int64)
+    if len(prims) == 0 or len(nodes) == 0:  # no BVH: leaf_row stays 0, the extra records follow the nodes
+        return np.concatenate([nodes, leaf_records(extra, tri_vertices, spheres)]) if len(extra) else nodes
     wide = wide_nodes(nodes)
-    leaf_row, p = len(nodes), len(prims)
-    out = np.empty((leaf_row + LEAF_ROWS * p + len(wide), 4), np.float32)
+    release_free_heap()  # the wide nodes' build leaves ~130 MB of freed heap for 10^6 triangles (mcocl/host_memory.py)
+    leaf_row, p, e = len(nodes), len(prims), len(extra)
+    wide_end = leaf_row + LEAF_ROWS * p + len(wide)
+    out = np.empty((wide_end + LEAF_ROWS * e, 4), np.float32)
     out[:leaf_row] = nodes
     _fill_leaf_records(out[leaf_row:leaf_row + LEAF_ROWS * p].reshape(p, 4 * LEAF_ROWS), prims, tri_vertices, spheres)
-    out[leaf_row + LEAF_ROWS * p:] = wide
+    out[leaf_row + LEAF_ROWS * p:wide_end] = wide
+    if e:
+        _fill_leaf_records(out[wide_end:].reshape(e, 4 * LEAF_ROWS), extra, tri_vertices, spheres)
     header = out[:1].view(BVH_HEADER.dtype())[0, 0]
     header["leaf_row"] = leaf_row
     return out
 
 
-__all__ = ["LEAF_ROWS", "device_nodes", "leaf_records"]
+def device_geometry(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray,
+                    spheres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The ``bvh_nodes`` table (:func:`device_nodes`, with a record for every triangle no leaf holds)
+    and ``tri_rows``: uint32 (T,), the row of triangle t's record counted from the header's ``leaf_row``
+    (the kernels' ``g->leaves + tri_rows[t]``)."""
+    prims = np.asarray(prims, np.int64)
+    nt = len(tri_vertices)
+    rows = np.zeros(nt, np.uint32)
+    placed = np.zeros(nt, bool)
+    slots = np.flatnonzero(prims < nt)
+    rows[prims[slots]] = LEAF_ROWS * slots
+    placed[prims[slots]] = True
+    extra = np.flatnonzero(~placed)
+    table = device_nodes(nodes, prims, tri_vertices, spheres, extra)
+    leaf_row = int(table[:1].view(BVH_HEADER.dtype())[0, 0]["leaf_row"]) if len(table) else 0
+    if len(table) - leaf_row >= 2**32:
+        raise InputError(f"the scene's {nt} triangles need more device table rows than the kernels' 32-bit row numbers")
+    rows[extra] = len(table) - LEAF_ROWS * len(extra) - leaf_row + LEAF_ROWS * np.arange(len(extra))
+    return table, rows
+
+
+__all__ = ["LEAF_ROWS", "device_geometry", "device_nodes", "leaf_records"]

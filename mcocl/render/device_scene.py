@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from ..layouts import LIGHT_RECORD, PRIM_RECORD, RENDER_PARAMS, LightShape
-from .bvh_leaves import device_nodes
+from .bvh_leaves import device_geometry
 from .compiled import CompiledScene
 from .delta_lights import delta_records
 from .envmap import envmap_tables
@@ -31,6 +31,10 @@ from .light_bvh import build_light_bvh
 
 # What the render kernel reads for the light BVH in builds that do not use it (OpenCL has no empty buffers).
 LIGHT_BVH_ABSENT = {"light_bvh": np.zeros((1, 4), np.float32), "light_trail": np.zeros(1, np.uint32)}
+
+
+# Triangles per chunk of prim_records' float64 work: for 10^6 triangles its temporaries would be 200 MB at once.
+_RECORD_CHUNK = 1 << 16
 
 
 def _as_quads(rec: np.ndarray, width: int) -> np.ndarray:
@@ -62,13 +66,13 @@ def prim_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
     """One :data:`~mcocl.layouts.PRIM_RECORD` per primitive for the shading of a hit, as float32 (N, 8)."""
     nt, ns = cs.num_triangles, cs.num_spheres
     rec = np.zeros(max(nt + ns, 1), PRIM_RECORD.dtype())
-    if nt:
-        v = cs.tri_vertices[:, :, :3].astype(np.float64)
+    for s in range(0, nt, _RECORD_CHUNK):  # row by row the same numbers; float64 temporaries of a chunk only
+        v = cs.tri_vertices[s:s + _RECORD_CHUNK, :, :3].astype(np.float64)
         cr = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
         length = np.linalg.norm(cr, axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
-            rec["normal"][:nt] = np.where(length[:, None] > 0, cr / length[:, None], 0.0)
-        rec["area"][:nt] = 0.5 * length
+            rec["normal"][s:s + len(v)] = np.where(length[:, None] > 0, cr / length[:, None], 0.0)
+        rec["area"][s:s + len(v)] = 0.5 * length
     if ns:
         rec["area"][nt:nt + ns] = 4.0 * math.pi * cs.spheres[:, 3].astype(np.float64) ** 2
         rec["inward"][nt:nt + ns] = cs.sphere_flip.astype(np.float32)
@@ -118,8 +122,9 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     """Every array a kernel reads, as plain NumPy arrays (never empty: OpenCL has no empty buffers).
 
     The tables of ``SCENE_GEOM_PARAMS`` (``bvh_nodes``: the tree followed by
-    its leaves' primitives in leaf order, :mod:`mcocl.render.bvh_leaves`; ``bvh_prims``,
-    ``tri_vertices``, ``spheres``, ``sphere_flip``, ``geometry_counts``), the
+    its leaves' primitives in leaf order, :mod:`mcocl.render.bvh_leaves`, whose records hold the
+    primitive ids; ``tri_rows``: where each triangle's record lies in ``bvh_nodes``, the kernels'
+    one copy of the triangles; ``spheres``, ``sphere_flip``, ``geometry_counts``), the
     shading and light records, the materials, the emitter choice
     (``light_cdf``, ``prim_pmf``, ``light_scalars`` = (L, light_top),
     ``env_choice`` = (env_threshold, env_pmf)) and the environment ``env``;
@@ -130,12 +135,12 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         a = np.ascontiguousarray(a, dtype=dtype)
         return a if a.size else np.zeros(width, dtype)
 
+    nodes, tri_rows = device_geometry(cs.bvh_nodes, cs.bvh_prims, cs.tri_vertices, cs.spheres)
     lt = light_tables(cs)
     tables = {
         "camera": nonempty(cs.camera, np.float32),
-        "bvh_nodes": nonempty(device_nodes(cs.bvh_nodes, cs.bvh_prims, cs.tri_vertices, cs.spheres), np.float32),
-        "bvh_prims": nonempty(cs.bvh_prims, np.uint32),
-        "tri_vertices": nonempty(cs.tri_vertices, np.float32),
+        "bvh_nodes": nonempty(nodes, np.float32),
+        "tri_rows": nonempty(tri_rows, np.uint32),
         "spheres": nonempty(cs.spheres, np.float32),
         "sphere_flip": nonempty(cs.sphere_flip, np.uint32),
         "prim_rec": prim_records(cs, lt["prim_pmf"]),
@@ -183,23 +188,22 @@ def scene_params(tables: dict[str, np.ndarray]) -> np.ndarray:
 
 def scene_buffers(cs: CompiledScene, ctx) -> dict:
     """One read-only pyopencl Buffer per array of :func:`scene_tables`, cached on ``cs`` per context."""
-    import pyopencl as cl
+    from .table_buffers import table_buffer
 
     key = ctx.context.int_ptr
     with cs.buffer_lock:
         bufs = cs.buffer_cache.get(key)
         if bufs is None:
-            mf = cl.mem_flags
-            bufs = {name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
-                    for name, a in scene_tables(cs).items()}
+            # over the tables themselves where the device shares host memory (render/table_buffers.py)
+            bufs = {name: table_buffer(ctx.context, ctx.device, a) for name, a in scene_tables(cs).items()}
             cs.buffer_cache[key] = bufs
         return bufs
 
 
 def geom_args(cs: CompiledScene, ctx) -> list:
-    """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, prims, triangles, spheres, flips, T, S)."""
+    """The kernel arguments of ``SCENE_GEOM_PARAMS`` (nodes, triangle rows, spheres, flips, T, S)."""
     b = scene_buffers(cs, ctx)
-    return [b["bvh_nodes"], b["bvh_prims"], b["tri_vertices"], b["spheres"], b["sphere_flip"],
+    return [b["bvh_nodes"], b["tri_rows"], b["spheres"], b["sphere_flip"],
             np.uint32(cs.num_triangles), np.uint32(cs.num_spheres)]
 
 
@@ -211,7 +215,7 @@ def tables_digest(tables: dict[str, np.ndarray]) -> str:
         h.update(name.encode())
         h.update(str(a.dtype).encode())
         h.update(str(a.shape).encode())
-        h.update(a.tobytes())
+        h.update(a.reshape(-1).view(np.uint8))  # the bytes in place: no copy of a 100 MB table
     return h.hexdigest()[:16]
 
 

@@ -50,6 +50,7 @@ from .pixel_filter import BOX, PixelFilter
 from .shading_normals import VERTEX_NORMALS_ABSENT, require_face_normals, shading_defines
 from .sobol_film import block_batches, sobol_render_defines
 from .splat_film import SplatRunner, splat_groups
+from .table_buffers import table_buffer
 from .texture_table import TEXTURES_ABSENT, texture_defines
 
 INTEGRATOR_CODES = {kind.name.lower(): int(kind) for kind in Integrator}
@@ -63,7 +64,7 @@ UNBOUNDED_SPP = 0xFFFFFFFF
 PATHS_PER_BLOCK = 1 << 20
 TILE_PIXELS = 64
 # The scene arrays the render kernel takes after its render_params, in its argument order.
-KERNEL_BUFFERS = ("camera", "bvh_nodes", "bvh_prims", "tri_vertices", "spheres", "sphere_flip", "prim_rec",
+KERNEL_BUFFERS = ("camera", "bvh_nodes", "tri_rows", "spheres", "sphere_flip", "prim_rec",
                   "materials", "emitter_radiance", "light_rec", "light_cdf", "light_bvh", "light_trail",
                   "vertex_normals", "env_map", "env_cdf", "textures")
 # The integrators on the splatting film (mcocl/render/splat_film.py).
@@ -212,12 +213,8 @@ class RenderRunner:
         self.program = runtime.build(ctx, src, options, what="render kernel")
         self.build_seconds = time.perf_counter() - t0
         self.kernel = runtime.kernel(self.program, "render_blocks")
-        mf = cl.mem_flags
         t = {**LIGHT_BVH_ABSENT, **VERTEX_NORMALS_ABSENT, **TEXTURES_ABSENT, **job.tables}
-        self.buffers = {
-            name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(t[name]))
-            for name in KERNEL_BUFFERS
-        }
+        self.buffers = {name: table_buffer(ctx.context, ctx.device, t[name]) for name in KERNEL_BUFFERS}
 
     def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, np.ndarray, int]:
         """Launch blocks ``first_block .. first_block + nblocks - 1``; the copy back is non-blocking."""

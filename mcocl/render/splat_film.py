@@ -43,6 +43,7 @@ import pyopencl as cl
 from .. import runtime
 from .film import STATS
 from .shading_normals import VERTEX_NORMALS_ABSENT
+from .table_buffers import table_buffer
 from .texture_table import TEXTURES_ABSENT
 
 KERNEL_FILE = "render/lt.cl"
@@ -110,10 +111,7 @@ class SplatRunner:
         self.buffer_names = buffer_names
         mf = cl.mem_flags
         tables = {**VERTEX_NORMALS_ABSENT, **TEXTURES_ABSENT, **job.tables}
-        self.buffers = {
-            name: cl.Buffer(ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(tables[name]))
-            for name in buffer_names
-        }
+        self.buffers = {name: table_buffer(ctx.context, ctx.device, tables[name]) for name in buffer_names}
         self.per_launch = blocks_per_launch(job.width, job.height, job.ntiles)
         item = np.dtype(self.film_dtype).itemsize
         self.scratch = cl.Buffer(ctx.context, mf.READ_WRITE,

@@ -1,0 +1,39 @@
+"""Scene-table buffers over the host arrays (render/table_buffers.py) and the heap trim (host_memory.py)."""
+
+from __future__ import annotations
+
+import platform
+
+import numpy as np
+import pyopencl as cl
+
+from mcocl import runtime
+from mcocl.host_memory import release_free_heap
+from mcocl.render.table_buffers import shares_host_memory, table_buffer
+
+
+def test_table_buffer_holds_the_table_and_aliases_it_where_the_device_shares_host_memory():
+    ctx = runtime.device_context()
+    table = np.arange(4 * 1000, dtype=np.float32).reshape(-1, 4)
+    buf = table_buffer(ctx.context, ctx.device, table)
+    got = np.empty_like(table)
+    cl.enqueue_copy(ctx.queue, got, buf)
+    assert got.tobytes() == table.tobytes()
+    aliased = bool(buf.flags & cl.mem_flags.USE_HOST_PTR)
+    assert aliased == shares_host_memory(ctx.device)
+    assert not buf.flags & cl.mem_flags.WRITE_ONLY and buf.flags & cl.mem_flags.READ_ONLY
+    if aliased:  # pyopencl keeps the array alive with the buffer
+        assert buf.hostbuf is not None
+
+
+def test_table_buffer_takes_a_non_contiguous_table_as_its_contiguous_copy():
+    ctx = runtime.device_context()
+    table = np.arange(64, dtype=np.uint32).reshape(8, 8)[:, ::2]
+    buf = table_buffer(ctx.context, ctx.device, table)
+    got = np.empty(table.shape, np.uint32)
+    cl.enqueue_copy(ctx.queue, got, buf)
+    assert np.array_equal(got, table)
+
+
+def test_release_free_heap_trims_on_glibc():
+    assert release_free_heap() == (platform.libc_ver()[0] == "glibc")
