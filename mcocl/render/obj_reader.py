@@ -41,7 +41,7 @@ from .obj_vertices import KINDS, Chunk, ObjAttributeWarning, ObjMesh, assemble
 
 _SPACE, _NL, _HASH = 32, 10, ord("#")
 _PAD = np.full(8, _SPACE, np.uint8)
-CHUNK_BYTES = 1 << 23  # text parsed at once (whole lines): see parse_obj
+CHUNK_BYTES = 1 << 21  # text parsed at once (whole lines): see parse_obj
 
 
 def _blank_comments(b: np.ndarray, line_end: np.ndarray) -> None:
@@ -115,7 +115,9 @@ def parse_obj(data: bytes, label: str) -> ObjMesh:
     (a loop over chunks, not lines): a chunk's temporaries are small enough
     for the allocator to reuse them, where whole-file temporaries would be
     fresh memory every time (10^7 triangles: 6 of 8.6 CPU-seconds were page
-    faults before).  Whether the file has ``vt`` or ``vn`` records decides
+    faults before), and few next to the file and mesh (issue 13: 2 MB chunks
+    hold less than 8 MB ones at no cost in time); each chunk keeps its indices
+    and face lines as int32 where they fit.  Whether the file has ``vt`` or ``vn`` records decides
     how corners are read; a chunk's faces are read knowing the records of the
     chunks so far and of their own chunk, and in the rare file whose first
     ``vt`` or ``vn`` record comes a chunk after a face the chunks are read again.
@@ -194,7 +196,15 @@ def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, before: 
     counts += [before[k] + np.cumsum(mask)[fl] if used else None for k, mask, used in ((1, is_vt, kinds[0]),
                                                                                       (2, is_vn, kinds[1]))]
     faces = _parse_faces(b, start[fl], tag[fl], line_end[fl], number[fl], counts, kinds, label)
-    return Chunk(vertices, uvs, normals, *faces, kinds), len(line_end)
+    return Chunk(vertices, uvs, normals, *map(_narrow, faces), kinds), len(line_end)
+
+
+def _narrow(a: np.ndarray | None) -> np.ndarray | None:
+    """``a`` as int32 where its values fit (a chunk's indices and line numbers, held until the file is read:
+    half the memory, issue 13), else as it is; the values, and so the mesh and messages, are the same."""
+    if a is None or not a.size or a.min() < -2**31 or a.max() >= 2**31:
+        return a
+    return a.astype(np.int32)
 
 
 def _parse_records(b, start, tag, end, lines, width: int, need: int, tag_len: int, label: str,
