@@ -125,12 +125,7 @@ def parse_obj(data: bytes, label: str) -> ObjMesh:
     Raises:
         InputError: a malformed record or index; the message is ``"{label}:{line}: ..."``.
     """
-    if b"\r" in data:
-        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
-    if b"\t" in data or b"\v" in data or b"\f" in data:
-        data = data.translate(bytes.maketrans(b"\t\v\f", b"   "))
-    if not data.endswith(b"\n"):
-        data += b"\n"  # a final break ends the last line
+    data = data or b"\n"  # (an empty file is one empty line)
     kinds = (False, False)
     while True:
         chunks = _parse_chunks(data, kinds, label)
@@ -148,13 +143,36 @@ def _parse_chunks(data: bytes, kinds: tuple[bool, bool], label: str) -> list[Chu
     before = np.zeros(3, np.int64)  # v, vt, vn records so far
     while pos < len(data):
         end = data.rfind(b"\n", pos, pos + CHUNK_BYTES)
-        if end < 0:  # a line longer than a chunk
+        if end < 0:  # a line longer than a chunk (or the rest of a file whose lines end in \r alone)
             end = data.find(b"\n", pos)
-        chunk, n = _parse_chunk(data, pos, end + 1, lines, before, chunks[-1].kinds, label)
+            end = len(data) - 1 if end < 0 else end
+        text, first, stop = _normalised(data, pos, end + 1)
+        chunk, n = _parse_chunk(text, first, stop, lines, before, chunks[-1].kinds, label)
         chunks.append(chunk)
         pos, lines = end + 1, lines + n
         before += [len(chunk.vertices), len(chunk.uvs), len(chunk.normals)]
     return chunks
+
+
+def _normalised(data: bytes, first: int, stop: int) -> tuple[bytes, int, int]:
+    """The whole lines ``data[first:stop]`` with line breaks and whitespace normalised (bytes, start, stop).
+
+    ``\r\n`` and ``\r`` become ``\n`` (as :meth:`str.splitlines` reads them), tabs, vertical tabs and
+    form feeds spaces, and a final break ends the file's last line.  A chunk ends after a ``\n``, so no
+    ``\r\n`` is cut.  Done a chunk at a time (issue 13): whole-file copies cost twice the file's size.
+    Lines that need none of it are returned in place, uncopied.
+    """
+    last = stop == len(data)
+    if not any(data.find(c, first, stop) >= 0 for c in (b"\r", b"\t", b"\v", b"\f")) and (
+            not last or data.endswith(b"\n")):
+        return data, first, stop
+    text = data[first:stop]
+    if b"\r" in text:
+        text = text.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    text = text.translate(bytes.maketrans(b"\t\v\f", b"   "))
+    if last and not text.endswith(b"\n"):
+        text += b"\n"
+    return text, 0, len(text)
 
 
 def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, before: np.ndarray,
