@@ -78,3 +78,14 @@ def test_faults_in_a_late_chunk_give_the_whole_body_error(monkeypatch, last, nf,
         parse_ply(data, "whole.ply")
     assert str(got.value) == str(ref.value)
     assert str(got.value).startswith("whole.ply: ") and message in str(got.value)
+
+
+@pytest.mark.parametrize("faces", ["3 0 1 2 4 0 1 2 3\n3 1 2 3 4 3 2 1 0\n", "4 0 1 2 3 3 0 1 2\n4 1 2 3 0 3 1 2 3\n"])
+def test_two_lists_of_one_name_read_the_last_as_the_whole_body(monkeypatch, faces):
+    data = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face 2\nproperty list uchar int vertex_indices\nproperty list uchar int vertex_indices\n"
+            "end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n" + faces).encode()
+    ref = whole_body(data, monkeypatch)
+    got = parse_ply(data, "dup.ply")
+    assert got.faces.dtype == ref.faces.dtype and np.array_equal(got.faces, ref.faces)
+    assert np.array_equal(got.vertices, ref.vertices)

@@ -566,7 +566,9 @@ def _parse_ascii_streamed(data: bytes, start: int, elements: list[Element], want
                 uvs = np.empty((el.count, 2))
                 dest.update({n: (uvs, k) for k, n in enumerate(uv)})
         elif el.name == "face" and el.count and el.props:
-            length = _first_lengths(stream, el)[[p.name for p in el.props if p.count_type].index(index_name)]
+            names = [p.name for p in el.props if p.count_type]
+            # the last list of that name, as parse_ply's checks and _Body.block take it
+            length = _first_lengths(stream, el)[len(names) - 1 - names[::-1].index(index_name)]
             if length < 3:
                 raise _UnstreamedError
             corners = np.empty((el.count, length), np.int64)
