@@ -11,7 +11,7 @@ whole lines each (:func:`parse_obj`):
 2. each line's first token is read at its start (after any indentation),
    which classifies the line as a position, texture coordinate, normal, face
    or something else;
-3. the lines of each kind are gathered into one buffer; token boundaries
+3. the lines of each kind in the chunk are gathered into one buffer; token boundaries
    found by byte comparisons give how many numbers each line holds; the
    records' numbers are parsed by one ``np.fromstring`` call per kind, the
    faces' indices by digit arithmetic at the start of each corner
