@@ -25,7 +25,10 @@ empty PoCL cache folder and no pyopencl cache, so that it is built.
 shared: one run's times say little) and prints each one's line, then a line
 of the medians of their times and peaks.
 
-Usage: python bench/ply_load.py [--triangles N] [--out DIR] [--scene [--size PIXELS] [--cold] [--repeat N]]
+With ``--obj``, instead: writes the same mesh as a Wavefront OBJ with ``v``,
+``vt``, ``vn`` and ``f i/i/i`` records and measures ``read_obj`` the same way.
+
+Usage: python bench/ply_load.py [--triangles N] [--out DIR] [--obj] [--scene [--size PIXELS] [--cold] [--repeat N]]
 """
 
 from __future__ import annotations
@@ -69,6 +72,19 @@ def write_ply(path: Path, verts: np.ndarray, faces: np.ndarray, binary: bool) ->
             np.savetxt(f, np.concatenate([np.full((len(faces), 1), 3), faces], axis=1), fmt="%d")
 
 
+def write_obj(path: Path, verts: np.ndarray, faces: np.ndarray) -> None:
+    """An OBJ of the mesh of :func:`write_ply` with ``v``, ``vt``, ``vn`` records and ``f i/i/i`` corners."""
+    n = verts / np.linalg.norm(verts, axis=1, keepdims=True)
+    uv = np.stack([np.arctan2(n[:, 2], n[:, 0]) / (2 * np.pi) + 0.5, np.arccos(np.clip(n[:, 1], -1, 1)) / np.pi], 1)
+    with open(path, "wb") as f:
+        f.write(b"# displaced sphere (bench/ply_load.py)\n")
+        np.savetxt(f, verts.astype(np.float32), fmt="v %.7g %.7g %.7g")
+        np.savetxt(f, uv.astype(np.float32), fmt="vt %.7g %.7g")
+        np.savetxt(f, n.astype(np.float32), fmt="vn %.7g %.7g %.7g")
+        c = np.repeat(faces + 1, 3, axis=1)
+        np.savetxt(f, c, fmt="f %d/%d/%d %d/%d/%d %d/%d/%d")
+
+
 def _status_kb(field: str) -> int:
     """A ``kB`` field of /proc/self/status (Linux)."""
     line = next(x for x in Path("/proc/self/status").read_text().splitlines() if x.startswith(field + ":"))
@@ -77,8 +93,10 @@ def _status_kb(field: str) -> int:
 
 def measure(path: Path) -> dict:
     """In this process: read ``path`` once and report the times and memory (see the module docstring)."""
-    from mcocl.render.shapes import read_ply
+    from mcocl.render.shapes import read_obj, read_ply
 
+    if path.suffix == ".obj":
+        read_ply = read_obj  # noqa: F811 (the same measurement of the OBJ reader)
     Path("/proc/self/clear_refs").write_text("5")  # resets the peak (VmHWM) to the present resident size
     before = _status_kb("VmRSS")
     mesh = read_ply(path, "bench")
@@ -170,6 +188,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--triangles", type=int, default=10**6)
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "big_scene")
+    ap.add_argument("--obj", action="store_true", help="measure an OBJ (v, vt, vn, f) of the mesh instead")
     ap.add_argument("--scene", action="store_true", help="load, compile and render a scene around the binary PLY")
     ap.add_argument("--size", type=int, default=256, help="--scene: the image's width and height")
     ap.add_argument("--cold", action="store_true", help="--scene: build the kernels without the caches")
@@ -206,10 +225,10 @@ def main() -> None:
         if len(runs) > 1:
             print(json.dumps(_medians(runs)))
         return
-    for binary in (True, False):
-        path = a.out / f"sphere_{len(faces)}_{'binary' if binary else 'ascii'}.ply"
+    for binary in (False,) if a.obj else (True, False):
+        path = a.out / f"sphere_{len(faces)}_{'binary' if binary else 'ascii'}.{'obj' if a.obj else 'ply'}"
         if not path.exists():
-            write_ply(path, verts, faces, binary)
+            (write_obj(path, verts, faces) if a.obj else write_ply(path, verts, faces, binary))
         env = dict(os.environ)
         out = subprocess.run([sys.executable, __file__, "--measure", str(path)], env=env, check=True,
                              capture_output=True, text=True).stdout

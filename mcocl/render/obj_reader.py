@@ -2,7 +2,8 @@
 
 Read: ``v`` (x y z), ``vt`` (u [v [w]]: v defaults to 0, w is dropped),
 ``vn`` (x y z) and ``f`` records; every other record (``g``, ``usemtl``,
-``vp``, ...) is skipped.  The file is handled as one byte array:
+``vp``, ...) is skipped.  The file is handled as byte arrays of a chunk of
+whole lines each (:func:`parse_obj`):
 
 1. line breaks are normalised (``\\r\\n`` and ``\\r`` become ``\\n``, as
    :meth:`str.splitlines` reads them), other whitespace becomes a space and
@@ -10,7 +11,7 @@ Read: ``v`` (x y z), ``vt`` (u [v [w]]: v defaults to 0, w is dropped),
 2. each line's first token is read at its start (after any indentation),
    which classifies the line as a position, texture coordinate, normal, face
    or something else;
-3. the lines of each kind are gathered into one buffer; token boundaries
+3. the lines of each kind in the chunk are gathered into one buffer; token boundaries
    found by byte comparisons give how many numbers each line holds; the
    records' numbers are parsed by one ``np.fromstring`` call per kind, the
    faces' indices by digit arithmetic at the start of each corner
@@ -41,7 +42,7 @@ from .obj_vertices import KINDS, Chunk, ObjAttributeWarning, ObjMesh, assemble
 
 _SPACE, _NL, _HASH = 32, 10, ord("#")
 _PAD = np.full(8, _SPACE, np.uint8)
-CHUNK_BYTES = 1 << 23  # text parsed at once (whole lines): see parse_obj
+CHUNK_BYTES = 1 << 21  # text parsed at once (whole lines): see parse_obj
 
 
 def _blank_comments(b: np.ndarray, line_end: np.ndarray) -> None:
@@ -115,7 +116,9 @@ def parse_obj(data: bytes, label: str) -> ObjMesh:
     (a loop over chunks, not lines): a chunk's temporaries are small enough
     for the allocator to reuse them, where whole-file temporaries would be
     fresh memory every time (10^7 triangles: 6 of 8.6 CPU-seconds were page
-    faults before).  Whether the file has ``vt`` or ``vn`` records decides
+    faults before), and few next to the file and mesh (issue 13: 2 MB chunks
+    hold less than 8 MB ones at no cost in time); each chunk keeps its indices
+    and face lines as int32 where they fit.  Whether the file has ``vt`` or ``vn`` records decides
     how corners are read; a chunk's faces are read knowing the records of the
     chunks so far and of their own chunk, and in the rare file whose first
     ``vt`` or ``vn`` record comes a chunk after a face the chunks are read again.
@@ -123,12 +126,7 @@ def parse_obj(data: bytes, label: str) -> ObjMesh:
     Raises:
         InputError: a malformed record or index; the message is ``"{label}:{line}: ..."``.
     """
-    if b"\r" in data:
-        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
-    if b"\t" in data or b"\v" in data or b"\f" in data:
-        data = data.translate(bytes.maketrans(b"\t\v\f", b"   "))
-    if not data.endswith(b"\n"):
-        data += b"\n"  # a final break ends the last line
+    data = data or b"\n"  # (an empty file is one empty line)
     kinds = (False, False)
     while True:
         chunks = _parse_chunks(data, kinds, label)
@@ -146,13 +144,36 @@ def _parse_chunks(data: bytes, kinds: tuple[bool, bool], label: str) -> list[Chu
     before = np.zeros(3, np.int64)  # v, vt, vn records so far
     while pos < len(data):
         end = data.rfind(b"\n", pos, pos + CHUNK_BYTES)
-        if end < 0:  # a line longer than a chunk
+        if end < 0:  # a line longer than a chunk (or the rest of a file whose lines end in \r alone)
             end = data.find(b"\n", pos)
-        chunk, n = _parse_chunk(data, pos, end + 1, lines, before, chunks[-1].kinds, label)
+            end = len(data) - 1 if end < 0 else end
+        text, first, stop = _normalised(data, pos, end + 1)
+        chunk, n = _parse_chunk(text, first, stop, lines, before, chunks[-1].kinds, label)
         chunks.append(chunk)
         pos, lines = end + 1, lines + n
         before += [len(chunk.vertices), len(chunk.uvs), len(chunk.normals)]
     return chunks
+
+
+def _normalised(data: bytes, first: int, stop: int) -> tuple[bytes, int, int]:
+    """The whole lines ``data[first:stop]`` with line breaks and whitespace normalised (bytes, start, stop).
+
+    ``\r\n`` and ``\r`` become ``\n`` (as :meth:`str.splitlines` reads them), tabs, vertical tabs and
+    form feeds spaces, and a final break ends the file's last line.  A chunk ends after a ``\n``, so no
+    ``\r\n`` is cut.  Done a chunk at a time (issue 13): whole-file copies cost twice the file's size.
+    Lines that need none of it are returned in place, uncopied.
+    """
+    last = stop == len(data)
+    if not any(data.find(c, first, stop) >= 0 for c in (b"\r", b"\t", b"\v", b"\f")) and (
+            not last or data.endswith(b"\n")):
+        return data, first, stop
+    text = data[first:stop]
+    if b"\r" in text:
+        text = text.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    text = text.translate(bytes.maketrans(b"\t\v\f", b"   "))
+    if last and not text.endswith(b"\n"):
+        text += b"\n"
+    return text, 0, len(text)
 
 
 def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, before: np.ndarray,
@@ -194,7 +215,15 @@ def _parse_chunk(data: bytes, first: int, stop: int, lines_before: int, before: 
     counts += [before[k] + np.cumsum(mask)[fl] if used else None for k, mask, used in ((1, is_vt, kinds[0]),
                                                                                       (2, is_vn, kinds[1]))]
     faces = _parse_faces(b, start[fl], tag[fl], line_end[fl], number[fl], counts, kinds, label)
-    return Chunk(vertices, uvs, normals, *faces, kinds), len(line_end)
+    return Chunk(vertices, uvs, normals, *map(_narrow, faces), kinds), len(line_end)
+
+
+def _narrow(a: np.ndarray | None) -> np.ndarray | None:
+    """``a`` as int32 where its values fit (a chunk's indices and line numbers, held until the file is read:
+    half the memory, issue 13), else as it is; the values, and so the mesh and messages, are the same."""
+    if a is None or not a.size or a.min() < -2**31 or a.max() >= 2**31:
+        return a
+    return a.astype(np.int32)
 
 
 def _parse_records(b, start, tag, end, lines, width: int, need: int, tag_len: int, label: str,

@@ -79,16 +79,40 @@ def _unique_inverse(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(a position of each distinct value in increasing order, the rank of every value): ``np.unique`` by hand.
 
     One argsort and a scatter: ``np.unique(key, return_inverse=True)`` took
-    8x as long on 3·10^6 int64 keys (NumPy 2.4).
+    8x as long on 3·10^6 int64 keys (NumPy 2.4).  ``key`` (int64) is
+    overwritten by the ranks, which are returned in it, and the sorted keys'
+    array then holds their running count: two corner-sized arrays fewer at
+    the peak (issue 13's memory bound).
     """
     order = np.argsort(key)
     s = key[order]
     new = np.empty(len(s), bool)
     new[:1] = True
     np.not_equal(s[1:], s[:-1], out=new[1:])
-    inverse = np.empty(len(key), np.int64)
-    inverse[order] = np.cumsum(new) - 1
-    return order[new], inverse
+    np.cumsum(new, out=s)
+    s -= 1
+    first = order[new]
+    key[order] = s
+    return first, key
+
+
+def _split_equal_indices(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`split_vertices` where every corner gives one index for all kinds (an exporter's ``i/i/i``).
+
+    The tuples then order as their position index ``v`` (0-based, in range), so they rank by a table
+    over the positions rather than by a sort of the corners: a few position-sized arrays instead of
+    three corner-sized ones (issue 13's memory bound), and no sort.  The corner given for each tuple
+    may be another than the sort's, but it holds the same indices, so the mesh is the same.
+    """
+    used = np.zeros(int(v.max()) + 1, bool)
+    used[v] = True
+    rank = np.cumsum(used)
+    rank -= 1
+    where = np.empty(len(used), np.int64)
+    block = 1 << 20  # corners at a time: no corner-sized arange
+    for s in range(0, len(v), block):
+        where[v[s:s + block]] = np.arange(s, min(s + block, len(v)))
+    return rank[v].reshape(-1, 3), where[used]
 
 
 def split_vertices(columns: list[np.ndarray], counts: list[int]) -> tuple[np.ndarray, np.ndarray]:
@@ -99,29 +123,43 @@ def split_vertices(columns: list[np.ndarray], counts: list[int]) -> tuple[np.nda
     (position-major); where the product of the counts would overflow, the key
     so far is replaced by its rank first.
     """
+    if columns[0].size and all(np.array_equal(c, columns[0]) for c in columns[1:]):
+        return _split_equal_indices(columns[0].ravel())
     key = columns[0].ravel().astype(np.int64)
     span = counts[0]
     for col, count in zip(columns[1:], counts[1:]):
         if span * count >= 2**63:
             first, key = _unique_inverse(key)
             span = len(first)
-        key = key * count + col.ravel()
+        key *= count  # in place: a corner-sized array fewer
+        key += col.ravel()
         span *= count
     first, inverse = _unique_inverse(key)
     return inverse.reshape(-1, 3), first
 
 
+def _take(chunks: list[Chunk], name: str) -> np.ndarray:
+    """The chunks' arrays ``name`` (those not None) joined, each chunk's dropped: they are not held twice."""
+    parts = [getattr(c, name) for c in chunks]
+    for c in chunks:
+        setattr(c, name, None)
+    parts = [x for x in parts if x is not None]
+    # (an empty part, such as the first chunk's, would widen int32 parts to its int64)
+    return np.concatenate([x for x in parts if x.size] or parts)
+
+
 def assemble(chunks: list[Chunk], label: str) -> ObjMesh:
-    """The mesh of the chunks of one file (see the module docstring); indices past their records are refused here."""
-    vertices = np.concatenate([c.vertices for c in chunks])
-    tri = np.concatenate([c.tri for c in chunks])
+    """The mesh of the chunks of one file (see the module docstring); indices past their records are refused here.
+
+    The chunks' records and indices are taken from them as they are joined (:func:`_take`)."""
+    vertices = _take(chunks, "vertices")
+    tri = _take(chunks, "tri")
     _check_range(chunks, tri, len(vertices), 0, label)
     used: list[tuple[int, np.ndarray, np.ndarray]] = []
     for kind, name in ((1, "uvs"), (2, "normals")):
         if not chunks[-1].kinds[kind - 1]:
             continue
-        columns = [c.tri_t if kind == 1 else c.tri_n for c in chunks]
-        col = np.concatenate([x for x in columns if x is not None])
+        col = _take(chunks, "tri_t" if kind == 1 else "tri_n")
         given = col >= 0
         if not given.any():
             continue
@@ -131,14 +169,18 @@ def assemble(chunks: list[Chunk], label: str) -> ObjMesh:
                           f"where others have one: the mesh gets no {KINDS[kind][1]}"
                           + (" and shades with face normals" if kind == 2 else ""), ObjAttributeWarning, stacklevel=4)
             continue
-        records = np.concatenate([getattr(c, name) for c in chunks])
+        records = _take(chunks, name)
         _check_range(chunks, col, len(records), kind, label)
         used.append((kind, col, records))
     if not used:
-        return ObjMesh(vertices, tri, None, None)
+        return ObjMesh(vertices, tri.astype(np.int64, copy=False), None, None)
     faces, first = split_vertices([tri] + [col for _, col, _ in used], [len(vertices)] + [len(r) for _, _, r in used])
-    out = {kind: records[col.ravel()[first]] for kind, col, records in used}
-    return ObjMesh(vertices[tri.ravel()[first]], faces, out.get(2), out.get(1))
+    # each tuple's indices, then the corner-sized index columns dropped before the records are gathered
+    picked = [(kind, col.ravel()[first], records) for kind, col, records in used]
+    positions = tri.ravel()[first]
+    del used, tri, col, given
+    out = {kind: records[at] for kind, at, records in picked}
+    return ObjMesh(vertices[positions], faces, out.get(2), out.get(1))
 
 
 __all__ = ["Chunk", "KINDS", "ObjAttributeWarning", "ObjMesh", "assemble", "split_vertices"]

@@ -22,6 +22,12 @@ Read: the ``vertex`` element's ``x``, ``y``, ``z`` (required), ``nx``, ``ny``,
 ``face`` element's ``vertex_indices`` (or ``vertex_index``) lists; polygons
 become fans ``(0, k, k + 1)``.  Every other element and property is skipped.
 Malformed files raise :class:`~mcocl.errors.InputError` naming the file.
+
+An ASCII body whose elements each have one layout (the usual file) is first
+read a chunk of whole lines at a time (:class:`_AsciiStream`) straight into
+the mesh's arrays, so that the read holds the file, the mesh and one chunk
+(issue 13: the whole-body parse held 3x the file); anything else, errors
+included, is left to the whole-body parse, which gives the same arrays.
 """
 
 from __future__ import annotations
@@ -381,6 +387,204 @@ def _index_type(item: np.dtype) -> type:
     return np.uint32 if item.itemsize == 4 else np.int64
 
 
+ASCII_CHUNK_BYTES = 1 << 18  # ASCII body text parsed at once (whole lines): see _AsciiStream
+
+
+class _UnstreamedError(Exception):
+    """The streamed ASCII read met what it leaves to the whole-body parse: any error, or records of differing layouts."""
+
+
+def _chunk_numbers(blob: np.ndarray, integer: bool) -> np.ndarray:
+    """The numbers of whole lines of an ASCII body as float64, parsed as :func:`ascii_numbers` parses its part.
+
+    An integer part parses as int64 or not at all: where one token is not an integer, ``ascii_numbers``
+    parses the *whole* tail as float64 (which differs from int64 past 2^63), so that case is left to it.
+    """
+    if not integer:
+        out = _part_numbers(blob, integer=False)
+        if out is None:
+            raise _UnstreamedError
+        return out
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        try:
+            out = np.fromstring(blob.tobytes(), dtype=np.int64, sep=" ")
+        except (DeprecationWarning, ValueError):
+            raise _UnstreamedError from None
+    if len(out) == 1 and not np.any((blob != 32) & ((blob < 9) | (blob > 13))):
+        return np.zeros(0)
+    return out.astype(np.float64)
+
+
+class _AsciiStream:
+    """The numbers of an ASCII body, parsed about :data:`ASCII_CHUNK_BYTES` of whole lines at a time (issue 13).
+
+    Only the numbers not yet consumed are held, so a read costs the file's bytes, its mesh and one
+    chunk, where the whole-body parse held every number as float64 and a copy besides (3x the file).
+    The body parses as float64 before byte ``split`` and as int64 after it, as :func:`ascii_numbers`
+    splits it; a chunk never crosses ``split`` or ends inside a line, so no token is cut.
+    """
+
+    def __init__(self, data: bytes, start: int, split: int) -> None:
+        self.data, self.pos, self.split = data, start, split
+        self.buf, self.used = np.zeros(0), 0
+
+    def _parse_next(self) -> bool:
+        """Parse the next chunk onto the numbers not yet consumed; False at the body's end."""
+        if self.pos >= len(self.data):
+            return False
+        limit = self.split if self.pos < self.split else len(self.data)
+        stop = min(self.pos + ASCII_CHUNK_BYTES, limit)
+        if stop < limit:
+            nl = self.data.rfind(b"\n", self.pos, stop)
+            if nl < 0:  # a line longer than a chunk
+                nl = self.data.find(b"\n", stop, limit)
+            stop = limit if nl < 0 else nl + 1
+        nums = _chunk_numbers(np.frombuffer(self.data, np.uint8, stop - self.pos, self.pos), self.pos >= self.split)
+        self.pos = stop
+        self.buf = np.concatenate([self.buf[self.used:], nums]) if self.used < len(self.buf) else nums
+        self.used = 0
+        return True
+
+    def peek(self, k: int) -> float:
+        """The ``k``-th number after those consumed."""
+        while self.used + k >= len(self.buf):
+            if not self._parse_next():
+                raise _UnstreamedError
+        return float(self.buf[self.used + k])
+
+    def records(self, count: int, width: int):
+        """The next ``count`` records of ``width`` numbers, as (k, width) blocks of at most a chunk's numbers."""
+        left = count
+        while left > 0:
+            k = min(left, (len(self.buf) - self.used) // width)
+            if k == 0:
+                if not self._parse_next():
+                    raise _UnstreamedError
+                continue
+            yield self.buf[self.used:self.used + k * width].reshape(k, width)
+            self.used += k * width
+            left -= k
+
+    def at_end(self) -> bool:
+        """Whether every number of the body has been consumed."""
+        while self.used == len(self.buf):
+            if not self._parse_next():
+                return True
+        return False
+
+
+def _ascii_split(data: bytes, start: int, elements: list[Element]) -> int:
+    """The byte where :func:`ascii_numbers` starts parsing the body as int64 (``len(data)``: nowhere)."""
+    k = len(elements)
+    while k > 0 and _integer_only(elements[k - 1]):
+        k -= 1
+    if k == len(elements):
+        return len(data)
+    split = _line_end(np.frombuffer(data, np.uint8, offset=start), sum(e.count for e in elements[:k]))
+    return len(data) if split is None else start + split
+
+
+def _first_lengths(stream: _AsciiStream, el: Element) -> list[int]:
+    """The list lengths of the next record of ``el`` (each a whole number in 0 .. _MAX_CORNERS)."""
+    lengths, k = [], 0
+    for p in el.props:
+        if p.count_type is None:
+            k += 1
+            continue
+        c = stream.peek(k)
+        if not (c == np.floor(c) and 0 <= c <= _MAX_CORNERS):
+            raise _UnstreamedError
+        lengths.append(int(c))
+        k += 1 + int(c)
+    return lengths
+
+
+def _stream_element(stream: _AsciiStream, el: Element, dest: dict[str, tuple[np.ndarray, int | None]]) -> None:
+    """Consume the records of ``el``, all of the layout of the first, writing property ``name`` into ``dest[name]``.
+
+    ``dest`` maps a scalar to (array, column) and a list to (array (count, length), None); the values are
+    cast as :func:`parse_ply` casts them.  Records of another layout raise :class:`_UnstreamedError`.
+    """
+    if el.count == 0 or not el.props:
+        return
+    lengths = _first_lengths(stream, el)
+    at, lists, col_of, k = 0, [], {}, 0
+    for p in el.props:  # (the last of two properties of one name wins, as in _Body.block)
+        if p.count_type is None:
+            col_of[p.name] = (at, 1, False)
+            at += 1
+        else:
+            lists.append((at, lengths[k]))
+            col_of[p.name] = (at + 1, lengths[k], True)
+            at += 1 + lengths[k]
+            k += 1
+    width, row = at, 0
+    for block in stream.records(el.count, width):
+        for c, n in lists:
+            if not np.all(block[:, c] == n):
+                raise _UnstreamedError
+        for name, (array, column) in dest.items():
+            c, n, is_list = col_of[name]
+            if is_list != (column is None):  # a list and a scalar of one name: left to the whole-body parse
+                raise _UnstreamedError
+            if column is None:
+                part = block[:, c:c + n]
+                if not np.all(part == np.floor(part)):
+                    raise _UnstreamedError
+                with np.errstate(invalid="ignore"):
+                    array[row:row + len(block)] = part
+            else:
+                array[row:row + len(block), column] = block[:, c]
+        row += len(block)
+
+
+def _parse_ascii_streamed(data: bytes, start: int, elements: list[Element], want_v: set[str],
+                          index_name: str | None) -> PlyMesh:
+    """The mesh of a well-formed ASCII PLY body read by :class:`_AsciiStream`, as :func:`parse_ply` makes it.
+
+    Anything else (a malformed body, faces of differing lengths) raises :class:`_UnstreamedError`: the
+    whole-body parse then reads the file, with its errors.
+    """
+    # A number takes a byte and a separator: counts past that bound are refused (by the whole-body parse)
+    # before any array of their size is allocated.
+    if sum(e.count * len(e.props) for e in elements) > (len(data) - start + 1) // 2:
+        raise _UnstreamedError
+    stream = _AsciiStream(data, start, _ascii_split(data, start, elements))
+    vertices = normals = uvs = corners = None
+    for el in elements:
+        dest: dict[str, tuple[np.ndarray, int | None]] = {}
+        if el.name == "vertex" and el.count:
+            have = want_v & {p.name for p in el.props}
+            vertices = np.empty((el.count, 3))
+            dest.update({n: (vertices, k) for k, n in enumerate("xyz")})
+            if {"nx", "ny", "nz"} <= have:
+                normals = np.empty((el.count, 3))
+                dest.update({n: (normals, k) for k, n in enumerate(("nx", "ny", "nz"))})
+            uv = next((pair for pair in UV_NAMES if set(pair) <= have), None)
+            if uv:
+                uvs = np.empty((el.count, 2))
+                dest.update({n: (uvs, k) for k, n in enumerate(uv)})
+        elif el.name == "face" and el.count and el.props:
+            names = [p.name for p in el.props if p.count_type]
+            # the last list of that name, as parse_ply's checks and _Body.block take it
+            length = _first_lengths(stream, el)[len(names) - 1 - names[::-1].index(index_name)]
+            if length < 3:
+                raise _UnstreamedError
+            corners = np.empty((el.count, length), np.int64)
+            dest[index_name] = (corners, None)
+        _stream_element(stream, el, dest)
+    if not stream.at_end():
+        raise _UnstreamedError
+    if vertices is None:
+        return PlyMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64))
+    faces = np.zeros((0, 3), np.int64)
+    if corners is not None:
+        faces = corners if corners.shape[1] == 3 else fan_triangles(
+            corners.reshape(-1), np.broadcast_to(np.int64(corners.shape[1]), (len(corners),)))
+    return PlyMesh(vertices, faces, normals, uvs)
+
+
 def parse_ply(data: bytes, label: str) -> PlyMesh:
     """The mesh of a PLY file's bytes: vertices, fan triangles (0-based, not range-checked), normals, UVs.
 
@@ -412,6 +616,11 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
             raise InputError(f"{label}: the 'face' element needs a list property vertex_indices (or vertex_index)")
         if fprops[index_name].type[0] == "f":
             raise InputError(f"{label}: the face's {index_name} must be an integer type")
+    if order is None:
+        try:
+            return _parse_ascii_streamed(data, body_start, elements, want_v, index_name)
+        except _UnstreamedError:
+            pass  # the whole-body parse below reads it, or names what is wrong with it
     body = _Body(data, body_start, order, label, elements)
     pos, got = 0, {}
     for el in elements:
