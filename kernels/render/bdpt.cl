@@ -130,12 +130,15 @@
  * Where the time goes now (the Cornell box with two spheres, 128 px, LANES
  * 16, 192 spp, CPU microseconds per path, by switching parts off; +-10 %
  * on a shared machine): 0.83 in all; the two walks 0.31 to 0.37 (the camera
- * walk alone 0.19, as much as a whole mis path, since every step of a
- * packet runs until its longest subpath ends: about 8 steps where a lane
- * needs about 5.5 on average); the (s >= 2, t >= 2) connections 0.23; the
+ * walk alone 0.19, as much as a whole mis path: a packet steps until its
+ * longest subpath ends, and with roulette from path length 5 and 16 lanes
+ * that is usually the cap of 8 steps, where an average lane stops at about
+ * 5.5 (an estimate from the survival rule, not measured)); the
+ * (s >= 2, t >= 2) connections 0.23; the
  * (s, 1) camera connections 0.18 (their shadow rays 0.09, their splats
  * 0.045: perf puts about 5 % of the kernel's samples on the splats' adds
- * into random pixels of the 512 KB double group image); the s = 1
+ * into random pixels of the 512 KB double group image, and prefetching
+ * those pixels before the camera shadow ray gained nothing measurable); the s = 1
  * connections of t >= 2 0.07; s = 0 0.03; the pdf re-evaluations of the
  * walks nothing measurable.  LANES 8 gives 1.0 M paths per CPU-second,
  * LANES 4 0.7, against 1.2 to 1.3 at 16.  Russian roulette on the (s, 1)
