@@ -146,10 +146,11 @@
  * the threshold is the sample's whole own-pixel estimate times W H) saved
  * no measurable time at 8 % more variance, so it is not kept: as with the
  * connections, a packet's ray is saved only when all 16 lanes lose.
- * What costs is the number of packet operations, not of lanes: a speed-up
- * of the order of 1.4 x per path needs fuller packets (e.g. a lane that
- * finishes its subpath taking the next sample's, with vertex storage per
- * sample), not less work per lane.
+ * The time follows the packet operations more than the lanes busy in them
+ * (16 lanes cost about 1.25 x what 8 do): a speed-up of the order of 1.4 x
+ * per path would need fuller packets (e.g. a lane that finishes its subpath
+ * taking the next sample's, with vertex storage per sample) rather than
+ * less work per lane.
  *
  * Launch parameters (render_params), not build options, so that one build
  * serves every choice: bdpt_power_mis (1: beta 2, 0: beta 1); bdpt_only_s/_t
