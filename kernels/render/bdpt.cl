@@ -128,13 +128,29 @@
  * estimate to compare against) cost more than it saved.
  *
  * Where the time goes now (the Cornell box with two spheres, 128 px, LANES
- * 16, by switching parts off): camera walk about 30 %, light walk 15 %, the
- * strategies 55 %: the (s >= 2, t >= 2) connections 26 % (their BSDF
- * evaluations 10 %, their shadow rays and weights 16 %), the (s, 1) camera
- * connections 9 %, the MIS weights nothing measurable.  perf puts about 9 %
- * of the kernel's samples on one instruction: the (s, 1) splats' adds into
- * random pixels of the work-item's group image (a double image of 512 KB at
- * 128 x 128), i.e. cache misses.
+ * 16, 192 spp, CPU microseconds per path, by switching parts off; +-10 %
+ * on a shared machine): 0.83 in all; the two walks 0.31 to 0.37 (the camera
+ * walk alone 0.19, as much as a whole mis path: a packet steps until its
+ * longest subpath ends, and with roulette from path length 5 and 16 lanes
+ * that is usually the cap of 8 steps, where an average lane stops at about
+ * 5.5 (an estimate from the survival rule, not measured)); the
+ * (s >= 2, t >= 2) connections 0.23; the
+ * (s, 1) camera connections 0.18 (their shadow rays 0.09, their splats
+ * 0.045: perf puts about 5 % of the kernel's samples on the splats' adds
+ * into random pixels of the 512 KB double group image, and prefetching
+ * those pixels before the camera shadow ray gained nothing measurable); the s = 1
+ * connections of t >= 2 0.07; s = 0 0.03; the pdf re-evaluations of the
+ * walks nothing measurable.  LANES 8 gives 1.0 M paths per CPU-second,
+ * LANES 4 0.7, against 1.2 to 1.3 at 16.  Russian roulette on the (s, 1)
+ * shadow rays too (those strategies moved after the t >= 2 ones so that
+ * the threshold is the sample's whole own-pixel estimate times W H) saved
+ * no measurable time at 8 % more variance, so it is not kept: as with the
+ * connections, a packet's ray is saved only when all 16 lanes lose.
+ * The time follows the packet operations more than the lanes busy in them
+ * (16 lanes cost about 1.25 x what 8 do): a speed-up of the order of 1.4 x
+ * per path would need fuller packets (e.g. a lane that finishes its subpath
+ * taking the next sample's, with vertex storage per sample) rather than
+ * less work per lane.
  *
  * Launch parameters (render_params), not build options, so that one build
  * serves every choice: bdpt_power_mis (1: beta 2, 0: beta 1); bdpt_only_s/_t
@@ -480,29 +496,33 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         ok = ok & (v3_maxc(c) > 0.0f);
         if (!lane_any(ok)) return zero;
         /* the weight before the shadow ray, which the roulette needs (it does not depend on visibility) */
-        bdpt_vertex y0 = light[0];
-        light[0].p = er.pos;
-        light[0].n = er.n;
-        light[0].delta = (intv)(0);
-        light[0].delta_light = er.delta;
-        light[0].infinite = (intv)(0);
-        light[0].pdf_fwd = er.pdf_area;
-        light[0].pdf_rev = to_area(pz, pt->p, er.pos, er.n);
+        /* y_0 as the weight sees it: bdpt_mis_weight reads only a light vertex's densities and delta
+         * flags, so only those are swapped in (and restored after), not the whole vertex record */
+        bdpt_vertex *y0 = &light[0];
+        const floatv y0_fwd = y0->pdf_fwd, y0_rev = y0->pdf_rev;
+        const intv y0_delta = y0->delta, y0_delta_light = y0->delta_light, y0_inf = y0->infinite;
+        y0->delta = (intv)(0);
+        y0->delta_light = er.delta;
+        y0->infinite = (intv)(0);
+        y0->pdf_fwd = er.pdf_area;
+        y0->pdf_rev = to_area(pz, pt->p, er.pos, er.n);
         /* the density of the direction toward z_{t-1}: an area light's cosine, a point or spot light's
          * emission density (uniform on the sphere or the cone: er's, whatever direction it drew) */
         pt->pdf_rev = to_area(lane_select(cos_y * RT_INV_PI, er.pdf_solid_angle, er.delta), er.pos, pt->p, pt->n);
         if (special) {
-            light[0].p = v3_select(light[0].p, v3_add(pt->p, ls.wo), inf);
-            light[0].n = v3_select(light[0].n, v3_neg(ls.wo), inf);
-            light[0].delta_light = lane_select(light[0].delta_light, ls.delta, inf);
-            light[0].infinite = inf;
-            light[0].pdf_fwd = lane_select(light[0].pdf_fwd, ls.pdf, inf);
-            light[0].pdf_rev = lane_select(light[0].pdf_rev, pz, inf);
+            y0->delta_light = lane_select(y0->delta_light, ls.delta, inf);
+            y0->infinite = inf;
+            y0->pdf_fwd = lane_select(y0->pdf_fwd, ls.pdf, inf);
+            y0->pdf_rev = lane_select(y0->pdf_rev, pz, inf);
             pt->pdf_rev = lane_select(pt->pdf_rev, infinite_to_area(sc, ls.wo, pt->n), inf);
         }
         ptm->pdf_rev = to_area(pr, pt->p, ptm->p, ptm->n);
         *w = bdpt_connection_weight(sc, light, cam, s, t, nl_cap, nc_cap);
-        light[0] = y0;
+        y0->pdf_fwd = y0_fwd;
+        y0->pdf_rev = y0_rev;
+        y0->delta = y0_delta;
+        y0->delta_light = y0_delta_light;
+        y0->infinite = y0_inf;
         pt->pdf_rev = save_pt;
         ptm->pdf_rev = save_ptm;
         ok = connection_roulette(sc, smp, s, t, threshold, *w, &c, ok);
@@ -761,7 +781,8 @@ kernel void bdpt_trace(
                 floatv w;
                 if (t == 1) {
                     floatv ul[2] = {ue[6], ue[7]};
-                    if (s > 1) {
+                    /* a pinhole's lens point takes no uniforms (camera_lens_point): no draw then */
+                    if (s > 1 && thin_lens) {
                         sampler_seek(&ls, (uintv)(LT_DIM_LENS((uint)(s - 1))));
                         sampler_next_2d(&ls, ul);
                     }
