@@ -26,6 +26,8 @@ in the binary tree's depth-first order.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..layouts import BVH_WIDE_NODE
@@ -112,17 +114,39 @@ def _index_type(k: int, ref: np.ndarray) -> type:
     return np.int32 if top < 2**31 else np.int64
 
 
-def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
-    """The 8-wide nodes of a flattened binary BVH (``nodes`` of :class:`mcocl.render.bvh.BVH`), float32 (16W, 4).
+@dataclass
+class WidePlan:
+    """Which binary child fills each slot of each wide node (:func:`plan_wide_nodes`), before any record is written.
 
-    Subtrees of at most ``max_leaf`` primitives become leaves (:func:`merge_small_subtrees`).
-    The binary boxes are read in place (views of ``nodes``), the indices are
-    int32 where they fit and each field of the records is gathered straight
-    into them: for 10^6 triangles the build's temporaries are a few tens of MB.
+    ``box``: the binary child slots' boxes, (2K, 2, 4) rows lo, hi (a view of the binary nodes); ``ref``,
+    ``cnt``: each binary child slot's ref and count (small subtrees merged); ``slot``: (W, WIDTH) the binary
+    child slot in each wide child slot (0 where empty), ``valid``: not empty, ``internal``: a wide node;
+    ``index``: the wide node of each binary node that becomes one.
+    """
+
+    box: np.ndarray
+    ref: np.ndarray
+    cnt: np.ndarray
+    slot: np.ndarray
+    valid: np.ndarray
+    internal: np.ndarray
+    index: np.ndarray
+
+    @property
+    def rows(self) -> int:
+        """The float4 rows of the wide nodes' records (16W)."""
+        return len(self.slot) * WIDE_ROWS
+
+
+def plan_wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> WidePlan | None:
+    """The layout of the 8-wide nodes of a flattened binary BVH (None when it has no node): see :func:`wide_nodes`.
+
+    The binary boxes are read in place (views of ``nodes``) and the indices are
+    int32 where they fit: for 10^6 triangles the plan holds about 20 MB.
     """
     k = (len(nodes) - 1) // 4
     if k == 0:
-        return np.zeros((0, 4), np.float32)
+        return None
     f = np.asarray(nodes, np.float32)[1:1 + 4 * k].reshape(k, 2, 2, 4)
     ref, cnt = merge_small_subtrees(f.view(np.uint32)[:, :, 0, 3].astype(np.int64), f.view(np.uint32)[:, :, 1, 3],
                                     max_leaf)
@@ -150,24 +174,43 @@ def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
     valid = slots >= 0
     sq = np.maximum(slots, 0)
     del slots
-    s_inner = valid & inner[sq]
     index = np.full(k, -1, ref.dtype)
     index[order] = np.arange(len(order), dtype=ref.dtype)
+    return WidePlan(box, ref, cnt, sq, valid, valid & inner[sq], index)
+
+
+def write_wide_nodes(plan: WidePlan, out: np.ndarray) -> None:
+    """Write the records of ``plan``'s wide nodes into ``out``, float32 (``plan.rows``, 4) (every byte of it)."""
+    rec = out.reshape(len(plan.slot), BVH_WIDE_NODE.itemsize // 4)
+    sq, valid = plan.slot, plan.valid
     # children 0-3 in field name_0, 4-7 in name_4 right after it: each field's eight children are one run of
-    # the record, written as such (every byte of the record is written), one field at a time
-    rec = np.empty((len(order), BVH_WIDE_NODE.itemsize // 4), np.float32)
-    del order
+    # the record, written as such, one field at a time
     for corner, name in ((0, "lo"), (1, "hi")):
         for axis, comp in enumerate("xyz"):
             at = _FIELD_AT[f"{name}_{comp}"]
-            rec[:, at:at + WIDTH] = np.where(valid, box[sq, corner, axis], np.float32(0.0))
-    sref = ref[sq]
+            rec[:, at:at + WIDTH] = np.where(valid, plan.box[sq, corner, axis], np.float32(0.0))
+    sref = plan.ref[sq]
     at = _FIELD_AT["ref"]
-    rec.view(np.uint32)[:, at:at + WIDTH] = np.where(s_inner, index[np.where(s_inner, sref, 0)], sref).astype(np.uint32)
-    del sref, index
+    rec.view(np.uint32)[:, at:at + WIDTH] = np.where(plan.internal, plan.index[np.where(plan.internal, sref, 0)],
+                                                     sref).astype(np.uint32)
+    del sref
     at = _FIELD_AT["cnt"]
-    rec.view(np.uint32)[:, at:at + WIDTH] = np.where(valid, cnt[sq], EMPTY_SLOT)
-    return rec.reshape(-1, 4)
+    rec.view(np.uint32)[:, at:at + WIDTH] = np.where(valid, plan.cnt[sq], EMPTY_SLOT)
 
 
-__all__ = ["EMPTY_SLOT", "MERGED_LEAF", "WIDE_ROWS", "WIDTH", "merge_small_subtrees", "wide_nodes"]
+def wide_nodes(nodes: np.ndarray, max_leaf: int = MERGED_LEAF) -> np.ndarray:
+    """The 8-wide nodes of a flattened binary BVH (``nodes`` of :class:`mcocl.render.bvh.BVH`), float32 (16W, 4).
+
+    Subtrees of at most ``max_leaf`` primitives become leaves (:func:`merge_small_subtrees`).
+    :func:`plan_wide_nodes` then :func:`write_wide_nodes` (into a caller's table: no copy).
+    """
+    plan = plan_wide_nodes(nodes, max_leaf)
+    if plan is None:
+        return np.zeros((0, 4), np.float32)
+    out = np.empty((plan.rows, 4), np.float32)
+    write_wide_nodes(plan, out)
+    return out
+
+
+__all__ = ["EMPTY_SLOT", "MERGED_LEAF", "WIDE_ROWS", "WIDTH", "WidePlan", "merge_small_subtrees", "plan_wide_nodes",
+           "wide_nodes", "write_wide_nodes"]
