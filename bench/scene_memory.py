@@ -8,7 +8,9 @@ child process loads, compiles and renders it once (``--spp`` samples,
 resident memory during the stage and the resident memory after it, both over
 the child's resident memory before the load (Linux: VmHWM after resetting it
 through /proc/self/clear_refs, and VmRSS; that base is printed too, since
-what the process freed but kept before the load is reused by the stages).  The OpenCL runtime (PoCL, its
+what the process freed but kept before the load is reused by the stages),
+and the same two figures for the memory Python and NumPy allocate (tracemalloc:
+the arrays themselves, without the OpenCL runtime's or the C heap's share).  The OpenCL runtime (PoCL, its
 LLVM, a built program) is loaded before that, by a render of scenes/cornell.json
 at 8 x 8 pixels, and reported apart (``runtime``: a fixed cost, not the scene's).
 The stages:
@@ -34,6 +36,7 @@ import gc
 import json
 import subprocess
 import sys
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
@@ -48,19 +51,24 @@ def _status_kb(field: str) -> int:
 
 
 class _Stages:
-    """Peak and resident memory (MB over a base) of consecutive stages: each mark ends one and resets the peak."""
+    """Peak and resident memory (MB over a base) of consecutive stages, and the peak and present memory that
+    tracemalloc sees (the arrays): each mark ends one stage and resets the peaks."""
 
     def __init__(self) -> None:
         gc.collect()
-        self.base = _status_kb("VmRSS")
-        self.rows: dict[str, tuple[float, float]] = {}
+        tracemalloc.start()
+        self.base, self.traced = _status_kb("VmRSS"), tracemalloc.get_traced_memory()[0]
+        self.rows: dict[str, tuple[float, float, float, float]] = {}
         Path("/proc/self/clear_refs").write_text("5")  # resets VmHWM to the present resident size
 
     def mark(self, name: str) -> None:
-        """End the stage ``name``: record its peak and the resident memory now."""
+        """End the stage ``name``: record its peaks and the memory now."""
         peak, now = _status_kb("VmHWM"), _status_kb("VmRSS")
-        self.rows[name] = (round((peak - self.base) / 1024, 1), round((now - self.base) / 1024, 1))
+        t_now, t_peak = tracemalloc.get_traced_memory()
+        self.rows[name] = (round((peak - self.base) / 1024, 1), round((now - self.base) / 1024, 1),
+                           round((t_peak - self.traced) / 2**20, 1), round((t_now - self.traced) / 2**20, 1))
         Path("/proc/self/clear_refs").write_text("5")
+        tracemalloc.reset_peak()
 
 
 def _nbytes(obj) -> int:
@@ -167,9 +175,10 @@ def main() -> None:
     r = json.loads(out.strip().splitlines()[-1])
     print(f"{r['scene']}: {r['triangles']} triangles, {r['image']}; the OpenCL runtime: {r['opencl_runtime_MB']} MB, "
           f"resident before the load: {r['base_MB']} MB")
-    print(f"{'stage':10s} {'peak MB':>9s} {'resident MB':>12s}   (over the process before the load)")
-    for name, (peak, now) in r["stages_MB_peak_resident"].items():
-        print(f"{name:10s} {peak:9.1f} {now:12.1f}")
+    print(f"{'stage':10s} {'peak MB':>9s} {'resident MB':>12s} {'arrays peak':>12s} {'arrays now':>11s}"
+          f"   (over the process before the load)")
+    for name, (peak, now, t_peak, t_now) in r["stages_MB_peak_resident"].items():
+        print(f"{name:10s} {peak:9.1f} {now:12.1f} {t_peak:12.1f} {t_now:11.1f}")
     print(f"device scene {r['device_scene_MB']} MB = {r['device_bytes_per_triangle']} bytes/triangle; "
           f"largest {r['largest_buffers_MB']}; compiled scene arrays {r['compiled_scene_arrays_MB']} MB")
     print(json.dumps(r))

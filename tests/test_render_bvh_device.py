@@ -110,6 +110,23 @@ def test_device_table_layout():
     assert np.array_equal(device_nodes(empty.nodes, empty.prims, tv[:0], np.zeros((0, 4), np.float32)), empty.nodes)
 
 
+@pytest.mark.parametrize("max_leaf", [1, MERGED_LEAF])
+def test_wide_nodes_are_the_same_with_int64_indices(monkeypatch, max_leaf):
+    # the collapse indexes in int32 where the slot numbers fit, in int64 beyond: both give the same records
+    import mcocl.render.bvh_wide as bw
+
+    rng = np.random.default_rng(5)
+    lo = rng.random((3000, 3), dtype=np.float32)
+    b = build_bvh(lo, lo + 0.05 * rng.random((3000, 3), dtype=np.float32))
+    narrow = wide_nodes(b.nodes, max_leaf)
+    assert bw._index_type(len(b.nodes) // 4, np.zeros(1, np.int64)) is np.int32
+    assert bw._index_type(2**30, np.zeros(1, np.int64)) is np.int64  # slot 2k no longer fits
+    assert bw._index_type(4, np.array([2**31], np.int64)) is np.int64  # nor a leaf start
+    monkeypatch.setattr(bw, "_index_type", lambda k, ref: np.int64)
+    assert np.array_equal(wide_nodes(b.nodes, max_leaf).view(np.uint32), narrow.view(np.uint32))
+    assert bw.plan_wide_nodes(b.nodes, max_leaf).ref.dtype == np.int64
+
+
 @pytest.mark.parametrize("in_tree", ["some", "none", "empty"])
 def test_every_triangle_has_its_record_at_its_row(in_tree):
     """device_geometry: triangle t's record (v0 | t, e1, e2, the float32 edges) lies at leaf_row + tri_rows[t],

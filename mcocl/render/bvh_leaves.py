@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import InputError
 from ..host_memory import release_free_heap
 from ..layouts import BVH_HEADER, LEAF_PRIM
-from .bvh_wide import wide_nodes
+from .bvh_wide import plan_wide_nodes, write_wide_nodes
 
 LEAF_ROWS = LEAF_PRIM.itemsize // 16  # float4 rows per record
 _FILL_CHUNK = 1 << 16  # records per chunk of _fill_leaf_records
@@ -90,14 +90,18 @@ def device_nodes(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray,
     extra = np.zeros(0, np.int64) if extra is None else np.asarray(extra, np.int64)
     if len(prims) == 0 or len(nodes) == 0:  # no BVH: leaf_row stays 0, the extra records follow the nodes
         return np.concatenate([nodes, leaf_records(extra, tri_vertices, spheres)]) if len(extra) else nodes
-    wide = wide_nodes(nodes)
-    release_free_heap()  # the wide nodes' build leaves ~130 MB of freed heap for 10^6 triangles (mcocl/host_memory.py)
+    # the wide nodes' layout first (their count sizes the table), their records straight into it: no
+    # second copy of them (26 MB for 10^6 triangles) beside the table
+    plan = plan_wide_nodes(nodes)
+    release_free_heap()  # the plan's freed temporaries (mcocl/host_memory.py)
     leaf_row, p, e = len(nodes), len(prims), len(extra)
-    wide_end = leaf_row + LEAF_ROWS * p + len(wide)
+    wide_end = leaf_row + LEAF_ROWS * p + (plan.rows if plan is not None else 0)
     out = np.empty((wide_end + LEAF_ROWS * e, 4), np.float32)
     out[:leaf_row] = nodes
     _fill_leaf_records(out[leaf_row:leaf_row + LEAF_ROWS * p].reshape(p, 4 * LEAF_ROWS), prims, tri_vertices, spheres)
-    out[leaf_row + LEAF_ROWS * p:wide_end] = wide
+    if plan is not None:
+        write_wide_nodes(plan, out[leaf_row + LEAF_ROWS * p:wide_end])
+        del plan
     if e:
         _fill_leaf_records(out[wide_end:].reshape(e, 4 * LEAF_ROWS), extra, tri_vertices, spheres)
     header = out[:1].view(BVH_HEADER.dtype())[0, 0]
@@ -110,14 +114,16 @@ def device_geometry(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarr
     """The ``bvh_nodes`` table (:func:`device_nodes`, with a record for every triangle no leaf holds)
     and ``tri_rows``: uint32 (T,), the row of triangle t's record counted from the header's ``leaf_row``
     (the kernels' ``g->leaves + tri_rows[t]``)."""
-    prims = np.asarray(prims, np.int64)
+    prims = np.asarray(prims)  # (uint32 ids as they are: an int64 copy would be 8 MB per 10^6 more)
     nt = len(tri_vertices)
     rows = np.zeros(nt, np.uint32)
     placed = np.zeros(nt, bool)
     slots = np.flatnonzero(prims < nt)
     rows[prims[slots]] = LEAF_ROWS * slots
     placed[prims[slots]] = True
+    del slots
     extra = np.flatnonzero(~placed)
+    del placed
     table = device_nodes(nodes, prims, tri_vertices, spheres, extra)
     leaf_row = int(table[:1].view(BVH_HEADER.dtype())[0, 0]["leaf_row"]) if len(table) else 0
     if len(table) - leaf_row >= 2**32:

@@ -94,6 +94,7 @@ import numpy as np
 
 from ..bsdf_registry import RECORD_FIELDS
 from ..errors import InputError
+from ..host_memory import release_free_heap
 from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
@@ -495,6 +496,9 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,
                    "prims": int(len(bvh.prims)), "degenerate_triangles": int((~good_tri).sum())},
     )
+    # the BVH build's and the shading normals' freed temporaries would stay resident with the compiled scene
+    # (190 MB over the start against 147 MB for 10^6 triangles, bench/scene_memory.py's compile stage)
+    release_free_heap()
     return cs.with_settings(integrator, max_depth, rr_depth, spp)
 
 

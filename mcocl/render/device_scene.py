@@ -33,8 +33,9 @@ from .light_bvh import build_light_bvh
 LIGHT_BVH_ABSENT = {"light_bvh": np.zeros((1, 4), np.float32), "light_trail": np.zeros(1, np.uint32)}
 
 
-# Triangles per chunk of prim_records' float64 work: for 10^6 triangles its temporaries would be 200 MB at once.
-_RECORD_CHUNK = 1 << 16
+# Triangles per chunk of prim_records' float64 work: for 10^6 triangles its temporaries would be 200 MB at once;
+# 2^14 keeps them (about 3 MB) below what the tables add next, so the tables' peak is the tables themselves.
+_RECORD_CHUNK = 1 << 14
 
 
 def _as_quads(rec: np.ndarray, width: int) -> np.ndarray:
@@ -76,11 +77,11 @@ def prim_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
     if ns:
         rec["area"][nt:nt + ns] = 4.0 * math.pi * cs.spheres[:, 3].astype(np.float64) ** 2
         rec["inward"][nt:nt + ns] = cs.sphere_flip.astype(np.float32)
-    if nt + ns:
-        shape = np.asarray(cs.prim_shape, np.int64)
-        rec["material"][:nt + ns] = cs.shape_material[shape]
-        rec["emitter"][:nt + ns] = cs.shape_emitter[shape]
-        rec["pmf"][:nt + ns] = prim_pmf[:nt + ns]
+    for s in range(0, nt + ns, _RECORD_CHUNK):  # likewise: no int64 table of every primitive's shape
+        shape = np.asarray(cs.prim_shape[s:s + _RECORD_CHUNK], np.int64)
+        rec["material"][s:s + len(shape)] = cs.shape_material[shape]
+        rec["emitter"][s:s + len(shape)] = cs.shape_emitter[shape]
+    rec["pmf"][:nt + ns] = prim_pmf[:nt + ns]
     return _as_quads(rec, PRIM_RECORD.itemsize // 4)
 
 
