@@ -50,7 +50,22 @@ only the ratio measured in the same run is compared), terrain / soup:
 | diffuse, closest | 0.47-0.58 / 0.23-0.29 | 0.98-1.04 / 0.45-0.53 | 1.8-2.1 / 1.8-2.0 | 2.7 / 2.4 |
 | shadow, any hit | 0.61-0.65 / 0.70-0.76 | 1.27-1.35 / 1.14-1.41 | 2.1 / 1.5-2.0 | 2.2 / 3.7 |
 
-"Before" is the binary-tree traversal with leaves gathered through
+With the leaf's triangles intersected four at a time in float4 lanes
+(``render/bvh.cl`` ``bvh_leaf_tris4``; results identical ray for ray), three
+runs of ``--repeats 3`` each before and after, medians of M rays per
+CPU-second (the load differed between the two sessions, so compare the
+ratios), terrain / soup:
+
+| set | mcocl before | Embree | Embree / before | mcocl float4 leaves | Embree | Embree / float4 leaves |
+|---|---|---|---|---|---|---|
+| primary, closest | 3.97 / 1.67 | 8.25 / 3.14 | 2.08 / 1.88 | 4.63 / 2.33 | 8.33 / 3.21 | 1.80 / 1.38 |
+| diffuse, closest | 0.70 / 0.36 | 1.34 / 0.57 | 1.91 / 1.58 | 0.86 / 0.42 | 1.39 / 0.65 | 1.62 / 1.55 |
+| shadow, any hit | 0.92 / 0.90 | 1.36 / 1.51 | 1.48 / 1.68 | 1.04 / 1.35 | 1.74 / 1.76 | 1.67 / 1.30 |
+
+One terrain shadow ray of 2^18 gets a different occlusion answer from Embree
+(a grazing segment; the same before the change).
+
+"Before" (first table) is the binary-tree traversal with leaves gathered through
 ``bvh_prims`` (the same script with ``PYTHONPATH`` at that code).  Wall rays/s
 depend on the load: PoCL's two threads got 1-2 CPU-seconds per second.  A
 node visit on a 10^6-triangle mesh is mostly a cache miss (perf: ~55 % of
