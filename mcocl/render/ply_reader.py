@@ -32,12 +32,16 @@ included, is left to the whole-body parse, which gives the same arrays.
 
 from __future__ import annotations
 
+import os
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import BinaryIO
 
 import numpy as np
 
 from ..errors import InputError
+from .file_window import FileWindow
 from .obj_reader import fan_triangles, parse_numbers
 
 # PLY's scalar types (both spellings of the 1.0 format) → NumPy type codes without byte order.
@@ -162,12 +166,17 @@ def _line_end(blob: np.ndarray, lines: int) -> int | None:
 
     Newlines are counted by ``bytes.count`` a chunk at a time and indexed only in the chunk that holds
     the last one: an index array of every line end of a big body costs more than parsing the faces."""
-    pos, left, chunk = 0, lines, 1 << 22
     raw = blob.data.cast("B") if lines else None
+    return _nth_line_end(lambda pos, n: bytes(raw[pos:pos + n]), len(blob), lines)
+
+
+def _nth_line_end(read: Callable[[int, int], bytes], length: int, lines: int) -> int | None:
+    """:func:`_line_end` of ``length`` bytes given by ``read(pos, n)`` (the ``n`` bytes from ``pos``)."""
+    pos, left, chunk = 0, lines, 1 << 22
     while left > 0:
-        if pos >= len(blob):
+        if pos >= length:
             return None
-        part = bytes(raw[pos:pos + chunk])
+        part = read(pos, chunk)
         n = part.count(b"\n")
         if n >= left:
             return pos + int(np.flatnonzero(np.frombuffer(part, np.uint8) == 10)[left - 1]) + 1
@@ -425,7 +434,7 @@ class _AsciiStream:
     splits it; a chunk never crosses ``split`` or ends inside a line, so no token is cut.
     """
 
-    def __init__(self, data: bytes, start: int, split: int) -> None:
+    def __init__(self, data: bytes | FileWindow, start: int, split: int) -> None:
         self.data, self.pos, self.split = data, start, split
         self.buf, self.used = np.zeros(0), 0
 
@@ -440,7 +449,9 @@ class _AsciiStream:
             if nl < 0:  # a line longer than a chunk
                 nl = self.data.find(b"\n", stop, limit)
             stop = limit if nl < 0 else nl + 1
-        nums = _chunk_numbers(np.frombuffer(self.data, np.uint8, stop - self.pos, self.pos), self.pos >= self.split)
+        blob = (np.frombuffer(self.data, np.uint8, stop - self.pos, self.pos) if isinstance(self.data, bytes)
+                else self.data.bytes_view(self.pos, stop))
+        nums = _chunk_numbers(blob, self.pos >= self.split)
         self.pos = stop
         self.buf = np.concatenate([self.buf[self.used:], nums]) if self.used < len(self.buf) else nums
         self.used = 0
@@ -474,14 +485,20 @@ class _AsciiStream:
         return False
 
 
-def _ascii_split(data: bytes, start: int, elements: list[Element]) -> int:
+def _ascii_split(data: bytes | FileWindow, start: int, elements: list[Element]) -> int:
     """The byte where :func:`ascii_numbers` starts parsing the body as int64 (``len(data)``: nowhere)."""
     k = len(elements)
     while k > 0 and _integer_only(elements[k - 1]):
         k -= 1
     if k == len(elements):
         return len(data)
-    split = _line_end(np.frombuffer(data, np.uint8, offset=start), sum(e.count for e in elements[:k]))
+    lines = sum(e.count for e in elements[:k])
+    if isinstance(data, bytes):
+        split = _line_end(np.frombuffer(data, np.uint8, offset=start), lines)
+    else:  # read apart from the window: the body's lines counted a block at a time, never held
+        fd = data.f.fileno()
+        split = _nth_line_end(lambda pos, n: os.pread(fd, min(n, len(data) - start - pos), start + pos),
+                              len(data) - start, lines)
     return len(data) if split is None else start + split
 
 
@@ -539,7 +556,7 @@ def _stream_element(stream: _AsciiStream, el: Element, dest: dict[str, tuple[np.
         row += len(block)
 
 
-def _parse_ascii_streamed(data: bytes, start: int, elements: list[Element], want_v: set[str],
+def _parse_ascii_streamed(data: bytes | FileWindow, start: int, elements: list[Element], want_v: set[str],
                           index_name: str | None) -> PlyMesh:
     """The mesh of a well-formed ASCII PLY body read by :class:`_AsciiStream`, as :func:`parse_ply` makes it.
 
@@ -585,8 +602,13 @@ def _parse_ascii_streamed(data: bytes, start: int, elements: list[Element], want
     return PlyMesh(vertices, faces, normals, uvs)
 
 
-def parse_ply(data: bytes, label: str) -> PlyMesh:
-    """The mesh of a PLY file's bytes: vertices, fan triangles (0-based, not range-checked), normals, UVs.
+def parse_ply(source: bytes | BinaryIO, label: str) -> PlyMesh:
+    """The mesh of a PLY file: vertices, fan triangles (0-based, not range-checked), normals, UVs.
+
+    ``source`` is the file's bytes or a binary file open for reading.  An open file's ASCII body is
+    streamed from it (:class:`~mcocl.render.file_window.FileWindow`), its bytes never held whole
+    (issue 13); a binary file, or an ASCII one the stream leaves to the whole-body parse, is read
+    whole and parsed as its bytes are, with the same arrays and messages.
 
     The arrays hold the file's values exactly in the narrowest type that does (issue 13: a binary
     mesh costs about its file's size in memory): per-vertex data float32 when the file's properties are all
@@ -596,7 +618,41 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
     Raises:
         InputError: a malformed header or body; the message starts with ``label``.
     """
-    order, elements, body_start = parse_header(data, label)
+    streamed = False
+    if not isinstance(source, bytes):
+        head = _header_bytes(source)
+        if head is not None:
+            order, elements, body_start = parse_header(head, label)
+            if order is None:
+                want_v, index_name = _wanted(elements, label)
+                streamed = True
+                try:
+                    return _parse_ascii_streamed(FileWindow(source), body_start, elements, want_v, index_name)
+                except _UnstreamedError:
+                    pass
+        source.seek(0)
+        source = source.read()
+    return _parse_ply_bytes(source, label, try_stream=not streamed)
+
+
+def _header_bytes(f: BinaryIO) -> bytes | None:
+    """The first bytes of ``f`` up to and with its ``end_header`` line (enough for :func:`parse_header`
+    to read as it reads the whole file), or None where the first MB holds no such line."""
+    f.seek(0)
+    head = b""
+    while len(head) < 1 << 20:
+        block = f.read(1 << 16)
+        if not block:
+            return None
+        head += block
+        end = head.find(b"\nend_header")
+        if end >= 0 and head.find(b"\n", end + 1) >= 0:
+            return head
+    return None
+
+
+def _wanted(elements: list[Element], label: str) -> tuple[set[str], str | None]:
+    """The vertex properties read and the face's index list name, after the header's checks."""
     names = [e.name for e in elements]
     if "vertex" not in names:
         raise InputError(f"{label}: the PLY header declares no 'vertex' element")
@@ -616,7 +672,16 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
             raise InputError(f"{label}: the 'face' element needs a list property vertex_indices (or vertex_index)")
         if fprops[index_name].type[0] == "f":
             raise InputError(f"{label}: the face's {index_name} must be an integer type")
-    if order is None:
+    return want_v, index_name
+
+
+def _parse_ply_bytes(data: bytes, label: str, try_stream: bool = True) -> PlyMesh:
+    """:func:`parse_ply` of the file's bytes (``try_stream``: an ASCII body is streamed first)."""
+    order, elements, body_start = parse_header(data, label)
+    want_v, index_name = _wanted(elements, label)
+    names = [e.name for e in elements]
+    vert = elements[names.index("vertex")]
+    if order is None and try_stream:
         try:
             return _parse_ascii_streamed(data, body_start, elements, want_v, index_name)
         except _UnstreamedError:

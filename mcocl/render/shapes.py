@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..datafile import open_regular_file, read_regular_file
+from ..datafile import open_regular_file
 from ..errors import InputError
 from .obj_reader import parse_obj
 from .ply_reader import PlyMesh, parse_ply
@@ -145,11 +145,11 @@ def read_ply(path: Path, where: str) -> PlyMesh:
         InputError: the file is missing or malformed; the message names the
             scene key ``where`` and the file.
     """
-    try:
-        data = read_regular_file(path)
+    try:  # an ASCII body is streamed, never held whole (issue 13: under twice the file's size in memory)
+        with open_regular_file(path) as f:
+            mesh = parse_ply(f, f"{where}: {path}")
     except OSError as e:
         raise InputError(f"{where}: cannot read PLY file {path}: {e.strerror or e}") from None
-    mesh = parse_ply(data, f"{where}: {path}")
     _check_vertex_data(mesh, f"{where}: {path}")
     return mesh
 
