@@ -28,6 +28,8 @@ class FileWindow:
 
     def _cover(self, first: int, stop: int, drop: bool = True) -> None:
         """Hold the bytes ``first .. stop`` (clipped to the file), dropping those before ``first`` if ``drop``."""
+        if first < self.base:  # gone back (a reader's rewind): read again from there
+            self.base, self.buf = first, b""
         if drop and first > self.base:
             self.buf = self.buf[first - self.base:]
             self.base = first

@@ -403,6 +403,10 @@ class _UnstreamedError(Exception):
     """The streamed ASCII read met what it leaves to the whole-body parse: any error, or records of differing layouts."""
 
 
+class _DifferingLengthsError(_UnstreamedError):
+    """A list of an element's record has another length than the first record's (the faces of a mixed mesh)."""
+
+
 def _chunk_numbers(blob: np.ndarray, integer: bool) -> np.ndarray:
     """The numbers of whole lines of an ASCII body as float64, parsed as :func:`ascii_numbers` parses its part.
 
@@ -456,6 +460,18 @@ class _AsciiStream:
         self.buf = np.concatenate([self.buf[self.used:], nums]) if self.used < len(self.buf) else nums
         self.used = 0
         return True
+
+    def mark(self) -> tuple:
+        """The stream's place, to go back to with :meth:`rewind` (what it holds is not changed, only replaced)."""
+        return self.pos, self.buf, self.used
+
+    def rewind(self, place: tuple) -> None:
+        """Go back to a place :meth:`mark` gave (a file's bytes from there are read again)."""
+        self.pos, self.buf, self.used = place
+
+    def available(self) -> np.ndarray:
+        """The numbers parsed and not yet consumed."""
+        return self.buf[self.used:]
 
     def peek(self, k: int) -> float:
         """The ``k``-th number after those consumed."""
@@ -540,7 +556,7 @@ def _stream_element(stream: _AsciiStream, el: Element, dest: dict[str, tuple[np.
     for block in stream.records(el.count, width):
         for c, n in lists:
             if not np.all(block[:, c] == n):
-                raise _UnstreamedError
+                raise _DifferingLengthsError
         for name, (array, column) in dest.items():
             c, n, is_list = col_of[name]
             if is_list != (column is None):  # a list and a scalar of one name: left to the whole-body parse
@@ -554,6 +570,52 @@ def _stream_element(stream: _AsciiStream, el: Element, dest: dict[str, tuple[np.
             else:
                 array[row:row + len(block), column] = block[:, c]
         row += len(block)
+
+
+def _stream_polygons(stream: _AsciiStream, count: int) -> np.ndarray:
+    """The fan triangles (T, 3) int64 of ``count`` records ``n i_1 .. i_n`` of differing ``n``, as
+    :func:`parse_ply` fans them, parsed a chunk at a time.
+
+    A chunk's record starts are found as :meth:`_Body.starts` finds them: the end of a record that would
+    start at every position, then the chain from the first start by pointer doubling.  A length below 3
+    or above :data:`_MAX_CORNERS`, a number that is not a whole one, or too few numbers raise
+    :class:`_UnstreamedError` (the whole-body parse then names the fault).
+    """
+    parts, left = [], count
+    while left > 0:
+        avail = stream.available()
+        size = len(avail)
+        if size:
+            first = avail[0]  # (a bad first length would have the stream read on for its record)
+            if not (first == np.floor(first) and 3 <= first <= _MAX_CORNERS):
+                raise _UnstreamedError
+            nxt = np.empty(size + 2, np.int64)  # position size: the chunk's end; size + 1: past it
+            nxt[:size] = np.arange(1, size + 1) + np.clip(np.nan_to_num(avail, nan=size), 0, size).astype(np.int64)
+            np.minimum(nxt, size + 1, out=nxt)
+            nxt[size:] = (size, size + 1)
+            found, jump = np.zeros(1, np.int64), nxt
+            while len(found) < left and found[-1] < size:
+                found = np.concatenate([found, jump[found]])
+                jump = jump[jump]
+            starts = found[found < size][:left]
+            starts = starts[nxt[starts] <= size]  # whole records (an unfinished one is the last)
+        if not size or not len(starts):
+            if not stream._parse_next():
+                raise _UnstreamedError
+            continue
+        n = avail[starts]
+        if not np.all((n == np.floor(n)) & (n >= 3) & (n <= _MAX_CORNERS)):
+            raise _UnstreamedError
+        per_face = n.astype(np.int64)
+        item = np.arange(int(per_face.sum())) - np.repeat(np.cumsum(per_face) - per_face, per_face)
+        idx = avail[np.repeat(starts + 1, per_face) + item]
+        if not np.all(idx == np.floor(idx)):
+            raise _UnstreamedError
+        with np.errstate(invalid="ignore"):  # an index beyond int64 becomes negative: refused by check_mesh
+            parts.append(fan_triangles(idx.astype(np.int64), per_face))
+        stream.used += int(nxt[starts[-1]])
+        left -= len(starts)
+    return np.concatenate(parts) if len(parts) > 1 else parts[0]
 
 
 def _parse_ascii_streamed(data: bytes | FileWindow, start: int, elements: list[Element], want_v: set[str],
@@ -590,13 +652,21 @@ def _parse_ascii_streamed(data: bytes | FileWindow, start: int, elements: list[E
                 raise _UnstreamedError
             corners = np.empty((el.count, length), np.int64)
             dest[index_name] = (corners, None)
+            if len(el.props) == 1:  # faces of differing lengths are read by _stream_polygons
+                place = stream.mark()
+                try:
+                    _stream_element(stream, el, dest)
+                except _DifferingLengthsError:
+                    stream.rewind(place)
+                    corners = _stream_polygons(stream, el.count)
+                continue
         _stream_element(stream, el, dest)
     if not stream.at_end():
         raise _UnstreamedError
     if vertices is None:
         return PlyMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64))
     faces = np.zeros((0, 3), np.int64)
-    if corners is not None:
+    if corners is not None:  # (the fan triangles already where the faces' lengths differ)
         faces = corners if corners.shape[1] == 3 else fan_triangles(
             corners.reshape(-1), np.broadcast_to(np.int64(corners.shape[1]), (len(corners),)))
     return PlyMesh(vertices, faces, normals, uvs)
