@@ -3,7 +3,8 @@
 Read: ``v`` (x y z), ``vt`` (u [v [w]]: v defaults to 0, w is dropped),
 ``vn`` (x y z) and ``f`` records; every other record (``g``, ``usemtl``,
 ``vp``, ...) is skipped.  The file is handled as byte arrays of a chunk of
-whole lines each (:func:`parse_obj`):
+whole lines each, read from the open file where one is given, so that its
+bytes are never held whole (:func:`parse_obj`):
 
 1. line breaks are normalised (``\\r\\n`` and ``\\r`` become ``\\n``, as
    :meth:`str.splitlines` reads them), other whitespace becomes a space and

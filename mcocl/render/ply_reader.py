@@ -23,11 +23,14 @@ Read: the ``vertex`` element's ``x``, ``y``, ``z`` (required), ``nx``, ``ny``,
 become fans ``(0, k, k + 1)``.  Every other element and property is skipped.
 Malformed files raise :class:`~mcocl.errors.InputError` naming the file.
 
-An ASCII body whose elements each have one layout (the usual file) is first
-read a chunk of whole lines at a time (:class:`_AsciiStream`) straight into
-the mesh's arrays, so that the read holds the file, the mesh and one chunk
-(issue 13: the whole-body parse held 3x the file); anything else, errors
-included, is left to the whole-body parse, which gives the same arrays.
+An ASCII body whose elements each have one layout (the usual file), or whose
+faces alone differ in length, is first read a chunk of whole lines at a time
+(:class:`_AsciiStream`, from the open file through
+:class:`~mcocl.render.file_window.FileWindow` when given one) straight into
+the mesh's arrays, so that the read holds the mesh and one chunk (issue 13:
+the whole-body parse held 3x the file, besides the file); anything else,
+errors included, is left to the whole-body parse of the whole file, which
+gives the same arrays and messages.
 """
 
 from __future__ import annotations

@@ -139,7 +139,8 @@ def read_ply(path: Path, where: str) -> PlyMesh:
     """Vertices, triangles and any per-vertex normals and UVs of a PLY file (ASCII or binary).
 
     Parsing is vectorised (:mod:`mcocl.render.ply_reader`); polygons become
-    triangle fans.
+    triangle fans.  An ASCII body is streamed from the open file; a binary one
+    is read whole.
 
     Raises:
         InputError: the file is missing or malformed; the message names the
