@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import errno
 import json
+import os
 import stat
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from .errors import InputError
 
@@ -45,6 +46,31 @@ def read_regular_file(path: str | Path) -> bytes:
     if not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):  # a folder fails in read_bytes, as before
         raise OSError(errno.EINVAL, "not a regular file (a device, pipe or socket)", str(p))
     return p.read_bytes()
+
+
+def open_regular_file(path: str | Path) -> BinaryIO:
+    """``path`` open for reading bytes, with :func:`read_regular_file`'s refusals, for a reader that streams it.
+
+    A device, pipe or socket is refused before it is opened, as there, and again
+    by the open file's own status (the path may have been replaced in between);
+    it is opened without blocking, so a named pipe put there cannot hang the
+    open.  A folder raises the :class:`IsADirectoryError` that reading it would.
+    """
+    p = Path(path)
+    mode = p.stat().st_mode
+    if not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):
+        raise OSError(errno.EINVAL, "not a regular file (a device, pipe or socket)", str(p))
+    fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(p))
+        if not stat.S_ISREG(mode):
+            raise OSError(errno.EINVAL, "not a regular file (a device, pipe or socket)", str(p))
+        return os.fdopen(fd, "rb", buffering=0)
+    except BaseException:
+        os.close(fd)
+        raise
 
 
 def read_utf8(path: str | Path, where: str) -> str:
@@ -83,4 +109,4 @@ def loads_json(text: str, where: str, parse_constant: Callable[[str], Any] | Non
         raise InputError(f"{where}: the JSON is nested too deeply to be a data file") from None
 
 
-__all__ = ["decode_utf8", "loads_json", "read_regular_file", "read_utf8"]
+__all__ = ["decode_utf8", "loads_json", "open_regular_file", "read_regular_file", "read_utf8"]

@@ -89,3 +89,40 @@ def test_two_lists_of_one_name_read_the_last_as_the_whole_body(monkeypatch, face
     got = parse_ply(data, "dup.ply")
     assert got.faces.dtype == ref.faces.dtype and np.array_equal(got.faces, ref.faces)
     assert np.array_equal(got.vertices, ref.vertices)
+
+
+def mixed() -> list[str]:
+    """Face lines of differing lengths: every third a triangle (its quad's first three corners), else a quad."""
+    return [("3 " + " ".join(map(str, q[:3])) if k % 3 == 1 else "4 " + " ".join(map(str, q))) + "\n"
+            for k, q in enumerate(QUADS)]
+
+
+def test_faces_of_differing_lengths_stream_as_the_whole_body(monkeypatch):
+    data = body(mixed()).replace(b"\n\n", b"\n")  # (a blank line leaves the body to the whole-body parse)
+    ref = whole_body(data, monkeypatch)
+    monkeypatch.setattr(ply_reader, "ASCII_CHUNK_BYTES", 64)
+    polygons = []
+    real = ply_reader._stream_polygons
+    monkeypatch.setattr(ply_reader, "_stream_polygons", lambda *a: polygons.append(1) or real(*a))
+    got = parse_ply(data, "mixed.ply")
+    assert polygons and got.faces.shape == (2 * NF - len(range(1, NF, 3)), 3)
+    for name in ("vertices", "faces", "normals", "uvs"):
+        a, b = getattr(got, name), getattr(ref, name)
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), name
+
+
+@pytest.mark.parametrize("last, nf, message", [
+    ("4 1 2 x 3\n", None, "not a number"),
+    ("4 1 2 3 4\n", NF + 1, "overrun"),
+    ("4 1 2 3 4 5\n", None, "after the last element"),
+    ("2 1 2\n", None, f"face {NF - 1} has 2 corners"),
+    ("70000 1 2 3\n", None, "overrun"),
+])
+def test_faults_among_faces_of_differing_lengths_give_the_whole_body_error(monkeypatch, last, nf, message):
+    data = body(mixed()[:-1] + [last], nf).replace(b"\n\n", b"\n")
+    with pytest.raises(InputError) as ref:
+        whole_body(data, monkeypatch)
+    monkeypatch.setattr(ply_reader, "ASCII_CHUNK_BYTES", 64)
+    with pytest.raises(InputError) as got:
+        parse_ply(data, "whole.ply")
+    assert str(got.value) == str(ref.value) and message in str(got.value)

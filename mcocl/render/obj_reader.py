@@ -3,7 +3,8 @@
 Read: ``v`` (x y z), ``vt`` (u [v [w]]: v defaults to 0, w is dropped),
 ``vn`` (x y z) and ``f`` records; every other record (``g``, ``usemtl``,
 ``vp``, ...) is skipped.  The file is handled as byte arrays of a chunk of
-whole lines each (:func:`parse_obj`):
+whole lines each, read from the open file where one is given, so that its
+bytes are never held whole (:func:`parse_obj`):
 
 1. line breaks are normalised (``\\r\\n`` and ``\\r`` become ``\\n``, as
    :meth:`str.splitlines` reads them), other whitespace becomes a space and
@@ -33,6 +34,8 @@ UVs.  Malformed records, an index of 0 and indices past their records raise
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterator
+from typing import BinaryIO
 
 import numpy as np
 
@@ -109,9 +112,12 @@ def _token(blob: np.ndarray, at: int) -> str:
     return blob[at:end].tobytes().decode("utf-8", "replace")
 
 
-def parse_obj(data: bytes, label: str) -> ObjMesh:
+def parse_obj(source: bytes | BinaryIO, label: str) -> ObjMesh:
     """The mesh of OBJ text: positions, triangles (0-based) and per-vertex normals and UVs where the faces give them.
 
+    ``source`` is the file's bytes, or a binary file open at its start that is
+    read a chunk at a time (issue 13: the file's bytes are then never held
+    whole; the same chunks, and so the same mesh and messages, as its bytes).
     The text is handled in chunks of whole lines of about :data:`CHUNK_BYTES`
     (a loop over chunks, not lines): a chunk's temporaries are small enough
     for the allocator to reuse them, where whole-file temporaries would be
@@ -126,52 +132,91 @@ def parse_obj(data: bytes, label: str) -> ObjMesh:
     Raises:
         InputError: a malformed record or index; the message is ``"{label}:{line}: ..."``.
     """
-    data = data or b"\n"  # (an empty file is one empty line)
     kinds = (False, False)
     while True:
-        chunks = _parse_chunks(data, kinds, label)
+        chunks = _parse_chunks(source, kinds, label)
         found = (kinds[0] or any(len(c.uvs) for c in chunks), kinds[1] or any(len(c.normals) for c in chunks))
         if all(c.kinds == found for c in chunks if len(c.per_face)):
             return assemble(chunks, label)
         kinds = found
 
 
-def _parse_chunks(data: bytes, kinds: tuple[bool, bool], label: str) -> list[Chunk]:
-    """Every chunk of ``data`` (see :func:`parse_obj`), ``vt``/``vn`` corner indices read where ``kinds`` say or records were seen."""
+def _parse_chunks(source: bytes | BinaryIO, kinds: tuple[bool, bool], label: str) -> list[Chunk]:
+    """Every chunk of ``source`` (see :func:`parse_obj`), ``vt``/``vn`` corner indices read where ``kinds`` say or records were seen."""
     chunks = [Chunk(np.zeros((0, 3)), np.zeros((0, 2)), np.zeros((0, 3)), np.zeros((0, 3), np.int64), None, None,
                     np.zeros(0, np.int64), np.zeros(0, np.int64), kinds)]
-    pos = lines = 0
+    lines = 0
     before = np.zeros(3, np.int64)  # v, vt, vn records so far
+    for data, pos, end in _byte_chunks(source) if isinstance(source, bytes) else _file_chunks(source):
+        text, first, stop = _normalised(data, pos, end)
+        chunk, n = _parse_chunk(text, first, stop, lines, before, chunks[-1].kinds, label)
+        chunks.append(chunk)
+        lines += n
+        before += [len(chunk.vertices), len(chunk.uvs), len(chunk.normals)]
+    return chunks
+
+
+def _byte_chunks(data: bytes) -> Iterator[tuple[bytes, int, int]]:
+    """The chunks of whole lines of ``data`` as (data, start, stop): up to the last line break within
+    :data:`CHUNK_BYTES`, or a whole line longer than that, or the rest of the file."""
+    data = data or b"\n"  # (an empty file is one empty line)
+    pos = 0
     while pos < len(data):
         end = data.rfind(b"\n", pos, pos + CHUNK_BYTES)
         if end < 0:  # a line longer than a chunk (or the rest of a file whose lines end in \r alone)
             end = data.find(b"\n", pos)
             end = len(data) - 1 if end < 0 else end
-        text, first, stop = _normalised(data, pos, end + 1)
-        chunk, n = _parse_chunk(text, first, stop, lines, before, chunks[-1].kinds, label)
-        chunks.append(chunk)
-        pos, lines = end + 1, lines + n
-        before += [len(chunk.vertices), len(chunk.uvs), len(chunk.normals)]
-    return chunks
+        yield data, pos, end + 1
+        pos = end + 1
+
+
+def _file_chunks(f: BinaryIO) -> Iterator[tuple[bytes, int, int]]:
+    """The chunks of :func:`_byte_chunks` of the file ``f``'s bytes, read from its start a block at a time.
+
+    Only the chunk and the start of the next are held (issue 13): the file's bytes never are.
+    """
+    f.seek(0)
+    buf, eof = b"", False
+    while True:
+        while not eof and len(buf) < CHUNK_BYTES:
+            block = f.read(CHUNK_BYTES)
+            eof = not block
+            buf += block
+        if not buf:
+            if f.tell() == 0:  # (an empty file is one empty line)
+                yield b"\n", 0, 1
+            return
+        end = buf.rfind(b"\n", 0, CHUNK_BYTES)
+        scanned = CHUNK_BYTES
+        while end < 0:  # a line longer than a chunk (or the rest of a file whose lines end in \r alone)
+            end = buf.find(b"\n", scanned)
+            scanned = len(buf)
+            if end < 0 and eof:
+                end = len(buf) - 1
+            elif end < 0:
+                block = f.read(CHUNK_BYTES)
+                eof = not block
+                buf += block
+        yield buf, 0, end + 1
+        buf = buf[end + 1:]
 
 
 def _normalised(data: bytes, first: int, stop: int) -> tuple[bytes, int, int]:
     """The whole lines ``data[first:stop]`` with line breaks and whitespace normalised (bytes, start, stop).
 
     ``\r\n`` and ``\r`` become ``\n`` (as :meth:`str.splitlines` reads them), tabs, vertical tabs and
-    form feeds spaces, and a final break ends the file's last line.  A chunk ends after a ``\n``, so no
-    ``\r\n`` is cut.  Done a chunk at a time (issue 13): whole-file copies cost twice the file's size.
-    Lines that need none of it are returned in place, uncopied.
+    form feeds spaces, and a final break ends the file's last line (the one chunk that ends without a
+    ``\n``).  A chunk ends after a ``\n``, so no ``\r\n`` is cut.  Done a chunk at a time (issue 13):
+    whole-file copies cost twice the file's size.  Lines that need none of it are returned in place, uncopied.
     """
-    last = stop == len(data)
-    if not any(data.find(c, first, stop) >= 0 for c in (b"\r", b"\t", b"\v", b"\f")) and (
-            not last or data.endswith(b"\n")):
+    ends_line = data[stop - 1:stop] == b"\n"
+    if not any(data.find(c, first, stop) >= 0 for c in (b"\r", b"\t", b"\v", b"\f")) and ends_line:
         return data, first, stop
     text = data[first:stop]
     if b"\r" in text:
         text = text.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
     text = text.translate(bytes.maketrans(b"\t\v\f", b"   "))
-    if last and not text.endswith(b"\n"):
+    if not ends_line and not text.endswith(b"\n"):
         text += b"\n"
     return text, 0, len(text)
 

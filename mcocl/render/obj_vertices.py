@@ -22,6 +22,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import InputError
+from ..host_memory import release_free_heap
 
 # (index kind, what its records are called) for v, vt, vn: the vertex kind keeps the messages it had before
 KINDS = (("face", "vertices"), ("texture coordinate", "texture coordinates (vt)"), ("normal", "normals (vn)"))
@@ -134,6 +135,9 @@ def split_vertices(columns: list[np.ndarray], counts: list[int]) -> tuple[np.nda
         key *= count  # in place: a corner-sized array fewer
         key += col.ravel()
         span *= count
+    # The sort's three corner-sized arrays come from the heap, whose freed chunk temporaries glibc keeps
+    # resident unless given back first (issue 13: a 109 MB file's peak 235 -> 170 MB; a heap walk, ms).
+    release_free_heap()
     first, inverse = _unique_inverse(key)
     return inverse.reshape(-1, 3), first
 

@@ -23,21 +23,28 @@ Read: the ``vertex`` element's ``x``, ``y``, ``z`` (required), ``nx``, ``ny``,
 become fans ``(0, k, k + 1)``.  Every other element and property is skipped.
 Malformed files raise :class:`~mcocl.errors.InputError` naming the file.
 
-An ASCII body whose elements each have one layout (the usual file) is first
-read a chunk of whole lines at a time (:class:`_AsciiStream`) straight into
-the mesh's arrays, so that the read holds the file, the mesh and one chunk
-(issue 13: the whole-body parse held 3x the file); anything else, errors
-included, is left to the whole-body parse, which gives the same arrays.
+An ASCII body whose elements each have one layout (the usual file), or whose
+faces alone differ in length, is first read a chunk of whole lines at a time
+(:class:`_AsciiStream`, from the open file through
+:class:`~mcocl.render.file_window.FileWindow` when given one) straight into
+the mesh's arrays, so that the read holds the mesh and one chunk (issue 13:
+the whole-body parse held 3x the file, besides the file); anything else,
+errors included, is left to the whole-body parse of the whole file, which
+gives the same arrays and messages.
 """
 
 from __future__ import annotations
 
+import os
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import BinaryIO
 
 import numpy as np
 
 from ..errors import InputError
+from .file_window import FileWindow
 from .obj_reader import fan_triangles, parse_numbers
 
 # PLY's scalar types (both spellings of the 1.0 format) → NumPy type codes without byte order.
@@ -162,12 +169,17 @@ def _line_end(blob: np.ndarray, lines: int) -> int | None:
 
     Newlines are counted by ``bytes.count`` a chunk at a time and indexed only in the chunk that holds
     the last one: an index array of every line end of a big body costs more than parsing the faces."""
-    pos, left, chunk = 0, lines, 1 << 22
     raw = blob.data.cast("B") if lines else None
+    return _nth_line_end(lambda pos, n: bytes(raw[pos:pos + n]), len(blob), lines)
+
+
+def _nth_line_end(read: Callable[[int, int], bytes], length: int, lines: int) -> int | None:
+    """:func:`_line_end` of ``length`` bytes given by ``read(pos, n)`` (the ``n`` bytes from ``pos``)."""
+    pos, left, chunk = 0, lines, 1 << 22
     while left > 0:
-        if pos >= len(blob):
+        if pos >= length:
             return None
-        part = bytes(raw[pos:pos + chunk])
+        part = read(pos, chunk)
         n = part.count(b"\n")
         if n >= left:
             return pos + int(np.flatnonzero(np.frombuffer(part, np.uint8) == 10)[left - 1]) + 1
@@ -394,6 +406,10 @@ class _UnstreamedError(Exception):
     """The streamed ASCII read met what it leaves to the whole-body parse: any error, or records of differing layouts."""
 
 
+class _DifferingLengthsError(_UnstreamedError):
+    """A list of an element's record has another length than the first record's (the faces of a mixed mesh)."""
+
+
 def _chunk_numbers(blob: np.ndarray, integer: bool) -> np.ndarray:
     """The numbers of whole lines of an ASCII body as float64, parsed as :func:`ascii_numbers` parses its part.
 
@@ -425,7 +441,7 @@ class _AsciiStream:
     splits it; a chunk never crosses ``split`` or ends inside a line, so no token is cut.
     """
 
-    def __init__(self, data: bytes, start: int, split: int) -> None:
+    def __init__(self, data: bytes | FileWindow, start: int, split: int) -> None:
         self.data, self.pos, self.split = data, start, split
         self.buf, self.used = np.zeros(0), 0
 
@@ -440,11 +456,25 @@ class _AsciiStream:
             if nl < 0:  # a line longer than a chunk
                 nl = self.data.find(b"\n", stop, limit)
             stop = limit if nl < 0 else nl + 1
-        nums = _chunk_numbers(np.frombuffer(self.data, np.uint8, stop - self.pos, self.pos), self.pos >= self.split)
+        blob = (np.frombuffer(self.data, np.uint8, stop - self.pos, self.pos) if isinstance(self.data, bytes)
+                else self.data.bytes_view(self.pos, stop))
+        nums = _chunk_numbers(blob, self.pos >= self.split)
         self.pos = stop
         self.buf = np.concatenate([self.buf[self.used:], nums]) if self.used < len(self.buf) else nums
         self.used = 0
         return True
+
+    def mark(self) -> tuple:
+        """The stream's place, to go back to with :meth:`rewind` (what it holds is not changed, only replaced)."""
+        return self.pos, self.buf, self.used
+
+    def rewind(self, place: tuple) -> None:
+        """Go back to a place :meth:`mark` gave (a file's bytes from there are read again)."""
+        self.pos, self.buf, self.used = place
+
+    def available(self) -> np.ndarray:
+        """The numbers parsed and not yet consumed."""
+        return self.buf[self.used:]
 
     def peek(self, k: int) -> float:
         """The ``k``-th number after those consumed."""
@@ -474,14 +504,20 @@ class _AsciiStream:
         return False
 
 
-def _ascii_split(data: bytes, start: int, elements: list[Element]) -> int:
+def _ascii_split(data: bytes | FileWindow, start: int, elements: list[Element]) -> int:
     """The byte where :func:`ascii_numbers` starts parsing the body as int64 (``len(data)``: nowhere)."""
     k = len(elements)
     while k > 0 and _integer_only(elements[k - 1]):
         k -= 1
     if k == len(elements):
         return len(data)
-    split = _line_end(np.frombuffer(data, np.uint8, offset=start), sum(e.count for e in elements[:k]))
+    lines = sum(e.count for e in elements[:k])
+    if isinstance(data, bytes):
+        split = _line_end(np.frombuffer(data, np.uint8, offset=start), lines)
+    else:  # read apart from the window: the body's lines counted a block at a time, never held
+        fd = data.f.fileno()
+        split = _nth_line_end(lambda pos, n: os.pread(fd, min(n, len(data) - start - pos), start + pos),
+                              len(data) - start, lines)
     return len(data) if split is None else start + split
 
 
@@ -523,7 +559,7 @@ def _stream_element(stream: _AsciiStream, el: Element, dest: dict[str, tuple[np.
     for block in stream.records(el.count, width):
         for c, n in lists:
             if not np.all(block[:, c] == n):
-                raise _UnstreamedError
+                raise _DifferingLengthsError
         for name, (array, column) in dest.items():
             c, n, is_list = col_of[name]
             if is_list != (column is None):  # a list and a scalar of one name: left to the whole-body parse
@@ -539,7 +575,53 @@ def _stream_element(stream: _AsciiStream, el: Element, dest: dict[str, tuple[np.
         row += len(block)
 
 
-def _parse_ascii_streamed(data: bytes, start: int, elements: list[Element], want_v: set[str],
+def _stream_polygons(stream: _AsciiStream, count: int) -> np.ndarray:
+    """The fan triangles (T, 3) int64 of ``count`` records ``n i_1 .. i_n`` of differing ``n``, as
+    :func:`parse_ply` fans them, parsed a chunk at a time.
+
+    A chunk's record starts are found as :meth:`_Body.starts` finds them: the end of a record that would
+    start at every position, then the chain from the first start by pointer doubling.  A length below 3
+    or above :data:`_MAX_CORNERS`, a number that is not a whole one, or too few numbers raise
+    :class:`_UnstreamedError` (the whole-body parse then names the fault).
+    """
+    parts, left = [], count
+    while left > 0:
+        avail = stream.available()
+        size = len(avail)
+        if size:
+            first = avail[0]  # (a bad first length would have the stream read on for its record)
+            if not (first == np.floor(first) and 3 <= first <= _MAX_CORNERS):
+                raise _UnstreamedError
+            nxt = np.empty(size + 2, np.int64)  # position size: the chunk's end; size + 1: past it
+            nxt[:size] = np.arange(1, size + 1) + np.clip(np.nan_to_num(avail, nan=size), 0, size).astype(np.int64)
+            np.minimum(nxt, size + 1, out=nxt)
+            nxt[size:] = (size, size + 1)
+            found, jump = np.zeros(1, np.int64), nxt
+            while len(found) < left and found[-1] < size:
+                found = np.concatenate([found, jump[found]])
+                jump = jump[jump]
+            starts = found[found < size][:left]
+            starts = starts[nxt[starts] <= size]  # whole records (an unfinished one is the last)
+        if not size or not len(starts):
+            if not stream._parse_next():
+                raise _UnstreamedError
+            continue
+        n = avail[starts]
+        if not np.all((n == np.floor(n)) & (n >= 3) & (n <= _MAX_CORNERS)):
+            raise _UnstreamedError
+        per_face = n.astype(np.int64)
+        item = np.arange(int(per_face.sum())) - np.repeat(np.cumsum(per_face) - per_face, per_face)
+        idx = avail[np.repeat(starts + 1, per_face) + item]
+        if not np.all(idx == np.floor(idx)):
+            raise _UnstreamedError
+        with np.errstate(invalid="ignore"):  # an index beyond int64 becomes negative: refused by check_mesh
+            parts.append(fan_triangles(idx.astype(np.int64), per_face))
+        stream.used += int(nxt[starts[-1]])
+        left -= len(starts)
+    return np.concatenate(parts) if len(parts) > 1 else parts[0]
+
+
+def _parse_ascii_streamed(data: bytes | FileWindow, start: int, elements: list[Element], want_v: set[str],
                           index_name: str | None) -> PlyMesh:
     """The mesh of a well-formed ASCII PLY body read by :class:`_AsciiStream`, as :func:`parse_ply` makes it.
 
@@ -573,20 +655,33 @@ def _parse_ascii_streamed(data: bytes, start: int, elements: list[Element], want
                 raise _UnstreamedError
             corners = np.empty((el.count, length), np.int64)
             dest[index_name] = (corners, None)
+            if len(el.props) == 1:  # faces of differing lengths are read by _stream_polygons
+                place = stream.mark()
+                try:
+                    _stream_element(stream, el, dest)
+                except _DifferingLengthsError:
+                    stream.rewind(place)
+                    corners = _stream_polygons(stream, el.count)
+                continue
         _stream_element(stream, el, dest)
     if not stream.at_end():
         raise _UnstreamedError
     if vertices is None:
         return PlyMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64))
     faces = np.zeros((0, 3), np.int64)
-    if corners is not None:
+    if corners is not None:  # (the fan triangles already where the faces' lengths differ)
         faces = corners if corners.shape[1] == 3 else fan_triangles(
             corners.reshape(-1), np.broadcast_to(np.int64(corners.shape[1]), (len(corners),)))
     return PlyMesh(vertices, faces, normals, uvs)
 
 
-def parse_ply(data: bytes, label: str) -> PlyMesh:
-    """The mesh of a PLY file's bytes: vertices, fan triangles (0-based, not range-checked), normals, UVs.
+def parse_ply(source: bytes | BinaryIO, label: str) -> PlyMesh:
+    """The mesh of a PLY file: vertices, fan triangles (0-based, not range-checked), normals, UVs.
+
+    ``source`` is the file's bytes or a binary file open for reading.  An open file's ASCII body is
+    streamed from it (:class:`~mcocl.render.file_window.FileWindow`), its bytes never held whole
+    (issue 13); a binary file, or an ASCII one the stream leaves to the whole-body parse, is read
+    whole and parsed as its bytes are, with the same arrays and messages.
 
     The arrays hold the file's values exactly in the narrowest type that does (issue 13: a binary
     mesh costs about its file's size in memory): per-vertex data float32 when the file's properties are all
@@ -596,7 +691,41 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
     Raises:
         InputError: a malformed header or body; the message starts with ``label``.
     """
-    order, elements, body_start = parse_header(data, label)
+    streamed = False
+    if not isinstance(source, bytes):
+        head = _header_bytes(source)
+        if head is not None:
+            order, elements, body_start = parse_header(head, label)
+            if order is None:
+                want_v, index_name = _wanted(elements, label)
+                streamed = True
+                try:
+                    return _parse_ascii_streamed(FileWindow(source), body_start, elements, want_v, index_name)
+                except _UnstreamedError:
+                    pass
+        source.seek(0)
+        source = source.read()
+    return _parse_ply_bytes(source, label, try_stream=not streamed)
+
+
+def _header_bytes(f: BinaryIO) -> bytes | None:
+    """The first bytes of ``f`` up to and with its ``end_header`` line (enough for :func:`parse_header`
+    to read as it reads the whole file), or None where the first MB holds no such line."""
+    f.seek(0)
+    head = b""
+    while len(head) < 1 << 20:
+        block = f.read(1 << 16)
+        if not block:
+            return None
+        head += block
+        end = head.find(b"\nend_header")
+        if end >= 0 and head.find(b"\n", end + 1) >= 0:
+            return head
+    return None
+
+
+def _wanted(elements: list[Element], label: str) -> tuple[set[str], str | None]:
+    """The vertex properties read and the face's index list name, after the header's checks."""
     names = [e.name for e in elements]
     if "vertex" not in names:
         raise InputError(f"{label}: the PLY header declares no 'vertex' element")
@@ -616,7 +745,16 @@ def parse_ply(data: bytes, label: str) -> PlyMesh:
             raise InputError(f"{label}: the 'face' element needs a list property vertex_indices (or vertex_index)")
         if fprops[index_name].type[0] == "f":
             raise InputError(f"{label}: the face's {index_name} must be an integer type")
-    if order is None:
+    return want_v, index_name
+
+
+def _parse_ply_bytes(data: bytes, label: str, try_stream: bool = True) -> PlyMesh:
+    """:func:`parse_ply` of the file's bytes (``try_stream``: an ASCII body is streamed first)."""
+    order, elements, body_start = parse_header(data, label)
+    want_v, index_name = _wanted(elements, label)
+    names = [e.name for e in elements]
+    vert = elements[names.index("vertex")]
+    if order is None and try_stream:
         try:
             return _parse_ascii_streamed(data, body_start, elements, want_v, index_name)
         except _UnstreamedError:

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..datafile import read_regular_file
+from ..datafile import open_regular_file
 from ..errors import InputError
 from .obj_reader import parse_obj
 from .ply_reader import PlyMesh, parse_ply
@@ -118,11 +118,11 @@ def read_obj(path: Path, where: str) -> PlyMesh:
         InputError: the file is missing or malformed; the message names the
             scene key ``where`` and the OBJ line.
     """
-    try:
-        data = read_regular_file(path)
+    try:  # read a chunk at a time, never held whole (issue 13: under twice the file's size in memory)
+        with open_regular_file(path) as f:
+            mesh = PlyMesh(*parse_obj(f, f"{where}: {path}"))
     except OSError as e:
         raise InputError(f"{where}: cannot read OBJ file {path}: {e.strerror or e}") from None
-    mesh = PlyMesh(*parse_obj(data, f"{where}: {path}"))
     _check_vertex_data(mesh, f"{where}: {path}")
     return mesh
 
@@ -139,17 +139,18 @@ def read_ply(path: Path, where: str) -> PlyMesh:
     """Vertices, triangles and any per-vertex normals and UVs of a PLY file (ASCII or binary).
 
     Parsing is vectorised (:mod:`mcocl.render.ply_reader`); polygons become
-    triangle fans.
+    triangle fans.  An ASCII body is streamed from the open file; a binary one
+    is read whole.
 
     Raises:
         InputError: the file is missing or malformed; the message names the
             scene key ``where`` and the file.
     """
-    try:
-        data = read_regular_file(path)
+    try:  # an ASCII body is streamed, never held whole (issue 13: under twice the file's size in memory)
+        with open_regular_file(path) as f:
+            mesh = parse_ply(f, f"{where}: {path}")
     except OSError as e:
         raise InputError(f"{where}: cannot read PLY file {path}: {e.strerror or e}") from None
-    mesh = parse_ply(data, f"{where}: {path}")
     _check_vertex_data(mesh, f"{where}: {path}")
     return mesh
 

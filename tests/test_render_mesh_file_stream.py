@@ -1,0 +1,93 @@
+"""OBJ and PLY files read from the open file a chunk at a time (issue 13: the file's bytes never held whole).
+
+- read_obj / read_ply of a file give the same arrays (dtype, shape, bytes) and
+  the same errors as parsing the file's bytes, at chunk sizes that cut the file
+  into many pieces;
+- the file is not read whole (read_regular_file is not called; an ASCII PLY's
+  body is not read by the whole-body parse);
+- a named pipe is refused without blocking, a folder and a missing file name
+  their reason, as read_regular_file's callers did.
+"""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from mcocl import datafile
+from mcocl.errors import InputError
+from mcocl.render import obj_reader, ply_reader, shapes
+
+OBJ = (b"# mesh\r\nv 0 0 0\r\nv 1 0 0\r\nv 1 1 0\r\nv 0 1 0\r\nvt 0 0\r\nvt 1 0\r\nvt 1 1\r\nvn 0 0 1\r\n"
+       b"g a\r\nusemtl m\r\nf 1/1/1 2/2/1 3/3/1 4/1/1\r\nf -4/1/1 -3/2/1 -2/3/1")
+PLY = (b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+       b"element face 3\nproperty list uchar int vertex_indices\nend_header\n"
+       b"0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n4 0 1 2 3\n3 2 3 0\n")
+
+
+def same(a, b) -> bool:
+    """Whether two meshes hold equal arrays (dtype, shape and bytes), None where one is None."""
+    return all((x is None and y is None) or (x is not None and y is not None and x.dtype == y.dtype
+                                              and x.shape == y.shape and x.tobytes() == y.tobytes())
+               for x, y in zip((a.vertices, a.faces, a.normals, a.uvs), (b.vertices, b.faces, b.normals, b.uvs)))
+
+
+@pytest.fixture
+def no_whole_read(monkeypatch):
+    """Fail a test that reads its mesh file whole."""
+    def refuse(path):
+        raise AssertionError(f"{path} read whole")
+    monkeypatch.setattr(datafile, "read_regular_file", refuse)
+    monkeypatch.setattr(shapes, "read_regular_file", refuse, raising=False)
+
+
+@pytest.mark.parametrize("chunk", [1 << 21, 16, 5])
+def test_obj_file_reads_as_its_bytes(tmp_path, monkeypatch, no_whole_read, chunk):
+    p = tmp_path / "m.obj"
+    p.write_bytes(OBJ)
+    monkeypatch.setattr(obj_reader, "CHUNK_BYTES", chunk)
+    want = shapes.PlyMesh(*obj_reader.parse_obj(OBJ, f"k: {p}"))
+    assert same(shapes.read_obj(p, "k"), want)
+    p.write_bytes(OBJ.replace(b"f -4", b"f -9"))
+    with pytest.raises(InputError) as got:
+        shapes.read_obj(p, "k")
+    with pytest.raises(InputError) as ref:
+        obj_reader.parse_obj(p.read_bytes(), f"k: {p}")
+    assert str(got.value) == str(ref.value) and ":13:" in str(got.value)
+
+
+@pytest.mark.parametrize("chunk", [1 << 18, 16, 3])
+def test_ascii_ply_file_streams_as_its_bytes(tmp_path, monkeypatch, no_whole_read, chunk):
+    p = tmp_path / "m.ply"
+    p.write_bytes(PLY)
+    monkeypatch.setattr(ply_reader, "ASCII_CHUNK_BYTES", chunk)
+    want = ply_reader.parse_ply(PLY, f"k: {p}")
+    monkeypatch.setattr(ply_reader, "_parse_ply_bytes", lambda *a, **k: pytest.fail("read whole"))
+    got = shapes.read_ply(p, "k")
+    assert same(got, want) and len(got.faces) == 4
+
+
+def test_a_ply_the_stream_leaves_is_read_whole_with_the_same_error(tmp_path):
+    p = tmp_path / "bad.ply"
+    p.write_bytes(PLY.replace(b"3 2 3 0", b"2 2 3"))
+    with pytest.raises(InputError) as got:
+        shapes.read_ply(p, "k")
+    with pytest.raises(InputError) as ref:
+        ply_reader.parse_ply(p.read_bytes(), f"k: {p}")
+    assert str(got.value) == str(ref.value) and "face 2 has 2 corners" in str(got.value)
+
+
+@pytest.mark.parametrize("read, kind", [(shapes.read_obj, "OBJ"), (shapes.read_ply, "PLY")])
+def test_pipes_folders_and_missing_files_are_refused(tmp_path, read, kind):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    for path, reason in ((fifo, "not a regular file"), (tmp_path, "Is a directory"),
+                         (tmp_path / "none", "No such file or directory")):
+        with pytest.raises(InputError, match=f"cannot read {kind} file .*{reason}"):
+            read(path, "k")
+
+
+def test_open_regular_file_refuses_a_device():
+    with pytest.raises(OSError, match="not a regular file"):
+        datafile.open_regular_file("/dev/zero")
