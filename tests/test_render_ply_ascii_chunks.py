@@ -26,10 +26,11 @@ HEAD = ("ply\nformat ascii 1.0\nelement vertex {nv}\n" + "".join(f"property floa
         "property list uchar int vertex_indices\nelement edge 2\nproperty int a\nproperty int b\nend_header\n")
 
 
-def body(faces: list[str], nf: int | None = None) -> bytes:
-    """An ASCII PLY of the vertices (one very long line among them) and the given face lines."""
+def body(faces: list[str], nf: int | None = None, blank: bool = False) -> bytes:
+    """An ASCII PLY of the vertices (one very long line among them, followed by a blank line if
+    ``blank``) and the given face lines."""
     rows = [" ".join(f"{x:.17g}" for x in r) + f"\t{k % 256}\n" for k, r in enumerate(VERTS)]
-    rows[100] = rows[100].rstrip("\n") + " " * 300 + "\n\n"
+    rows[100] = rows[100].rstrip("\n") + " " * 300 + ("\n\n" if blank else "\n")
     text = HEAD.format(nv=NV, nf=len(faces) if nf is None else nf) + "".join(rows) + "".join(faces) + "1 2\n3 4\n"
     return text.encode()
 
@@ -48,15 +49,27 @@ def whole_body(data: bytes, monkeypatch) -> ply_reader.PlyMesh:
         return parse_ply(data, "whole.ply")
 
 
-def test_many_chunks_read_as_the_whole_body(monkeypatch):
-    data = body(quads())
+@pytest.mark.parametrize("blank", [False, True])
+def test_many_chunks_read_as_the_whole_body(monkeypatch, blank):
+    # A blank line among the vertices puts the section boundary out of the line count's reach:
+    # the chunked read declines and the whole-body parse reads the file, to the same arrays.
+    data = body(quads(), blank=blank)
     ref = whole_body(data, monkeypatch)
     monkeypatch.setattr(ply_reader, "ASCII_CHUNK_BYTES", 64)
-    streamed = []
+    outcomes = []
     real = ply_reader._parse_ascii_streamed
-    monkeypatch.setattr(ply_reader, "_parse_ascii_streamed", lambda *a: streamed.append(1) or real(*a))
+
+    def recorded(*args):
+        try:
+            out = real(*args)
+        except ply_reader._UnstreamedError:
+            outcomes.append("declined")
+            raise
+        outcomes.append("streamed")
+        return out
+    monkeypatch.setattr(ply_reader, "_parse_ascii_streamed", recorded)
     got = parse_ply(data, "chunks.ply")
-    assert streamed and got.faces.shape == (2 * NF, 3)
+    assert outcomes == ["declined" if blank else "streamed"] and got.faces.shape == (2 * NF, 3)
     for name in ("vertices", "faces", "normals", "uvs"):
         a, b = getattr(got, name), getattr(ref, name)
         assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), name
