@@ -95,6 +95,32 @@ MC_INLINE floatv light_bvh_importance(vec3v c, floatv r2, floatv power, vec3v ax
     return lane_select((floatv)(0.0f), imp, (cos_p > cos_e) & (imp > 0.0f));
 }
 
+/* light_bvh_importance of a leaf with cos theta_o = -1 (a sphere or another emitter that shines every way,
+ * mcocl/render/light_bvh.py), for which the cone terms drop out: with theta_o = pi (sin_o = 0),
+ * cos(max(0, theta_w - theta_o)) = 1 and its sine 0 for every finite cos theta_w (cos_sub_clamped's
+ * select gives 1 for cos_w > -1; for cos_w <= -1, sin_w = 0 and cos_w cos_o + sin_w sin_o = -cos_w >= 1,
+ * sin_x = +-0), so cos theta' = 1 (1 > cos_b, or 1 * 1 + (+-0) sin_b when cos_b = 1) and
+ * power * cos theta' = power: the same floats as the general function without the two square roots of
+ * sin_w and sin_o.  A NaN cos_w (a NaN or infinite p - c) gave a NaN cos theta' and so importance 0: the
+ * test cos_w == cos_w keeps that. */
+MC_INLINE floatv light_bvh_importance_omni(vec3v c, floatv r2, floatv power, vec3v axis, float cos_e, vec3v p,
+                                           vec3v n, intv has_n) {
+    vec3v dv = v3_sub(p, c);
+    floatv d2 = v3_len2(dv);
+    vec3v w = v3_scale(dv, lane_rsqrt(lane_max(d2, (floatv)(1e-30f))));
+    floatv cos_w = v3_dot(axis, w);
+    intv inside = d2 < r2;
+    floatv sin2_b = lane_min(r2 / d2, (floatv)(1.0f));
+    floatv cos_b = lane_select(safe_sqrt(1.0f - sin2_b), (floatv)(-1.0f), inside);
+    floatv sin_b = lane_select(lane_sqrt(sin2_b), (floatv)(0.0f), inside);
+    floatv imp = power / lane_max(d2, r2);
+    floatv cos_i = lane_abs(v3_dot(w, n));
+    floatv sin_i = safe_sqrt(1.0f - cos_i * cos_i);
+    floatv recv = lane_max(cos_sub_clamped(sin_i, cos_i, sin_b, cos_b), (floatv)(0.0f));
+    imp = lane_select(imp, imp * recv, has_n);
+    return lane_select((floatv)(0.0f), imp, (intv)(1.0f > cos_e ? -1 : 0) & (cos_w == cos_w) & (imp > 0.0f));
+}
+
 /* Field F of node i read once for all lanes (flat trees: every lane evaluates the same leaves). */
 #define LIGHT_BVH_SCALAR(nodes, i, F) (nodes)[(i) * LIGHT_BVH_NODE_QUADS + F##_QUAD].F##_COMP
 #define LIGHT_BVH_SCALAR3(nodes, i, F)                                                                        \
@@ -117,12 +143,19 @@ MC_INLINE uintv light_bvh_flat(global const float4 *nodes, uint count, vec3v p, 
     uintv positive = (uintv)(0u);
     for (uint k = 0u; k < count; ++k) {
         uint i = k + 1u;
-        imp[k] = light_bvh_importance(LIGHT_BVH_SCALAR3(nodes, i, LIGHT_BVH_NODE_CENTER),
-                                      (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_RADIUS2)),
-                                      (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_POWER)),
-                                      LIGHT_BVH_SCALAR3(nodes, i, LIGHT_BVH_NODE_AXIS),
-                                      (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_COS_O)),
-                                      (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_COS_E)), p, n, has_n);
+        const float cos_o = LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_COS_O);
+        if (cos_o == -1.0f) /* the same for every lane: sphere lights skip the cone terms */
+            imp[k] = light_bvh_importance_omni(LIGHT_BVH_SCALAR3(nodes, i, LIGHT_BVH_NODE_CENTER),
+                                               (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_RADIUS2)),
+                                               (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_POWER)),
+                                               LIGHT_BVH_SCALAR3(nodes, i, LIGHT_BVH_NODE_AXIS),
+                                               LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_COS_E), p, n, has_n);
+        else
+            imp[k] = light_bvh_importance(LIGHT_BVH_SCALAR3(nodes, i, LIGHT_BVH_NODE_CENTER),
+                                          (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_RADIUS2)),
+                                          (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_POWER)),
+                                          LIGHT_BVH_SCALAR3(nodes, i, LIGHT_BVH_NODE_AXIS), (floatv)(cos_o),
+                                          (floatv)(LIGHT_BVH_SCALAR(nodes, i, LIGHT_BVH_NODE_COS_E)), p, n, has_n);
         total += imp[k];
         positive += lane_select((uintv)(0u), (uintv)(1u), imp[k] > 0.0f);
     }

@@ -288,20 +288,25 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
             floatv ca = s2t / smax + ct * safe_sqrt(1.0f - s2t / s2max);
             floatv sa = safe_sqrt(1.0f - ca * ca);
             frame3v fr = frame_from_normal(wc);
-            vec3v nc = v3_neg(frame_to_world(fr, v3(sa * cph, sa * sph_, ca)));
-            /* area: uniform over the whole sphere */
-            vec3v na = square_to_uniform_sphere(u1, u2);
-            vec3v nout = v3_select(na, nc, cone);
+            vec3v nout = v3_neg(frame_to_world(fr, v3(sa * cph, sa * sph_, ca)));
+            /* area: uniform over the whole sphere; only lanes inside a sphere or on an inward one take it,
+             * so the cone case (a point outside: nearly every lane) skips its sample and pdf */
+            const intv by_area = sph_l & !cone;
+            const int any_area = lane_any(by_area);
+            if (any_area) nout = v3_select(square_to_uniform_sphere(u1, u2), nout, cone);
             vec3v ys = v3_madd(c, r, nout);
             vec3v nf = v3_select(nout, v3_neg(nout), flip);
-            vec3v dv = v3_sub(ys, p);
-            floatv d2 = v3_len2(dv);
-            floatv cosl = -v3_dot(nf, dv) * lane_rsqrt(d2);
-            floatv pdf_area = d2 / (area_l * cosl);
-            floatv pdf_cone = RT_INV_2PI / omc;
+            floatv pdf_s = RT_INV_2PI / omc;
+            if (any_area) {
+                vec3v dv = v3_sub(ys, p);
+                floatv d2 = v3_len2(dv);
+                floatv cosl = -v3_dot(nf, dv) * lane_rsqrt(d2);
+                floatv pdf_area = d2 / (area_l * cosl);
+                pdf_s = lane_select(pdf_area, pdf_s, cone);
+            }
             y = v3_select(y, ys, sph_l);
             ny = v3_select(ny, nf, sph_l);
-            pdf = lane_select(pdf, pmf * lane_select(pdf_area, pdf_cone, cone), sph_l);
+            pdf = lane_select(pdf, pmf * pdf_s, sph_l);
         }
         intv delta_l = area & light_shape_is_delta(shape);
         floatv delta_scale = (floatv)(0.0f);
