@@ -163,6 +163,33 @@ MC_INLINE uintv light_bvh_flat(global const float4 *nodes, uint count, vec3v p, 
     floatv sum = (floatv)(0.0f);
     uintv below = (uintv)(0u), lo = (uintv)(0u), chosen = (uintv)(0u);
     floatv p_chosen = (floatv)(0.0f);
+    if (by_trail) {
+        /* The probability of light trail: only its bounds B_trail and B_trail+1 are needed, so the
+         * sums S_k and counts below it are kept by selects and the two bounds computed once each (the
+         * same expressions as below, B_0 = 0 as there) instead of one division per light. */
+        floatv sum_lo = sum, sum_hi = sum;
+        uintv below_lo = below, below_hi = below;
+        intv lit_t = active & (intv)(0);
+        for (uint k = 0u; k < count; ++k) {
+            intv lit = imp[k] > 0.0f;
+            intv at = trail == (uintv)(k);
+            sum_lo = lane_select(sum_lo, sum, at);
+            below_lo = lane_select(below_lo, below, at);
+            sum += imp[k];
+            below += lane_select((uintv)(0u), (uintv)(1u), lit);
+            sum_hi = lane_select(sum_hi, sum, at);
+            below_hi = lane_select(below_hi, below, at);
+            lit_t = lit_t | (at & lit);
+            chosen = lane_select(chosen, (uintv)(as_uint(LIGHT_BVH_SCALAR(nodes, k + 1u, LIGHT_BVH_NODE_REF))),
+                                 at & lit);
+        }
+        lo = lane_select(to_uintv(spread * (sum_lo / total) + 0.5f) + below_lo, (uintv)(0u), trail == 0u);
+        uintv hi = to_uintv(spread * (sum_hi / total) + 0.5f) + below_hi;
+        p_chosen = lane_select((floatv)(0.0f), to_floatv(hi - lo) * UNIFORM_CELL_WIDTH, lit_t);
+        intv live = active & (total > 0.0f) & (p_chosen > 0.0f);
+        *pmf = lane_select((floatv)(0.0f), p_chosen, live);
+        return lane_select((uintv)(0u), chosen, live);
+    }
     for (uint k = 0u; k < count; ++k) {
         intv lit = imp[k] > 0.0f;
         sum += imp[k];

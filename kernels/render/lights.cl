@@ -205,6 +205,7 @@ typedef struct {
     vec3v wo;        /* unit direction from the shading point */
     vec3v pos;       /* the point on the emitter (area lights) */
     vec3v n;         /* its front normal */
+    floatv dist;     /* |pos - p| (area and delta lights; 0 otherwise): wo = (pos - p) / dist */
     floatv pdf;      /* solid-angle pdf at the shading point, emitter choice included */
     vec3v radiance;  /* emitted radiance towards the shading point (0 from behind) */
     intv env;        /* the environment or a directional light was sampled (the shadow ray is unbounded) */
@@ -236,6 +237,7 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
     s.wo = v3(0.0f, 0.0f, 1.0f);
     s.pos = p;
     s.n = s.wo;
+    s.dist = (floatv)(0.0f);
     s.prim = (uintv)(0u);
     intv area = active & !env_chosen;
     if (lt->nlights > 0u && lane_any(area)) {
@@ -327,6 +329,7 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
         intv front = v3_dot(ny, wo) < 0.0f;
         intv ok = area & front & (pdf > 0.0f) & lane_finite(pdf);
         s.wo = v3_select(s.wo, wo, area);
+        s.dist = lane_select(s.dist, dist, area);
         s.prim = lane_select(s.prim, lane_as_uint(REC_FIELD(q, LIGHT_RECORD_PRIM)), area);
         s.pos = v3_select(s.pos, y, area);
         s.n = v3_select(s.n, ny, area);
