@@ -191,6 +191,13 @@ kernel void render_blocks(
     SCENE_GEOM_MAKE(geom);
     const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
     light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, light_bvh, light_trail);
+#if LIGHT_CHOICE_AT_VERTEX
+    /* the flat light tree's choice at a vertex's light sample, read back by the MIS weight of the emitter
+     * its BSDF sample hits (render/light_bvh.cl, light_choice_memo) */
+    light_choice_memo choice_memo;
+    choice_memo.valid = 0;
+    lt.memo = &choice_memo;
+#endif
     light_tables_bind_envmap(&lt, &params, env_map, env_cdf);
 #ifdef TEXTURES
     light_tables_bind_textures(&lt, textures, &pt);
@@ -316,6 +323,9 @@ kernel void render_blocks(
         const uint depth_limit = max_depth >= 0 ? min((uint)max_depth, (uint)DEPTH_GUARD) : (uint)DEPTH_GUARD;
         intv cont = hit & (depth + 1u < (uintv)(depth_limit));
         intv next_alive = (intv)(0);
+#if LIGHT_CHOICE_AT_VERTEX
+        choice_memo.valid = 0; /* read above for the vertex before; this vertex's light sample refills it */
+#endif
         if (lane_any(cont)) {
             material_v m = material_load(materials, lane_select((uintv)(0u), sf.mat, cont));
 #ifdef TEXTURES

@@ -56,6 +56,16 @@
 #define LIGHT_BVH_FLAT_MAX 16u
 #define LIGHT_BVH_FLAT_FLAG 0x80000000u
 
+/* The choice probability of every leaf of a flat tree at one shading point, lane by lane, as
+ * light_bvh_flat dealt them out while sampling (pmf[k]: exactly what light_bvh_pmf returns for leaf k
+ * there), so that the MIS weight of an emitter hit found from the same point (integrator.cl: the
+ * previous vertex's prev_up and prev_n are the point and normal its light sample used) reads it instead
+ * of weighing the leaves again.  valid: set by the sampling, cleared by the integrator before each vertex. */
+typedef struct {
+    floatv pmf[LIGHT_BVH_FLAT_MAX];
+    int valid;
+} light_choice_memo;
+
 /* cos(max(0, alpha - beta)) from the sines and cosines of alpha and beta in [0, pi]. */
 MC_INLINE floatv cos_sub_clamped(floatv sin_a, floatv cos_a, floatv sin_b, floatv cos_b) {
     return lane_select(cos_a * cos_b + sin_a * sin_b, (floatv)(1.0f), cos_a > cos_b);
@@ -136,7 +146,7 @@ MC_INLINE floatv light_bvh_importance_omni(vec3v c, floatv r2, floatv power, vec
  * so B_0 = 0, B_L = 2^23 and every light with I_k > 0 owns at least one cell; light_bvh_pmf runs the
  * same arithmetic, so the probability (B_{k+1} - B_k) 2^-23 is reproduced bit for bit. */
 MC_INLINE uintv light_bvh_flat(global const float4 *nodes, uint count, vec3v p, vec3v n, uintv cell, uintv trail,
-                               const int by_trail, intv active, floatv *pmf) {
+                               const int by_trail, intv active, floatv *pmf, light_choice_memo *memo) {
     intv has_n = v3_len2(n) > 0.0f;
     floatv imp[LIGHT_BVH_FLAT_MAX];
     floatv total = (floatv)(0.0f);
@@ -199,8 +209,11 @@ MC_INLINE uintv light_bvh_flat(global const float4 *nodes, uint count, vec3v p, 
         mine = mine & lit;
         chosen = lane_select(chosen, (uintv)(as_uint(LIGHT_BVH_SCALAR(nodes, k + 1u, LIGHT_BVH_NODE_REF))), mine);
         p_chosen = lane_select(p_chosen, to_floatv(hi - lo) * UNIFORM_CELL_WIDTH, mine);
+        if (memo) /* light_bvh_pmf's value for leaf k: (hi - lo) 2^-23 where lit, 0 where no light reaches p */
+            memo->pmf[k] = lane_select((floatv)(0.0f), to_floatv(hi - lo) * UNIFORM_CELL_WIDTH, lit & (total > 0.0f));
         lo = hi;
     }
+    if (memo) memo->valid = 1;
     intv live = active & (total > 0.0f) & (p_chosen > 0.0f);
     *pmf = lane_select((floatv)(0.0f), p_chosen, live);
     return lane_select((uintv)(0u), chosen, live);
@@ -210,12 +223,12 @@ MC_INLINE uintv light_bvh_flat(global const float4 *nodes, uint count, vec3v p, 
  * the bits of trail (by_trail 1, a compile-time constant at each call).
  * Returns the light (0 for lanes that found none) and its exact probability. */
 MC_INLINE uintv light_bvh_walk(global const float4 *nodes, vec3v p, vec3v n, floatv u, uintv trail,
-                               const int by_trail, intv active, floatv *pmf) {
+                               const int by_trail, intv active, floatv *pmf, light_choice_memo *memo) {
     uintv cell = by_trail ? (uintv)(0u) : to_uintv(u * (float)UNIFORM_CELLS); /* u = (cell + 1/2) 2^-23 */
     uint root_count = as_uint(LIGHT_BVH_SCALAR(nodes, 0u, LIGHT_BVH_NODE_COUNT));
     if (root_count & LIGHT_BVH_FLAT_FLAG) /* one branch for every lane: the tree is flat or not */
         return light_bvh_flat(nodes, min(root_count & ~LIGHT_BVH_FLAT_FLAG, LIGHT_BVH_FLAT_MAX), p, n, cell, trail,
-                              by_trail, active, pmf);
+                              by_trail, active, pmf, memo);
     intv has_n = v3_len2(n) > 0.0f;
     LIGHT_BVH_NODE_GATHER(r, nodes, (uintv)(0u));
     uintv ref = lane_as_uint(REC_FIELD(r, LIGHT_BVH_NODE_REF));
@@ -254,13 +267,29 @@ MC_INLINE uintv light_bvh_walk(global const float4 *nodes, vec3v p, vec3v n, flo
 /* The light chosen from p (normal n; 0: no receiver factor) with uniform u, and its probability. */
 MC_INLINE uintv light_bvh_sample(global const float4 *nodes, vec3v p, vec3v n, floatv u, intv active,
                                  floatv *pmf) {
-    return light_bvh_walk(nodes, p, n, u, (uintv)(0u), 0, active, pmf);
+    return light_bvh_walk(nodes, p, n, u, (uintv)(0u), 0, active, pmf, 0);
+}
+
+/* light_bvh_sample that also fills memo (when not 0) where the tree is flat. */
+MC_INLINE uintv light_bvh_sample_memo(global const float4 *nodes, vec3v p, vec3v n, floatv u, intv active,
+                                      floatv *pmf, light_choice_memo *memo) {
+    return light_bvh_walk(nodes, p, n, u, (uintv)(0u), 0, active, pmf, memo);
+}
+
+/* light_bvh_pmf from a memo filled at the same point and normal (memo->valid): the same floats. */
+MC_INLINE floatv light_bvh_memo_pmf(const light_choice_memo *memo, global const float4 *nodes, uintv trail,
+                                    intv active) {
+    uint count = min(as_uint(LIGHT_BVH_SCALAR(nodes, 0u, LIGHT_BVH_NODE_COUNT)) & ~LIGHT_BVH_FLAT_FLAG,
+                     LIGHT_BVH_FLAT_MAX);
+    floatv p = (floatv)(0.0f);
+    for (uint k = 0u; k < count; ++k) p = lane_select(p, memo->pmf[k], trail == (uintv)(k));
+    return lane_select((floatv)(0.0f), p, active & (p > 0.0f));
 }
 
 /* The probability that light_bvh_sample from p (normal n) chooses the light with root-to-leaf path trail. */
 MC_INLINE floatv light_bvh_pmf(global const float4 *nodes, vec3v p, vec3v n, uintv trail, intv active) {
     floatv pmf;
-    light_bvh_walk(nodes, p, n, (floatv)(0.0f), trail, 1, active, &pmf);
+    light_bvh_walk(nodes, p, n, (floatv)(0.0f), trail, 1, active, &pmf, 0);
     return pmf;
 }
 
