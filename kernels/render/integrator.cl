@@ -191,6 +191,13 @@ kernel void render_blocks(
     SCENE_GEOM_MAKE(geom);
     const prim_tables pt = prim_tables_of(&params, scene_spheres, prim_rec);
     light_tables lt = light_tables_of(&params, light_rec, light_cdf, emitter_radiance, light_bvh, light_trail);
+#if LIGHT_CHOICE_AT_VERTEX
+    /* the flat light tree's choice at a vertex's light sample, read back by the MIS weight of the emitter
+     * its BSDF sample hits (render/light_bvh.cl, light_choice_memo) */
+    light_choice_memo choice_memo;
+    choice_memo.valid = 0;
+    lt.memo = &choice_memo;
+#endif
     light_tables_bind_envmap(&lt, &params, env_map, env_cdf);
 #ifdef TEXTURES
     light_tables_bind_textures(&lt, textures, &pt);
@@ -316,6 +323,9 @@ kernel void render_blocks(
         const uint depth_limit = max_depth >= 0 ? min((uint)max_depth, (uint)DEPTH_GUARD) : (uint)DEPTH_GUARD;
         intv cont = hit & (depth + 1u < (uintv)(depth_limit));
         intv next_alive = (intv)(0);
+#if LIGHT_CHOICE_AT_VERTEX
+        choice_memo.valid = 0; /* read above for the vertex before; this vertex's light sample refills it */
+#endif
         if (lane_any(cont)) {
             material_v m = material_load(materials, lane_select((uintv)(0u), sf.mat, cont));
 #ifdef TEXTURES
@@ -359,18 +369,24 @@ kernel void render_blocks(
                 ok = ok & shading_side_agrees(n, ns, v3_neg(d)) & shading_side_agrees(n, ns, ls.wo);
 #endif
                 if (lane_any(ok)) {
-                    vec3v so = p_up;
 #ifdef SMOOTH_TRANSMISSION
+                    vec3v so = p_up;
                     /* a light behind the surface, reached through a rough refraction
                      * (roughdielectric): the shadow ray leaves from that side.  Built only
                      * for scenes with such a material (mcocl/render/job.py): it costs the
                      * others ~4 % even where no lane takes it. */
                     intv across = ok & (v3_dot(ls.wo, v3_sub(p_up, p)) < 0.0f);
                     if (lane_any(across)) so = v3_select(so, offset_origin(p, n, ls.wo), across);
-#endif
                     vec3v sd = v3_sub(ls.pos, so);
                     floatv sl = lane_sqrt(v3_len2(sd));
                     vec3v sdir = v3_select(v3_scale(sd, 1.0f / sl), ls.wo, ls.env);
+#else
+                    /* the shadow ray leaves from p_up, where sample_light_at measured the light's direction
+                     * and distance: ls.wo and ls.dist are the same floats as (pos - p_up) / |pos - p_up| and
+                     * |pos - p_up| (ls.wo alone for the environment), without a second square root */
+                    vec3v so = p_up, sdir = ls.wo;
+                    floatv sl = ls.dist;
+#endif
                     floatv tmax = lane_select(sl * (1.0f - SHADOW_EPSILON), (floatv)(INFINITY), ls.env);
                     intv occluded = trace_any_v(&geom, so, sdir, tmax, ok);
                     L = v3_select(L, v3_add(L, c), ok & !occluded);

@@ -70,7 +70,9 @@ kernel void light_pdf_dirs(LIGHT_TEST_PARAMS, float4 p4, uint n, global const fl
 /* The light BVH's choice from p with normal n4 (render/light_bvh.cl): the
  * light chosen with a uniform, the probability the walk reports, and the
  * probability light_bvh_pmf recomputes for that light's primitive (which must
- * be the same float); -1 and 0 where no light was chosen (3 components). */
+ * be the same float; for a flat tree also the one the walk left in its
+ * light_choice_memo, NaN where the two differ); -1 and 0 where no light was
+ * chosen (3 components). */
 kernel void light_bvh_choices(LIGHT_TEST_PARAMS, float4 p4, float4 n4, ulong seed, uint n, global float *out) {
     uint base = (uint)get_global_id(0) * LANES;
     if (base >= n) return;
@@ -82,11 +84,18 @@ kernel void light_bvh_choices(LIGHT_TEST_PARAMS, float4 p4, float4 n4, ulong see
     sampler_next_nd(&smp, 1, u);
     intv all = (intv)(0) == (intv)(0);
     floatv pmf;
-    uintv k = light_bvh_sample(lt.light_bvh, p, nn, u[0], all, &pmf);
+    light_choice_memo memo;
+    memo.valid = 0;
+    uintv k = light_bvh_sample_memo(lt.light_bvh, p, nn, u[0], all, &pmf, &memo);
     intv ok = pmf > 0.0f;
     LIGHT_RECORD_GATHER(q, lt.light_rec, k);
     uintv prim = lane_as_uint(REC_FIELD(q, LIGHT_RECORD_PRIM));
-    floatv again = light_bvh_pmf(lt.light_bvh, p, nn, gather_uint(lt.light_trail, prim), ok);
+    uintv trail = gather_uint(lt.light_trail, prim);
+    floatv again = light_bvh_pmf(lt.light_bvh, p, nn, trail, ok);
+    if (memo.valid) {
+        floatv memo_pmf = light_bvh_memo_pmf(&memo, lt.light_bvh, trail, ok);
+        again = lane_select((floatv)(NAN), again, lane_as_uint(memo_pmf) == lane_as_uint(again));
+    }
     store_floatv(lane_select((floatv)(-1.0f), to_floatv(k), ok), out + 0 * n + base);
     store_floatv(pmf, out + 1 * n + base);
     store_floatv(again, out + 2 * n + base);

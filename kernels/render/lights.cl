@@ -69,6 +69,7 @@ typedef struct {
     float env_pmf;                         /* ... which happens with this exact probability */
     float4 env_radiance;                   /* w > 0: an environment map, env_map (render/envmap.cl) */
     envmap_t env_map;                      /* bound by light_tables_bind_envmap; unbound otherwise */
+    light_choice_memo *memo;               /* 0, or the flat light tree's choice at the last light sample */
     int has_env_map;
 #ifdef TEXTURES
     global const float4 *textures;         /* bound by light_tables_bind_textures; 0: constant radiance */
@@ -95,6 +96,7 @@ MC_INLINE light_tables light_tables_of(const render_params *p, global const floa
     lt.env_radiance = p->env_radiance;
     lt.env_map = envmap_of(0, 0);
     lt.has_env_map = 0;
+    lt.memo = 0;
 #ifdef TEXTURES
     lt.textures = 0;
 #endif
@@ -205,6 +207,7 @@ typedef struct {
     vec3v wo;        /* unit direction from the shading point */
     vec3v pos;       /* the point on the emitter (area lights) */
     vec3v n;         /* its front normal */
+    floatv dist;     /* |pos - p| (area and delta lights; 0 otherwise): wo = (pos - p) / dist */
     floatv pdf;      /* solid-angle pdf at the shading point, emitter choice included */
     vec3v radiance;  /* emitted radiance towards the shading point (0 from behind) */
     intv env;        /* the environment or a directional light was sampled (the shadow ray is unbounded) */
@@ -236,12 +239,13 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
     s.wo = v3(0.0f, 0.0f, 1.0f);
     s.pos = p;
     s.n = s.wo;
+    s.dist = (floatv)(0.0f);
     s.prim = (uintv)(0u);
     intv area = active & !env_chosen;
     if (lt->nlights > 0u && lane_any(area)) {
 #if LIGHT_SAMPLER == LIGHT_SAMPLER_BVH
         floatv choice;
-        uintv k = light_bvh_sample(lt->light_bvh, p, n, u_sel, area, &choice);
+        uintv k = light_bvh_sample_memo(lt->light_bvh, p, n, u_sel, area, &choice, lt->memo);
 #else
         uintv k = light_find(lt, u_sel);
 #endif
@@ -288,20 +292,25 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
             floatv ca = s2t / smax + ct * safe_sqrt(1.0f - s2t / s2max);
             floatv sa = safe_sqrt(1.0f - ca * ca);
             frame3v fr = frame_from_normal(wc);
-            vec3v nc = v3_neg(frame_to_world(fr, v3(sa * cph, sa * sph_, ca)));
-            /* area: uniform over the whole sphere */
-            vec3v na = square_to_uniform_sphere(u1, u2);
-            vec3v nout = v3_select(na, nc, cone);
+            vec3v nout = v3_neg(frame_to_world(fr, v3(sa * cph, sa * sph_, ca)));
+            /* area: uniform over the whole sphere; only lanes inside a sphere or on an inward one take it,
+             * so the cone case (a point outside: nearly every lane) skips its sample and pdf */
+            const intv by_area = sph_l & !cone;
+            const int any_area = lane_any(by_area);
+            if (any_area) nout = v3_select(square_to_uniform_sphere(u1, u2), nout, cone);
             vec3v ys = v3_madd(c, r, nout);
             vec3v nf = v3_select(nout, v3_neg(nout), flip);
-            vec3v dv = v3_sub(ys, p);
-            floatv d2 = v3_len2(dv);
-            floatv cosl = -v3_dot(nf, dv) * lane_rsqrt(d2);
-            floatv pdf_area = d2 / (area_l * cosl);
-            floatv pdf_cone = RT_INV_2PI / omc;
+            floatv pdf_s = RT_INV_2PI / omc;
+            if (any_area) {
+                vec3v dv = v3_sub(ys, p);
+                floatv d2 = v3_len2(dv);
+                floatv cosl = -v3_dot(nf, dv) * lane_rsqrt(d2);
+                floatv pdf_area = d2 / (area_l * cosl);
+                pdf_s = lane_select(pdf_area, pdf_s, cone);
+            }
             y = v3_select(y, ys, sph_l);
             ny = v3_select(ny, nf, sph_l);
-            pdf = lane_select(pdf, pmf * lane_select(pdf_area, pdf_cone, cone), sph_l);
+            pdf = lane_select(pdf, pmf * pdf_s, sph_l);
         }
         intv delta_l = area & light_shape_is_delta(shape);
         floatv delta_scale = (floatv)(0.0f);
@@ -322,6 +331,7 @@ MC_INLINE light_sample_v sample_light_at(const light_tables *lt, const prim_tabl
         intv front = v3_dot(ny, wo) < 0.0f;
         intv ok = area & front & (pdf > 0.0f) & lane_finite(pdf);
         s.wo = v3_select(s.wo, wo, area);
+        s.dist = lane_select(s.dist, dist, area);
         s.prim = lane_select(s.prim, lane_as_uint(REC_FIELD(q, LIGHT_RECORD_PRIM)), area);
         s.pos = v3_select(s.pos, y, area);
         s.n = v3_select(s.n, ny, area);
@@ -377,8 +387,10 @@ MC_INLINE light_sample_v sample_light(const light_tables *lt, const prim_tables 
 MC_INLINE floatv light_choice_pmf(const light_tables *lt, vec3v p, vec3v n, uintv prim, const surface_v *sf,
                                   intv active) {
 #if LIGHT_SAMPLER == LIGHT_SAMPLER_BVH
-    return light_bvh_pmf(lt->light_bvh, p, n, gather_uint(lt->light_trail, lane_select((uintv)(0u), prim, active)),
-                         active);
+    uintv trail = gather_uint(lt->light_trail, lane_select((uintv)(0u), prim, active));
+    /* the caller's memo is valid only where p, n are the point and normal of its last light sample */
+    if (lt->memo && lt->memo->valid) return light_bvh_memo_pmf(lt->memo, lt->light_bvh, trail, active);
+    return light_bvh_pmf(lt->light_bvh, p, n, trail, active);
 #else
     return sf->pmf;
 #endif
@@ -390,11 +402,9 @@ MC_INLINE floatv light_choice_pmf(const light_tables *lt, vec3v p, vec3v n, uint
 MC_INLINE floatv light_pdf_hit_at(const light_tables *lt, const prim_tables *pt, vec3v p, vec3v p_choice, vec3v n,
                                   uintv prim, const surface_v *sf, intv active) {
     floatv pmf = light_choice_pmf(lt, p_choice, n, prim, sf, active) * (1.0f - lt->env_pmf);
-    vec3v dv = v3_sub(sf->p, p);
-    floatv d2 = v3_len2(dv);
-    floatv cosl = lane_abs(v3_dot(sf->n, dv)) * lane_rsqrt(d2);
-    floatv pdf = pmf * d2 / (sf->area * cosl);
     intv sph_l = active & prim_is_sphere(pt, prim);
+    intv by_cone = active & (intv)(0);
+    floatv pdf_cone = (floatv)(0.0f);
     if (pt->nspheres > 0u && lane_any(sph_l)) {
         rec4v c = gather_rec4(pt->spheres, lane_select((uintv)(0u), prim - pt->ntris, sph_l));
         /* the record's normal points inwards for a flipped sphere: the centre lies on its side */
@@ -402,7 +412,15 @@ MC_INLINE floatv light_pdf_hit_at(const light_tables *lt, const prim_tables *pt,
         floatv omc, s2max, dc;
         vec3v wc;
         intv cone = sphere_cone(p, v3(c.x, c.y, c.z), c.w, flip, &omc, &s2max, &wc, &dc);
-        pdf = lane_select(pdf, pmf * RT_INV_2PI / omc, sph_l & cone);
+        pdf_cone = pmf * RT_INV_2PI / omc;
+        by_cone = sph_l & cone;
+    }
+    floatv pdf = pdf_cone;
+    if (lane_any(active & !by_cone)) { /* the area density, where some lane is not a sphere seen from outside */
+        vec3v dv = v3_sub(sf->p, p);
+        floatv d2 = v3_len2(dv);
+        floatv cosl = lane_abs(v3_dot(sf->n, dv)) * lane_rsqrt(d2);
+        pdf = lane_select(pmf * d2 / (sf->area * cosl), pdf_cone, by_cone);
     }
     return lane_select((floatv)(0.0f), pdf, active);
 }
