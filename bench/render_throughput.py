@@ -177,7 +177,7 @@ def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, e
     """mcocl's configurations and Mitsuba on one scene, interleaved run by run (see the module docstring)."""
     configs = [c.split("/") for c in args.configs]
     if name in ("cornell", "cornell_spheres", "big"):  # one area light: the light sampler cannot matter
-        configs = [c for c in configs if c[1] == "power"]
+        configs = list(dict.fromkeys((integ, "power") for integ, _ in configs))
     compiled, load = {}, {}
     for integ, ls in configs:
         t0 = time.perf_counter()
