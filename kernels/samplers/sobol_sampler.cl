@@ -122,7 +122,8 @@ MC_INLINE uintv sobol_reversed(uintv p, uint d) {
 MC_INLINE uint sobol_reversed1(uint p, uint d) {
     constant uint *rv = SOBOL_RV + 32u * d;
     uint x = 0u;
-    for (int k = 0; k < SOBOL_LOG2_POINTS; ++k) x ^= rv[k] & (0u - ((p >> k) & 1u));
+    /* stop at p's top set bit: a render build's SOBOL_LOG2_POINTS may exceed its blocks' points */
+    for (int k = 0; k < SOBOL_LOG2_POINTS && (p >> k) != 0u; ++k) x ^= rv[k] & (0u - ((p >> k) & 1u));
     return x;
 }
 
@@ -134,7 +135,8 @@ MC_INLINE uintv sobol_reversed_packet(const mc_sampler_t *s, uint d) {
     if (!s->same_high) return sobol_reversed(s->point, d);
     constant uint *rv = SOBOL_RV + 32u * d;
     uint xh = 0u;
-    for (int k = SOBOL_LANE_BITS; k < SOBOL_LOG2_POINTS; ++k) xh ^= rv[k] & (0u - ((s->high >> k) & 1u));
+    for (int k = SOBOL_LANE_BITS; k < SOBOL_LOG2_POINTS && (s->high >> k) != 0u; ++k)
+        xh ^= rv[k] & (0u - ((s->high >> k) & 1u));
     uintv x = (uintv)(xh);
     for (int k = 0; k < SOBOL_LANE_BITS && k < SOBOL_LOG2_POINTS; ++k)
         x ^= (uintv)(rv[k]) & ((uintv)(0u) - ((s->point >> k) & 1u));

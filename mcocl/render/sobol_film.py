@@ -34,13 +34,24 @@ from .splat_film import MIN_BATCHES, splat_spp_per_block
 # the camera's 4 and 8 per vertex, so paths up to depth 30 draw Sobol' coordinates
 # and deeper vertices the padded ones of kernels/samplers/sobol_sampler.cl.
 RENDER_TABLE_DIMS = 256
+# log2 of the points per scrambling of every render build with blocks of at most 2^8 samples
+# (default blocks have at most 64: mcocl/render/job.py, default_spp_per_block).
+RENDER_LOG2_POINTS = 8
 _SUM = slice(FilmStat.SUM_R, FilmStat.SUM_B + 1)
 _SUMSQ = slice(FilmStat.SUMSQ_R, FilmStat.SUMSQ_B + 1)
 
 
 def sobol_render_defines(spp_per_block: int) -> list[str]:
-    """The build options of the Sobol' render: 2^m >= spp_per_block points per scrambling."""
-    log2 = max(int(spp_per_block) - 1, 0).bit_length()
+    """The build options of the Sobol' render: 2^m >= spp_per_block points per scrambling.
+
+    m is at least RENDER_LOG2_POINTS whatever the block, so renders of different ``spp`` (whose
+    blocks differ: :func:`sobol_spp_per_block`) share one build instead of compiling the megakernel
+    again (seconds on PoCL; it was most of a 64-spp render's cost after a 1-spp one).  The numbers
+    do not depend on m: the index is ((b * W * H + p) << m) + s with s < spp_per_block, so the
+    scrambling is (b, p) and the point s for every m >= log2(spp_per_block), and the point's bits
+    above its top set bit add nothing to the Sobol' coordinate (kernels/samplers/sobol_sampler.cl).
+    """
+    log2 = max(max(int(spp_per_block) - 1, 0).bit_length(), RENDER_LOG2_POINTS)
     return ["-DRENDER_SOBOL=1", "-DSAMPLER_BACKEND=SAMPLER_BACKEND_SOBOL", f"-DSOBOL_LOG2_POINTS={log2}",
             f"-DSOBOL_TABLE_DIMS={RENDER_TABLE_DIMS}"]
 
