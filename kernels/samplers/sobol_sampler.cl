@@ -158,6 +158,36 @@ MC_INLINE uintv sobol_reversed_lanes(uintv p, uintv d) {
 #endif
 }
 
+/* sobol_reversed_lanes of dimensions d .. d + 3 (per lane, all in the table):
+ * one pass over each lane's point bits for the four rows (which are
+ * consecutive in SOBOL_RV), instead of four (the render's vertices draw four
+ * dimensions at a time, the lanes at different depths).  The same bits. */
+MC_INLINE void sobol_reversed4_lanes(uintv p, uintv d, uintv *x) {
+#if LANES == 1
+    constant uint *rv = SOBOL_RV + 32u * d;
+    uint x0 = 0u, x1 = 0u, x2 = 0u, x3 = 0u;
+    for (int k = 0; k < SOBOL_LOG2_POINTS && (p >> k) != 0u; ++k) {
+        const uint m = 0u - ((p >> k) & 1u);
+        x0 ^= rv[k] & m; x1 ^= rv[32 + k] & m; x2 ^= rv[64 + k] & m; x3 ^= rv[96 + k] & m;
+    }
+    x[0] = x0; x[1] = x1; x[2] = x2; x[3] = x3;
+#else
+    uint pl[LANES], dl[LANES], xl[4][LANES];
+    MC_CAT(vstore, LANES)(p, 0, pl);
+    MC_CAT(vstore, LANES)(d, 0, dl);
+    for (int l = 0; l < LANES; ++l) {
+        constant uint *rv = SOBOL_RV + 32u * dl[l];
+        uint x0 = 0u, x1 = 0u, x2 = 0u, x3 = 0u;
+        for (int k = 0; k < SOBOL_LOG2_POINTS && (pl[l] >> k) != 0u; ++k) {
+            const uint m = 0u - ((pl[l] >> k) & 1u);
+            x0 ^= rv[k] & m; x1 ^= rv[32 + k] & m; x2 ^= rv[64 + k] & m; x3 ^= rv[96 + k] & m;
+        }
+        xl[0][l] = x0; xl[1][l] = x1; xl[2][l] = x2; xl[3][l] = x3;
+    }
+    for (int i = 0; i < 4; ++i) x[i] = MC_CAT(vload, LANES)(0, xl[i]);
+#endif
+}
+
 MC_INLINE uintv reverse_bits(uintv x) {
     x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
     x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
@@ -242,6 +272,15 @@ MC_INLINE void sampler_next_nd(mc_sampler_t *s, int n, floatv *u) {
         for (int j = 0; j < n; j += 4) {  /* walks and paths: lanes at different depths */
             const uintv dj = s->dim + (uint)j;
             const philox_ctr c = rng_block(s->replicate, dj >> 2);
+            if (j + 4 <= n && !lane_any(dj + 3u >= (uintv)(SOBOL_TABLE_DIMS))) {
+                uintv x[4];
+                sobol_reversed4_lanes(s->point, dj, x);
+                u[j] = owen_uniform(x[0], c.v0);
+                u[j + 1] = owen_uniform(x[1], c.v1);
+                u[j + 2] = owen_uniform(x[2], c.v2);
+                u[j + 3] = owen_uniform(x[3], c.v3);
+                continue;
+            }
             u[j] = sobol_uniform_lanes(s, dj, c.v0);
             if (j + 1 < n) u[j + 1] = sobol_uniform_lanes(s, dj + 1u, c.v1);
             if (j + 2 < n) u[j + 2] = sobol_uniform_lanes(s, dj + 2u, c.v2);
