@@ -39,6 +39,8 @@ def main() -> None:
     ap.add_argument("--rr-depth", type=int, default=5)
     ap.add_argument("--seed", type=int, default=0, help="seed of the first timed render (then seed + 1, ...)")
     ap.add_argument("--out", default="bench-out/render/mitsuba")
+    ap.add_argument("--sampler", default="independent",
+                    help="Mitsuba sampler plugin (independent, stratified, multijitter, ldsampler, orthogonal)")
     args = ap.parse_args()
 
     import drjit as dr
@@ -52,7 +54,7 @@ def main() -> None:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from mitsuba_scene import load
 
-        scene = load(mi, args.scene, out / "meshes", args.spp)
+        scene = load(mi, args.scene, out / "meshes", args.spp, args.sampler)
     else:
         d = mi.cornell_box()
         d["sensor"]["film"]["rfilter"] = {"type": "box"}
@@ -72,7 +74,7 @@ def main() -> None:
         times.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
         np.save(out / f"mitsuba_{args.spp}spp_{k}.npy", a[..., :3])
-    info = {"variant": args.variant, "version": mi.__version__, "spp": args.spp, "times": times, "cpu_seconds": cpu,
+    info = {"variant": args.variant, "sampler": args.sampler, "version": mi.__version__, "spp": args.spp, "times": times, "cpu_seconds": cpu,
             "first_call_seconds": first, "load_seconds": load_seconds, "width": int(a.shape[1]), "height": int(a.shape[0])}
     (out / "mitsuba_times.json").write_text(json.dumps(info, indent=2))
     print(json.dumps(info))

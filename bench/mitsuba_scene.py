@@ -86,7 +86,7 @@ def _write_obj(path: Path, vertices: list, faces: list) -> None:
         np.savetxt(f, np.asarray(faces, dtype=np.int64) + 1, fmt="f %d %d %d")
 
 
-def mitsuba_dict(scene_file: str | Path, mesh_dir: str | Path, spp: int) -> dict:
+def mitsuba_dict(scene_file: str | Path, mesh_dir: str | Path, spp: int, sampler: str = "independent") -> dict:
     """The scene as a dictionary for ``mitsuba.load_dict`` (transforms as nested 4x4 lists under ``to_world``)."""
     scene_file = Path(scene_file)
     d = json.loads(scene_file.read_text())
@@ -99,7 +99,7 @@ def mitsuba_dict(scene_file: str | Path, mesh_dir: str | Path, spp: int) -> dict
         "integrator": {"type": "path", "max_depth": int(integ.get("max_depth", -1)), "rr_depth": int(integ.get("rr_depth", 5))},
         "sensor": {"type": "perspective", "fov": float(cam["fov"]), "fov_axis": "smaller",
                    "look_at": {"origin": cam["origin"], "target": cam["target"], "up": cam.get("up", [0, 1, 0])},
-                   "sampler": {"type": "independent", "sample_count": spp},
+                   "sampler": {"type": sampler, "sample_count": spp},
                    "film": {"type": "hdrfilm", "width": int(cam["width"]), "height": int(cam["height"]),
                             "rfilter": {"type": "box"}, "pixel_format": "rgb"}},
     }
@@ -137,9 +137,9 @@ def mitsuba_dict(scene_file: str | Path, mesh_dir: str | Path, spp: int) -> dict
     return out
 
 
-def load(mi: Any, scene_file: str | Path, mesh_dir: str | Path, spp: int) -> Any:
+def load(mi: Any, scene_file: str | Path, mesh_dir: str | Path, spp: int, sampler: str = "independent") -> Any:
     """Load the scene in Mitsuba (``mi`` with its variant set): the dictionary with real transforms."""
-    d = mitsuba_dict(scene_file, mesh_dir, spp)
+    d = mitsuba_dict(scene_file, mesh_dir, spp, sampler)
     s = d["sensor"]
     la = s.pop("look_at")
     s["to_world"] = mi.ScalarTransform4f().look_at(origin=la["origin"], target=la["target"], up=la["up"])

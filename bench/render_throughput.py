@@ -20,10 +20,11 @@ With ``--mitsuba``, for every scene of ``--scenes``:
   ``--big-triangles`` triangles (generated into ``--out`` when missing);
 
 mcocl renders ``--spp`` spp with each of ``--configs`` (integrator/light
-sampler, e.g. ``mis/power``), Mitsuba (bench/mitsuba_render.py in its own
-environment, the scene converted by bench/mitsuba_scene.py: box filter,
-independent sampler, ``path`` integrator with the scene's max_depth and
-rr_depth) renders the same spp, one process per repeat, the runs interleaved
+sampler[/render sampler], e.g. ``mis/power`` or ``mis/auto/sobol``), Mitsuba
+(bench/mitsuba_render.py in its own environment, the scene converted by
+bench/mitsuba_scene.py: box filter, the ``--mitsuba-sampler`` (independent by
+default; ``multijitter``, ``ldsampler``... stratify as our ``sobol`` does),
+``path`` integrator with the scene's max_depth and rr_depth) renders the same spp, one process per repeat, the runs interleaved
 so that both renderers see the same load.  Times exclude the kernel build
 (ours) and the JIT compilation (Mitsuba's first call) and the scene load.
 Errors are against a reference rendered by mcocl (``mis``, power light
@@ -175,15 +176,15 @@ def throughput_only(args: argparse.Namespace, out: Path) -> None:
 
 def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, env: dict) -> dict:
     """mcocl's configurations and Mitsuba on one scene, interleaved run by run (see the module docstring)."""
-    configs = [c.split("/") for c in args.configs]
+    configs = [(*c.split("/"), "independent")[:3] for c in args.configs]
     if name in ("cornell", "cornell_spheres", "big"):  # one area light: the light sampler cannot matter
-        configs = list(dict.fromkeys((integ, "power") for integ, _ in configs))
+        configs = list(dict.fromkeys((integ, "power", smp) for integ, _, smp in configs))
     compiled, load = {}, {}
-    for integ, ls in configs:
+    for c in configs:
         t0 = time.perf_counter()
-        compiled[(integ, ls)] = compile_scene(scene_variant(scene, integ, ls))
-        load[(integ, ls)] = time.perf_counter() - t0
-        render(compiled[(integ, ls)], spp=1, integrator=integ, seed=999, lanes=args.lanes)  # build the kernel
+        compiled[c] = compile_scene(scene_variant(scene, c[0], c[1]))
+        load[c] = time.perf_counter() - t0
+        render(compiled[c], spp=1, integrator=c[0], seed=999, lanes=args.lanes, sampler=c[2])  # build the kernel
     mdir = out / "mitsuba" / name
     ours: dict = {c: {"seconds": [], "cpu": [], "mse": []} for c in compiled}
     mi_runs: dict = {"seconds": [], "cpu": [], "mse": []}
@@ -192,13 +193,13 @@ def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, e
     for k in range(args.repeats):
         for c, cs in compiled.items():
             c0 = time.process_time()
-            r = render(cs, spp=args.spp, integrator=c[0], seed=1 + args.seed + k, lanes=args.lanes)
+            r = render(cs, spp=args.spp, integrator=c[0], seed=1 + args.seed + k, lanes=args.lanes, sampler=c[2])
             ours[c]["cpu"].append(time.process_time() - c0)
             ours[c]["seconds"].append(r.seconds)
             ours[c]["mse"].append(mse(r.mean, ref, ref_var))
         p = subprocess.run([args.mitsuba, str(ROOT / "bench" / "mitsuba_render.py"), "--scene", str(scene),
                             "--variant", args.variant, "--spp", str(args.spp), "--repeats", "1", "--seed", str(args.seed + k),
-                            "--out", str(mdir)], capture_output=True, text=True, env=env, cwd=ROOT)
+                            "--sampler", args.mitsuba_sampler, "--out", str(mdir)], capture_output=True, text=True, env=env, cwd=ROOT)
         if p.returncode != 0:
             raise SystemExit(f"Mitsuba failed on {scene}:\n{p.stderr[-3000:]}")
         mi_info = json.loads((mdir / "mitsuba_times.json").read_text())
@@ -211,7 +212,7 @@ def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, e
     def eff(runs: dict, key: str) -> float:
         return 1.0 / (statistics.mean(runs["mse"]) * statistics.median(runs[key]))
 
-    rows = {f"{c[0]}/{c[1]}": {"seconds_median": statistics.median(v["seconds"]),
+    rows = {"/".join(c if c[2] != "independent" else c[:2]): {"seconds_median": statistics.median(v["seconds"]),
                                 "cpu_seconds_median": statistics.median(v["cpu"]),
                                 "mse": statistics.mean(v["mse"]), "load_seconds": load[c],
                                 "efficiency_ratio": eff(v, "seconds") / eff(mi_runs, "seconds"),
@@ -221,7 +222,7 @@ def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, e
     return {"scene": name, "file": str(scene.relative_to(ROOT)) if scene.is_relative_to(ROOT) else str(scene),
             "size": f"{cs.width}x{cs.height}", "max_depth": cs.max_depth, "rr_depth": cs.rr_depth, "spp": args.spp,
             "reference": how, "reference_mean": float(ref.mean()), "configs": rows, "best": best,
-            "mitsuba": {"variant": mi_info["variant"], "version": mi_info["version"],
+            "mitsuba": {"variant": mi_info["variant"], "version": mi_info["version"], "sampler": args.mitsuba_sampler,
                         "seconds_median": statistics.median(mi_runs["seconds"]),
                         "cpu_seconds_median": statistics.median(mi_runs["cpu"]), "mse": statistics.mean(mi_runs["mse"]),
                         "image_mean": statistics.mean(mi_runs["image_mean"]),
@@ -240,6 +241,8 @@ def main() -> None:
     ap.add_argument("--mitsuba", default=None, metavar="PYTHON", help="Python of a venv with mitsuba: compare with it")
     ap.add_argument("--llvm", default=None, metavar="LIBLLVM", help="libLLVM.so for Mitsuba's llvm variants (DRJIT_LIBLLVM_PATH)")
     ap.add_argument("--variant", default="llvm_ad_rgb", help="Mitsuba variant (default llvm_ad_rgb)")
+    ap.add_argument("--mitsuba-sampler", default="independent",
+                    help="Mitsuba's sampler plugin (default independent; multijitter or ldsampler stratify)")
     ap.add_argument("--scenes", nargs="+", default=["cornell", "cornell_spheres", "veach_mis", "many_lights", "big"])
     ap.add_argument("--configs", nargs="+", default=["mis/power", "nee/power", "mis/bvh", "nee/bvh"],
                     help="mcocl integrator/light_sampler pairs (bvh only on the many-light scenes); lt/power "
