@@ -42,6 +42,16 @@ def no_whole_read(monkeypatch):
     monkeypatch.setattr(shapes, "read_regular_file", refuse, raising=False)
 
 
+def same_error(read, parse, path) -> str:
+    """The error of reading ``path`` as a file, asserted equal to that of parsing its bytes."""
+    with pytest.raises(InputError) as got:
+        read(path, "k")
+    with pytest.raises(InputError) as ref:
+        parse(path.read_bytes(), f"k: {path}")
+    assert str(got.value) == str(ref.value)
+    return str(got.value)
+
+
 @pytest.mark.parametrize("chunk", [1 << 21, 16, 5])
 def test_obj_file_reads_as_its_bytes(tmp_path, monkeypatch, no_whole_read, chunk):
     p = tmp_path / "m.obj"
@@ -50,11 +60,7 @@ def test_obj_file_reads_as_its_bytes(tmp_path, monkeypatch, no_whole_read, chunk
     want = shapes.PlyMesh(*obj_reader.parse_obj(OBJ, f"k: {p}"))
     assert same(shapes.read_obj(p, "k"), want)
     p.write_bytes(OBJ.replace(b"f -4", b"f -9"))
-    with pytest.raises(InputError) as got:
-        shapes.read_obj(p, "k")
-    with pytest.raises(InputError) as ref:
-        obj_reader.parse_obj(p.read_bytes(), f"k: {p}")
-    assert str(got.value) == str(ref.value) and ":13:" in str(got.value)
+    assert ":13:" in same_error(shapes.read_obj, obj_reader.parse_obj, p)
 
 
 @pytest.mark.parametrize("chunk", [1 << 18, 16, 3])
@@ -71,11 +77,7 @@ def test_ascii_ply_file_streams_as_its_bytes(tmp_path, monkeypatch, no_whole_rea
 def test_a_ply_the_stream_leaves_is_read_whole_with_the_same_error(tmp_path):
     p = tmp_path / "bad.ply"
     p.write_bytes(PLY.replace(b"3 2 3 0", b"2 2 3"))
-    with pytest.raises(InputError) as got:
-        shapes.read_ply(p, "k")
-    with pytest.raises(InputError) as ref:
-        ply_reader.parse_ply(p.read_bytes(), f"k: {p}")
-    assert str(got.value) == str(ref.value) and "face 2 has 2 corners" in str(got.value)
+    assert "face 2 has 2 corners" in same_error(shapes.read_ply, ply_reader.parse_ply, p)
 
 
 @pytest.mark.parametrize("read, kind", [(shapes.read_obj, "OBJ"), (shapes.read_ply, "PLY")])
