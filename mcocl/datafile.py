@@ -41,11 +41,8 @@ def read_regular_file(path: str | Path) -> bytes:
     out, and a named pipe would block for ever; callers already turn an
     ``OSError`` into an :class:`InputError` that quotes its ``strerror``.
     """
-    p = Path(path)
-    mode = p.stat().st_mode
-    if not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):  # a folder fails in read_bytes, as before
-        raise OSError(errno.EINVAL, "not a regular file (a device, pipe or socket)", str(p))
-    return p.read_bytes()
+    with open_regular_file(path) as f:
+        return f.read()
 
 
 def open_regular_file(path: str | Path) -> BinaryIO:
