@@ -249,6 +249,27 @@ def test_fov_axis(tmp_path, axis):
     assert half_w / half_h == pytest.approx(2.0, rel=1e-6)
 
 
+
+def test_properties_mitsuba_reads_and_a_pinhole_ignores(tmp_path):
+    """focus_distance and the shutter of a perspective sensor, and hdrfilm's sample_border, are read (the
+    Cornell box of Mitsuba's own tests sets them) and leave the camera as it is."""
+    plain = write(tmp_path, "", name="plain.xml")
+    extra = SENSOR.replace('<float name="fov" value="45"/>',
+                           '<float name="fov" value="45"/><float name="focus_distance" value="1000"/>'
+                           '<float name="shutter_open" value="0"/><float name="shutter_close" value="1"/>')
+    extra = extra.replace('<integer name="height" value="6"/>',
+                          '<integer name="height" value="6"/><boolean name="sample_border" value="false"/>')
+    p = tmp_path / "extra.xml"
+    p.write_text(f'<scene version="3.0.0">{extra}</scene>')
+    a, b = read_mitsuba(plain)["camera"], read_mitsuba(p)["camera"]
+    assert {k: v for k, v in a.items() if k != "comment"} == {k: v for k, v in b.items() if k != "comment"}
+    assert any("sample_border false" in c for c in b["comment"])
+    bad = tmp_path / "bad.xml"
+    shifted = SENSOR.replace("<film", '<float name="principal_point_offset_x" value="0.1"/><film')
+    bad.write_text(f'<scene version="3.0.0">{shifted}</scene>')
+    with pytest.raises(InputError, match="principal_point_offset_x"):
+        read_mitsuba(bad)
+
 def test_mitsuba_defaults(tmp_path):
     p = tmp_path / "s.xml"
     p.write_text('<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="30"/></sensor>'

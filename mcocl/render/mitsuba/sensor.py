@@ -131,9 +131,17 @@ def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
             focus = FAR_CLIP
             comments.append(f"focus_distance: Mitsuba's default, far_clip = {FAR_CLIP:g}")
         cam.update({"aperture_radius": aperture, "focus_distance": focus})
+    elif "focus_distance" in props:
+        # Mitsuba's projective cameras all read focus_distance; a pinhole has no focus, so it changes nothing.
+        props.get("focus_distance", ("float",), None)
+        comments.append("focus_distance: no effect on a pinhole (perspective) camera")
+    for k in ("shutter_open", "shutter_close"):
+        if k in props:
+            props.get(k, ("float",), None)
+            comments.append(f"{k}: ignored (mcocl's scenes do not move, so the shutter interval changes nothing)")
     cam.update(_clip_planes(props, comments))
     rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", "near_clip", "far_clip",
-                                        *lens_keys),
+                                        "focus_distance", "shutter_open", "shutter_close", *lens_keys),
                  comments)
     return cam, spp
 
@@ -219,8 +227,15 @@ def _film(node: Node, rep: Reporter, comments: list[str]) -> tuple[int, int]:
         if k in props:
             props.read.add(k)
             comments.append(f"{k}: ignored (mcocl writes float32 RGB EXR with a variance layer)")
+    if "sample_border" in props:
+        # Filter importance sampling draws every pixel's film points over its whole filter footprint, which
+        # is what sample_border = true gives Mitsuba's splatting film; with false, Mitsuba's border pixels
+        # see only the part of their filter inside the image (the same image for the box filter).
+        border = props.get("sample_border", ("boolean",), None)
+        comments.append(f"sample_border {str(border).lower()}: mcocl samples each pixel's whole filter footprint"
+                        + ("" if border else " (as Mitsuba's true; its false crops the border pixels' filters)"))
     rep.leftover(node, props.unread(), ("width", "height", *CROP_KEYS, "pixel_format", "component_format",
-                                        "file_format"), comments)
+                                        "file_format", "sample_border"), comments)
     return width, height, pixel_filter, crop
 
 
