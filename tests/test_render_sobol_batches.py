@@ -12,6 +12,7 @@
   drawn with a fixed seed, in standard-error units).
 - The image depends on the seed and the batches only: launch splits and an
   interrupted, resumed run give the same bits.
+- The scene key ``integrator.batches`` sets them; the keyword overrides it.
 - Bad values are refused with InputError naming ``batches``.
 """
 
@@ -32,6 +33,7 @@ from mcocl.render import sobol_film
 from mcocl.render.api import render
 from mcocl.render.compiled import compile_scene
 from mcocl.render.job import default_spp_per_block
+from mcocl.render.scene import parse_scene
 from mcocl.render.scene_file import load_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
@@ -153,6 +155,27 @@ def test_bad_batches_are_refused() -> None:
         render(cs, spp=8, batches=4)
     with pytest.raises(InputError, match="spp_per_block"):
         render(cs, spp=8, sampler="sobol", batches=4, spp_per_block=2)
+
+
+def sphere_scene(integrator: dict) -> dict:
+    """An 8 x 8 emissive sphere scene with the given integrator object."""
+    return {"camera": {"origin": [0, 0, 3.9], "target": [0, 0, 0], "fov": 40, "width": 8, "height": 8},
+            "integrator": integrator, "materials": {"m": {"type": "diffuse", "reflectance": 0.5}},
+            "shapes": [{"type": "sphere", "material": "m", "center": [0, 0, 0], "radius": 1,
+                        "emitter": {"type": "area", "radiance": 1.0}}]}
+
+
+def test_scene_key_sets_the_batches() -> None:
+    cs = compile_scene(parse_scene(sphere_scene({"sampler": "sobol", "batches": 8, "spp": 32})))
+    r = render(cs, seed=3)
+    assert cs.batches == 8 and r.spp_per_block == 4 and np.all(r.count == 8)
+    np.testing.assert_array_equal(r.mean, render(cs, seed=3, batches=8).mean)
+    assert render(cs, seed=3, batches=2).spp_per_block == 16  # the keyword wins
+    for bad in (1, 2.5, "8"):
+        with pytest.raises(InputError, match="integrator.batches"):
+            parse_scene(sphere_scene({"sampler": "sobol", "batches": bad}))
+    with pytest.raises(InputError, match="integrator.batches"):  # independent sampling has no batches
+        parse_scene(sphere_scene({"batches": 4}))
 
 
 def test_cli_batches(tmp_path: Path) -> None:

@@ -245,6 +245,7 @@ def render(
             (``spp_per_block=spp`` renders it, its ``variance`` NaN).  Under ``time_budget`` or
             ``target_error`` blocks keep their default size, their number grows with the run, and
             ``target_error`` waits for ``batches`` of them.  Not with ``spp_per_block``.
+            Default: the scene's ``integrator.batches``, else 4.
         mis: ``bdpt``'s MIS heuristic, ``power`` (beta 2, the default) or ``balance``.
         strategy: ``bdpt`` renders only strategy (s, t) (s light, t >= 1 camera vertices),
             MIS-weighted unless ``unweighted``.
@@ -275,7 +276,8 @@ def render(
         if spp_per_block is not None:
             raise InputError("batches and spp_per_block both set the samples of a batch: give one of them")
         batches = whole_number("batches", batches, MIN_BATCHES, UNBOUNDED_SPP - 1)
-    min_batches = batches if batches is not None else DEFAULT_BATCHES
+    # sobol's batches: the keyword's, the scene's integrator.batches (checked when it was read), or the default
+    min_batches = batches or getattr(cs, "batches", None) or DEFAULT_BATCHES
     opts = RunOptions(seed=seed, time_budget=time_budget, target_error=target_error, device=device, devices=devices,
                       split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)
     seed = opts.seed
