@@ -10,8 +10,8 @@
 - c4(B) is Gamma-function exact, and dividing it out makes the mean
   relative standard error of normal batch means unbiased (checked on numbers
   drawn with a fixed seed, in standard-error units).
-- The image depends on the seed and the batches only: launch splits and an
-  interrupted, resumed run give the same bits.
+- The image depends on the seed and the batches only: launch splits, an
+  interrupted, resumed run and the build's points per scrambling give the same bits.
 - The scene key ``integrator.batches`` sets them; the keyword overrides it.
 - Bad values are refused with InputError naming ``batches``.
 """
@@ -137,6 +137,17 @@ def test_image_depends_on_seed_and_batches_only(tmp_path: Path) -> None:
     np.testing.assert_array_equal(rest.mean, whole.mean)
     np.testing.assert_array_equal(rest.variance, whole.variance)
     np.testing.assert_array_equal(rest.count, whole.count)
+
+
+def test_points_per_scrambling_of_the_build_do_not_change_the_image(monkeypatch: pytest.MonkeyPatch) -> None:
+    """RENDER_LOG2_POINTS (2^12 points per scrambling, so that batches of up to 4096 spp share one build)
+    gives the bits of the 2^8 that the builds had before: the Sobol' point and its scrambling do not depend on it."""
+    cs = small_cornell(8)
+    wide = render(cs, spp=32, seed=5, sampler="sobol")
+    monkeypatch.setattr(sobol_film, "RENDER_LOG2_POINTS", 8)
+    narrow = render(cs, spp=32, seed=5, sampler="sobol")
+    np.testing.assert_array_equal(wide.mean, narrow.mean)
+    np.testing.assert_array_equal(wide.variance, narrow.variance)
 
 
 def test_noise_halting_keeps_default_blocks_and_waits_for_the_batches() -> None:

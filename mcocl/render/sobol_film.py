@@ -48,10 +48,11 @@ from ..layouts import FilmStat
 # the camera's 4 and 8 per vertex, so paths up to depth 30 draw Sobol' coordinates
 # and deeper vertices the padded ones of kernels/samplers/sobol_sampler.cl.
 RENDER_TABLE_DIMS = 256
-# log2 of the points per scrambling of every render build with blocks of at most 2^8 samples
+# log2 of the points per scrambling of every render build with blocks of at most 2^12 samples
 # (time-halted blocks have at most 64: mcocl/render/job.py, default_spp_per_block; renders of up
-# to 1024 spp in DEFAULT_BATCHES batches).
-RENDER_LOG2_POINTS = 8
+# to 16,384 spp in DEFAULT_BATCHES batches share the build).  The images do not depend on it
+# (sobol_render_defines); 8 before the batches grew, with the same bits.
+RENDER_LOG2_POINTS = 12
 # Batches (independent scramblings) per pixel of a render with a given spp: 3 degrees of freedom
 # for the variance, nets of spp / 4 samples (bench/render_sobol_batches.py measures the trade).
 DEFAULT_BATCHES = 4
