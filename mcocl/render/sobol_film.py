@@ -28,7 +28,7 @@ little stratification: at 64 spp, 16 batches of 4 samples left the Cornell box
 3.3x the MSE of one 64-sample net (bench/render_sobol_batches.py, README).
 So a render of ``spp`` samples takes :data:`DEFAULT_BATCHES` batches of
 ceil(spp / B) samples (:func:`sobol_spp_per_block`; ``batches`` of
-mcocl/render/api.py, ``--batches`` of the CLI): B - 1 degrees of freedom per
+mcocl/render/api.py, ``--batches`` of the CLI, scene key ``integrator.batches``): B - 1 degrees of freedom per
 pixel, an unbiased but noisy per-pixel variance.  The relative error that
 ``target_error`` bounds is a mean over pixels of sqrt(variance) / mean, and
 E[sqrt(s^2)] = c4(B) sigma < sigma for B normal batch means
