@@ -60,7 +60,7 @@ def sidak_bound(tests: int) -> float:
 
 
 def test_furnace_agrees_with_independent_and_exact() -> None:
-    a = render(SCENES / "furnace.json", spp=64, seed=11, sampler="sobol")
+    a = render(SCENES / "furnace.json", spp=64, seed=11, sampler="sobol", batches=16)
     b = render(SCENES / "furnace.json", spp=64, seed=12)
     assert a.nonfinite == 0 and np.all(a.count == 16)  # 16 batches of 4 spp
     z = block_z(a, b.mean, b.variance)
@@ -85,7 +85,7 @@ def test_cornell_agrees_with_independent_and_has_less_variance() -> None:
     b = render(cs, spp=128, seed=6)
     z = block_z(a, b.mean, b.variance)
     assert np.abs(z).max() < sidak_bound(z.size), z
-    assert a.spp == b.spp == 128 and a.spp_per_block == 8 and np.all(a.count == 16)
+    assert a.spp == b.spp == 128 and a.spp_per_block == 32 and np.all(a.count == sobol_film.DEFAULT_BATCHES)
     # RQMC within a pixel: the honest (between-replicate) variance is well below independent sampling's
     assert np.nanmean(a.variance) < 0.7 * np.nanmean(b.variance)
 
@@ -159,7 +159,7 @@ def test_bad_sampler_is_refused() -> None:
 
 
 def test_noise_halting_waits_for_enough_batches() -> None:
-    """target_error stops a sobol render only once MIN_BATCHES replicates estimate the variance."""
+    """target_error stops a sobol render only once DEFAULT_BATCHES replicates estimate the variance."""
     r = render(SCENES / "furnace.json", target_error=0.5, seed=4, sampler="sobol")
-    assert r.stopped_by == "noise" and r.count.min() >= sobol_film.MIN_BATCHES
-    assert r.spp_per_block == 16  # a quarter of the default block for an unbounded run
+    assert r.stopped_by == "noise" and r.count.min() >= sobol_film.DEFAULT_BATCHES
+    assert r.spp_per_block == 64  # the default block (2^20 paths, at most 64 spp) for an unbounded run

@@ -50,6 +50,7 @@ examples:
   mcocl render scenes/cornell.json --integrator lt --time 30 --out lt.exr
   mcocl render scenes/caustic.json --integrator bdpt --spp 256 --out caustic.exr
   mcocl render scenes/veach_mis.json --integrator bdpt --strategy 2,2 --out s2t2.exr
+  mcocl render scenes/veach_mis.json --sampler sobol --batches 4 --spp 256 --out qmc.exr
   mcocl render scenes/cornell.json --target-error 0.01 --checkpoint cornell.ckpt --out cornell.exr
   mcocl render scenes/cornell.json --resume cornell.ckpt --spp 1024 --out cornell.exr
 """
@@ -86,6 +87,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sampler", choices=RENDER_SAMPLERS, default=None,
                    help="independent, or sobol: per-pixel Owen-scrambled Sobol', variance from block means "
                         "(default: the scene's)")
+    p.add_argument("--batches", type=count, default=None, metavar="B",
+                   help="--sampler sobol: independent scramblings per pixel that the variance layer comes from, "
+                        "each a net of spp/B samples (default 4, at least 2: fewer, larger nets give a smaller "
+                        "image error and a noisier per-pixel variance). With --time/--target-error, blocks keep "
+                        "their default size and --target-error waits for B of them")
     p.add_argument("--seed", type=int, default=0, help="64-bit seed (default 0)")
     p.add_argument("--out", type=file_path, default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
     p.add_argument("--png", type=file_path, default=None, help="also write an sRGB PNG preview")
@@ -110,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
         r = render(
             args.scene, spp=args.spp, integrator=args.integrator, max_depth=args.max_depth,
             rr_depth=args.rr_depth, params=dict(args.define) or None, lenient=args.lenient,
-            mesh_folder=args.mesh_folder, sampler=args.sampler, mis=args.mis_heuristic, strategy=args.strategy,
+            mesh_folder=args.mesh_folder, sampler=args.sampler, batches=args.batches, mis=args.mis_heuristic, strategy=args.strategy,
             unweighted=args.unweighted, roulette=not args.no_roulette, **run_option_kwargs(args),
         )
     for w in caught:

@@ -44,7 +44,7 @@ from .job import (
 from .pixel_filter import BOX
 from .scene import INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
 from .scene_file import load_scene
-from .sobol_film import MIN_BATCHES, sobol_spp_per_block
+from .sobol_film import DEFAULT_BATCHES, MIN_BATCHES, batch_relative_error, sobol_spp_per_block
 from .splat_film import splat_spp_per_block
 
 
@@ -55,13 +55,16 @@ class RenderResult:
     Attributes:
         mean: (H, W, 3) float32 radiance (box filter: the plain mean of each pixel's samples).
         variance: (H, W, 3) float32 variance of the mean, per pixel and channel.
-        count: (H, W) float32 finite samples per pixel; for ``lt``, the number of
-            batches (blocks) the variance was estimated from (:mod:`mcocl.render.splat_film`).
+        count: (H, W) float32 finite samples per pixel; for ``lt``, ``bdpt`` and the ``sobol``
+            sampler, the number of batches (blocks) the variance was estimated from
+            (:mod:`mcocl.render.splat_film`, :mod:`mcocl.render.sobol_film`).
         spp: samples per pixel computed (``count`` plus the non-finite ones).
         nonfinite: NaN/Inf samples, counted and left out of the image.
         seconds: wall time of the sampling (build excluded).
         build_seconds: kernel build time of this run (small when cached).
-        relative_error: mean over pixels and channels of stderr / mean (what ``target_error`` bounds).
+        relative_error: mean over pixels and channels of stderr / mean (what ``target_error`` bounds;
+            with ``sobol`` each stderr is divided by c4 of the pixel's batches, the mean bias of a
+            square root of few batches: :func:`mcocl.render.sobol_film.batch_relative_error`).
         integrator, max_depth, rr_depth, seed: the settings that ran.
         width, height, lanes, device, stopped_by, scene: as they were.
         spp_this_run: samples per pixel computed by this call (less than ``spp``
@@ -195,6 +198,7 @@ def render(
     lenient: bool = False,
     mesh_folder: str | os.PathLike[str] | None = None,
     sampler: str | None = None,
+    batches: int | None = None,
     mis: str = "power",
     strategy: tuple[int, int] | None = None,
     unweighted: bool = False,
@@ -234,6 +238,14 @@ def render(
         sampler: ``independent`` or ``sobol`` (per-pixel Owen-scrambled Sobol',
             the variance from the spread of block means: :mod:`mcocl.render.sobol_film`);
             default: the scene's ``integrator.sampler``.
+        batches: ``sobol`` only: independent scramblings (batches) per pixel that the variance
+            comes from, each a net of ceil(spp / batches) samples (default 4: 3 degrees of freedom
+            per pixel; more batches give a steadier per-pixel variance and a larger image error,
+            fewer the reverse).  At least 2; one scrambling of all ``spp`` samples has no variance
+            (``spp_per_block=spp`` renders it, its ``variance`` NaN).  Under ``time_budget`` or
+            ``target_error`` blocks keep their default size, their number grows with the run, and
+            ``target_error`` waits for ``batches`` of them.  Not with ``spp_per_block``.
+            Default: the scene's ``integrator.batches``, else 4.
         mis: ``bdpt``'s MIS heuristic, ``power`` (beta 2, the default) or ``balance``.
         strategy: ``bdpt`` renders only strategy (s, t) (s light, t >= 1 camera vertices),
             MIS-weighted unless ``unweighted``.
@@ -258,6 +270,14 @@ def render(
         scene = load_scene(scene, params=params, lenient=lenient, mesh_folder=mesh_folder)
     cs = _compile(scene, integrator, max_depth, rr_depth)
     sampler = _render_sampler(cs, sampler)
+    if batches is not None:
+        if sampler != "sobol":
+            raise InputError(f"batches: only the sobol sampler estimates its variance from batches, not {sampler!r}")
+        if spp_per_block is not None:
+            raise InputError("batches and spp_per_block both set the samples of a batch: give one of them")
+        batches = whole_number("batches", batches, MIN_BATCHES, UNBOUNDED_SPP - 1)
+    # sobol's batches: the keyword's, the scene's integrator.batches (checked when it was read), or the default
+    min_batches = batches or getattr(cs, "batches", None) or DEFAULT_BATCHES
     opts = RunOptions(seed=seed, time_budget=time_budget, target_error=target_error, device=device, devices=devices,
                       split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)
     seed = opts.seed
@@ -301,6 +321,12 @@ def render(
         saved_block = acc.meta_int("spp_per_block", resume, 1, UNBOUNDED_SPP - 1)
         if spp_per_block is not None and whole_number("spp_per_block", spp_per_block) != saved_block:
             raise InputError(f"checkpoint {resume} uses spp_per_block={saved_block}, not {spp_per_block}")
+        if batches is not None and sampler == "sobol":
+            want = sobol_spp_per_block(default_spp_per_block(cs.width, cs.height), spp, batches,
+                                       opts.time_budget is None and opts.target_error is None)
+            if want != saved_block:
+                raise InputError(f"checkpoint {resume} has batches of {saved_block} spp, not the {want} of "
+                                 f"batches={batches}; resume it without batches")
         spp_per_block = saved_block
         saved_limit = acc.meta_int("spp_limit", resume, 1, UNBOUNDED_SPP)
         acc.check_shape((cs.height, cs.width, STATS), resume)
@@ -311,8 +337,9 @@ def render(
     elif spp_per_block is None:
         spp_per_block = default_spp_per_block(cs.width, cs.height)
         if sampler == "sobol":
-            # batches are the replicates of the variance: have a few, each a whole net
-            spp_per_block = sobol_spp_per_block(spp_per_block, spp)
+            # batches are the replicates of the variance: a few, each as large a net as they can be
+            spp_per_block = sobol_spp_per_block(spp_per_block, spp, min_batches,
+                                                opts.time_budget is None and opts.target_error is None)
         elif cs.integrator in SPLAT_INTEGRATORS:
             # the variance of a splatted image comes from its batches: have a few
             spp_per_block = splat_spp_per_block(spp_per_block, spp)
@@ -332,13 +359,19 @@ def render(
     acc.meta["spp_limit"] = spp_limit
     spp_before = job.spp_done(acc.blocks_done)
 
+    def error_of(mean: np.ndarray, variance: np.ndarray, count: np.ndarray) -> float:
+        # sobol's few batches: the mean stderr with its chi bias divided out (mcocl/render/sobol_film.py)
+        if sampler == "sobol":
+            return batch_relative_error(mean, variance, count)
+        return relative_error(mean, variance)
+
     def target(a: Accumulator) -> bool:
         if opts.target_error is None or job.spp_done(a.blocks_done) < 2:
             return False
-        if sampler == "sobol" and a.blocks_done < MIN_BATCHES:  # a variance from a few replicates is too noisy
+        if sampler == "sobol" and a.blocks_done < min_batches:  # fewer replicates than asked for
             return False
         img = film_image(a.totals)
-        err = relative_error(img.mean, img.variance)
+        err = error_of(img.mean, img.variance, img.count)
         return math.isfinite(err) and err <= opts.target_error
 
     callback, bar = opts.progress_reporter(f"render [{cs.integrator}]", "spp", spp_per_block)
@@ -360,8 +393,8 @@ def render(
     spp_done = job.spp_done(acc.blocks_done)
     notes = list(getattr(report, "notes", []) or [])
     if sampler == "sobol":
-        notes.append(f"sobol: variance from {acc.blocks_done} independent Owen scramblings (blocks) of "
-                     f"{spp_per_block} samples per pixel")
+        notes.append(f"sobol: variance from {acc.blocks_done} independent Owen scramblings (batches) of "
+                     f"{spp_per_block} samples per pixel" + ("; one batch has no variance" if acc.blocks_done < 2 else ""))
     if job.integrator == "lt":
         notes.append(f"light tracing: variance from {acc.blocks_done} independent batches of "
                      f"{spp_per_block} light paths per pixel; specular surfaces seen directly are black")
@@ -375,7 +408,7 @@ def render(
         nonfinite=nonfinite,
         seconds=report.seconds,
         build_seconds=runner.build_seconds,
-        relative_error=relative_error(img.mean, img.variance),
+        relative_error=error_of(img.mean, img.variance, img.count),
         integrator=cs.integrator,
         max_depth=cs.max_depth,
         rr_depth=cs.rr_depth,

@@ -151,6 +151,7 @@ class CompiledScene:
     delta_power: np.ndarray = field(default_factory=lambda: np.zeros(0))
     env_map: EnvMap | None = None
     sampler: str = "independent"  # integrator.sampler (mcocl/render/sobol_film.py)
+    batches: int | None = None  # integrator.batches: sobol's batches per pixel (None: the default)
     pixel_filter: PixelFilter = BOX  # the camera's reconstruction filter (mcocl/render/pixel_filter.py)
     # (T, 3, 4) corner normals of the triangles that shade smoothly, None if none does (render/shading_normals.py)
     vertex_normals: np.ndarray | None = None
@@ -487,6 +488,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         emitter_radiance=emitter_radiance, light_prims=light_prims, light_cdf=cdf, light_pmf=pmf,
         prim_light=prim_light, light_area=light_area, env_radiance=env,
         light_power=power.astype(np.float64), light_sampler=sampler, sampler=scene.sampler,
+        batches=getattr(scene, "batches", None),
         delta_lights=list(scene.lights) if len(dpower) else [], delta_power=dpower, env_map=scene.env_map,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,

@@ -158,6 +158,7 @@ class Scene:
     spp: int = DEFAULT_SPP
     light_sampler: str = DEFAULT_LIGHT_SAMPLER
     sampler: str = DEFAULT_RENDER_SAMPLER
+    batches: int | None = None  # integrator.batches: sobol's batches per pixel (None: the default, 4)
     lights: list[DeltaLight] = field(default_factory=list)  # point, spot, directional (delta_lights.py)
     env_map: EnvMap | None = None  # an environment map (envmap.py); env_radiance is then 0
 
@@ -411,13 +412,18 @@ def _crop(c: _Checker, v: Any, key: str, width: int, height: int) -> tuple[int, 
 
 
 def _integrator(c: _Checker, v: Any, key: str) -> dict:
-    o = c.obj(v, key, (), ("type", "max_depth", "rr_depth", "spp", "light_sampler", "sampler"))
+    o = c.obj(v, key, (), ("type", "max_depth", "rr_depth", "spp", "light_sampler", "sampler", "batches"))
     settings = check_integrator_settings(
         o.get("type", DEFAULT_INTEGRATOR), o.get("max_depth", DEFAULT_MAX_DEPTH),
         o.get("rr_depth", DEFAULT_RR_DEPTH), o.get("spp", DEFAULT_SPP), c, key,
         light_sampler=o.get("light_sampler", DEFAULT_LIGHT_SAMPLER),
     )
     settings["sampler"] = c.string(o.get("sampler", DEFAULT_RENDER_SAMPLER), f"{key}.sampler", RENDER_SAMPLERS)
+    if "batches" in o:
+        # sobol's independent scramblings per pixel (mcocl/render/sobol_film.py): at least 2 for a variance
+        if settings["sampler"] != "sobol":
+            c.fail(f"{key}.batches", "applies to the sobol sampler only (set integrator.sampler to \"sobol\")")
+        settings["batches"] = c.integer(o["batches"], f"{key}.batches", 2, MAX_SPP)
     return settings
 
 

@@ -18,25 +18,46 @@ per pixel: ``Y_b = (sum of its finite samples) / (their number)``, stored as
 one "sample" of the film's columns (sum Y_b, sum Y_b^2, count 1).  With B
 blocks, :func:`mcocl.render.film.film_image` then gives the mean of the Y_b
 and var(Y_b) / B, the variance of that mean; ``count`` is the number of
-batches.  A render therefore needs at least two blocks for a variance:
-:func:`sobol_spp_per_block` picks blocks small enough for MIN_BATCHES of them,
-and ``target_error`` halting waits for MIN_BATCHES (mcocl/render/api.py).
+batches.  The Y_b are independent with the pixel's mean as their common
+expectation, so E[var(Y_b)] is the average of their variances and var(Y_b) / B
+is unbiased for the variance of the pixel mean, also when a last partial
+block makes one batch shorter than the others.
+
+How many batches.  Every batch is a net of its own, and small nets keep
+little stratification: at 64 spp, 16 batches of 4 samples left the Cornell box
+3.3x the MSE of one 64-sample net (bench/render_sobol_batches.py, README).
+So a render of ``spp`` samples takes :data:`DEFAULT_BATCHES` batches of
+ceil(spp / B) samples (:func:`sobol_spp_per_block`; ``batches`` of
+mcocl/render/api.py, ``--batches`` of the CLI, scene key ``integrator.batches``): B - 1 degrees of freedom per
+pixel, an unbiased but noisy per-pixel variance.  The relative error that
+``target_error`` bounds is a mean over pixels of sqrt(variance) / mean, and
+E[sqrt(s^2)] = c4(B) sigma < sigma for B normal batch means
+(:func:`stderr_bias`: 0.92 for B = 4); :func:`batch_relative_error` divides
+it out (exact for normal batch means; heavy-tailed pixels still read low).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..layouts import FilmStat
-from .splat_film import MIN_BATCHES, splat_spp_per_block
 
 # Sobol' dimensions in the table of a render build (32 KiB of constant memory):
 # the camera's 4 and 8 per vertex, so paths up to depth 30 draw Sobol' coordinates
 # and deeper vertices the padded ones of kernels/samplers/sobol_sampler.cl.
 RENDER_TABLE_DIMS = 256
-# log2 of the points per scrambling of every render build with blocks of at most 2^8 samples
-# (default blocks have at most 64: mcocl/render/job.py, default_spp_per_block).
-RENDER_LOG2_POINTS = 8
+# log2 of the points per scrambling of every render build with blocks of at most 2^12 samples
+# (time-halted blocks have at most 64: mcocl/render/job.py, default_spp_per_block; renders of up
+# to 16,384 spp in DEFAULT_BATCHES batches share the build).  The images do not depend on it
+# (sobol_render_defines); 8 before the batches grew, with the same bits.
+RENDER_LOG2_POINTS = 12
+# Batches (independent scramblings) per pixel of a render with a given spp: 3 degrees of freedom
+# for the variance, nets of spp / 4 samples (bench/render_sobol_batches.py measures the trade).
+DEFAULT_BATCHES = 4
+# The fewest batches a variance can come from (var(Y_b) needs two).
+MIN_BATCHES = 2
 _SUM = slice(FilmStat.SUM_R, FilmStat.SUM_B + 1)
 _SUMSQ = slice(FilmStat.SUMSQ_R, FilmStat.SUMSQ_B + 1)
 
@@ -56,12 +77,49 @@ def sobol_render_defines(spp_per_block: int) -> list[str]:
             f"-DSOBOL_TABLE_DIMS={RENDER_TABLE_DIMS}"]
 
 
-def sobol_spp_per_block(default: int, spp: int | None) -> int:
-    """Samples per pixel of a block: a power of two (a whole (0, m, 2)-net per replicate), at most
-    ``default``, small enough for MIN_BATCHES batches when ``spp`` allows; a quarter of ``default``
-    for time or noise halting (spp None), so that a short run still has batches to estimate from."""
-    n = splat_spp_per_block(default, spp) if spp is not None else max(1, default // 4)
-    return 1 << (n.bit_length() - 1)
+def sobol_spp_per_block(default: int, spp: int | None, batches: int, bounded_by_spp: bool) -> int:
+    """Samples per pixel of a block (= one batch, one scrambling per pixel).
+
+    A render bounded by its ``spp`` alone gets ``batches`` blocks of ceil(spp / batches) samples
+    (fewer blocks when spp < batches).  Under time or noise halting (``bounded_by_spp`` False) the
+    run's length is unknown: blocks are ``default`` samples (a power of two, a whole net of about
+    2^20 paths: mcocl/render/job.py, default_spp_per_block), and fewer when an upper bound ``spp``
+    would leave less than ``batches`` of them; the number of batches then grows with the run.
+    """
+    if spp is None:
+        return default
+    whole = -(-int(spp) // int(batches))
+    return whole if bounded_by_spp else max(1, min(default, whole))
+
+
+def stderr_bias(batches: np.ndarray | int) -> np.ndarray:
+    """c4(B) = E[s] / sigma for the sample standard deviation s of B independent normal values.
+
+    c4(B) = sqrt(2 / (B - 1)) Gamma(B / 2) / Gamma((B - 1) / 2) (s^2 (B - 1) / sigma^2 is chi-square
+    with B - 1 degrees of freedom); NaN below B = 2.  0.798 for B = 2, 0.921 for 4, 0.984 for 16.
+    """
+    b = np.asarray(batches, dtype=np.float64)
+    ok = b >= 2
+    bb = np.where(ok, b, 2.0)
+    lg = np.vectorize(math.lgamma, otypes=[np.float64])
+    c4 = np.sqrt(2.0 / (bb - 1.0)) * np.exp(lg(bb / 2.0) - lg((bb - 1.0) / 2.0))
+    return np.where(ok, c4, np.nan)
+
+
+def batch_relative_error(mean: np.ndarray, variance: np.ndarray, count: np.ndarray) -> float:
+    """The relative error of :func:`mcocl.render.film.relative_error` with each pixel's stderr divided by c4(B).
+
+    ``count`` (H, W) is the pixel's number of batches B: sqrt(var(Y_b) / B) underestimates the standard
+    error by the factor :func:`stderr_bias` on average (normal batch means), which matters for few batches.
+    Mean over pixels and channels with a positive mean and a finite variance; NaN if there are none.
+    """
+    m = np.asarray(mean, dtype=np.float64)
+    v = np.asarray(variance, dtype=np.float64)
+    c4 = np.broadcast_to(stderr_bias(np.asarray(count, dtype=np.float64))[..., None], m.shape)
+    ok = (m > 0) & np.isfinite(v) & np.isfinite(c4)
+    if not ok.any():
+        return math.nan
+    return float(np.mean(np.sqrt(v[ok]) / (c4[ok] * m[ok])))
 
 
 def block_batches(stats: np.ndarray) -> np.ndarray:
@@ -80,4 +138,5 @@ def block_batches(stats: np.ndarray) -> np.ndarray:
     return out.astype(stats.dtype)
 
 
-__all__ = ["MIN_BATCHES", "RENDER_TABLE_DIMS", "block_batches", "sobol_render_defines", "sobol_spp_per_block"]
+__all__ = ["DEFAULT_BATCHES", "MIN_BATCHES", "RENDER_TABLE_DIMS", "batch_relative_error", "block_batches",
+           "sobol_render_defines", "sobol_spp_per_block", "stderr_bias"]
