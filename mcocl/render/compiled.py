@@ -27,6 +27,9 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
 - ``bvh_nodes`` (float32 (1 + 4K, 4)), ``bvh_prims`` (uint32): see
   :mod:`mcocl.render.bvh`; kernels use them only through ``render/bvh.cl``.
   Degenerate triangles (zero area) are left out of the BVH: no ray hits them.
+  ``bvh_nodes`` is the first rows of the kernels' BVH table, ``device_bvh``
+  (:class:`mcocl.render.bvh_leaves.DeviceBVH`, made by :func:`compile_scene`),
+  so its header's ``leaf_row`` is 1 + 4K, the row after it in that table.
 - ``shape_material``: uint32 (num_shapes,); ``shape_emitter``: int32
   (num_shapes,), index into ``emitter_radiance`` or −1.
 - ``materials``: float32 (M + T, 20), one :data:`mcocl.layouts.MATERIAL_RECORD` per row, then T rows of
@@ -85,6 +88,7 @@ kernel arguments declared by ``SCENE_GEOM_PARAMS`` in ``render/intersect.cl``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 from dataclasses import dataclass, field
@@ -98,6 +102,7 @@ from ..host_memory import release_free_heap
 from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
+from .bvh_leaves import DeviceBVH, device_bvh
 from .delta_lights import delta_power
 from .emitter_choice import LUMINANCE, bounding_sphere, environment_choice, light_choice, resolve_light_sampler
 from .envmap import EnvMap
@@ -160,6 +165,9 @@ class CompiledScene:
     far_clip: float | None = None  # camera.far_clip (kernels/render/camera.cl, camera_beyond_far_clip)
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
+    # The kernels' BVH table, made by compile_scene from the builder's tree, of which bvh_nodes is a view
+    # (render/bvh_leaves.py; device_scene.scene_tables makes it again for a scene whose arrays were replaced).
+    device_bvh: DeviceBVH | None = field(default=None, repr=False, compare=False)
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
     buffer_cache: dict = field(default_factory=dict, repr=False, compare=False)
     buffer_lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
@@ -200,6 +208,20 @@ class CompiledScene:
         """The exact probability that light sampling chooses the environment (:mod:`.emitter_choice`)."""
         return environment_choice(self.env_radiance, self.num_choices > 0, self.integrator, self.env_share,
                                   self.env_map is not None)[1]
+
+    def without_primitives(self) -> CompiledScene:
+        """A copy without the per-primitive arrays (empty ones, or None, in their place): the settings, camera,
+        bounds, materials and lights' scalars only.
+
+        :func:`mcocl.render.render` keeps only this of a scene it compiled itself once the device tables are
+        built from it, so that the triangles, the shading normals' and the primitive maps' host arrays (60 MB for
+        10^6 triangles, bench/scene_memory.py) are not held through the render: the tables have what the
+        kernels need.  No table can be built from the copy.
+        """
+        return dataclasses.replace(
+            self, tri_vertices=np.zeros((0, 3, 4), np.float32), prim_shape=np.zeros(0, np.uint32),
+            prim_light=np.zeros(0, np.int32), bvh_nodes=np.zeros((0, 4), np.float32), bvh_prims=np.zeros(0, np.uint32),
+            vertex_normals=None, textures=None, device_bvh=None, buffer_cache={}, buffer_lock=threading.Lock())
 
     def with_settings(self, integrator: str | None = None, max_depth: int | None = None,
                       rr_depth: int | None = None, spp: int | None = None,
@@ -427,6 +449,10 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     bvh: BVH = build_bvh(_primitive_boxes(tri_vertices, good_tri, sph32, np.minimum),
                          _primitive_boxes(tri_vertices, good_tri, sph32, np.maximum), ids, max_leaf=max_leaf,
                          bins=bins, traversal_cost=traversal_cost, all_axes=all_axes, method=method)
+    # The device's BVH table now, while the builder's tree is the one copy of it: the scene keeps the tree as
+    # the table's first rows, not a second copy (33 MB for 10^6 triangles, bench/scene_memory.py).
+    geometry = device_bvh(bvh.nodes, bvh.prims, tri_vertices, sph32)
+    bvh.nodes = geometry.nodes
 
     # Materials and emitters.
     mats = np.zeros(len(scene.materials), MATERIAL_RECORD.dtype())
@@ -480,9 +506,9 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         width=cam.crop[2] if cam.crop else cam.width, height=cam.crop[3] if cam.crop else cam.height,
         camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height,
                              cam.aperture_radius, cam.focus_distance, cam.crop),
-        tri_vertices=np.ascontiguousarray(tri_vertices), spheres=np.ascontiguousarray(sph32),
+        tri_vertices=geometry.tri_vertices, spheres=geometry.spheres,
         sphere_flip=np.array(sphere_flip, np.uint32), prim_shape=prim_shape,
-        bvh_nodes=np.ascontiguousarray(bvh.nodes), bvh_prims=np.ascontiguousarray(bvh.prims),
+        bvh_nodes=geometry.nodes, bvh_prims=geometry.prims, device_bvh=geometry,
         shape_material=shape_material, shape_emitter=shape_emitter, materials=mats,
         emitter_radiance=emitter_radiance, light_prims=light_prims, light_cdf=cdf, light_pmf=pmf,
         prim_light=prim_light, light_area=light_area, env_radiance=env,

@@ -31,11 +31,27 @@ _CHUNK = 1 << 15  # triangles per step of vertex_normal_table: its float64 tempo
 
 
 def _world_normals(shape) -> np.ndarray:
-    """The shape's vertex normals in world space, unit length (zero rows stay zero), float64."""
-    lin = np.asarray(shape.matrix, np.float64)[:3, :3]
-    n = tf.rows_times(np.asarray(shape.normals, np.float64), np.linalg.inv(lin))  # rows times M^-1: (M^-T n) as rows
-    length = np.linalg.norm(n, axis=1, keepdims=True)
-    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+    """The shape's vertex normals in world space, unit length (zero rows stay zero), float64.
+
+    :data:`_CHUNK` vertices at a time (a last chunk of one row joins the one before: a single row's product
+    may round differently, mcocl/render/transform.py's rows_times), so that the float64 temporaries of a big
+    mesh are a chunk's, not four tables of every vertex (for 10^6 vertices 24 MB each).
+    """
+    inv = np.linalg.inv(np.asarray(shape.matrix, np.float64)[:3, :3])
+    normals = np.asarray(shape.normals)
+    out = np.empty((len(normals), 3), np.float64)
+    edges = list(range(0, len(normals), _CHUNK)) + [len(normals)]
+    if len(edges) > 2 and edges[-1] - edges[-2] == 1:
+        del edges[-2]
+    for a, b in zip(edges[:-1], edges[1:]):
+        n = tf.rows_times(np.asarray(normals[a:b], np.float64), inv)  # rows times M^-1: (M^-T n) as rows
+        # np.linalg.norm(n, axis=1, keepdims=True)'s operations (the squares summed along the row)
+        length = np.sqrt(np.add.reduce(n * n, axis=1, keepdims=True))
+        unit = length > 0
+        np.divide(n, length, out=n, where=unit)
+        n[~unit[:, 0]] = 0.0  # +0, as the zeros a division into np.zeros leaves
+        out[a:b] = n
+    return out
 
 
 def facing_dot(corner: np.ndarray, triangles: np.ndarray) -> np.ndarray:
