@@ -110,7 +110,7 @@ from .pixel_filter import BOX, PixelFilter
 from .roughplastic_tables import append_tables
 from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
-from .shading_normals import vertex_normal_table
+from .shading_normals import corner_normals, vertex_normal_table
 from .shape_registry import SHAPES
 from .texture_table import emitter_texture_code, scene_textures, texture_table
 
@@ -157,8 +157,9 @@ class CompiledScene:
     env_map: EnvMap | None = None
     sampler: str = "independent"  # integrator.sampler (mcocl/render/sobol_film.py)
     pixel_filter: PixelFilter = BOX  # the camera's reconstruction filter (mcocl/render/pixel_filter.py)
-    # (T, 3, 4) corner normals of the triangles that shade smoothly, None if none does (render/shading_normals.py)
-    vertex_normals: np.ndarray | None = None
+    # the indexed vertex normals of the triangles that shade smoothly (T + V, 4), None if none does: the kernels'
+    # vertex_normals table (render/shading_normals.py; the property vertex_normals gives them per corner)
+    normal_table: np.ndarray | None = None
     # the one table of the scene's textures and surface UVs, None if no material is textured (render/texture_table.py)
     textures: np.ndarray | None = None
     near_clip: float = 0.0  # camera.near_clip (kernels/render/camera.cl, camera_clip_origin)
@@ -171,6 +172,12 @@ class CompiledScene:
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
     buffer_cache: dict = field(default_factory=dict, repr=False, compare=False)
     buffer_lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
+
+    @property
+    def vertex_normals(self) -> np.ndarray | None:
+        """(T, 3, 4) corner normals of the triangles (w 1 where a triangle shades smoothly, zeros where not),
+        None if none does: ``normal_table`` expanded (:func:`~mcocl.render.shading_normals.corner_normals`)."""
+        return corner_normals(self.normal_table, self.num_triangles)
 
     @property
     def num_triangles(self) -> int:
@@ -221,7 +228,7 @@ class CompiledScene:
         return dataclasses.replace(
             self, tri_vertices=np.zeros((0, 3, 4), np.float32), prim_shape=np.zeros(0, np.uint32),
             prim_light=np.zeros(0, np.int32), bvh_nodes=np.zeros((0, 4), np.float32), bvh_prims=np.zeros(0, np.uint32),
-            vertex_normals=None, textures=None, device_bvh=None, buffer_cache={}, buffer_lock=threading.Lock())
+            normal_table=None, textures=None, device_bvh=None, buffer_cache={}, buffer_lock=threading.Lock())
 
     def with_settings(self, integrator: str | None = None, max_depth: int | None = None,
                       rr_depth: int | None = None, spp: int | None = None,
@@ -516,7 +523,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         delta_lights=list(scene.lights) if len(dpower) else [], delta_power=dpower, env_map=scene.env_map,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
-        vertex_normals=vertex_normal_table(scene.shapes, tri_vertices[:, :, :3]), near_clip=cam.near_clip, far_clip=cam.far_clip,
+        normal_table=vertex_normal_table(scene.shapes, tri_vertices[:, :, :3]), near_clip=cam.near_clip, far_clip=cam.far_clip,
         textures=texture_table(scene.materials, scene.shapes),
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,

@@ -164,8 +164,8 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         "env_choice": np.array([lt["env_threshold"], lt["env_pmf"]], np.float32),
         "geometry_counts": np.array([cs.num_triangles, cs.num_spheres], np.uint32),
     }
-    if getattr(cs, "vertex_normals", None) is not None:  # only then: other scenes keep their tables digest
-        tables["vertex_normals"] = np.ascontiguousarray(cs.vertex_normals, np.float32).reshape(-1, 4)
+    if getattr(cs, "normal_table", None) is not None:  # only then: other scenes keep their tables digest
+        tables["vertex_normals"] = np.ascontiguousarray(cs.normal_table, np.float32)
     if getattr(cs, "textures", None) is not None:  # likewise (render/texture_table.py)
         tables["textures"] = np.ascontiguousarray(cs.textures, np.float32)
     if cs.env_map is not None:
