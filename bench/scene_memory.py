@@ -13,18 +13,22 @@ and the same two figures for the memory Python and NumPy allocate (tracemalloc:
 the arrays themselves, without the OpenCL runtime's or the C heap's share).  The OpenCL runtime (PoCL, its
 LLVM, a built program) is loaded before that, by a render of scenes/cornell.json
 at 8 x 8 pixels, and reported apart (``runtime``: a fixed cost, not the scene's).
-The stages:
+``--route file`` (the default) renders the scene file as the CLI does:
+``mcocl.render(path)`` loads and compiles it itself and holds the only
+reference; ``--route compiled`` loads and compiles it here and renders the
+compiled scene, which the caller keeps (to render it again).  The stages:
 
 - ``load``: :func:`mcocl.render.scene_file.load_scene` (reading the mesh);
-- ``compile``: :func:`mcocl.render.compiled.compile_scene` (the BVH, the shading normals);
+- ``compile``: :func:`mcocl.render.compiled.compile_scene` (the BVH and its device table, the shading normals);
 - ``tables``: :func:`mcocl.render.device_scene.scene_tables` inside the render;
 - ``buffers``: the render runner's creation (the kernel build and the device buffers);
 - ``image``: the rest of the render (the samples);
-- ``after``: once the render's result is dropped (what the compiled scene keeps).
+- ``after``: once the render's result is dropped (what the compiled scene keeps, if anyone holds it).
 
-Then the device scene: the bytes of the runner's buffers, in all and per
-triangle, the largest tables, and the size of the compiled scene's arrays.
-The last line is one JSON object, for notes.
+Then the highest peak over the file's size (the scene file and the mesh
+files beside it that it names), the device scene: the bytes of the runner's
+buffers, in all and per triangle, the largest tables, and the size of the
+compiled scene's arrays.  The last line is one JSON object, for notes.
 
 Usage: python bench/scene_memory.py [SCENE] [--triangles N] [--out DIR] [--size PIXELS] [--spp N] [--integrator NAME]
        [--route file|compiled]
