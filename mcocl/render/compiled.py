@@ -16,7 +16,9 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   aspect ratio so that ``fov`` is the full angle on the smaller image axis.
   ``forward`` is a unit vector; right = forward × up (world), so at the
   Cornell camera (0, 0, 3.9) → origin, +x is on the right of the image.
-- ``tri_vertices``: float32 (T, 3, 4): v0, v1, v2 (w = 0) in world space.
+- ``tri_vertices``: float32 (T, 3, 3): v0, v1, v2 in world space (the kernels read
+  them only through the BVH's leaf records, :mod:`mcocl.render.bvh_leaves`: no
+  padding to float4, 12 bytes a triangle less on the host).
   The front side is counter-clockwise: normal = normalize(cross(v1 − v0, v2 − v0));
   mirroring transforms and ``flip_normals`` are already applied by swapping
   v1 and v2.
@@ -226,7 +228,7 @@ class CompiledScene:
         kernels need.  No table can be built from the copy.
         """
         return dataclasses.replace(
-            self, tri_vertices=np.zeros((0, 3, 4), np.float32), prim_shape=np.zeros(0, np.uint32),
+            self, tri_vertices=np.zeros((0, 3, 3), np.float32), prim_shape=np.zeros(0, np.uint32),
             prim_light=np.zeros(0, np.int32), bvh_nodes=np.zeros((0, 4), np.float32), bvh_prims=np.zeros(0, np.uint32),
             normal_table=None, textures=None, device_bvh=None, buffer_cache={}, buffer_lock=threading.Lock())
 
@@ -302,11 +304,11 @@ def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: f
 
 
 def _shape_triangles(shape, path, out: np.ndarray) -> None:
-    """Write the world-space triangles of a mesh-like shape into ``out`` (n, 3, 4) float32, w = 0.
+    """Write the world-space triangles of a mesh-like shape into ``out`` (n, 3, 3) float32.
 
     The front side is counter-clockwise.  The vertices are transformed in
-    float64 and rounded to float32 once per vertex (into rows of four floats,
-    w = 0), then gathered per face straight into ``out``: the same numbers as
+    float64 and rounded to float32 once per vertex, then gathered per face
+    straight into ``out``: the same numbers as
     rounding each gathered float64 triangle, with a fifth of the float64 work
     and no (n, 3, 3) intermediate.
 
@@ -323,15 +325,14 @@ def _shape_triangles(shape, path, out: np.ndarray) -> None:
     # (a non-finite vertex that no face uses is allowed: the per-face test only runs when one exists)
     if not np.isfinite(v).all() and not np.isfinite(v).all(axis=1)[f].all():
         raise InputError(f"{path}: a transform produced non-finite vertices")
-    v4 = np.zeros((len(v), 4), np.float32)
-    v4[:, :3] = v
+    v32 = v.astype(np.float32)
     del v
     # mode "clip" (the indices are in range): "raise" would gather into a temporary table of out's size first
-    np.take(v4, f, axis=0, out=out, mode="clip")
+    np.take(v32, f, axis=0, out=out, mode="clip")
 
 
 def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:
-    """``op.reduce(tri[:, :, :3], axis=1)`` (the box corner of each triangle (T, 3, 4)), as three elementwise passes.
+    """``op.reduce(tri[:, :, :3], axis=1)`` (the box corner of each triangle (T, 3, 3)), as three elementwise passes.
 
     The reduction over the middle axis is several times slower than
     ``op(op(v0, v1), v2)``; both give the same numbers except possibly the sign
@@ -348,7 +349,7 @@ def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:
 def _primitive_boxes(tri: np.ndarray, good: np.ndarray, spheres: np.ndarray, op: np.ufunc) -> np.ndarray:
     """Lower (``op`` = np.minimum) or upper (np.maximum) box corners (N, 3) float32 of the BVH's primitives.
 
-    The triangles (T, 3, 4) marked ``good``, then the spheres (S, 4); the
+    The triangles (T, 3, 3) marked ``good``, then the spheres (S, 4); the
     boxes of float32 vertices are float32 values (no float64 round trip).
     """
     box = _corner_extreme(tri, op)
@@ -363,7 +364,7 @@ _AREA_CHUNK = 1 << 15
 
 
 def _triangle_areas(tri_vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Float64 area of each float32 triangle (T, 3, 4) and whether it is non-degenerate, as the kernels see it.
+    """Float64 area of each float32 triangle (T, 3, 3) and whether it is non-degenerate, as the kernels see it.
 
     Degenerate: zero area, or so thin that its normal is numerical noise (sin angle < 1e-6).
     The same float64 operations, in the same order, as ``np.cross`` and
@@ -429,7 +430,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
             tri_counts.append(len(sh.faces))
     sph64 = np.array(spheres, np.float64).reshape(-1, 4)
     ntri, nsph = sum(tri_counts), len(sph64)
-    tri_vertices = np.empty((ntri, 3, 4), np.float32)
+    tri_vertices = np.empty((ntri, 3, 3), np.float32)
     prim_shape = np.empty(ntri + nsph, np.uint32)
     start = 0
     for k, sh in enumerate(scene.shapes):  # each shape's triangles straight into the table: no concatenated copy
