@@ -201,8 +201,7 @@ def trace(tris: np.ndarray, bvh, nrays: int = 1_000_000) -> None:
              "materials": {"m": {"type": "diffuse", "reflectance": 0.5}}, "shapes": []}
     cs = compile_scene(parse_scene(scene, "bench"))
     # Swap the (empty) geometry for the triangles and the tree built above.
-    tv = np.zeros((len(tris), 3, 4), np.float32)
-    tv[:, :, :3] = tris
+    tv = np.ascontiguousarray(tris, np.float32)  # (T, 3, 3), as compile_scene's tri_vertices
     cs.tri_vertices, cs.bvh_nodes, cs.bvh_prims = tv, bvh.nodes, bvh.prims
     # every triangle belongs to one non-emitting shape of material 0 (the scene tables need one)
     cs.prim_shape = np.zeros(len(tris), np.int32)

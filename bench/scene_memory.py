@@ -13,20 +13,25 @@ and the same two figures for the memory Python and NumPy allocate (tracemalloc:
 the arrays themselves, without the OpenCL runtime's or the C heap's share).  The OpenCL runtime (PoCL, its
 LLVM, a built program) is loaded before that, by a render of scenes/cornell.json
 at 8 x 8 pixels, and reported apart (``runtime``: a fixed cost, not the scene's).
-The stages:
+``--route file`` (the default) renders the scene file as the CLI does:
+``mcocl.render(path)`` loads and compiles it itself and holds the only
+reference; ``--route compiled`` loads and compiles it here and renders the
+compiled scene, which the caller keeps (to render it again).  The stages:
 
 - ``load``: :func:`mcocl.render.scene_file.load_scene` (reading the mesh);
-- ``compile``: :func:`mcocl.render.compiled.compile_scene` (the BVH, the shading normals);
+- ``compile``: :func:`mcocl.render.compiled.compile_scene` (the BVH and its device table, the shading normals);
 - ``tables``: :func:`mcocl.render.device_scene.scene_tables` inside the render;
 - ``buffers``: the render runner's creation (the kernel build and the device buffers);
 - ``image``: the rest of the render (the samples);
-- ``after``: once the render's result is dropped (what the compiled scene keeps).
+- ``after``: once the render's result is dropped (what the compiled scene keeps, if anyone holds it).
 
-Then the device scene: the bytes of the runner's buffers, in all and per
-triangle, the largest tables, and the size of the compiled scene's arrays.
-The last line is one JSON object, for notes.
+Then the highest peak over the file's size (the scene file and the mesh
+files beside it that it names), the device scene: the bytes of the runner's
+buffers, in all and per triangle, the largest tables, and the size of the
+compiled scene's arrays.  The last line is one JSON object, for notes.
 
 Usage: python bench/scene_memory.py [SCENE] [--triangles N] [--out DIR] [--size PIXELS] [--spp N] [--integrator NAME]
+       [--route file|compiled]
 """
 
 from __future__ import annotations
@@ -83,7 +88,7 @@ def _nbytes(obj) -> int:
     return total
 
 
-def measure(path: Path, size: int, spp: int, integrator: str) -> dict:
+def measure(path: Path, size: int, spp: int, integrator: str, route: str) -> dict:
     """In this process: load, compile and render ``path`` once and report the memory (see the module docstring)."""
     import mcocl
     from mcocl.render import api, job
@@ -91,12 +96,24 @@ def measure(path: Path, size: int, spp: int, integrator: str) -> dict:
     from mcocl.render.scene_file import load_scene
 
     found: dict = {}
-    tables_fn, runner_fn = api.scene_tables, job.RenderJob.runner
+    tables_fn, runner_fn, load_fn, compile_fn = api.scene_tables, job.RenderJob.runner, api.load_scene, api._compile
 
     def tables(cs):
         out = tables_fn(cs)
         stages.mark("tables")
         found["tables"] = {k: int(np.asarray(v).nbytes) for k, v in out.items()}
+        found["triangles"] = int(out["geometry_counts"][0])
+        return out
+
+    def load(*args, **kwargs):
+        out = load_fn(*args, **kwargs)
+        stages.mark("load")
+        return out
+
+    def compile_(*args, **kwargs):
+        out = compile_fn(*args, **kwargs)
+        stages.mark("compile")
+        found["compiled_MB"] = round(_nbytes(out) / 1e6, 1)
         return out
 
     def runner(self, ctx):
@@ -114,26 +131,42 @@ def measure(path: Path, size: int, spp: int, integrator: str) -> dict:
     runtime_mb = round((_status_kb("VmRSS") - runtime_kb) / 1024, 1)
     api.scene_tables, job.RenderJob.runner = tables, runner
     stages = _Stages()
-    scene = load_scene(path)
-    stages.mark("load")
-    cs = compile_scene(scene, integrator=integrator)
-    del scene
-    stages.mark("compile")
-    res = mcocl.render(cs, spp=spp, seed=0, progress=False)
+    if route == "file":  # mcocl.render's own loading and compiling (the CLI's way): it holds the scene alone
+        api.load_scene, api._compile = load, compile_
+        res = mcocl.render(str(path), spp=spp, integrator=integrator, seed=0, progress=False)
+        api.load_scene, api._compile = load_fn, compile_fn
+        cs = None
+    else:  # a compiled scene that the caller holds (and may render again)
+        scene = load_scene(path)
+        stages.mark("load")
+        cs = compile_scene(scene, integrator=integrator)
+        del scene
+        stages.mark("compile")
+        found["compiled_MB"] = round(_nbytes(cs) / 1e6, 1)
+        res = mcocl.render(cs, spp=spp, seed=0, progress=False)
     stages.mark("image")
     del res
     gc.collect()
     stages.mark("after")
     api.scene_tables, job.RenderJob.runner = tables_fn, runner_fn
-    nt = cs.num_triangles
+    nt = found["triangles"]
     device = sum(found["buffers"].values())
     biggest = sorted(found["buffers"].items(), key=lambda kv: -kv[1])[:6]
-    return {"scene": path.name, "triangles": nt, "image": f"{size}x{size} {spp} spp {integrator}",
+    return {"scene": path.name, "route": route, "file_MB": round(_scene_bytes(path) / 1e6, 1), "triangles": nt,
+            "image": f"{size}x{size} {spp} spp {integrator}",
             "opencl_runtime_MB": runtime_mb, "base_MB": round(stages.base / 1024, 1),
             "stages_MB_peak_resident": stages.rows,
             "device_scene_MB": round(device / 1e6, 1), "device_bytes_per_triangle": round(device / max(nt, 1), 1),
             "largest_buffers_MB": {k: round(v / 1e6, 1) for k, v in biggest},
-            "compiled_scene_arrays_MB": round(_nbytes(cs) / 1e6, 1)}
+            "compiled_scene_arrays_MB": found["compiled_MB"]}
+
+
+def _scene_bytes(path: Path) -> int:
+    """The bytes of a scene file and of the mesh files next to it that it names (the file size the memory
+    is compared with)."""
+    text = path.read_text(errors="replace")
+    return path.stat().st_size + sum(f.stat().st_size for f in path.parent.iterdir()
+                                     if f.is_file() and f != path and f'"{f.name}"' in text)
 
 
 def _big_scene(triangles: int, out: Path, size: int) -> Path:
@@ -164,21 +197,27 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=256, help="the big scene's width and height")
     ap.add_argument("--spp", type=int, default=1)
     ap.add_argument("--integrator", default="mis")
+    ap.add_argument("--route", choices=("file", "compiled"), default="file",
+                    help="file: mcocl.render(path), which loads and compiles the scene itself (the CLI's way); "
+                         "compiled: render a compiled scene that the caller holds")
     ap.add_argument("--measure", action="store_true", help=argparse.SUPPRESS)  # the child's mode
     a = ap.parse_args()
     if a.measure:
-        print(json.dumps(measure(a.scene, a.size, a.spp, a.integrator)))
+        print(json.dumps(measure(a.scene, a.size, a.spp, a.integrator, a.route)))
         return
     path = a.scene or _big_scene(a.triangles, a.out, a.size)
     out = subprocess.run([sys.executable, __file__, str(path), "--measure", "--size", str(a.size), "--spp", str(a.spp),
-                          "--integrator", a.integrator], check=True, capture_output=True, text=True).stdout
+                          "--integrator", a.integrator, "--route", a.route], check=True, capture_output=True, text=True).stdout
     r = json.loads(out.strip().splitlines()[-1])
-    print(f"{r['scene']}: {r['triangles']} triangles, {r['image']}; the OpenCL runtime: {r['opencl_runtime_MB']} MB, "
+    print(f"{r['scene']} ({r['file_MB']} MB with its mesh, route {r['route']}): {r['triangles']} triangles, "
+          f"{r['image']}; the OpenCL runtime: {r['opencl_runtime_MB']} MB, "
           f"resident before the load: {r['base_MB']} MB")
     print(f"{'stage':10s} {'peak MB':>9s} {'resident MB':>12s} {'arrays peak':>12s} {'arrays now':>11s}"
           f"   (over the process before the load)")
     for name, (peak, now, t_peak, t_now) in r["stages_MB_peak_resident"].items():
         print(f"{name:10s} {peak:9.1f} {now:12.1f} {t_peak:12.1f} {t_now:11.1f}")
+    top = max(row[0] for row in r["stages_MB_peak_resident"].values())
+    print(f"peak {top} MB = {top / r['file_MB']:.1f}x the file")
     print(f"device scene {r['device_scene_MB']} MB = {r['device_bytes_per_triangle']} bytes/triangle; "
           f"largest {r['largest_buffers_MB']}; compiled scene arrays {r['compiled_scene_arrays_MB']} MB")
     print(json.dumps(r))

@@ -20,6 +20,7 @@ import pyopencl as cl
 import pytest
 
 from mcocl import layouts, runtime
+from mcocl.render.bvh_leaves import device_geometry
 from mcocl.render.compiled import compile_scene
 from mcocl.render.device_scene import geom_args, scene_buffers, scene_tables
 from mcocl.render.job import RenderJob
@@ -121,3 +122,30 @@ def test_render_params_follow_the_tables(cs):
     assert [int(p["nlights"]), int(p["light_top"])] == list(t["light_scalars"])
     assert float(p["env_pmf"]) == np.float32(cs.env_pmf)
     np.testing.assert_array_equal(p["env_radiance"], t["env"])
+
+
+def test_the_bvh_table_is_made_once_and_holds_the_tree() -> None:
+    """compile_scene makes the kernels' BVH table; the scene's tree is its first rows (no second copy), and
+    the tables are made again, the same as from scratch, only when the arrays behind them change."""
+    cs = _scene("veach_mis.json")
+    t = scene_tables(cs)
+    assert np.shares_memory(t["bvh_nodes"], cs.bvh_nodes) and scene_tables(cs)["bvh_nodes"] is t["bvh_nodes"]
+    table, rows = device_geometry(cs.bvh_nodes.copy(), cs.bvh_prims, cs.tri_vertices, cs.spheres)
+    np.testing.assert_array_equal(table, t["bvh_nodes"])
+    np.testing.assert_array_equal(rows, t["tri_rows"])
+    cs.tri_vertices[0, 0, 0] += 1.0  # changed in place: the records must follow
+    moved = scene_tables(cs)
+    assert moved["bvh_nodes"] is not t["bvh_nodes"]
+    np.testing.assert_array_equal(moved["bvh_nodes"], device_geometry(cs.bvh_nodes, cs.bvh_prims, cs.tri_vertices,
+                                                                      cs.spheres)[0])
+    assert not np.array_equal(moved["bvh_nodes"], t["bvh_nodes"])
+
+
+def test_a_scene_without_its_primitives_keeps_its_settings() -> None:
+    cs = _scene("cornell.json")
+    light = cs.without_primitives()
+    assert light.num_triangles == 0 and light.vertex_normals is None and light.device_bvh is None
+    assert (light.width, light.height, light.integrator, light.max_depth) == (cs.width, cs.height, cs.integrator,
+                                                                             cs.max_depth)
+    np.testing.assert_array_equal(light.bounds, cs.bounds)
+    assert cs.num_triangles > 0 and light.buffer_cache is not cs.buffer_cache

@@ -312,7 +312,7 @@ def test_binary_float32_meshes_compile_as_their_float64_twins(tmp_path, order):
         sc = parse_scene(scene, tmp_path / "s.json")
         cs = compile_scene(sc)
         tables.append({k: v for k, v in cs.__dict__.items() if isinstance(v, np.ndarray)} | {"uvs": triangle_uvs(sc.shapes)})
-    assert tables[0].keys() == tables[1].keys() and "vertex_normals" in tables[0]
+    assert tables[0].keys() == tables[1].keys() and "normal_table" in tables[0]
     for k in tables[0]:
         assert tables[0][k].dtype == tables[1][k].dtype and np.array_equal(tables[0][k], tables[1][k]), k
 

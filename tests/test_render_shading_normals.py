@@ -143,6 +143,28 @@ def test_vertex_normal_table(tmp_path: Path, scenes) -> None:
     np.testing.assert_allclose(cs.vertex_normals[..., :3], want * sign, atol=1e-5)
 
 
+def test_vertex_normals_are_stored_once_per_vertex(scenes) -> None:
+    # the kernels' table: a record of three row numbers and a sign per triangle, then each vertex normal once
+    cs = compile_scene(scenes["smooth"])
+    v, f = uv_sphere()
+    nt = cs.num_triangles
+    table = scene_tables(cs)["vertex_normals"]
+    assert nt == len(f) and table.shape == (nt + len(v), 4)
+    rows = table[:nt].view(np.uint32)[:, :3]
+    assert rows.min() == nt and rows.max() == len(table) - 1
+    assert np.all(table[:nt, 3] == 1.0) and np.all(table[nt:, 3] == 0.0)  # outward normals: none negated
+    np.testing.assert_array_equal(table[rows, :3], cs.vertex_normals[..., :3])
+    # a mirror with flip_normals keeps the winding and turns the faces inwards: every triangle's normals negated
+    data = json.loads(scenes["smooth"].read_text())
+    data["shapes"][0].update(transform=[{"scale": [1.0, -1.0, 1.0]}], flip_normals=True)
+    p = scenes["smooth"].parent / "mirror.json"
+    p.write_text(json.dumps(data))
+    cs = compile_scene(p)
+    table = scene_tables(cs)["vertex_normals"]
+    assert np.all(table[:nt, 3] == -1.0)
+    np.testing.assert_array_equal(-table[table[:nt].view(np.uint32)[:, :3], :3], cs.vertex_normals[..., :3])
+
+
 def test_bdpt_refuses_shading_normals(scenes) -> None:
     data = json.loads(scenes["smooth"].read_text())
     del data["environment"]  # bdpt takes area emitters only

@@ -4,10 +4,14 @@
  * sets it when a triangle has vertex normals: mcocl/render/shading_normals.py),
  * so scenes without them compile and render exactly as before.
  *
- * vertex_normals: three float4 per triangle, its corners' world-space unit
- * normals in the order of tri_vertices (w = 1: the triangle has them; 0: it
- * shades with its face normal), oriented by the host to the face's front side.
- * The hit's barycentrics b1, b2 weigh corners 1 and 2 (render/intersect.cl).
+ * vertex_normals (mcocl/render/shading_normals.py): row t < T is triangle t's
+ * record, the rows of its corners' world-space unit normals (in the order of
+ * tri_vertices) as uint bits in x, y, z, and in w +1, -1 (the host turned the
+ * triangle's normals to the face's front side by negating them) or 0 (no
+ * normals: it shades with its face normal); the vertex normals follow, one
+ * float4 per vertex.  The hit's barycentrics b1, b2 weigh corners 1 and 2
+ * (render/intersect.cl).  A negated triangle's blend is negated after the
+ * blend: negation is exact, so that is the blend of the negated normals.
  *
  * With a shading normal ns and the geometric normal ng, the BSDF is
  * evaluated in the frame of ns and a cosine |w . ns| replaces |w . ng| for
@@ -33,12 +37,15 @@
 MC_INLINE vec3v shading_normal(global const float4 *vn, const prim_tables *pt, uintv prim, floatv b1, floatv b2,
                                vec3v ng, intv active) {
     intv tri = active & !prim_is_sphere(pt, prim);
-    uintv k = lane_select((uintv)(0u), prim, tri) * 3u;
-    rec4v a = gather_rec4(vn, k), b = gather_rec4(vn, k + 1u), c = gather_rec4(vn, k + 2u);
+    /* (a row t < T always holds rows of the table: those of its normals, or 0) */
+    rec4v corner = gather_rec4(vn, lane_select((uintv)(0u), prim, tri));
+    rec4v a = gather_rec4(vn, lane_as_uint(corner.x)), b = gather_rec4(vn, lane_as_uint(corner.y)),
+          c = gather_rec4(vn, lane_as_uint(corner.z));
     floatv b0 = 1.0f - b1 - b2;
     vec3v ns = v3(b0 * a.x + b1 * b.x + b2 * c.x, b0 * a.y + b1 * b.y + b2 * c.y, b0 * a.z + b1 * b.z + b2 * c.z);
+    ns = v3_select(ns, v3(-ns.x, -ns.y, -ns.z), corner.w < 0.0f);
     floatv len2 = v3_len2(ns);
-    intv use = tri & (a.w > 0.0f) & (len2 > 1e-12f);
+    intv use = tri & (corner.w != 0.0f) & (len2 > 1e-12f);
     ns = v3_scale(ns, lane_rsqrt(lane_select((floatv)(1.0f), len2, use)));
     return v3_select(ng, ns, use);
 }

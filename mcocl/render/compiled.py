@@ -16,7 +16,9 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
   aspect ratio so that ``fov`` is the full angle on the smaller image axis.
   ``forward`` is a unit vector; right = forward × up (world), so at the
   Cornell camera (0, 0, 3.9) → origin, +x is on the right of the image.
-- ``tri_vertices``: float32 (T, 3, 4): v0, v1, v2 (w = 0) in world space.
+- ``tri_vertices``: float32 (T, 3, 3): v0, v1, v2 in world space (the kernels read
+  them only through the BVH's leaf records, :mod:`mcocl.render.bvh_leaves`: no
+  padding to float4, 12 bytes a triangle less on the host).
   The front side is counter-clockwise: normal = normalize(cross(v1 − v0, v2 − v0));
   mirroring transforms and ``flip_normals`` are already applied by swapping
   v1 and v2.
@@ -27,6 +29,9 @@ Arrays of :class:`CompiledScene` (all C-contiguous):
 - ``bvh_nodes`` (float32 (1 + 4K, 4)), ``bvh_prims`` (uint32): see
   :mod:`mcocl.render.bvh`; kernels use them only through ``render/bvh.cl``.
   Degenerate triangles (zero area) are left out of the BVH: no ray hits them.
+  ``bvh_nodes`` is the first rows of the kernels' BVH table, ``device_bvh``
+  (:class:`mcocl.render.bvh_leaves.DeviceBVH`, made by :func:`compile_scene`),
+  so its header's ``leaf_row`` is 1 + 4K, the row after it in that table.
 - ``shape_material``: uint32 (num_shapes,); ``shape_emitter``: int32
   (num_shapes,), index into ``emitter_radiance`` or −1.
 - ``materials``: float32 (M + T, 20), one :data:`mcocl.layouts.MATERIAL_RECORD` per row, then T rows of
@@ -85,6 +90,7 @@ kernel arguments declared by ``SCENE_GEOM_PARAMS`` in ``render/intersect.cl``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 from dataclasses import dataclass, field
@@ -98,6 +104,7 @@ from ..host_memory import release_free_heap
 from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
+from .bvh_leaves import DeviceBVH, device_bvh
 from .delta_lights import delta_power
 from .emitter_choice import LUMINANCE, bounding_sphere, environment_choice, light_choice, resolve_light_sampler
 from .envmap import EnvMap
@@ -105,7 +112,7 @@ from .pixel_filter import BOX, PixelFilter
 from .roughplastic_tables import append_tables
 from .scene import Scene, check_integrator_settings
 from .scene_file import load_scene
-from .shading_normals import vertex_normal_table
+from .shading_normals import corner_normals, vertex_normal_table
 from .shape_registry import SHAPES
 from .texture_table import emitter_texture_code, scene_textures, texture_table
 
@@ -153,17 +160,27 @@ class CompiledScene:
     sampler: str = "independent"  # integrator.sampler (mcocl/render/sobol_film.py)
     batches: int | None = None  # integrator.batches: sobol's batches per pixel (None: the default)
     pixel_filter: PixelFilter = BOX  # the camera's reconstruction filter (mcocl/render/pixel_filter.py)
-    # (T, 3, 4) corner normals of the triangles that shade smoothly, None if none does (render/shading_normals.py)
-    vertex_normals: np.ndarray | None = None
+    # the indexed vertex normals of the triangles that shade smoothly (T + V, 4), None if none does: the kernels'
+    # vertex_normals table (render/shading_normals.py; the property vertex_normals gives them per corner)
+    normal_table: np.ndarray | None = None
     # the one table of the scene's textures and surface UVs, None if no material is textured (render/texture_table.py)
     textures: np.ndarray | None = None
     near_clip: float = 0.0  # camera.near_clip (kernels/render/camera.cl, camera_clip_origin)
     far_clip: float | None = None  # camera.far_clip (kernels/render/camera.cl, camera_beyond_far_clip)
     shape_names: list[str] = field(default_factory=list)
     bvh_stats: dict = field(default_factory=dict)
+    # The kernels' BVH table, made by compile_scene from the builder's tree, of which bvh_nodes is a view
+    # (render/bvh_leaves.py; device_scene.scene_tables makes it again for a scene whose arrays were replaced).
+    device_bvh: DeviceBVH | None = field(default=None, repr=False, compare=False)
     # Device buffers of mcocl.render.device_scene.scene_buffers, per OpenCL context.
     buffer_cache: dict = field(default_factory=dict, repr=False, compare=False)
     buffer_lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
+
+    @property
+    def vertex_normals(self) -> np.ndarray | None:
+        """(T, 3, 4) corner normals of the triangles (w 1 where a triangle shades smoothly, zeros where not),
+        None if none does: ``normal_table`` expanded (:func:`~mcocl.render.shading_normals.corner_normals`)."""
+        return corner_normals(self.normal_table, self.num_triangles)
 
     @property
     def num_triangles(self) -> int:
@@ -201,6 +218,20 @@ class CompiledScene:
         """The exact probability that light sampling chooses the environment (:mod:`.emitter_choice`)."""
         return environment_choice(self.env_radiance, self.num_choices > 0, self.integrator, self.env_share,
                                   self.env_map is not None)[1]
+
+    def without_primitives(self) -> CompiledScene:
+        """A copy without the per-primitive arrays (empty ones, or None, in their place): the settings, camera,
+        bounds, materials and lights' scalars only.
+
+        :func:`mcocl.render.render` keeps only this of a scene it compiled itself once the device tables are
+        built from it, so that the triangles, the shading normals' and the primitive maps' host arrays (60 MB for
+        10^6 triangles, bench/scene_memory.py) are not held through the render: the tables have what the
+        kernels need.  No table can be built from the copy.
+        """
+        return dataclasses.replace(
+            self, tri_vertices=np.zeros((0, 3, 3), np.float32), prim_shape=np.zeros(0, np.uint32),
+            prim_light=np.zeros(0, np.int32), bvh_nodes=np.zeros((0, 4), np.float32), bvh_prims=np.zeros(0, np.uint32),
+            normal_table=None, textures=None, device_bvh=None, buffer_cache={}, buffer_lock=threading.Lock())
 
     def with_settings(self, integrator: str | None = None, max_depth: int | None = None,
                       rr_depth: int | None = None, spp: int | None = None,
@@ -274,11 +305,11 @@ def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: f
 
 
 def _shape_triangles(shape, path, out: np.ndarray) -> None:
-    """Write the world-space triangles of a mesh-like shape into ``out`` (n, 3, 4) float32, w = 0.
+    """Write the world-space triangles of a mesh-like shape into ``out`` (n, 3, 3) float32.
 
     The front side is counter-clockwise.  The vertices are transformed in
-    float64 and rounded to float32 once per vertex (into rows of four floats,
-    w = 0), then gathered per face straight into ``out``: the same numbers as
+    float64 and rounded to float32 once per vertex, then gathered per face
+    straight into ``out``: the same numbers as
     rounding each gathered float64 triangle, with a fifth of the float64 work
     and no (n, 3, 3) intermediate.
 
@@ -295,15 +326,14 @@ def _shape_triangles(shape, path, out: np.ndarray) -> None:
     # (a non-finite vertex that no face uses is allowed: the per-face test only runs when one exists)
     if not np.isfinite(v).all() and not np.isfinite(v).all(axis=1)[f].all():
         raise InputError(f"{path}: a transform produced non-finite vertices")
-    v4 = np.zeros((len(v), 4), np.float32)
-    v4[:, :3] = v
+    v32 = v.astype(np.float32)
     del v
     # mode "clip" (the indices are in range): "raise" would gather into a temporary table of out's size first
-    np.take(v4, f, axis=0, out=out, mode="clip")
+    np.take(v32, f, axis=0, out=out, mode="clip")
 
 
 def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:
-    """``op.reduce(tri[:, :, :3], axis=1)`` (the box corner of each triangle (T, 3, 4)), as three elementwise passes.
+    """``op.reduce(tri[:, :, :3], axis=1)`` (the box corner of each triangle (T, 3, 3)), as three elementwise passes.
 
     The reduction over the middle axis is several times slower than
     ``op(op(v0, v1), v2)``; both give the same numbers except possibly the sign
@@ -320,7 +350,7 @@ def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:
 def _primitive_boxes(tri: np.ndarray, good: np.ndarray, spheres: np.ndarray, op: np.ufunc) -> np.ndarray:
     """Lower (``op`` = np.minimum) or upper (np.maximum) box corners (N, 3) float32 of the BVH's primitives.
 
-    The triangles (T, 3, 4) marked ``good``, then the spheres (S, 4); the
+    The triangles (T, 3, 3) marked ``good``, then the spheres (S, 4); the
     boxes of float32 vertices are float32 values (no float64 round trip).
     """
     box = _corner_extreme(tri, op)
@@ -335,7 +365,7 @@ _AREA_CHUNK = 1 << 15
 
 
 def _triangle_areas(tri_vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Float64 area of each float32 triangle (T, 3, 4) and whether it is non-degenerate, as the kernels see it.
+    """Float64 area of each float32 triangle (T, 3, 3) and whether it is non-degenerate, as the kernels see it.
 
     Degenerate: zero area, or so thin that its normal is numerical noise (sin angle < 1e-6).
     The same float64 operations, in the same order, as ``np.cross`` and
@@ -401,7 +431,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
             tri_counts.append(len(sh.faces))
     sph64 = np.array(spheres, np.float64).reshape(-1, 4)
     ntri, nsph = sum(tri_counts), len(sph64)
-    tri_vertices = np.empty((ntri, 3, 4), np.float32)
+    tri_vertices = np.empty((ntri, 3, 3), np.float32)
     prim_shape = np.empty(ntri + nsph, np.uint32)
     start = 0
     for k, sh in enumerate(scene.shapes):  # each shape's triangles straight into the table: no concatenated copy
@@ -428,6 +458,10 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     bvh: BVH = build_bvh(_primitive_boxes(tri_vertices, good_tri, sph32, np.minimum),
                          _primitive_boxes(tri_vertices, good_tri, sph32, np.maximum), ids, max_leaf=max_leaf,
                          bins=bins, traversal_cost=traversal_cost, all_axes=all_axes, method=method)
+    # The device's BVH table now, while the builder's tree is the one copy of it: the scene keeps the tree as
+    # the table's first rows, not a second copy (33 MB for 10^6 triangles, bench/scene_memory.py).
+    geometry = device_bvh(bvh.nodes, bvh.prims, tri_vertices, sph32)
+    bvh.nodes = geometry.nodes
 
     # Materials and emitters.
     mats = np.zeros(len(scene.materials), MATERIAL_RECORD.dtype())
@@ -481,9 +515,9 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         width=cam.crop[2] if cam.crop else cam.width, height=cam.crop[3] if cam.crop else cam.height,
         camera=camera_matrix(cam.origin, cam.target, cam.up, cam.fov, cam.width, cam.height,
                              cam.aperture_radius, cam.focus_distance, cam.crop),
-        tri_vertices=np.ascontiguousarray(tri_vertices), spheres=np.ascontiguousarray(sph32),
+        tri_vertices=geometry.tri_vertices, spheres=geometry.spheres,
         sphere_flip=np.array(sphere_flip, np.uint32), prim_shape=prim_shape,
-        bvh_nodes=np.ascontiguousarray(bvh.nodes), bvh_prims=np.ascontiguousarray(bvh.prims),
+        bvh_nodes=geometry.nodes, bvh_prims=geometry.prims, device_bvh=geometry,
         shape_material=shape_material, shape_emitter=shape_emitter, materials=mats,
         emitter_radiance=emitter_radiance, light_prims=light_prims, light_cdf=cdf, light_pmf=pmf,
         prim_light=prim_light, light_area=light_area, env_radiance=env,
@@ -492,7 +526,7 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         delta_lights=list(scene.lights) if len(dpower) else [], delta_power=dpower, env_map=scene.env_map,
         integrator=scene.integrator, max_depth=scene.max_depth, rr_depth=scene.rr_depth, spp=scene.spp,
         bounds=bounds, source=scene.path, pixel_filter=cam.pixel_filter,
-        vertex_normals=vertex_normal_table(scene.shapes, tri_vertices[:, :, :3]), near_clip=cam.near_clip, far_clip=cam.far_clip,
+        normal_table=vertex_normal_table(scene.shapes, tri_vertices[:, :, :3]), near_clip=cam.near_clip, far_clip=cam.far_clip,
         textures=texture_table(scene.materials, scene.shapes),
         shape_names=[sh.name or sh.key for sh in scene.shapes],
         bvh_stats={"nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,

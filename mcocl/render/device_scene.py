@@ -119,6 +119,15 @@ def light_records(cs: CompiledScene, prim_pmf: np.ndarray) -> np.ndarray:
     return _as_quads(rec, 4)
 
 
+def bvh_tables(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
+    """The ``bvh_nodes`` table and ``tri_rows`` (:func:`~mcocl.render.bvh_leaves.device_geometry`): those
+    compile_scene made (the scene's own, no copy) unless the scene's arrays were replaced since."""
+    held = getattr(cs, "device_bvh", None)
+    if held is not None and held.made_from(cs.bvh_nodes, cs.bvh_prims, cs.tri_vertices, cs.spheres):
+        return held.table, held.tri_rows
+    return device_geometry(cs.bvh_nodes, cs.bvh_prims, cs.tri_vertices, cs.spheres)
+
+
 def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     """Every array a kernel reads, as plain NumPy arrays (never empty: OpenCL has no empty buffers).
 
@@ -136,7 +145,7 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         a = np.ascontiguousarray(a, dtype=dtype)
         return a if a.size else np.zeros(width, dtype)
 
-    nodes, tri_rows = device_geometry(cs.bvh_nodes, cs.bvh_prims, cs.tri_vertices, cs.spheres)
+    nodes, tri_rows = bvh_tables(cs)
     lt = light_tables(cs)
     tables = {
         "camera": nonempty(cs.camera, np.float32),
@@ -155,8 +164,8 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         "env_choice": np.array([lt["env_threshold"], lt["env_pmf"]], np.float32),
         "geometry_counts": np.array([cs.num_triangles, cs.num_spheres], np.uint32),
     }
-    if getattr(cs, "vertex_normals", None) is not None:  # only then: other scenes keep their tables digest
-        tables["vertex_normals"] = np.ascontiguousarray(cs.vertex_normals, np.float32).reshape(-1, 4)
+    if getattr(cs, "normal_table", None) is not None:  # only then: other scenes keep their tables digest
+        tables["vertex_normals"] = np.ascontiguousarray(cs.normal_table, np.float32)
     if getattr(cs, "textures", None) is not None:  # likewise (render/texture_table.py)
         tables["textures"] = np.ascontiguousarray(cs.textures, np.float32)
     if cs.env_map is not None:
@@ -220,5 +229,5 @@ def tables_digest(tables: dict[str, np.ndarray]) -> str:
     return h.hexdigest()[:16]
 
 
-__all__ = ["LIGHT_BVH_ABSENT", "geom_args", "light_records", "light_tables", "prim_records", "scene_buffers", "scene_params",
+__all__ = ["LIGHT_BVH_ABSENT", "bvh_tables", "geom_args", "light_records", "light_tables", "prim_records", "scene_buffers", "scene_params",
            "scene_tables", "tables_digest"]

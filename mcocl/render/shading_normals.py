@@ -1,15 +1,27 @@
-"""Per-triangle vertex normals for shading (kernels/render/shading_normal.cl).
+"""Vertex normals for shading (kernels/render/shading_normal.cl).
 
 A mesh shape whose file gives vertex normals (PLY, serialized) shades with
 normals interpolated across each triangle unless its ``face_normals`` is set
-(Mitsuba's behaviour).  :func:`vertex_normal_table` lays them out for the
-device: three float4 per triangle, in the order of the compiled scene's
-``tri_vertices`` (the corners reordered as :func:`~mcocl.render.compiled.compile_scene`
-reorders them for a mirroring transform or ``flip_normals``), transformed to
-world space by the inverse transpose of the shape's matrix, normalised, and
-turned to the face's front side (the side whose normal the triangle's winding
-gives, where emission and ``twosided`` look): a corner normal set whose sum
-points behind the face is negated.  w = 1 marks a triangle with normals.
+(Mitsuba's behaviour).  Each vertex normal is transformed to world space by
+the inverse transpose of the shape's matrix and normalised; a triangle's
+corners, in the order of the compiled scene's ``tri_vertices`` (reordered as
+:func:`~mcocl.render.compiled.compile_scene` reorders them for a mirroring
+transform or ``flip_normals``), are turned to the face's front side (the
+side whose normal the triangle's winding gives, where emission and
+``twosided`` look): a triangle whose corner normals' sum points behind the
+face takes them negated.
+
+:func:`vertex_normal_table` lays them out for the device as one float32
+table of T + V float4 rows: row t < T is triangle t's record, the rows of its
+three corners' normals as uint bits in x, y, z and in w +1 (the normals as
+they are), -1 (negated) or 0 (the triangle has none: it shades with its face
+normal); rows T .. T + V - 1 hold the V vertex normals of the meshes that
+have them (xyz, w 0), each once.  That is 16 bytes a triangle and 16 a
+vertex, against the 48 a triangle of three corner normals apiece (a
+10^6-triangle mesh of 5·10^5 vertices: 24 MB instead of 48), and the same
+numbers: a negation is exact, so the kernel's blend of the negated
+normals is the negation of its blend (:func:`corner_normals` expands the
+table to those corners).
 
 Scenes without any such triangle have no table, and their kernels are built
 without -DSHADING_NORMALS: they render bit for bit as before.
@@ -31,11 +43,27 @@ _CHUNK = 1 << 15  # triangles per step of vertex_normal_table: its float64 tempo
 
 
 def _world_normals(shape) -> np.ndarray:
-    """The shape's vertex normals in world space, unit length (zero rows stay zero), float64."""
-    lin = np.asarray(shape.matrix, np.float64)[:3, :3]
-    n = tf.rows_times(np.asarray(shape.normals, np.float64), np.linalg.inv(lin))  # rows times M^-1: (M^-T n) as rows
-    length = np.linalg.norm(n, axis=1, keepdims=True)
-    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+    """The shape's vertex normals in world space, unit length (zero rows stay zero), float64.
+
+    :data:`_CHUNK` vertices at a time (a last chunk of one row joins the one before: a single row's product
+    may round differently, mcocl/render/transform.py's rows_times), so that the float64 temporaries of a big
+    mesh are a chunk's, not four tables of every vertex (for 10^6 vertices 24 MB each).
+    """
+    inv = np.linalg.inv(np.asarray(shape.matrix, np.float64)[:3, :3])
+    normals = np.asarray(shape.normals)
+    out = np.empty((len(normals), 3), np.float64)
+    edges = list(range(0, len(normals), _CHUNK)) + [len(normals)]
+    if len(edges) > 2 and edges[-1] - edges[-2] == 1:
+        del edges[-2]
+    for a, b in zip(edges[:-1], edges[1:]):
+        n = tf.rows_times(np.asarray(normals[a:b], np.float64), inv)  # rows times M^-1: (M^-T n) as rows
+        # np.linalg.norm(n, axis=1, keepdims=True)'s operations (the squares summed along the row)
+        length = np.sqrt(np.add.reduce(n * n, axis=1, keepdims=True))
+        unit = length > 0
+        np.divide(n, length, out=n, where=unit)
+        n[~unit[:, 0]] = 0.0  # +0, as the zeros a division into np.zeros leaves
+        out[a:b] = n
+    return out
 
 
 def facing_dot(corner: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -61,35 +89,64 @@ def facing_dot(corner: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 
 def vertex_normal_table(shapes: list, world_triangles: np.ndarray) -> np.ndarray | None:
-    """(T, 3, 4) float32 corner normals for the compiled triangles, or None when no shape has any.
+    """The indexed shading-normal table (see the module docstring), float32 (T + V, 4), or None when no shape
+    has vertex normals.
 
     ``shapes`` are the scene's shapes in order; ``world_triangles`` (T, 3, 3)
     the compiled triangles (to orient the normals to each face's front).
+
+    Raises:
+        InputError: the table would need row numbers beyond 32 bits.
     """
-    if not any(sh.normals is not None and not SHAPES[sh.kind].sphere for sh in shapes):
+    with_normals = [sh for sh in shapes if sh.normals is not None and not SHAPES[sh.kind].sphere]
+    if not with_normals:
         return None
-    table = np.zeros((len(world_triangles), 3, 4), np.float32)
-    start = 0
+    nt = len(world_triangles)
+    rows_needed = nt + sum(len(sh.normals) for sh in with_normals)
+    if rows_needed >= 2**32:
+        raise InputError(f"the scene's vertex normals need {rows_needed} table rows, beyond the kernels' 32-bit rows")
+    table = np.zeros((rows_needed, 4), np.float32)
+    corners = table[:nt].view(np.uint32)
+    start, row = 0, nt
     for sh in shapes:
         if SHAPES[sh.kind].sphere:
             continue
         count = len(sh.faces)
         if sh.normals is not None:
-            faces = sh.faces
-            if tf.is_orientation_reversing(sh.matrix) != sh.flip_normals:
-                faces = faces[:, [0, 2, 1]]  # as compiled.py's _shape_triangles
+            reverse = tf.is_orientation_reversing(sh.matrix) != sh.flip_normals
             world = _world_normals(sh)
+            table[row:row + len(world), :3] = world  # float64 to float32, once per vertex
             # a chunk of triangles at a time: the float64 corners and faces of a big mesh are never all
             # held (each triangle's numbers are the same whatever the chunk)
             for s in range(0, count, _CHUNK):
-                rows = slice(start + s, start + min(s + _CHUNK, count))
-                corner = np.take(world, faces[s:s + _CHUNK], axis=0)  # (chunk, 3, 3)
+                faces = sh.faces[s:s + _CHUNK]
+                if reverse:
+                    faces = faces[:, [0, 2, 1]]  # as compiled.py's _shape_triangles
+                rows = slice(start + s, start + s + len(faces))
+                corner = np.take(world, faces, axis=0)  # (chunk, 3, 3)
                 behind = facing_dot(corner, world_triangles[rows]) < 0.0
-                corner[behind] *= -1.0
-                table[rows, :, :3] = corner
-                table[rows, :, 3] = 1.0
+                corners[rows, :3] = faces + row
+                table[rows, 3] = np.where(behind, np.float32(-1.0), np.float32(1.0))
+            row += len(world)
         start += count
     return table
+
+
+def corner_normals(table: np.ndarray | None, num_triangles: int) -> np.ndarray | None:
+    """The (T, 3, 4) float32 corner normals an indexed ``table`` of :func:`vertex_normal_table` stands for: each
+    triangle's three vertex normals, negated where it is marked so, w = 1 (zeros for a triangle without them).
+
+    The numbers the kernels blend (kernels/render/shading_normal.cl); made on demand, 48 bytes a triangle.
+    """
+    if table is None:
+        return None
+    head = table[:num_triangles]
+    sign = head[:, 3]
+    out = table[head.view(np.uint32)[:, :3]]  # (T, 3, 4): rows of the vertices' normals (w 0)
+    out[:, :, :3] *= sign[:, None, None]  # exact: the sign is +-1
+    out[sign == 0] = 0.0  # a triangle without normals (its rows point at row 0)
+    out[:, :, 3] = np.abs(sign)[:, None]
+    return out
 
 
 def require_face_normals(tables: dict) -> None:
@@ -105,4 +162,4 @@ def shading_defines(tables: dict) -> list[str]:
     return ["-DSHADING_NORMALS"] if "vertex_normals" in tables else []
 
 
-__all__ = ["VERTEX_NORMALS_ABSENT", "facing_dot", "require_face_normals", "shading_defines", "vertex_normal_table"]
+__all__ = ["VERTEX_NORMALS_ABSENT", "corner_normals", "facing_dot", "require_face_normals", "shading_defines", "vertex_normal_table"]
