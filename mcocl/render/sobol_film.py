@@ -34,6 +34,23 @@ pixel, an unbiased but noisy per-pixel variance.  The relative error that
 E[sqrt(s^2)] = c4(B) sigma < sigma for B normal batch means
 (:func:`stderr_bias`: 0.92 for B = 4); :func:`batch_relative_error` divides
 it out (exact for normal batch means; heavy-tailed pixels still read low).
+
+Blocks and batches.  One of B = 4 batches is many paths (1024 spp on 256 x 256
+pixels: 2^24 a batch), too many for one scheduler block, the kernel launch that Ctrl-C,
+a time budget and a checkpoint wait for and that devices share.  So
+:func:`sobol_block_pixels` cuts a batch into T blocks of consecutive pixels,
+each about the paths of an independent-sampler block: block k renders the
+pixel range t = k mod T of batch b = k // T (the same scrambling (b, p) and
+points as one whole-film block would), and :func:`block_batches` gives it Y_b,
+Y_b^2 and count 1 on its pixels, zeros elsewhere.  The ranges are disjoint and
+adding a zero changes no bit, so the block-order fold of a batch's T blocks is
+exactly the whole batch's statistics: the image is bit-identical whatever T.
+A run that stops inside a batch (Ctrl-C, a time budget) leaves the pixels of
+its missing ranges one batch short: ``count`` is per pixel, so their mean and
+variance come from their own batches (a pixel of one batch has the variance
+NaN, as any pixel of count < 2, and is left out of the relative error).
+Time- or noise-halted runs keep whole-film batches of the default size (their
+number of batches is what the variance needs, so they are not made larger).
 """
 
 from __future__ import annotations
@@ -92,6 +109,22 @@ def sobol_spp_per_block(default: int, spp: int | None, batches: int, bounded_by_
     return whole if bounded_by_spp else max(1, min(default, whole))
 
 
+def sobol_block_pixels(spp_per_block: int, paths_per_block: int, width: int, height: int, tile_pixels: int) -> int:
+    """The pixels of one block of a batch of ``spp_per_block`` samples (0: the whole film, T = 1).
+
+    A block gets about ``paths_per_block`` paths (an independent-sampler block's:
+    mcocl/render/job.py, default_spp_per_block): T = ceil(spp_per_block * W * H / paths_per_block)
+    ranges of equal length, rounded up to whole work-item tiles of ``tile_pixels``.
+    """
+    npix = int(width) * int(height)
+    ranges = -(-int(spp_per_block) * npix // max(int(paths_per_block), 1))
+    if ranges <= 1:
+        return 0
+    pixels = -(-npix // ranges)
+    pixels = -(-pixels // tile_pixels) * tile_pixels
+    return pixels if pixels < npix else 0
+
+
 def stderr_bias(batches: np.ndarray | int) -> np.ndarray:
     """c4(B) = E[s] / sigma for the sample standard deviation s of B independent normal values.
 
@@ -139,4 +172,4 @@ def block_batches(stats: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["DEFAULT_BATCHES", "MIN_BATCHES", "RENDER_TABLE_DIMS", "batch_relative_error", "block_batches",
-           "sobol_render_defines", "sobol_spp_per_block", "stderr_bias"]
+           "sobol_block_pixels", "sobol_render_defines", "sobol_spp_per_block", "stderr_bias"]
