@@ -59,7 +59,8 @@ class RenderResult:
         count: (H, W) float32 finite samples per pixel; for ``lt``, ``bdpt`` and the ``sobol``
             sampler, the number of batches (blocks) the variance was estimated from
             (:mod:`mcocl.render.splat_film`, :mod:`mcocl.render.sobol_film`).
-        spp: samples per pixel computed (``count`` plus the non-finite ones).
+        spp: samples per pixel computed (``count`` plus the non-finite ones); with ``sobol`` stopped
+            inside a batch, whose blocks are pixel ranges, their mean over the pixels, rounded down.
         nonfinite: NaN/Inf samples, counted and left out of the image.
         seconds: wall time of the sampling (build excluded).
         build_seconds: kernel build time of this run (small when cached).
@@ -256,6 +257,8 @@ def render(
             (``spp_per_block=spp`` renders it, its ``variance`` NaN).  Under ``time_budget`` or
             ``target_error`` blocks keep their default size, their number grows with the run, and
             ``target_error`` waits for ``batches`` of them.  Not with ``spp_per_block``.
+            A batch of more paths than an independent block is rendered as several blocks of
+            pixel ranges (same image; a stop inside a batch leaves some pixels a batch short).
             Default: the scene's ``integrator.batches``, else 4.
         mis: ``bdpt``'s MIS heuristic, ``power`` (beta 2, the default) or ``balance``.
         strategy: ``bdpt`` renders only strategy (s, t) (s light, t >= 1 camera vertices),

@@ -217,8 +217,17 @@ class RenderJob:
         return p
 
     def spp_done(self, blocks: int) -> int:
-        """Samples per pixel that every pixel has in the first ``blocks`` blocks (whole batches)."""
-        return int(min(blocks // self.film_ranges * self.spp_per_block, self.spp_limit))
+        """Samples per pixel in the first ``blocks`` blocks, on average over the pixels (rounded down).
+
+        Exact for whole batches; the ranges of a batch cut short by a stop count for their pixels only.
+        """
+        whole, part = divmod(int(blocks), self.film_ranges)
+        spp = min(whole * self.spp_per_block, self.spp_limit)
+        if not part:
+            return int(spp)
+        npix = self.width * self.height
+        more = min(self.spp_per_block, self.spp_limit - spp) * min(part * self.range_pixels, npix)
+        return int((spp * npix + more) // npix)
 
     @property
     def spp_per_pixel_block(self) -> float:

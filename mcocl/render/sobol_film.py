@@ -45,7 +45,7 @@ points as one whole-film block would), and :func:`block_batches` gives it Y_b,
 Y_b^2 and count 1 on its pixels, zeros elsewhere.  The ranges are disjoint and
 adding a zero changes no bit, so the block-order fold of a batch's T blocks is
 exactly the whole batch's statistics: the image is bit-identical whatever T.
-A run that stops inside a batch (Ctrl-C, a time budget) leaves the pixels of
+A run that stops inside a batch (Ctrl-C) leaves the pixels of
 its missing ranges one batch short: ``count`` is per pixel, so their mean and
 variance come from their own batches (a pixel of one batch has the variance
 NaN, as any pixel of count < 2, and is left out of the relative error).
