@@ -419,7 +419,7 @@ def render(
     if sampler == "sobol":
         whole, part = divmod(acc.blocks_done, ranges)
         notes.append(f"sobol: variance from {whole} independent Owen scramblings (batches) of "
-                     f"{spp_per_block} samples per pixel" + ("; one batch has no variance" if whole < 2 else "")
+                     f"{spp_per_block} samples per pixel" + ("; a pixel of fewer than 2 batches has no variance" if whole < 2 else "")
                      + (f"; the next batch covers {part} of its {ranges} pixel ranges (blocks)" if part else ""))
     if job.integrator == "lt":
         notes.append(f"light tracing: variance from {acc.blocks_done} independent batches of "
