@@ -117,7 +117,7 @@ class RenderJob:
         bounding_sphere: centre xyz and radius of the scene's bounding sphere
             (light tracing's environment rays start outside it).
         sampler: ``independent`` (Philox) or ``sobol`` (per-pixel Owen-scrambled
-            Sobol', one scrambling per block and pixel: :mod:`mcocl.render.sobol_film`).
+            Sobol', one scrambling per batch and pixel: :mod:`mcocl.render.sobol_film`).
         mis: ``bdpt``'s MIS heuristic, ``balance`` or ``power`` (beta 2).
         strategy: ``bdpt`` renders only strategy (s, t) when given.
         unweighted: with ``strategy``, leave out its MIS weight.

@@ -1,27 +1,27 @@
 """The render sampler ``sobol``: per-pixel randomised quasi-Monte Carlo, and its honest variance.
 
 The samples of a pixel are Owen-scrambled Sobol' points
-(kernels/samplers/sobol_sampler.cl): sample s of block b in pixel p is point s
+(kernels/samplers/sobol_sampler.cl): sample s of batch b in pixel p is point s
 of the scrambling (b, p) (kernels/render/integrator.cl, ``RENDER_SOBOL``),
 every dimension of which has its own scrambling seed, a Philox word of
 (seed, b * W * H + p, dimension).  So pixels and dimensions are decorrelated
 (as the per-pixel seeds of Burley 2020, "Practical Hash-based Owen
 Scrambling", JCGT 9(4), and pbrt-v4's ZSobolSampler), and the
-``spp_per_block`` samples of a block are one RQMC replicate of the pixel.
+``spp_per_block`` samples of a batch are one RQMC replicate of the pixel.
 
-The variance.  Within a block the samples of a pixel are *not* independent
+The variance.  Within a batch the samples of a pixel are *not* independent
 (that is what makes them better), so the per-sample variance of
-:mod:`mcocl.render.film` would be wrong.  The blocks are independent
+:mod:`mcocl.render.film` would be wrong.  The batches are independent
 scramblings, so, as the splatting film of :mod:`mcocl.render.splat_film` does
-for light tracing, :func:`block_batches` turns every block into one **batch**
-per pixel: ``Y_b = (sum of its finite samples) / (their number)``, stored as
+for light tracing, :func:`block_batches` turns every block's sums into one
+**batch** per pixel of the block: ``Y_b = (sum of its finite samples) / (their number)``, stored as
 one "sample" of the film's columns (sum Y_b, sum Y_b^2, count 1).  With B
-blocks, :func:`mcocl.render.film.film_image` then gives the mean of the Y_b
+batches, :func:`mcocl.render.film.film_image` then gives the mean of the Y_b
 and var(Y_b) / B, the variance of that mean; ``count`` is the number of
 batches.  The Y_b are independent with the pixel's mean as their common
 expectation, so E[var(Y_b)] is the average of their variances and var(Y_b) / B
 is unbiased for the variance of the pixel mean, also when a last partial
-block makes one batch shorter than the others.
+batch is shorter than the others.
 
 How many batches.  Every batch is a net of its own, and small nets keep
 little stratification: at 64 spp, 16 batches of 4 samples left the Cornell box
@@ -95,11 +95,11 @@ def sobol_render_defines(spp_per_block: int) -> list[str]:
 
 
 def sobol_spp_per_block(default: int, spp: int | None, batches: int, bounded_by_spp: bool) -> int:
-    """Samples per pixel of a block (= one batch, one scrambling per pixel).
+    """Samples per pixel of a batch (one scrambling per pixel; its blocks: :func:`sobol_block_pixels`).
 
-    A render bounded by its ``spp`` alone gets ``batches`` blocks of ceil(spp / batches) samples
-    (fewer blocks when spp < batches).  Under time or noise halting (``bounded_by_spp`` False) the
-    run's length is unknown: blocks are ``default`` samples (a power of two, a whole net of about
+    A render bounded by its ``spp`` alone gets ``batches`` batches of ceil(spp / batches) samples
+    (fewer when spp < batches).  Under time or noise halting (``bounded_by_spp`` False) the
+    run's length is unknown: batches are ``default`` samples (a power of two, a whole net of about
     2^20 paths: mcocl/render/job.py, default_spp_per_block), and fewer when an upper bound ``spp``
     would leave less than ``batches`` of them; the number of batches then grows with the run.
     """
