@@ -37,16 +37,24 @@
  * and RENDER_DIM_LIGHT(d) = 8 + 8d .. 11 + 8d (emitter choice: environment or
  * area, which area light, position 2D) (rng/streams.cl): the image depends on
  * the seed alone, not on how samples are split over launches, work-items or
- * lanes.  With -DRENDER_SOBOL (the Sobol' back end) sample s of block b in
+ * lanes.  With -DRENDER_SOBOL (the Sobol' back end) sample s of batch b in
  * pixel p has instead the index ((b * W * H + p) << SOBOL_LOG2_POINTS) + s:
  * point s of the Owen scrambling (b, p), the same dimensions.
+ *
+ * Blocks and batches.  A block covers ntiles * tile_pixels consecutive pixels
+ * (render_params; the whole film unless the host cuts it: mcocl/render/job.py).
+ * With T = ceil(W * H / that) pixel ranges per film, block k is range t = k mod T
+ * of batch b = k / T: the samples spp_per_block * b .. of the independent
+ * sampler, or the scrambling b of the Sobol' one.  Only sobol cuts films (T > 1),
+ * so a batch's points are the same whichever block renders them.
  *
  * Path regeneration.  In a lane build a lane whose path ends takes the next
  * sample of the work-item at once, so lanes stay busy whatever the path
  * lengths.  The order in which a work-item adds samples into a pixel's sums
  * depends on nothing but the work-item's own samples.
  *
- * Output: for every block of the launch and every pixel, STATS numbers (film_t)
+ * Output: for every block of the launch and every pixel of its range (the
+ * block's stride: min(ntiles * tile_pixels, W * H) pixels), STATS numbers (film_t)
  *   [0..2] sum of R, G, B   [3..5] sum of squares   [6] finite samples
  *   [7] non-finite samples (NaN/Inf in any channel: counted, kept out of the sums).
  */
@@ -179,13 +187,20 @@ kernel void render_blocks(
     const uint tile = gid - bi * ntiles;
     const ulong block = first_block + bi;
     const uint npix_total = width * height;
-    const uint pix0 = tile * tile_pixels;
+    /* the block's pixel range (see "Blocks and batches" above): range t of batch b */
+    const uint span = ntiles * tile_pixels;
+    const uint ranges = (npix_total + span - 1u) / span;
+    const ulong batch = block / ranges;
+    const uint first_pix = (uint)(block - batch * ranges) * span;
+    const uint pix0 = first_pix + tile * tile_pixels;
+    if (pix0 >= npix_total) return; /* past the film's end in its last range: the host reads nothing here */
     const uint npix = min(tile_pixels, npix_total - pix0);
-    const ulong spp0 = block * (ulong)spp_per_block;
+    const ulong spp0 = batch * (ulong)spp_per_block;
     const uint nspp = spp0 >= (ulong)spp_limit ? 0u : (uint)min((ulong)spp_per_block, (ulong)spp_limit - spp0);
     const uint total = npix * nspp;
-    global film_t *acc = out + (size_t)bi * npix_total * STATS;
-    for (uint k = 0; k < npix * STATS; ++k) acc[(size_t)pix0 * STATS + k] = 0;
+    /* the block's sums, pixel first_pix first; `pixel` below counts from first_pix */
+    global film_t *acc = out + (size_t)bi * min(span, npix_total) * STATS;
+    for (uint k = 0; k < npix * STATS; ++k) acc[(size_t)(pix0 - first_pix) * STATS + k] = 0;
     if (total == 0u) return;
 
     SCENE_GEOM_MAKE(geom);
@@ -230,11 +245,11 @@ kernel void render_blocks(
             uintv s = j / npix;
             uintv px = (uintv)(pix0) + (j - s * npix);
 #ifdef RENDER_SOBOL
-            /* Per pixel RQMC: the sample's number within the block is the
-             * Sobol' point, (block, pixel) the scrambling, so every pixel of
-             * every block is an independent Owen scrambling with its own seed per
+            /* Per pixel RQMC: the sample's number within the batch is the
+             * Sobol' point, (batch, pixel) the scrambling, so every pixel of
+             * every batch is an independent Owen scrambling with its own seed per
              * dimension (samplers/sobol_sampler.cl; host: mcocl/render/job.py). */
-            ulongv index = ((ulongv)(block * (ulong)npix_total) + to_ulongv(px)) << SOBOL_LOG2_POINTS | to_ulongv(s);
+            ulongv index = ((ulongv)(batch * (ulong)npix_total) + to_ulongv(px)) << SOBOL_LOG2_POINTS | to_ulongv(s);
 #else
             ulongv index = (to_ulongv(s) + (ulongv)(spp0)) * (ulong)npix_total + to_ulongv(px);
 #endif
@@ -256,7 +271,7 @@ kernel void render_blocks(
                 cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
             }
             co = camera_clip_origin(camera, cam_set, co, cd);
-            pixel = lane_select(pixel, px, fresh);
+            pixel = lane_select(pixel, px - (uintv)(first_pix), fresh);
             o = v3_select(o, co, fresh);
             d = v3_select(d, cd, fresh);
             thr = v3_select(thr, v3s(1.0f), fresh);

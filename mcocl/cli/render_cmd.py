@@ -85,7 +85,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="longest path in segments, Mitsuba's convention (-1 unbounded, 1 emitters only, 2 direct light)")
     p.add_argument("--rr-depth", type=int, default=None, help="depth from which Russian roulette may end paths")
     p.add_argument("--sampler", choices=RENDER_SAMPLERS, default=None,
-                   help="independent, or sobol: per-pixel Owen-scrambled Sobol', variance from block means "
+                   help="independent, or sobol: per-pixel Owen-scrambled Sobol', variance from batch means "
                         "(default: the scene's)")
     p.add_argument("--batches", type=count, default=None, metavar="B",
                    help="--sampler sobol: independent scramblings per pixel that the variance layer comes from, "

@@ -35,6 +35,7 @@ from .emitter_choice import bounding_sphere
 from .film import STATS, film_image, relative_error
 from .job import (
     SPLAT_INTEGRATORS,
+    TILE_PIXELS,
     UNBOUNDED_SPP,
     RenderJob,
     default_spp_per_block,
@@ -44,7 +45,7 @@ from .job import (
 from .pixel_filter import BOX
 from .scene import INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
 from .scene_file import load_scene
-from .sobol_film import DEFAULT_BATCHES, MIN_BATCHES, batch_relative_error, sobol_spp_per_block
+from .sobol_film import DEFAULT_BATCHES, MIN_BATCHES, batch_relative_error, sobol_block_pixels, sobol_spp_per_block
 from .splat_film import splat_spp_per_block
 
 
@@ -58,7 +59,8 @@ class RenderResult:
         count: (H, W) float32 finite samples per pixel; for ``lt``, ``bdpt`` and the ``sobol``
             sampler, the number of batches (blocks) the variance was estimated from
             (:mod:`mcocl.render.splat_film`, :mod:`mcocl.render.sobol_film`).
-        spp: samples per pixel computed (``count`` plus the non-finite ones).
+        spp: samples per pixel computed (``count`` plus the non-finite ones); with ``sobol`` stopped
+            inside a batch, whose blocks are pixel ranges, their mean over the pixels, rounded down.
         nonfinite: NaN/Inf samples, counted and left out of the image.
         seconds: wall time of the sampling (build excluded).
         build_seconds: kernel build time of this run (small when cached).
@@ -154,6 +156,16 @@ def _render_sampler(cs: CompiledScene, sampler: Any) -> str:
     return name
 
 
+def _saved_block_pixels(acc: Accumulator, path: Any, npix: int) -> int:
+    """A sobol checkpoint's pixels per block: 0 (the whole film) without the key, else whole tiles."""
+    if "block_pixels" not in acc.meta:
+        return 0
+    pixels = acc.meta_int("block_pixels", path, TILE_PIXELS, max(npix - 1, TILE_PIXELS))
+    if pixels % TILE_PIXELS:
+        raise InputError(f"checkpoint {path}: its field 'block_pixels' is {pixels}, not a multiple of {TILE_PIXELS}")
+    return pixels
+
+
 def _compile(scene: Any, integrator: Any, max_depth: Any, rr_depth: Any, mesh_folder: Any = None) -> CompiledScene:
     """A compiled scene with the overrides applied (a given CompiledScene is not modified)."""
     if isinstance(scene, CompiledScene):
@@ -245,6 +257,8 @@ def render(
             (``spp_per_block=spp`` renders it, its ``variance`` NaN).  Under ``time_budget`` or
             ``target_error`` blocks keep their default size, their number grows with the run, and
             ``target_error`` waits for ``batches`` of them.  Not with ``spp_per_block``.
+            A batch of more paths than an independent block is rendered as several blocks of
+            pixel ranges (same image; a stop inside a batch leaves some pixels a batch short).
             Default: the scene's ``integrator.batches``, else 4.
         mis: ``bdpt``'s MIS heuristic, ``power`` (beta 2, the default) or ``balance``.
         strategy: ``bdpt`` renders only strategy (s, t) (s light, t >= 1 camera vertices),
@@ -334,10 +348,8 @@ def render(
         spp_per_block = saved_block
         saved_limit = acc.meta_int("spp_limit", resume, 1, UNBOUNDED_SPP)
         acc.check_shape((cs.height, cs.width, STATS), resume)
-        if acc.blocks_done * spp_per_block > saved_limit and saved_limit != spp_limit:
-            raise InputError(
-                f"checkpoint {resume} ends in a partial block ({saved_limit} spp, blocks of {spp_per_block}); "
-                f"resume it with spp={saved_limit}, or start renders with a multiple of {spp_per_block} spp")
+        # sobol's blocks as the checkpoint cut them (no key: whole-film blocks, as before the cut existed)
+        block_pixels = _saved_block_pixels(acc, resume, cs.width * cs.height) if sampler == "sobol" else 0
     elif spp_per_block is None:
         spp_per_block = default_spp_per_block(cs.width, cs.height)
         if sampler == "sobol":
@@ -351,15 +363,27 @@ def render(
             spp_per_block = max(1, min(spp_per_block, spp))
     else:
         spp_per_block = whole_number("spp_per_block", spp_per_block, 1, UNBOUNDED_SPP - 1)
+    if acc is None:
+        # a sobol batch of more paths than an independent block is cut into blocks of pixel ranges
+        block_pixels = (sobol_block_pixels(spp_per_block, default_spp_per_block(cs.width, cs.height) * cs.width
+                                           * cs.height, cs.width, cs.height, TILE_PIXELS) if sampler == "sobol" else 0)
 
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
                     spp_per_block, spp_limit, opts.lanes, bounding_sphere=(*centre, radius), sampler=sampler,
-                    pixel_filter=pixel_filter, near_clip=near_clip, far_clip=far_clip, **bdpt)
+                    pixel_filter=pixel_filter, near_clip=near_clip, far_clip=far_clip, block_pixels=block_pixels,
+                    **bdpt)
+    ranges = job.film_ranges
+    if acc is not None and -(-acc.blocks_done // ranges) * spp_per_block > saved_limit and saved_limit != spp_limit:
+        raise InputError(
+            f"checkpoint {resume} ends in a partial block ({saved_limit} spp, blocks of {spp_per_block}); "
+            f"resume it with spp={saved_limit}, or start renders with a multiple of {spp_per_block} spp")
     ctx = runtime.device_context(opts.device)
     runner = job.runner(ctx)
     if acc is None:
-        acc = Accumulator(job.stat_shape, {**meta, "spp_per_block": spp_per_block})
+        # the key only for cut films: a whole-film checkpoint stays what it was before the cut existed
+        acc = Accumulator(job.stat_shape, {**meta, "spp_per_block": spp_per_block,
+                                           **({"block_pixels": block_pixels} if block_pixels else {})})
     acc.meta["spp_limit"] = spp_limit
     spp_before = job.spp_done(acc.blocks_done)
 
@@ -372,21 +396,21 @@ def render(
     def target(a: Accumulator) -> bool:
         if opts.target_error is None or job.spp_done(a.blocks_done) < 2:
             return False
-        if sampler == "sobol" and a.blocks_done < min_batches:  # fewer replicates than asked for
+        if sampler == "sobol" and a.blocks_done < min_batches * ranges:  # fewer replicates than asked for
             return False
         img = film_image(a.totals)
         err = error_of(img.mean, img.variance, img.count)
         return math.isfinite(err) and err <= opts.target_error
 
-    callback, bar = opts.progress_reporter(f"render [{cs.integrator}]", "spp", spp_per_block)
+    callback, bar = opts.progress_reporter(f"render [{cs.integrator}]", "spp", job.spp_per_pixel_block)
     if bar is not None:
         pixels = cs.width * cs.height
 
         def callback(p: Progress) -> None:
-            bar.extra = f", {p.blocks_per_second * spp_per_block * pixels / 1e6:.3g} M samples/s"
+            bar.extra = f", {p.blocks_per_second * job.spp_per_pixel_block * pixels / 1e6:.3g} M samples/s"
             bar.update(p)
 
-    max_blocks = -(-spp // spp_per_block) if spp is not None else None
+    max_blocks = -(-spp // spp_per_block) * ranges if spp is not None else None
     halting = opts.halting(max_blocks, target if opts.target_error is not None else None)
     report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
     if bar is not None:
@@ -397,8 +421,10 @@ def render(
     spp_done = job.spp_done(acc.blocks_done)
     notes = list(getattr(report, "notes", []) or [])
     if sampler == "sobol":
-        notes.append(f"sobol: variance from {acc.blocks_done} independent Owen scramblings (batches) of "
-                     f"{spp_per_block} samples per pixel" + ("; one batch has no variance" if acc.blocks_done < 2 else ""))
+        whole, part = divmod(acc.blocks_done, ranges)
+        notes.append(f"sobol: variance from {whole} independent Owen scramblings (batches) of "
+                     f"{spp_per_block} samples per pixel" + ("; a pixel of fewer than 2 batches has no variance" if whole < 2 else "")
+                     + (f"; the next batch covers {part} of its {ranges} pixel ranges (blocks)" if part else ""))
     if job.integrator == "lt":
         notes.append(f"light tracing: variance from {acc.blocks_done} independent batches of "
                      f"{spp_per_block} light paths per pixel; specular surfaces seen directly are black")

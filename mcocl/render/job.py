@@ -8,9 +8,15 @@ the image is bit-identical however the scheduler groups blocks into launches,
 devices or resumed runs.  Sample (pixel, s) always uses the random numbers of
 index ``s * W * H + pixel`` (kernels/render/integrator.cl), so the image does
 not depend on ``spp_per_block`` either, up to the order of float additions.
-With ``sampler="sobol"`` a block is instead one Owen scrambling per pixel and
-one batch of the film (:mod:`mcocl.render.sobol_film`): the image then depends
-on ``spp_per_block``.
+With ``sampler="sobol"`` a *batch* of ``spp_per_block`` samples is instead one
+Owen scrambling per pixel (:mod:`mcocl.render.sobol_film`): the image then
+depends on ``spp_per_block``.  A batch can be too many paths for one block (a
+kernel launch Ctrl-C waits for, the unit of checkpoints and of sharing between
+devices), so sobol cuts it into T ranges of ``block_pixels`` consecutive pixels:
+block k renders range k mod T of batch k // T, with zeros elsewhere
+(:func:`mcocl.render.sobol_film.sobol_block_pixels`).  The ranges of a batch
+are disjoint, so their batch statistics add up to the whole batch's, and the
+image does not depend on T.
 
 Inside a launch, one work-item renders one tile of ``tile_pixels``
 consecutive pixels for one block, LANES paths at a time.
@@ -111,12 +117,14 @@ class RenderJob:
         bounding_sphere: centre xyz and radius of the scene's bounding sphere
             (light tracing's environment rays start outside it).
         sampler: ``independent`` (Philox) or ``sobol`` (per-pixel Owen-scrambled
-            Sobol', one scrambling per block and pixel: :mod:`mcocl.render.sobol_film`).
+            Sobol', one scrambling per batch and pixel: :mod:`mcocl.render.sobol_film`).
         mis: ``bdpt``'s MIS heuristic, ``balance`` or ``power`` (beta 2).
         strategy: ``bdpt`` renders only strategy (s, t) when given.
         unweighted: with ``strategy``, leave out its MIS weight.
         roulette: ``bdpt``'s Russian roulette on connection shadow rays (kernels/render/bdpt.cl,
             connection_roulette); a single ``strategy`` is never rouletted.
+        block_pixels: ``sobol`` only: the consecutive pixels of one block, a multiple of
+            ``tile_pixels`` (0: the whole film); a batch is then :attr:`film_ranges` blocks.
 
     The light sampler follows the tables: those of a scene whose
     ``light_sampler`` is ``bvh`` hold the light BVH and get the BVH build;
@@ -143,10 +151,28 @@ class RenderJob:
     pixel_filter: PixelFilter = BOX  # the reconstruction filter (mcocl/render/pixel_filter.py)
     near_clip: float = 0.0  # camera.near_clip: render_params.near_clip (kernels/render/camera.cl)
     far_clip: float | None = None  # camera.far_clip: render_params.far_clip, +inf for None (kernels/render/camera.cl)
+    block_pixels: int = 0
     stat_shape: tuple[int, ...] = field(default=(0, 0, STATS))
 
     def __post_init__(self) -> None:
         self.stat_shape = (self.height, self.width, STATS)
+        if self.block_pixels:
+            # the independent sampler's block is a range of samples of every pixel (its random numbers
+            # are indexed by the sample), the splatting film's a range of light paths: neither is cut
+            assert self.sampler == "sobol" and not self.splats, "only sobol blocks are pixel ranges"
+            assert self.block_pixels > 0 and self.block_pixels % self.tile_pixels == 0, self.block_pixels
+
+    @property
+    def film_ranges(self) -> int:
+        """T: the blocks of one batch (pixel ranges of ``block_pixels``; 1 when a block is the whole film)."""
+        npix = self.width * self.height
+        return -(-npix // self.block_pixels) if 0 < self.block_pixels < npix else 1
+
+    @property
+    def range_pixels(self) -> int:
+        """The pixels of a block's range (the last range of a film may have fewer)."""
+        npix = self.width * self.height
+        return self.block_pixels if 0 < self.block_pixels < npix else npix
 
     @property
     def splats(self) -> bool:
@@ -158,7 +184,7 @@ class RenderJob:
         """Work-items per block: pixel tiles, or path groups on the splatting film."""
         if self.splats:
             return splat_groups(self.width, self.height)
-        return -(-self.width * self.height // self.tile_pixels)
+        return -(-self.range_pixels // self.tile_pixels)
 
     def options(self, lanes: int) -> list[str]:
         """The build's -D options."""
@@ -191,8 +217,22 @@ class RenderJob:
         return p
 
     def spp_done(self, blocks: int) -> int:
-        """Samples per pixel contained in the first ``blocks`` blocks."""
-        return int(min(blocks * self.spp_per_block, self.spp_limit))
+        """Samples per pixel in the first ``blocks`` blocks, on average over the pixels (rounded down).
+
+        Exact for whole batches; the ranges of a batch cut short by a stop count for their pixels only.
+        """
+        whole, part = divmod(int(blocks), self.film_ranges)
+        spp = min(whole * self.spp_per_block, self.spp_limit)
+        if not part:
+            return int(spp)
+        npix = self.width * self.height
+        more = min(self.spp_per_block, self.spp_limit - spp) * min(part * self.range_pixels, npix)
+        return int((spp * npix + more) // npix)
+
+    @property
+    def spp_per_pixel_block(self) -> float:
+        """A block's paths over the film's pixels: the samples per pixel it adds on average."""
+        return self.spp_per_block / self.film_ranges
 
     def runner(self, ctx: runtime.DeviceContext) -> RenderRunner | SplatRunner:
         """Build for ``ctx`` (see :class:`RenderRunner` and :class:`~mcocl.render.splat_film.SplatRunner`)."""
@@ -217,21 +257,35 @@ class RenderRunner:
         self.buffers = {name: table_buffer(ctx.context, ctx.device, t[name]) for name in KERNEL_BUFFERS}
 
     def enqueue(self, first_block: int, nblocks: int) -> tuple[cl.Event, np.ndarray, int]:
-        """Launch blocks ``first_block .. first_block + nblocks - 1``; the copy back is non-blocking."""
+        """Launch blocks ``first_block .. first_block + nblocks - 1``; the copy back is non-blocking.
+
+        The handle: the copy's event, the (nblocks, range_pixels, STATS) sums and ``first_block``."""
         job = self.job
-        out = np.empty((nblocks, job.height, job.width, STATS), self.film_dtype)
+        out = np.empty((nblocks, job.range_pixels, STATS), self.film_dtype)
         buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
         g, lsz = self.ctx.work_size(nblocks * job.ntiles)
         self.kernel(self.ctx.queue, g, lsz, job.params(first_block, nblocks),
                     *(self.buffers[name] for name in KERNEL_BUFFERS), buf)
         ev = cl.enqueue_copy(self.ctx.queue, out, buf, is_blocking=False)
-        return ev, out, nblocks
+        return ev, out, first_block
 
     def collect(self, handle: tuple[cl.Event, np.ndarray, int]) -> np.ndarray:
         """Wait for a launch; its (nblocks, H, W, STATS) statistics (one batch per block with ``sobol``)."""
-        ev, out, _ = handle
+        ev, out, first = handle
         ev.wait()
-        return block_batches(out) if self.job.sampler == "sobol" else out
+        job = self.job
+        if job.film_ranges == 1:
+            out = out.reshape((len(out), *job.stat_shape))
+            return block_batches(out) if job.sampler == "sobol" else out
+        # a block of range t: its batch statistics there, zeros on the rest of the film (adding them to
+        # the totals changes no bit, so the fold is the whole batch's: mcocl/render/sobol_film.py)
+        full = np.zeros((len(out), job.width * job.height, STATS), out.dtype)
+        npix = job.width * job.height
+        for i, block in enumerate(range(first, first + len(out))):
+            p0 = block % job.film_ranges * job.range_pixels
+            n = min(job.range_pixels, npix - p0)
+            full[i, p0:p0 + n] = block_batches(out[i, :n])
+        return full.reshape((len(out), *job.stat_shape))
 
 
 __all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "MIS_BETAS", "SPLAT_INTEGRATORS",

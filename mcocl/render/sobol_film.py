@@ -1,27 +1,27 @@
 """The render sampler ``sobol``: per-pixel randomised quasi-Monte Carlo, and its honest variance.
 
 The samples of a pixel are Owen-scrambled Sobol' points
-(kernels/samplers/sobol_sampler.cl): sample s of block b in pixel p is point s
+(kernels/samplers/sobol_sampler.cl): sample s of batch b in pixel p is point s
 of the scrambling (b, p) (kernels/render/integrator.cl, ``RENDER_SOBOL``),
 every dimension of which has its own scrambling seed, a Philox word of
 (seed, b * W * H + p, dimension).  So pixels and dimensions are decorrelated
 (as the per-pixel seeds of Burley 2020, "Practical Hash-based Owen
 Scrambling", JCGT 9(4), and pbrt-v4's ZSobolSampler), and the
-``spp_per_block`` samples of a block are one RQMC replicate of the pixel.
+``spp_per_block`` samples of a batch are one RQMC replicate of the pixel.
 
-The variance.  Within a block the samples of a pixel are *not* independent
+The variance.  Within a batch the samples of a pixel are *not* independent
 (that is what makes them better), so the per-sample variance of
-:mod:`mcocl.render.film` would be wrong.  The blocks are independent
+:mod:`mcocl.render.film` would be wrong.  The batches are independent
 scramblings, so, as the splatting film of :mod:`mcocl.render.splat_film` does
-for light tracing, :func:`block_batches` turns every block into one **batch**
-per pixel: ``Y_b = (sum of its finite samples) / (their number)``, stored as
+for light tracing, :func:`block_batches` turns every block's sums into one
+**batch** per pixel of the block: ``Y_b = (sum of its finite samples) / (their number)``, stored as
 one "sample" of the film's columns (sum Y_b, sum Y_b^2, count 1).  With B
-blocks, :func:`mcocl.render.film.film_image` then gives the mean of the Y_b
+batches, :func:`mcocl.render.film.film_image` then gives the mean of the Y_b
 and var(Y_b) / B, the variance of that mean; ``count`` is the number of
 batches.  The Y_b are independent with the pixel's mean as their common
 expectation, so E[var(Y_b)] is the average of their variances and var(Y_b) / B
 is unbiased for the variance of the pixel mean, also when a last partial
-block makes one batch shorter than the others.
+batch is shorter than the others.
 
 How many batches.  Every batch is a net of its own, and small nets keep
 little stratification: at 64 spp, 16 batches of 4 samples left the Cornell box
@@ -34,6 +34,23 @@ pixel, an unbiased but noisy per-pixel variance.  The relative error that
 E[sqrt(s^2)] = c4(B) sigma < sigma for B normal batch means
 (:func:`stderr_bias`: 0.92 for B = 4); :func:`batch_relative_error` divides
 it out (exact for normal batch means; heavy-tailed pixels still read low).
+
+Blocks and batches.  One of B = 4 batches is many paths (1024 spp on 256 x 256
+pixels: 2^24 a batch), too many for one scheduler block, the kernel launch that Ctrl-C,
+a time budget and a checkpoint wait for and that devices share.  So
+:func:`sobol_block_pixels` cuts a batch into T blocks of consecutive pixels,
+each about the paths of an independent-sampler block: block k renders the
+pixel range t = k mod T of batch b = k // T (the same scrambling (b, p) and
+points as one whole-film block would), and :func:`block_batches` gives it Y_b,
+Y_b^2 and count 1 on its pixels, zeros elsewhere.  The ranges are disjoint and
+adding a zero changes no bit, so the block-order fold of a batch's T blocks is
+exactly the whole batch's statistics: the image is bit-identical whatever T.
+A run that stops inside a batch (Ctrl-C) leaves the pixels of
+its missing ranges one batch short: ``count`` is per pixel, so their mean and
+variance come from their own batches (a pixel of one batch has the variance
+NaN, as any pixel of count < 2, and is left out of the relative error).
+Time- or noise-halted runs keep whole-film batches of the default size (their
+number of batches is what the variance needs, so they are not made larger).
 """
 
 from __future__ import annotations
@@ -78,11 +95,11 @@ def sobol_render_defines(spp_per_block: int) -> list[str]:
 
 
 def sobol_spp_per_block(default: int, spp: int | None, batches: int, bounded_by_spp: bool) -> int:
-    """Samples per pixel of a block (= one batch, one scrambling per pixel).
+    """Samples per pixel of a batch (one scrambling per pixel; its blocks: :func:`sobol_block_pixels`).
 
-    A render bounded by its ``spp`` alone gets ``batches`` blocks of ceil(spp / batches) samples
-    (fewer blocks when spp < batches).  Under time or noise halting (``bounded_by_spp`` False) the
-    run's length is unknown: blocks are ``default`` samples (a power of two, a whole net of about
+    A render bounded by its ``spp`` alone gets ``batches`` batches of ceil(spp / batches) samples
+    (fewer when spp < batches).  Under time or noise halting (``bounded_by_spp`` False) the
+    run's length is unknown: batches are ``default`` samples (a power of two, a whole net of about
     2^20 paths: mcocl/render/job.py, default_spp_per_block), and fewer when an upper bound ``spp``
     would leave less than ``batches`` of them; the number of batches then grows with the run.
     """
@@ -90,6 +107,22 @@ def sobol_spp_per_block(default: int, spp: int | None, batches: int, bounded_by_
         return default
     whole = -(-int(spp) // int(batches))
     return whole if bounded_by_spp else max(1, min(default, whole))
+
+
+def sobol_block_pixels(spp_per_block: int, paths_per_block: int, width: int, height: int, tile_pixels: int) -> int:
+    """The pixels of one block of a batch of ``spp_per_block`` samples (0: the whole film, T = 1).
+
+    A block gets about ``paths_per_block`` paths (an independent-sampler block's:
+    mcocl/render/job.py, default_spp_per_block): T = ceil(spp_per_block * W * H / paths_per_block)
+    ranges of equal length, rounded up to whole work-item tiles of ``tile_pixels``.
+    """
+    npix = int(width) * int(height)
+    ranges = -(-int(spp_per_block) * npix // max(int(paths_per_block), 1))
+    if ranges <= 1:
+        return 0
+    pixels = -(-npix // ranges)
+    pixels = -(-pixels // tile_pixels) * tile_pixels
+    return pixels if pixels < npix else 0
 
 
 def stderr_bias(batches: np.ndarray | int) -> np.ndarray:
@@ -139,4 +172,4 @@ def block_batches(stats: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["DEFAULT_BATCHES", "MIN_BATCHES", "RENDER_TABLE_DIMS", "batch_relative_error", "block_batches",
-           "sobol_render_defines", "sobol_spp_per_block", "stderr_bias"]
+           "sobol_block_pixels", "sobol_render_defines", "sobol_spp_per_block", "stderr_bias"]
