@@ -349,9 +349,22 @@ kernel void render_blocks(
 #endif
             frame3v fr = frame_from_normal(ns);
             vec3v wi = frame_to_local(fr, v3_neg(d));
+#if defined(RENDER_SOBOL) && INTEGRATOR != INTEGRATOR_PATH
+#if RENDER_DIM_LIGHT(0) != RENDER_DIM_BSDF(0) + 4
+#error "the light sample's dimensions must follow the BSDF's"
+#endif
+            /* the BSDF's dimensions and the light sample's after them in one draw, the same
+             * numbers as two: the Sobol' back end then groups the lanes by dimension once for
+             * both (samplers/sobol_sampler.cl, sobol_reversed_rows_lanes) */
+            floatv uv[8];
+            sampler_seek(&smp, RENDER_DIM_BSDF(depth));
+            sampler_next_nd(&smp, 8, uv);
+            const floatv *ub = uv; /* lobe, direction 2D, roulette */
+#else
             floatv ub[4]; /* lobe, direction 2D, roulette */
             sampler_seek(&smp, RENDER_DIM_BSDF(depth));
             sampler_next_nd(&smp, 4, ub);
+#endif
 
 #if INTEGRATOR != INTEGRATOR_PATH
             /* The vertex as both strategies see it: the point lifted off the
@@ -366,9 +379,13 @@ kernel void render_blocks(
             /* -- next-event estimation -- */
             intv nee = cont & bsdf_is_smooth(&m);
             if (lane_any(nee)) {
+#if defined(RENDER_SOBOL)
+                const floatv *ul = uv + 4; /* drawn with the BSDF's */
+#else
                 floatv ul[4];
                 sampler_seek(&smp, RENDER_DIM_LIGHT(depth));
                 sampler_next_nd(&smp, 4, ul);
+#endif
                 light_sample_v ls = sample_light_at(&lt, &pt, p_up, n, ul[0], ul[1], ul[2], ul[3], nee);
                 floatv bpdf;
                 vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, ls.wo), &bpdf);

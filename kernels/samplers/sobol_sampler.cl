@@ -158,33 +158,60 @@ MC_INLINE uintv sobol_reversed_lanes(uintv p, uintv d) {
 #endif
 }
 
-/* sobol_reversed_lanes of dimensions d .. d + 3 (per lane, all in the table):
- * one pass over each lane's point bits for the four rows (which are
- * consecutive in SOBOL_RV), instead of four (the render's vertices draw four
- * dimensions at a time, the lanes at different depths).  The same bits. */
-MC_INLINE void sobol_reversed4_lanes(uintv p, uintv d, uintv *x) {
+/* sobol_reversed_lanes of dimensions d .. d + rows - 1 (per lane, all in the
+ * table; rows <= SOBOL_MAX_ROWS): one pass over the point bits for all rows
+ * (which are consecutive in SOBOL_RV), instead of one per row.  The render's
+ * vertices draw 4 or 8 dimensions at a time (render/integrator.cl), the lanes
+ * at different depths, so at different dimensions, but mostly at one point
+ * (sample s of their pixels).  Then the lanes go in groups of one dimension,
+ * each group a scalar XOR over the point's set bits broadcast to its lanes; a
+ * packet of several points takes one scalar loop per lane.  Every path XORs
+ * the same rows: the same bits. */
+#define SOBOL_MAX_ROWS 8
+MC_INLINE void sobol_reversed_rows_lanes(uintv p, uintv d, int rows, uintv *x) {
 #if LANES == 1
     constant uint *rv = SOBOL_RV + 32u * d;
-    uint x0 = 0u, x1 = 0u, x2 = 0u, x3 = 0u;
+    for (int i = 0; i < rows; ++i) x[i] = 0u;
     for (int k = 0; k < SOBOL_LOG2_POINTS && (p >> k) != 0u; ++k) {
         const uint m = 0u - ((p >> k) & 1u);
-        x0 ^= rv[k] & m; x1 ^= rv[32 + k] & m; x2 ^= rv[64 + k] & m; x3 ^= rv[96 + k] & m;
+        for (int i = 0; i < rows; ++i) x[i] ^= rv[32 * i + k] & m;
     }
-    x[0] = x0; x[1] = x1; x[2] = x2; x[3] = x3;
 #else
-    uint pl[LANES], dl[LANES], xl[4][LANES];
+    const uint p0 = SOBOL_LANE0(p);
+    if (!lane_any(p != (uintv)(p0))) {
+        uint_lanes dl;
+        dl.v = d;
+        for (int i = 0; i < rows; ++i) x[i] = (uintv)(0u);
+        uint todo = (1u << LANES) - 1u; /* the lanes whose group is still to come, as bits */
+        while (todo != 0u) {
+            const uint dg = dl.a[31u - clz(todo & (0u - todo))]; /* the lowest lane to come (clz: OpenCL 1.2) */
+            constant uint *rv = SOBOL_RV + 32u * dg;
+            uint y[SOBOL_MAX_ROWS];
+            for (int i = 0; i < rows; ++i) y[i] = 0u;
+            for (uint b = p0; b != 0u; b &= b - 1u) {
+                const uint k = 31u - clz(b & (0u - b));
+                for (int i = 0; i < rows; ++i) y[i] ^= rv[32 * i + k];
+            }
+            const intv in_group = d == (uintv)(dg);
+            for (int i = 0; i < rows; ++i) x[i] = lane_select(x[i], (uintv)(y[i]), in_group);
+            todo &= ~lane_bits(in_group);
+        }
+        return;
+    }
+    uint pl[LANES], dl[LANES], xl[SOBOL_MAX_ROWS][LANES];
     MC_CAT(vstore, LANES)(p, 0, pl);
     MC_CAT(vstore, LANES)(d, 0, dl);
     for (int l = 0; l < LANES; ++l) {
         constant uint *rv = SOBOL_RV + 32u * dl[l];
-        uint x0 = 0u, x1 = 0u, x2 = 0u, x3 = 0u;
+        uint y[SOBOL_MAX_ROWS];
+        for (int i = 0; i < rows; ++i) y[i] = 0u;
         for (int k = 0; k < SOBOL_LOG2_POINTS && (pl[l] >> k) != 0u; ++k) {
             const uint m = 0u - ((pl[l] >> k) & 1u);
-            x0 ^= rv[k] & m; x1 ^= rv[32 + k] & m; x2 ^= rv[64 + k] & m; x3 ^= rv[96 + k] & m;
+            for (int i = 0; i < rows; ++i) y[i] ^= rv[32 * i + k] & m;
         }
-        xl[0][l] = x0; xl[1][l] = x1; xl[2][l] = x2; xl[3][l] = x3;
+        for (int i = 0; i < rows; ++i) xl[i][l] = y[i];
     }
-    for (int i = 0; i < 4; ++i) x[i] = MC_CAT(vload, LANES)(0, xl[i]);
+    for (int i = 0; i < rows; ++i) x[i] = MC_CAT(vload, LANES)(0, xl[i]);
 #endif
 }
 
@@ -269,12 +296,29 @@ MC_INLINE void sampler_next_nd(mc_sampler_t *s, int n, floatv *u) {
         return;
     }
     if (lane_any(s->dim != (uintv)(d0)) || d0 + (uint)n > (uint)SOBOL_TABLE_DIMS) {
+        if (n == 8 && !lane_any(s->dim + 7u >= (uintv)(SOBOL_TABLE_DIMS))) {
+            /* a render vertex's BSDF and light blocks at once: one pass over the groups for eight rows */
+            uintv x[8];
+            sobol_reversed_rows_lanes(s->point, s->dim, 8, x);
+            const philox_ctr c = rng_block(s->replicate, s->dim >> 2);
+            const philox_ctr e = rng_block(s->replicate, (s->dim >> 2) + 1u);
+            u[0] = owen_uniform(x[0], c.v0);
+            u[1] = owen_uniform(x[1], c.v1);
+            u[2] = owen_uniform(x[2], c.v2);
+            u[3] = owen_uniform(x[3], c.v3);
+            u[4] = owen_uniform(x[4], e.v0);
+            u[5] = owen_uniform(x[5], e.v1);
+            u[6] = owen_uniform(x[6], e.v2);
+            u[7] = owen_uniform(x[7], e.v3);
+            s->dim += 8u;
+            return;
+        }
         for (int j = 0; j < n; j += 4) {  /* walks and paths: lanes at different depths */
             const uintv dj = s->dim + (uint)j;
             const philox_ctr c = rng_block(s->replicate, dj >> 2);
             if (j + 4 <= n && !lane_any(dj + 3u >= (uintv)(SOBOL_TABLE_DIMS))) {
                 uintv x[4];
-                sobol_reversed4_lanes(s->point, dj, x);
+                sobol_reversed_rows_lanes(s->point, dj, 4, x);
                 u[j] = owen_uniform(x[0], c.v0);
                 u[j + 1] = owen_uniform(x[1], c.v1);
                 u[j + 2] = owen_uniform(x[2], c.v2);
@@ -323,8 +367,18 @@ MC_INLINE void sampler_next_nd_d(mc_sampler_t *s, int n, doublev *u) {
 }
 
 MC_INLINE void sampler_next_2d(mc_sampler_t *s, floatv *u) {
-    u[0] = sampler_next_1d(s);
-    u[1] = sampler_next_1d(s);
+    if (lane_any((s->dim & 1u) != 0u)) {
+        u[0] = sampler_next_1d(s);
+        u[1] = sampler_next_1d(s);
+        return;
+    }
+    /* an even counter in every lane: the pair is words 0-1 or 2-3 of one Philox block of
+     * scrambling seeds, drawn once (the camera's film point and lens point) */
+    const philox_ctr c = rng_block(s->replicate, s->dim >> 2);
+    const intv upper = (s->dim & 2u) != 0u;
+    u[0] = sobol_uniform_lanes(s, s->dim, lane_select(c.v0, c.v2, upper));
+    u[1] = sobol_uniform_lanes(s, s->dim + 1u, lane_select(c.v1, c.v3, upper));
+    s->dim += 2u;
 }
 
 MC_INLINE mc_sampler_t sampler_select(mc_sampler_t a, mc_sampler_t b, intv m) {
