@@ -102,9 +102,13 @@
  * lanes of a strategy's shadow ray are active.  Tracing those shadow rays
  * from a queue compacted to full packets (in push order, so bit-identical)
  * cut the traces' time by about 40 % but the compaction's scalar copies cost
- * as much again on PoCL, and loading each light vertex's material once per
- * packet instead of once per strategy gained nothing measurable either, so
- * neither is kept.
+ * as much again on PoCL, so it is not kept.  The walks keep each vertex's
+ * material and shading frame (vertex_bsdf: loaded to sample the next
+ * direction anyway) in cam_b / light_b, and the connections read them there
+ * instead of loading the material and building the frame again per
+ * strategy: 12 % more paths per CPU-second on the Cornell box with two
+ * spheres (3 interleaved renders each; loading only the light vertices'
+ * materials once per packet had gained nothing measurable).
  *
  * Russian roulette on the shadow rays of connections (t >= 2, s >= 1;
  * connection_roulette): a connection whose weighted contribution w max(c)
@@ -151,6 +155,22 @@
  * per path would need fuller packets (e.g. a lane that finishes its subpath
  * taking the next sample's, with vertex storage per sample) rather than
  * less work per lane.
+ *
+ * A profile of the kernel since the vertices keep their materials (perf's
+ * samples mapped to these source lines through a -g build; same scene, 96
+ * spp, 1.2 to 1.3 M paths per CPU-second): the walks 40 % (closest-hit
+ * traversal 19, surface records 6, materials and frames 4, BSDF sampling 3,
+ * their uniforms 3), the t >= 2 connections 33 % (shadow rays 8, the s = 1
+ * emitter points 5, the roulette's uniforms 5, MIS weights 4, BSDF
+ * evaluations 4), the (s, 1) camera connections 10 % (shadow rays 6) and
+ * their splats 6 %.  Counted per packet of 16 samples: the camera walk
+ * takes 6.8 steps with 9 lanes active on average, the light walk 6.3 with
+ * 8.4; 7 (s, 1) shadow rays with 7.7 lanes; 33 t >= 2 connections entered
+ * with 5 to 7 lanes, of which 9 trace a shadow ray, with 3.3 lanes.  Tried
+ * and not kept: caching each vertex's pdf ratio for bdpt_mis_weight (the
+ * same numbers without a division per vertex and strategy) measured 5 %
+ * slower; calls instead of inlining for the traversals and the BSDF
+ * dispatch halved the kernel's code and changed nothing measurable.
  *
  * Launch parameters (render_params), not build options, so that one build
  * serves every choice: bdpt_power_mis (1: beta 2, 0: beta 1); bdpt_only_s/_t
