@@ -102,9 +102,13 @@
  * lanes of a strategy's shadow ray are active.  Tracing those shadow rays
  * from a queue compacted to full packets (in push order, so bit-identical)
  * cut the traces' time by about 40 % but the compaction's scalar copies cost
- * as much again on PoCL, and loading each light vertex's material once per
- * packet instead of once per strategy gained nothing measurable either, so
- * neither is kept.
+ * as much again on PoCL, so it is not kept.  The walks keep each vertex's
+ * material and shading frame (vertex_bsdf: loaded to sample the next
+ * direction anyway) in cam_b / light_b, and the connections read them there
+ * instead of loading the material and building the frame again per
+ * strategy: 12 % more paths per CPU-second on the Cornell box with two
+ * spheres (3 interleaved renders each; loading only the light vertices'
+ * materials once per packet had gained nothing measurable).
  *
  * Russian roulette on the shadow rays of connections (t >= 2, s >= 1;
  * connection_roulette): a connection whose weighted contribution w max(c)
@@ -151,6 +155,22 @@
  * per path would need fuller packets (e.g. a lane that finishes its subpath
  * taking the next sample's, with vertex storage per sample) rather than
  * less work per lane.
+ *
+ * A profile of the kernel since the vertices keep their materials (perf's
+ * samples mapped to these source lines through a -g build; same scene, 96
+ * spp, 1.2 to 1.3 M paths per CPU-second): the walks 40 % (closest-hit
+ * traversal 19, surface records 6, materials and frames 4, BSDF sampling 3,
+ * their uniforms 3), the t >= 2 connections 33 % (shadow rays 8, the s = 1
+ * emitter points 5, the roulette's uniforms 5, MIS weights 4, BSDF
+ * evaluations 4), the (s, 1) camera connections 10 % (shadow rays 6) and
+ * their splats 6 %.  Counted per packet of 16 samples: the camera walk
+ * takes 6.8 steps with 9 lanes active on average, the light walk 6.3 with
+ * 8.4; 7 (s, 1) shadow rays with 7.7 lanes; 33 t >= 2 connections entered
+ * with 5 to 7 lanes, of which 9 trace a shadow ray, with 3.3 lanes.  Tried
+ * and not kept: caching each vertex's pdf ratio for bdpt_mis_weight (the
+ * same numbers without a division per vertex and strategy) measured 5 %
+ * slower; calls instead of inlining for the traversals and the BSDF
+ * dispatch halved the kernel's code and changed nothing measurable.
  *
  * Launch parameters (render_params), not build options, so that one build
  * serves every choice: bdpt_power_mis (1: beta 2, 0: beta 1); bdpt_only_s/_t
@@ -265,11 +285,12 @@ MC_INLINE intv segment_clear(const bdpt_scene *sc, vec3v a, vec3v na, vec3v b, i
  * mode: TRANSPORT_RADIANCE (camera; dimensions RENDER_DIM_BSDF(k - 1) at z_k, Mitsuba's
  * roulette on max(beta) eta^2) or TRANSPORT_IMPORTANCE (light; LT_DIM_BSDF(k) at y_k,
  * roulette on max(beta) / rr_scale as lt.cl).  Roulette applies from path length rr_depth. */
-MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *path, intv *count, intv alive,
-                         int maxv, vec3v o, vec3v d, vec3v beta, floatv pdf_dir, int mode, uint rr_depth,
+MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *path, vertex_bsdf *bsdfs,
+                         intv *count, intv alive, int maxv, vec3v o, vec3v d, vec3v beta, floatv pdf_dir, int mode, uint rr_depth,
                          floatv rr_scale) {
     floatv eta = (floatv)(1.0f);
-    vertex_bsdf pb; /* path[n - 1]'s material, frame and geometric wi, from the step that sampled it */
+    vertex_bsdf *pb = bsdfs; /* path[n - 1]'s material, frame and geometric wi, from the step that sampled it */
+    int cached = 1, written = 0; /* bsdfs[k] holds path[k]'s for 1 <= k < cached; path[written] the last vertex written */
     for (int n = 1; n < maxv && lane_any(alive); ) {
         hitv h = trace_closest_v(sc->geom, o, d, alive);
         /* a camera ray ends at the far clip plane, as the megakernel's (render/camera.cl): what lies
@@ -294,7 +315,7 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
         floatv pdf_geo = pdf_dir;
         if (n >= 2) {
             floatv pdf_back;
-            vertex_eval(&pb, v3_neg(v->wi), &pdf_geo, &pdf_back, mode);
+            vertex_eval(pb, v3_neg(v->wi), &pdf_geo, &pdf_back, mode);
             pdf_geo = lane_select(pdf_geo, (floatv)(0.0f), prev->delta);
             bdpt_vertex *pprev = &path[n - 2];
             /* y_0 at infinity keeps a solid-angle density */
@@ -326,23 +347,25 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
             v->emitter = lane_select(v->emitter, (intv)(-1), esc);
             v->mat = lane_select(v->mat, (uintv)(0u), esc);
         }
-        ++n;
+        written = n++;
         *count = lane_select(*count, (intv)(n), hit | esc);
         alive = hit;
         if (n >= maxv || !lane_any(alive)) break;
-        pb = vertex_bsdf_of(sc, v);
+        pb = &bsdfs[n - 1];
+        *pb = vertex_bsdf_of(sc, v);
+        cached = n;
         floatv ub[4]; /* lobe, direction 2D, roulette */
         sampler_seek(smp, (uintv)(mode == TRANSPORT_RADIANCE ? RENDER_DIM_BSDF((uint)(n - 2))
                                                               : LT_DIM_BSDF((uint)(n - 1))));
         sampler_next_nd(smp, 4, ub);
-        bsdf_sample_v bs = bsdf_sample(&pb.m, pb.wi_local, ub[0], ub[1], ub[2], mode);
+        bsdf_sample_v bs = bsdf_sample(&pb->m, pb->wi_local, ub[0], ub[1], ub[2], mode);
         intv ok = alive & (v3_maxc(bs.weight) > 0.0f) & (bs.pdf > 0.0f);
         v->delta = ok & bs.delta;
         beta = v3_mul(beta, bs.weight);
         eta *= bs.eta;
         /* the solid-angle density of d, for a vertex at infinity should the ray escape */
         pdf_dir = lane_select(bs.pdf, (floatv)(0.0f), bs.delta);
-        vec3v wo = frame_to_world(pb.fr, bs.wo);
+        vec3v wo = frame_to_world(pb->fr, bs.wo);
         o = offset_origin(sf.p, sf.n, wo);
         d = wo;
         /* roulette as integrator.cl (camera: from depth rr_depth of the vertex after z_k, i.e. k + 1)
@@ -355,6 +378,8 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
         }
         alive = ok;
     }
+    /* the last vertex's too, which the connections read (it samples no direction) */
+    if (written >= cached) bsdfs[written] = vertex_bsdf_of(sc, &path[written]);
 }
 
 /* (pdf_rev / pdf_fwd)^beta with zero densities (delta vertices) counted as 1; beta 2 where power. */
@@ -429,8 +454,8 @@ MC_INLINE intv connection_roulette(const bdpt_scene *sc, mc_sampler_t *smp, int 
  * sample's own pixel, zero where a lane has none, times its weight into *w.  ue: the s = 1 light
  * point's four uniforms (emitter choice and position).  zb: camera vertex z_{t-1}'s material
  * and frame. */
-MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, int t,
-                             const floatv *ue, const vertex_bsdf *zb, intv active, int nl_cap, int nc_cap,
+MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, const vertex_bsdf *light_b, bdpt_vertex *cam,
+                             int s, int t, const floatv *ue, const vertex_bsdf *zb, intv active, int nl_cap, int nc_cap,
                              mc_sampler_t *smp, floatv threshold, floatv *w) {
     vec3v zero = v3s(0.0f);
     *w = (floatv)(0.0f);
@@ -539,15 +564,15 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
         bdpt_vertex *qs = &light[s - 1], *qsm = &light[s - 2];
         ok = active & bsdf_is_smooth(&zb->m);
         if (!lane_any(ok)) return zero;
-        vertex_bsdf yb = vertex_bsdf_of(sc, qs);
-        ok = ok & bsdf_is_smooth(&yb.m);
+        const vertex_bsdf *yb = &light_b[s - 1];
+        ok = ok & bsdf_is_smooth(&yb->m);
         vec3v dv = v3_sub(pt->p, qs->p);
         floatv d2 = v3_len2(dv);
         ok = ok & (d2 > 0.0f);
         if (!lane_any(ok)) return zero;
         vec3v wy = v3_scale(dv, lane_rsqrt(d2)); /* from y_{s-1} toward z_{t-1} */
         floatv py, pz, pry, prz;
-        vec3v fy = vertex_eval(&yb, wy, &py, &pry, TRANSPORT_IMPORTANCE);
+        vec3v fy = vertex_eval(yb, wy, &py, &pry, TRANSPORT_IMPORTANCE);
         vec3v fz = vertex_eval(zb, v3_neg(wy), &pz, &prz, TRANSPORT_RADIANCE);
         c = v3_scale(v3_mul(v3_mul(qs->beta, fy), v3_mul(fz, pt->beta)), 1.0f / d2);
         ok = ok & (v3_maxc(c) > 0.0f);
@@ -572,20 +597,20 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vert
 /* Strategy (s, 1) for the lanes in `active`: light vertex y_{s-1} seen by the camera through
  * the lens point of (ul1, ul2).  Returns the splat (W H times the contribution, unweighted) and
  * where it lands on the film (*film, for splat_filtered); *w its weight, zero where a lane has none. */
-MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bdpt_vertex *cam, int s, floatv ul1,
+MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, const vertex_bsdf *light_b,
+                                    bdpt_vertex *cam, int s, floatv ul1,
                                     floatv ul2, intv active, int nl_cap, int nc_cap, camera_direction_v *film,
                                     floatv *w) {
     vec3v zero = v3s(0.0f);
     *w = (floatv)(0.0f);
     bdpt_vertex *qs = &light[s - 1];
-    vertex_bsdf yb;
+    const vertex_bsdf *yb = &light_b[s - 1];
     intv ok = active;
     if (s == 1) {
         ok = ok & !(qs->delta_light | qs->infinite); /* invisible, or left to (0, 2) */
         if (!lane_any(ok)) return zero;
     } else {
-        yb = vertex_bsdf_of(sc, qs);
-        ok = ok & bsdf_is_smooth(&yb.m);
+        ok = ok & bsdf_is_smooth(&yb->m);
         if (!lane_any(ok)) return zero;
     }
     camera_connection_v k = camera_connect(sc->camera, sc->cam_set, qs->p, ul1, ul2, sc->width, sc->height);
@@ -598,7 +623,7 @@ MC_INLINE vec3v bdpt_connect_camera(const bdpt_scene *sc, bdpt_vertex *light, bd
         f = v3s(lane_max(cos_y, (floatv)(0.0f)));
     } else {
         floatv pfwd;
-        f = vertex_eval(&yb, k.wo, &pfwd, &pr, TRANSPORT_IMPORTANCE);
+        f = vertex_eval(yb, k.wo, &pfwd, &pr, TRANSPORT_IMPORTANCE);
     }
     vec3v c = v3_scale(v3_mul(qs->beta, f), sc->pixels * k.film.importance / k.pdf_solid_angle);
     ok = ok & (v3_maxc(c) > 0.0f);
@@ -696,6 +721,9 @@ kernel void bdpt_trace(
 
     bdpt_vertex cam[BDPT_MAX_VERTICES];
     bdpt_vertex light[BDPT_MAX_VERTICES];
+    /* the vertices' materials and frames, from the walks (vertex 0 of each has none) */
+    vertex_bsdf cam_b[BDPT_MAX_VERTICES];
+    vertex_bsdf light_b[BDPT_MAX_VERTICES];
 
     for (ulong j = 0; j < total; j += LANES) {
         /* the lanes holding one of the group's samples (the last packet may be partial) */
@@ -724,7 +752,7 @@ kernel void bdpt_trace(
         cam[0] = lens_vertex(co, forward);
         intv nc = lane_select((intv)(0), (intv)(1), active);
         /* z_0 stays the lens point; the ray leaves from the near clip plane (render/camera.cl) */
-        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, sc.cam_set, co, cd), cd, v3s(1.0f),
+        bdpt_walk(&sc, &cs, cam, cam_b, &nc, active, nc_cap, camera_clip_origin(camera, sc.cam_set, co, cd), cd, v3s(1.0f),
                   cdir.pdf_solid_angle, TRANSPORT_RADIANCE, rr_depth, (floatv)(1.0f));
 
         /* ---- the light subpaths ---- */
@@ -761,7 +789,7 @@ kernel void bdpt_trace(
             }
             vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
             nl = lane_select(nl, (intv)(1), started);
-            bdpt_walk(&sc, &ls, light, &nl, started & (v3_maxc(b1) > 0.0f), nl_cap, offset_origin(er.pos, er.n, er.d),
+            bdpt_walk(&sc, &ls, light, light_b, &nl, started & (v3_maxc(b1) > 0.0f), nl_cap, offset_origin(er.pos, er.n, er.d),
                       er.d, b1, er.pdf_solid_angle, TRANSPORT_IMPORTANCE, rr_depth, v3_maxc(b1));
         }
 
@@ -772,8 +800,7 @@ kernel void bdpt_trace(
             const intv has_t = nc >= t;
             /* s = 1 with t >= 2 samples its own light point, so it needs no light subpath */
             const intv ns = t >= 2 ? lane_select(nl, (intv)(1), nl < 1) : nl;
-            vertex_bsdf zb;
-            if (t >= 2) zb = vertex_bsdf_of(&sc, &cam[t - 1]);
+            const vertex_bsdf *zb = &cam_b[t - 1];
             for (int s = 0; lane_any(has_t & (ns >= s)); ++s) {
                 if (s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth) || !strategy_on(&sc, s, t)) continue;
                 /* only (0, t) ends at infinity */
@@ -787,7 +814,7 @@ kernel void bdpt_trace(
                         sampler_next_2d(&ls, ul);
                     }
                     camera_direction_v film;
-                    vec3v c = bdpt_connect_camera(&sc, light, cam, s, ul[0], ul[1], run, nl_cap, nc_cap, &film, &w);
+                    vec3v c = bdpt_connect_camera(&sc, light, light_b, cam, s, ul[0], ul[1], run, nl_cap, nc_cap, &film, &w);
                     intv got = w > 0.0f;
                     if (lane_any(got))
                         splat_filtered(img, &sc.cam_set.filter, &film, v3_scale(c, strategy_weight(&sc, w)), got, width,
@@ -799,7 +826,7 @@ kernel void bdpt_trace(
                         sampler_next_nd(&cs, 4, ul);
                     }
                     const floatv threshold = BDPT_ROULETTE_FRACTION * v3_maxc(L);
-                    vec3v c = bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &rs, threshold, &w);
+                    vec3v c = bdpt_connect(&sc, light, light_b, cam, s, t, ul, zb, run, nl_cap, nc_cap, &rs, threshold, &w);
                     L = v3_add(L, v3_select(v3s(0.0f), v3_scale(c, strategy_weight(&sc, w)), w > 0.0f));
                 }
             }

@@ -118,6 +118,7 @@ kernel void bdpt_weight_check(
     const int nl_cap = max_depth >= 0 ? min(max_depth, BDPT_MAX_VERTICES) : BDPT_MAX_VERTICES;
     const vec3v forward = cam_row(camera[CAMERA_RECORD_FORWARD_QUAD]);
     bdpt_vertex cam[BDPT_MAX_VERTICES], light[BDPT_MAX_VERTICES], x[PATH_MAX];
+    vertex_bsdf cam_b[BDPT_MAX_VERTICES], light_b[BDPT_MAX_VERTICES];
 
     for (ulong j = 0; j < pg.total; j += LANES) {
         const intv active = LANE_IOTA < (uintv)((uint)min(pg.total - j, (ulong)LANES));
@@ -135,7 +136,7 @@ kernel void bdpt_weight_check(
         cam[0] = lens_vertex(co, forward);
         floatv pdf_cam = camera_importance(camera, &sc.cam_set, co, cd, width, height).pdf_solid_angle;
         intv nc = lane_select((intv)(0), (intv)(1), active);
-        bdpt_walk(&sc, &cs, cam, &nc, active, nc_cap, camera_clip_origin(camera, sc.cam_set, co, cd), cd, v3s(1.0f),
+        bdpt_walk(&sc, &cs, cam, cam_b, &nc, active, nc_cap, camera_clip_origin(camera, sc.cam_set, co, cd), cd, v3s(1.0f),
                   pdf_cam, TRANSPORT_RADIANCE, params.rr_depth, (floatv)(1.0f));
         mc_sampler_t ls = sampler_start(params.seed, index, RNG_STREAM_LIGHT_TRACE);
         floatv ue[8];
@@ -150,27 +151,26 @@ kernel void bdpt_weight_check(
             light[0] = y0;
             vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
             nl = lane_select(nl, (intv)(1), area);
-            bdpt_walk(&sc, &ls, light, &nl, area & (v3_maxc(b1) > 0.0f), nl_cap, offset_origin(er.pos, er.n, er.d),
+            bdpt_walk(&sc, &ls, light, light_b, &nl, area & (v3_maxc(b1) > 0.0f), nl_cap, offset_origin(er.pos, er.n, er.d),
                       er.d, b1, er.pdf_solid_angle, TRANSPORT_IMPORTANCE, params.rr_depth, v3_maxc(b1));
         }
         floatv checked = (floatv)(0.0f), bad = (floatv)(0.0f), with_delta = (floatv)(0.0f);
         for (int t = 1; lane_any(nc >= t); ++t) {
             const intv has_t = nc >= t;
-            vertex_bsdf zb;
-            if (t >= 2) zb = vertex_bsdf_of(&sc, &cam[t - 1]);
+            const vertex_bsdf *zb = &cam_b[t - 1];
             for (int s = 0; lane_any(has_t & (nl >= s)); ++s) {
                 if (s == 1 || s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth)) continue;
                 if (t == 1 && (s < 2 || thin_lens)) continue;
                 const intv run = has_t & (nl >= s);
                 floatv w;
                 if (t == 1) {
-                    uintv px;
-                    bdpt_connect_camera(&sc, light, cam, s, (floatv)(0.0f), (floatv)(0.0f), run, nl_cap, nc_cap, &px,
-                                        &w);
+                    camera_direction_v film;
+                    bdpt_connect_camera(&sc, light, light_b, cam, s, (floatv)(0.0f), (floatv)(0.0f), run, nl_cap, nc_cap,
+                                        &film, &w);
                 } else {
                     floatv ul[4] = {(floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f)};
                     /* threshold 0: no connection roulette (every weight is the exact one) */
-                    bdpt_connect(&sc, light, cam, s, t, ul, &zb, run, nl_cap, nc_cap, &ls, (floatv)(0.0f), &w);
+                    bdpt_connect(&sc, light, light_b, cam, s, t, ul, zb, run, nl_cap, nc_cap, &ls, (floatv)(0.0f), &w);
                 }
                 const intv joined = w > 0.0f;  /* not joined: occluded, no contribution */
                 if (!lane_any(joined)) continue;

@@ -107,8 +107,12 @@ MC_INLINE void splat(global film_t *img, uintv pixel, vec3v c, intv ok) {
     lx.v = c.x; ly.v = c.y; lz.v = c.z;
     px.v = pixel;
     k_ok.v = ok;
-    for (int k = 0; k < LANES; ++k)
-        if (k_ok.a[k]) splat_one(img, px.a[k], lx.a[k], ly.a[k], lz.a[k]);
+    /* without a branch per lane (one the CPU mispredicts where few lanes splat): a lane out of
+     * `ok` adds +0.0 to pixel 0, which changes no bit of its finite sums */
+    for (int k = 0; k < LANES; ++k) {
+        const bool on = k_ok.a[k] != 0;
+        splat_one(img, on ? px.a[k] : 0u, on ? lx.a[k] : 0.0f, on ? ly.a[k] : 0.0f, on ? lz.a[k] : 0.0f);
+    }
 #endif
 }
 
