@@ -31,17 +31,17 @@ shadow ray traced).
 Reading the ratios: in a pixel that sees a caustic through glass or in a
 mirror (a specular-diffuse-specular path), only the camera subpath hitting
 the emitter (s = 0) samples the path, as in ``mis``, so there ``bdpt`` is
-``mis`` at a higher cost per path; those pixels bound its whole-image
-ratio on ``caustic`` and ``cornell_spheres``.  Measured at equal spp (8 seeds of
-64 spp, 128 px): on ``caustic`` the 1040 pixels that see the floor through the
-ball have the same variance per sample under both (5.76), and they hold 99 %
-of ``bdpt``'s variance but a third of ``mis``'s (1.51 per sample and pixel
-against 0.49), so ``bdpt`` / ``mis`` <= 3.1 x (its paths per CPU-second / mis's,
-about 0.5): the 10x of issue 11 is reachable on the pixels ``lt`` sees only.
-On ``cornell_spheres`` ``bdpt``'s variance per sample is a fifth of ``mis``'s
-(0.038 against 0.189; a third of it in the 7.5 % of pixels that see the
-spheres, where both are alike), at about a quarter of the paths per
-CPU-second.
+``mis`` at a higher cost per path; such pixels bound its whole-image ratio.
+On ``cornell_spheres`` ``bdpt``'s variance per sample is a fifth of
+``mis``'s (0.038 against 0.189; a third of it in the 7.5 % of pixels that see
+the spheres, where both are alike), at about a quarter of the paths per
+CPU-second.  ``caustic`` keeps its caustic out of the glass's view (the lamp
+stands behind the ball; until December 2026 the camera saw the caustic
+through the ball, and those pixels held 99 % of ``bdpt``'s variance).  What
+bounds ``bdpt`` there now is the lamp's reflection in the ball, a highlight
+smaller than a pixel (camera, glass, lamp), whose pixel-coverage noise every
+integrator samples alike: at 1024 spp and 128 px the 20 pixels of largest
+variance hold 98 % of ``bdpt``'s variance and half of ``mis``'s.
 
     PYTHONPATH=. python bench/bdpt_efficiency.py --scenes caustic cornell cornell_spheres \\
         --budget 10 --ref-budget 120
