@@ -617,3 +617,25 @@ def test_top_level_sampler_film_filter_and_area_emitter_by_reference(tmp_path):
     with pytest.raises(InputError, match=rf"s\.xml:{line_of(p, '<sampler type') + 1}: <sampler type=\"independent\">: "
                                          r"a sensor takes one <sampler>"):
         read_mitsuba(p)
+
+
+def test_flip_tex_coords_as_mitsuba(tmp_path):
+    """Mitsuba 3.9.1 (scalar_rgb, mi.traverse(...)['m.vertex_texcoords']) of a triangle with vt (0.25, 0.1),
+    (0.5, 0.2), (0.75, 0.3): v flipped to 0.9, 0.8, 0.7 by default or with flip_tex_coords true, kept with
+    false. A PLY's UVs are kept unless it is true (Mitsuba's default false). The converted JSON carries the key
+    only when it differs from the default."""
+    (tmp_path / "t.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25 0.1\nvt 0.5 0.2\nvt 0.75 0.3\nf 1/1 2/2 3/3\n")
+    (tmp_path / "t.ply").write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                    "property float z\nproperty float u\nproperty float v\nelement face 1\n"
+                                    "property list uchar int vertex_indices\nend_header\n"
+                                    "0 0 0 0.25 0.1\n1 0 0 0.5 0.2\n0 1 0 0.75 0.3\n3 0 1 2\n")
+    flipped, kept = [0.9, 0.8, 0.7], [0.1, 0.2, 0.3]
+    for kind, flag, v in (("obj", None, flipped), ("obj", "true", flipped), ("obj", "false", kept),
+                          ("ply", None, kept), ("ply", "true", flipped), ("ply", "false", kept)):
+        prop = "" if flag is None else f'<boolean name="flip_tex_coords" value="{flag}"/>'
+        p = shape_with(tmp_path, f'<string name="filename" value="t.{kind}"/>{prop}', kind)
+        np.testing.assert_allclose(load_scene(p).shapes[0].uvs[:, 1], v, rtol=0, atol=1e-6)
+        assert ("flip_tex_coords" in read_mitsuba(p)["shapes"][0]) == (flag is not None and (flag == "true") != (kind == "obj"))
+    p = write(tmp_path, '<shape type="cube">\n<boolean name="flip_tex_coords" value="false"/></shape>')
+    with pytest.raises(InputError, match=rf"s\.xml:{line_of(p, 'flip_tex')}: .*property 'flip_tex_coords' of 'cube'"):
+        read_mitsuba(p)

@@ -140,14 +140,15 @@ class Mesh(ShapeSpec):
     """Triangles given inline, by a Wavefront OBJ file, a PLY file or a Mitsuba serialized file."""
 
     name = "mesh"
-    keys = ("vertices", "faces", "obj", "ply", "serialized", "shape_index", "face_normals")
+    keys = ("vertices", "faces", "obj", "ply", "serialized", "shape_index", "face_normals", "flip_tex_coords")
     files = ("obj", "ply", "serialized")
     geometry = "triangles"
     keys_doc = ("either `vertices` ([[x, y, z], ...]) and `faces` ([[i, j, k], ...], 0-based), or `obj` "
                 "(path of a Wavefront OBJ file), or `ply` (path of a PLY file, ASCII or binary; polygons become "
                 "triangle fans), or `serialized` (path of a Mitsuba serialized file, with `shape_index`, default 0, "
                 "choosing its mesh); an OBJ, PLY or serialized file's vertex normals shade smoothly (interpolated across each "
-                "triangle) unless `face_normals` is true (default false); a file's path is relative to the scene file, it must lie in the scene file's folder "
+                "triangle) unless `face_normals` is true (default false); `flip_tex_coords` (OBJ and PLY, Mitsuba's "
+                "defaults: true for OBJ, false for PLY) replaces each UV's v by 1 − v; a file's path is relative to the scene file, it must lie in the scene file's folder "
                 "or below it — `mcocl render --mesh-folder DIR` / `render(mesh_folder=DIR)` allows one more folder — "
                 "and the file must hold at least one face")
 
@@ -158,6 +159,8 @@ class Mesh(ShapeSpec):
             c.fail(f"{key}.{given[1]}", "give one of vertices/faces, obj or ply, or a serialized file")
         if "shape_index" in o and "serialized" not in o:
             c.fail(f"{key}.shape_index", "shape_index chooses a mesh of a serialized file (give serialized)")
+        if "flip_tex_coords" in o and "obj" not in o and "ply" not in o:
+            c.fail(f"{key}.flip_tex_coords", "flip_tex_coords applies to the UVs of an obj or ply file")
         for kind in self.files:
             if kind in o:
                 self._file(c, o, key, shape, roots, kind)
@@ -191,7 +194,10 @@ class Mesh(ShapeSpec):
             else:
                 mesh = (shape_lib.read_obj if kind == "obj" else shape_lib.read_ply)(path, where)
                 shape.vertices, shape.faces, shape.normals, shape.uvs = mesh.vertices, mesh.faces, mesh.normals, mesh.uvs
-                if kind == "obj" and shape.uvs is not None:  # an OBJ's v = 0 is the image's bottom (Mitsuba flips it too)
+                # Mitsuba's flip_tex_coords: by default an OBJ's v is flipped (its v = 0 is the image's bottom
+                # row), a PLY's is not (src/shapes/obj.cpp, ply.cpp of Mitsuba 3)
+                flip = c.boolean(o.get("flip_tex_coords", kind == "obj"), f"{key}.flip_tex_coords")
+                if flip and shape.uvs is not None:
                     shape.uvs = np.stack([shape.uvs[:, 0], 1.0 - shape.uvs[:, 1]], axis=1)
         except (OverflowError, MemoryError, RecursionError) as e:  # numbers no mesh can hold
             c.fail(f"{key}.{kind}", f"{path}: a number out of range ({type(e).__name__}: {e})")

@@ -167,7 +167,7 @@ class ShapeTranslator:
             if t is not None and tf.uniform_scale_of(t.matrix) is None:
                 props.node("to_world").fail("a sphere's to_world may only translate, rotate and scale uniformly")
         elif kind in MESH_FILES:
-            supported += ["filename", "face_normals", "flip_tex_coords"]
+            supported += ["filename", "face_normals"]
             out[kind] = self._mesh_file(node, props, kind)
             if kind == "serialized":
                 supported.append("shape_index")
@@ -178,14 +178,16 @@ class ShapeTranslator:
             if props.get("face_normals", ("boolean",), False):
                 out["face_normals"] = True
                 comments.append("face_normals: every triangle shades with its face normal")
-            elif kind == "obj":
-                comments.append("mcocl's OBJ reader ignores vn normals: every triangle shades with its face normal "
-                                "(Mitsuba interpolates the file's vertex normals)")
             else:
                 comments.append("the file's vertex normals, if any, shade smoothly (as in Mitsuba)")
-            if "flip_tex_coords" in props:
-                props.read.add("flip_tex_coords")
-                comments.append("flip_tex_coords: ignored (no textures)")
+            if kind in ("obj", "ply"):
+                supported.append("flip_tex_coords")
+                default = kind == "obj"  # Mitsuba's defaults (src/shapes/obj.cpp, ply.cpp)
+                flip = props.get("flip_tex_coords", ("boolean",), default)
+                if flip != default:
+                    out["flip_tex_coords"] = flip
+                comments.append(f"flip_tex_coords {str(flip).lower()}{' (the default)' if flip == default else ''}: "
+                                f"the file's UVs are used with v {'flipped to 1 - v' if flip else 'as written'}")
         self.rep.leftover(node, props.unread(), tuple(supported), comments)
         return out
 
