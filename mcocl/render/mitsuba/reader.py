@@ -49,12 +49,27 @@ def _index_ids(root: Node) -> dict[str, Node]:
     return ids
 
 
+def _referenced_ids(root: Node) -> set[str]:
+    """The ids that some ``<ref id>`` names."""
+    out: set[str] = set()
+
+    def walk(n: Node) -> None:
+        if n.tag == "ref" and "id" in n.attrib:
+            out.add(n.attrib["id"])
+        for c in n.children:
+            walk(c)
+
+    walk(root)
+    return out
+
+
 class _SceneBuilder:
     def __init__(self, path: Path, root: Node, rep: Reporter, files: FileSearch) -> None:
         self.path = path
         self.files = files
         self.rep = rep
         self.ids = _index_ids(root)
+        self.referenced = _referenced_ids(root)
         self.materials: dict[str, Any] = {}
         self.material_names: dict[int, str] = {}  # id(bsdf Node) -> material name
         self.defaults: dict[str, str] = {}  # "black" / "diffuse" -> name of Mitsuba's default material
@@ -118,7 +133,7 @@ class _SceneBuilder:
                 self.material_of(ch, False, [])
             elif ch.tag == "shape":
                 shapes.append(ch)
-            elif ch.tag == "emitter" and ch.attrib.get("type") == "area" and "id" in ch.attrib:
+            elif ch.tag == "emitter" and ch.attrib.get("type") == "area" and ch.attrib.get("id") in self.referenced:
                 continue  # declared for a <ref> inside a shape (Mitsuba's cbox.xml does this); read there
             elif ch.tag == "emitter":
                 envs.append(ch)
