@@ -642,3 +642,56 @@ def test_flip_tex_coords_as_mitsuba(tmp_path):
     p = write(tmp_path, '<shape type="cube">\n<boolean name="flip_tex_coords" value="false"/></shape>')
     with pytest.raises(InputError, match=rf"s\.xml:{line_of(p, 'flip_tex')}: .*property 'flip_tex_coords' of 'cube'"):
         read_mitsuba(p)
+
+
+def test_rotate_axis_is_not_normalised_as_in_mitsuba(tmp_path):
+    """Mitsuba 3.9.1's <rotate> applies Rodrigues' formula to the axis as written: ScalarTransform4f.rotate(
+    [1, 1, 0], 30) is the matrix below (not a rotation: det 1.4175). A unit axis stays mcocl's rotate op."""
+    mitsuba = np.array([[1.0, 0.13397461, 0.5], [0.13397461, 1.0, -0.5], [-0.5, 0.5, 0.8660254]])
+    p = shape_with(tmp_path, '<transform name="to_world"><rotate x="1" y="1" z="0" angle="30"/></transform>', "cube")
+    np.testing.assert_allclose(load_scene(p).shapes[0].matrix[:3, :3], mitsuba, atol=1e-7)
+    assert "matrix" in read_mitsuba(p)["shapes"][0]["transform"][0]
+    p = shape_with(tmp_path, '<transform name="to_world"><rotate y="1" angle="30"/></transform>', "cube")
+    assert read_mitsuba(p)["shapes"][0]["transform"] == [{"rotate": {"axis": [0.0, 1.0, 0.0], "angle": 30.0}}]
+
+
+ICOSAHEDRON = Path(__file__).resolve().parent / "data" / "mitsuba" / "meshes" / "icosahedron.obj"
+
+
+def test_mesh_files_without_normals_are_smoothed_as_in_mitsuba(tmp_path):
+    """A mesh file without vertex normals shades with the angle-weighted average of its faces' normals
+    computed after to_world, as Mitsuba 3.9.1 does (face_normals=false, its default). Measured with
+    mi.traverse(scene)['m.vertex_normals'] for the icosahedron scaled by (2, 0.5, 1): the vertex at
+    (-1.051462, 0.4253255, 0) has (-0.25354534, 0.9673235, 0), the one at (-1.701302, 0, 0.525731) has
+    (-0.8172787, 0, 0.5762425); all twelve agree to 1.3e-7, also after a rotation and a translation."""
+    from mcocl.render import transform as tf
+    from mcocl.render.shading_normals import _world_normals
+
+    (tmp_path / "ico.obj").write_bytes(ICOSAHEDRON.read_bytes())
+    p = shape_with(tmp_path, '<string name="filename" value="ico.obj"/>'
+                             '<transform name="to_world"><scale x="2" y="0.5" z="1"/></transform>', "obj")
+    assert read_mitsuba(p)["shapes"][0]["compute_normals"] is True
+    sh = load_scene(p).shapes[0]
+    world, at = _world_normals(sh), tf.apply_points(sh.matrix, np.asarray(sh.vertices, np.float64))
+    for position, normal in (((-1.051462, 0.4253255, 0.0), (-0.25354534, 0.9673235, 0.0)),
+                             ((-1.701302, 0.0, 0.525731), (-0.8172787, 0.0, 0.5762425))):
+        i = int(np.argmin(np.linalg.norm(at - position, axis=1)))
+        np.testing.assert_allclose(world[i], normal, atol=2e-7)
+    # unscaled, the regular icosahedron's vertex normals point away from its centre (an independent check)
+    p = shape_with(tmp_path, '<string name="filename" value="ico.obj"/>', "obj")
+    sh = load_scene(p).shapes[0]
+    v = np.asarray(sh.vertices, np.float64)
+    np.testing.assert_allclose(sh.normals, v / np.linalg.norm(v, axis=1, keepdims=True), atol=1e-6)
+    # face_normals=true keeps the facets; a JSON mesh only smooths when asked (its results do not change)
+    p = shape_with(tmp_path, '<string name="filename" value="ico.obj"/><boolean name="face_normals" value="true"/>',
+                   "obj")
+    assert load_scene(p).shapes[0].normals is None
+    data = {"camera": {"origin": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 40, "width": 4,
+                       "height": 4}, "materials": {"m": {"type": "diffuse", "reflectance": 0.5}},
+            "shapes": [{"type": "mesh", "obj": "ico.obj", "material": "m"}]}
+    assert parse_scene(data, tmp_path / "s.json").shapes[0].normals is None
+    data["shapes"][0]["compute_normals"] = True
+    np.testing.assert_allclose(parse_scene(data, tmp_path / "s.json").shapes[0].normals, sh.normals)
+    data["shapes"][0] = {"type": "cube", "material": "m", "compute_normals": True}
+    with pytest.raises(InputError, match="shapes"):
+        parse_scene(data, tmp_path / "s.json")

@@ -179,7 +179,9 @@ class ShapeTranslator:
                 out["face_normals"] = True
                 comments.append("face_normals: every triangle shades with its face normal")
             else:
-                comments.append("the file's vertex normals, if any, shade smoothly (as in Mitsuba)")
+                out["compute_normals"] = True
+                comments.append("the file's vertex normals shade smoothly; without any, the angle-weighted average "
+                                "of the faces' normals (as Mitsuba computes them)")
             if kind in ("obj", "ply"):
                 supported.append("flip_tex_coords")
                 default = kind == "obj"  # Mitsuba's defaults (src/shapes/obj.cpp, ply.cpp)
