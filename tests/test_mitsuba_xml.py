@@ -608,6 +608,10 @@ def test_top_level_sampler_film_filter_and_area_emitter_by_reference(tmp_path):
     assert cam["filter"] == {"type": "tent", "radius": 1.5}
     assert any("high_quality_edges false" in c for c in cam["comment"])
     assert len(d["shapes"]) == 1 and d["shapes"][0]["emitter"]["radiance"] == 3.0 and "environment" not in d
+    p = write(tmp_path, '<shape type="disk">\n<sensor type="irradiancemeter"/></shape>', sensor=False)
+    with pytest.raises(InputError, match=r"no top-level <sensor> \(the <sensor type=\"irradiancemeter\"> at "
+                                         rf".*s\.xml:{line_of(p, 'irradiance')} lies inside a <shape>"):
+        read_mitsuba(p)
     p = write(tmp_path, '\n<emitter type="area" id="unused"/>')
     with pytest.raises(InputError, match=rf"s\.xml:{line_of(p, 'unused')}: .*an area emitter belongs inside a <shape>"):
         read_mitsuba(p)

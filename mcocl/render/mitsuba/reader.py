@@ -49,18 +49,21 @@ def _index_ids(root: Node) -> dict[str, Node]:
     return ids
 
 
+def _descendants(root: Node):
+    """Every element below ``root``, depth first."""
+    for c in root.children:
+        yield c
+        yield from _descendants(c)
+
+
+def _parent_tag(root: Node, node: Node) -> str:
+    """The tag of ``node``'s parent element below ``root``."""
+    return next(n.tag for n in (root, *_descendants(root)) if any(c is node for c in n.children))
+
+
 def _referenced_ids(root: Node) -> set[str]:
     """The ids that some ``<ref id>`` names."""
-    out: set[str] = set()
-
-    def walk(n: Node) -> None:
-        if n.tag == "ref" and "id" in n.attrib:
-            out.add(n.attrib["id"])
-        for c in n.children:
-            walk(c)
-
-    walk(root)
-    return out
+    return {n.attrib["id"] for n in _descendants(root) if n.tag == "ref" and "id" in n.attrib}
 
 
 class _SceneBuilder:
@@ -146,7 +149,12 @@ class _SceneBuilder:
                 ch.fail(f"unknown or misplaced element (expected one of: {', '.join(TOP_LEVEL)}; "
                         f"nearest: {nearest(ch.tag, TOP_LEVEL)})")
         if not sensors:
-            root.fail('the scene has no <sensor>; mcocl needs a camera (add <sensor type="perspective">)')
+            # Mitsuba also lets a shape carry a sensor (irradiancemeter, ...): name it rather than say there is none
+            nested = next((n for n in _descendants(root) if n.tag == "sensor"), None)
+            where = (f" (the {nested.label()} at {nested.where()} lies inside a <{_parent_tag(root, nested)}>: "
+                     "mcocl renders through a top-level perspective or thinlens sensor only)" if nested else "")
+            root.fail(f'the scene has no top-level <sensor>{where}; mcocl needs a camera '
+                      '(add <sensor type="perspective">)')
         if len(sensors) > 1:
             comments.append(f"{len(sensors)} sensors: the first (line {sensors[0].line}) is used, as Mitsuba does")
         camera, spp = translate_sensor(sensors[0], self.rep, self.resolve)
