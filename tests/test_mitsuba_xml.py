@@ -607,6 +607,8 @@ def test_top_level_sampler_film_filter_and_area_emitter_by_reference(tmp_path):
     assert d["integrator"]["spp"] == 7 and (cam["width"], cam["height"]) == (5, 3)
     assert cam["filter"] == {"type": "tent", "radius": 1.5}
     assert any("high_quality_edges false" in c for c in cam["comment"])
+    assert not any("edge pixels can differ" in c for c in cam["comment"])  # said where the file leaves it out:
+    assert any("edge pixels can differ" in c for c in read_mitsuba(write(tmp_path, ""))["camera"]["comment"])
     assert len(d["shapes"]) == 1 and d["shapes"][0]["emitter"]["radiance"] == 3.0 and "environment" not in d
     p = write(tmp_path, '<shape type="disk">\n<sensor type="irradiancemeter"/></shape>', sensor=False)
     with pytest.raises(InputError, match=r"no top-level <sensor> \(the <sensor type=\"irradiancemeter\"> at "
