@@ -81,6 +81,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scene", help="Mitsuba XML scene file")
     p.add_argument("-o", "--out", default=None, help="JSON output (default: standard output)")
     p.add_argument("--no-check", action="store_true", help="skip validating the result with mcocl's scene loader")
+    p.add_argument("--mesh-folder", default=None, metavar="DIR",
+                   help="a folder the scene may read meshes and images from besides its own folder "
+                        "(e.g. a <path> folder outside it)")
     add_scene_params_args(p)
     p.set_defaults(func=run)
 
@@ -94,13 +97,15 @@ def run(args: argparse.Namespace) -> int:
     if src.suffix.lower() != ".xml":
         raise InputError(f"{src}: convert reads Mitsuba XML scenes (.xml)")
     # before any work, and the scene is never overwritten (issue 10)
-    check_files([("--out", args.out)], [("the scene", args.scene)])
+    check_files([("--out", args.out)], [("the scene", args.scene), ("--mesh-folder", args.mesh_folder)])
+    if args.mesh_folder is not None and not Path(args.mesh_folder).is_dir():
+        raise InputError(f"--mesh-folder: {args.mesh_folder} is not a folder")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SceneSubstitutionWarning)
-        data = read_mitsuba(src, params=dict(args.define), lenient=args.lenient)
+        data = read_mitsuba(src, params=dict(args.define), lenient=args.lenient, mesh_folder=args.mesh_folder)
     print_substitution_warnings(caught)
     if not args.no_check:
-        parse_scene(data, src)
+        parse_scene(data, src, args.mesh_folder)
     if args.out:
         out_dir = Path(args.out).resolve().parent
         outside = set()

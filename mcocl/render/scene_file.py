@@ -40,7 +40,7 @@ def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = 
     if mesh_folder is not None and not Path(mesh_folder).is_dir():
         raise InputError(f"mesh_folder (--mesh-folder): {mesh_folder} is not a folder")
     if p.suffix.lower() == ".xml":
-        return load_mitsuba(p, params=params, lenient=lenient)
+        return load_mitsuba(p, params=params, lenient=lenient, mesh_folder=mesh_folder)
     if params:
         raise InputError(f"{p}: params (-D name=value) apply to Mitsuba XML scenes only")
     try:

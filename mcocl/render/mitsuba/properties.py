@@ -133,6 +133,16 @@ def look_at(origin: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarra
     return m
 
 
+def _unnormalised_rotation(axis: np.ndarray, degrees: float) -> np.ndarray:
+    """Rodrigues' formula c·I + s·[a]ₓ + (1 − c)·a aᵀ with the axis ``a`` as given (not normalised), as Mitsuba."""
+    th = math.radians(degrees)
+    c, s = math.cos(th), math.sin(th)
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    m = np.eye(4)
+    m[:3, :3] = c * np.eye(3) + s * k + (1.0 - c) * np.outer(axis, axis)
+    return m
+
+
 def parse_transform(node: Node) -> Transform:
     """A ``<transform>`` element: its operations composed in the order written."""
     ops: list[dict] = []
@@ -152,8 +162,16 @@ def parse_transform(node: Node) -> Transform:
             angle = _numbers(op, op.attrib["angle"], "angle")
             if len(angle) != 1:
                 op.fail("angle must be one number (degrees)")
-            ops.append({"rotate": {"axis": axis, "angle": angle[0]}})
-            mats.append(tf.rotate(np.array(axis), angle[0]))
+            if float(np.dot(axis, axis)) == 1.0:
+                ops.append({"rotate": {"axis": axis, "angle": angle[0]}})
+                mats.append(tf.rotate(np.array(axis), angle[0]))
+            else:
+                # Mitsuba does not normalise the axis (its rotate is Rodrigues' formula of the axis as written:
+                # <rotate x="1" y="1" angle="30"/> scales and shears too, measured with Mitsuba 3.9.1's
+                # ScalarTransform4f.rotate); mcocl's JSON rotate normalises, so write Mitsuba's matrix
+                m = _unnormalised_rotation(np.array(axis, np.float64), angle[0])
+                ops.append({"matrix": m.tolist()})
+                mats.append(m)
         elif op.tag == "scale":
             _check_attrs(op, (), ("value", "x", "y", "z"))
             s = _xyz(op, 1.0)

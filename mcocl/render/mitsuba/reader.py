@@ -18,6 +18,7 @@ from ...errors import InputError
 from ..scene import parse_scene
 from .bsdf import translate_bsdf
 from .delta_emitter import DELTA_EMITTERS, translate_delta_light
+from .file_search import FileSearch
 from .instance import GROUP, INSTANCE, expand_instance, group_members
 from .properties import split_children
 from .report import Reporter, nearest
@@ -48,16 +49,35 @@ def _index_ids(root: Node) -> dict[str, Node]:
     return ids
 
 
+def _descendants(root: Node):
+    """Every element below ``root``, depth first."""
+    for c in root.children:
+        yield c
+        yield from _descendants(c)
+
+
+def _parent_tag(root: Node, node: Node) -> str:
+    """The tag of ``node``'s parent element below ``root``."""
+    return next(n.tag for n in (root, *_descendants(root)) if any(c is node for c in n.children))
+
+
+def _referenced_ids(root: Node) -> set[str]:
+    """The ids that some ``<ref id>`` names."""
+    return {n.attrib["id"] for n in _descendants(root) if n.tag == "ref" and "id" in n.attrib}
+
+
 class _SceneBuilder:
-    def __init__(self, path: Path, root: Node, rep: Reporter) -> None:
+    def __init__(self, path: Path, root: Node, rep: Reporter, files: FileSearch) -> None:
         self.path = path
+        self.files = files
         self.rep = rep
         self.ids = _index_ids(root)
+        self.referenced = _referenced_ids(root)
         self.materials: dict[str, Any] = {}
         self.material_names: dict[int, str] = {}  # id(bsdf Node) -> material name
         self.defaults: dict[str, str] = {}  # "black" / "diffuse" -> name of Mitsuba's default material
         self.elements: dict[str, Node] = {}  # JSON key path -> the element it came from (for error messages)
-        self.shapes = ShapeTranslator(path, rep, self.material_of, self.resolve)
+        self.shapes = ShapeTranslator(files, rep, self.material_of, self.resolve)
 
     def resolve(self, ref: Node) -> Node:
         if set(ref.attrib) - {"id", "name"} or "id" not in ref.attrib:
@@ -90,7 +110,7 @@ class _SceneBuilder:
             base = bsdf.attrib.get("id") or f"{bsdf.attrib.get('type', 'bsdf')}-line{bsdf.line}"
             name = self._unique(base)
             self.material_names[key] = name
-            self.materials[name] = translate_bsdf(bsdf, self.rep, self.resolve, self.path.parent)
+            self.materials[name] = translate_bsdf(bsdf, self.rep, self.resolve, self.files)
             self.elements[f"materials.{name}"] = bsdf
         return self.material_names[key]
 
@@ -100,6 +120,14 @@ class _SceneBuilder:
         out: dict[str, Any] = {"comment": comments}
         sensors, integrators, shapes, envs = [], [], [], []
         for ch in root.children:
+            if ch.tag == "path":
+                # Mitsuba resolves file names when it builds the plugins, after the whole file is read:
+                # every <path> applies to every file name, wherever it is written (file_search.py)
+                self.files.add_path(ch)
+                comments.append(f"line {ch.line}: <path> {ch.attrib['value']!r}: searched for file names first")
+        for ch in root.children:
+            if ch.tag == "path":
+                continue
             if ch.tag == "sensor":
                 sensors.append(ch)
             elif ch.tag == "integrator":
@@ -108,21 +136,28 @@ class _SceneBuilder:
                 self.material_of(ch, False, [])
             elif ch.tag == "shape":
                 shapes.append(ch)
+            elif ch.tag == "emitter" and ch.attrib.get("type") == "area" and ch.attrib.get("id") in self.referenced:
+                continue  # declared for a <ref> inside a shape (Mitsuba's cbox.xml does this); read there
             elif ch.tag == "emitter":
                 envs.append(ch)
-            elif ch.tag == "texture" and "id" in ch.attrib:
-                continue  # read where a BSDF refers to it (mcocl/render/mitsuba/texture.py)
-            elif ch.tag in ("texture", "medium", "phase", "volume", "film", "sampler", "rfilter", "alias", "path"):
+            elif ch.tag in ("texture", "sampler", "film", "rfilter") and "id" in ch.attrib:
+                continue  # read where a <ref> names it (a BSDF or emitter: texture.py; a sensor or film: sensor.py)
+            elif ch.tag in ("texture", "medium", "phase", "volume", "film", "sampler", "rfilter", "alias"):
                 self.rep.unsupported(ch, f"<{ch.tag}> elements", "constant colours" if ch.tag == "texture"
                                      else "leave it out", "nothing (ignored)", comments)
             else:
                 ch.fail(f"unknown or misplaced element (expected one of: {', '.join(TOP_LEVEL)}; "
                         f"nearest: {nearest(ch.tag, TOP_LEVEL)})")
         if not sensors:
-            root.fail('the scene has no <sensor>; mcocl needs a camera (add <sensor type="perspective">)')
+            # Mitsuba also lets a shape carry a sensor (irradiancemeter, ...): name it rather than say there is none
+            nested = next((n for n in _descendants(root) if n.tag == "sensor"), None)
+            where = (f" (the {nested.label()} at {nested.where()} lies inside a <{_parent_tag(root, nested)}>: "
+                     "mcocl renders through a top-level perspective or thinlens sensor only)" if nested else "")
+            root.fail(f'the scene has no top-level <sensor>{where}; mcocl needs a camera '
+                      '(add <sensor type="perspective">)')
         if len(sensors) > 1:
             comments.append(f"{len(sensors)} sensors: the first (line {sensors[0].line}) is used, as Mitsuba does")
-        camera, spp = translate_sensor(sensors[0], self.rep)
+        camera, spp = translate_sensor(sensors[0], self.rep, self.resolve)
         out["camera"] = camera
         self.elements["camera"] = sensors[0]
         if len(integrators) > 1:
@@ -188,13 +223,8 @@ class _SceneBuilder:
             self.rep.unsupported(o, f"<{o.tag}> inside an envmap", "filename", None)
         if "filename" not in props:
             node.fail('an envmap needs <string name="filename" value="..."/>')
-        rel = props.get("filename", ("string",))
-        path = (node.file.parent / rel).resolve()
-        if not path.is_relative_to(self.path.resolve().parent):
-            props.node("filename").fail(f"the image {rel!r} lies outside the scene's folder")
-        if not path.is_file():
-            props.node("filename").fail(f"image file {rel!r} not found (looked for {path})")
-        env: dict[str, Any] = {"type": "envmap", "filename": path.relative_to(self.path.resolve().parent).as_posix()}
+        env: dict[str, Any] = {"type": "envmap", "filename": self.files.find(props.get("filename", ("string",)),
+                                                                            props.node("filename"), "image file")}
         scale = props.get("scale", ("float",), None)
         if scale is not None:
             env["scale"] = scale
@@ -208,7 +238,7 @@ class _SceneBuilder:
 
 
 def read_mitsuba(path: str | os.PathLike[str], params: dict[str, Any] | None = None,
-                 lenient: bool = False) -> dict:
+                 lenient: bool = False, mesh_folder: str | os.PathLike[str] | None = None) -> dict:
     """Read a Mitsuba 3 (or 0.6) XML scene into mcocl's JSON scene dictionary.
 
     Args:
@@ -218,32 +248,38 @@ def read_mitsuba(path: str | os.PathLike[str], params: dict[str, Any] | None = N
         lenient: replace what mcocl does not support by the documented
             substitute with a :class:`~mcocl.errors.SceneSubstitutionWarning`
             instead of raising.
+        mesh_folder: one more folder (besides the scene file's folder and
+            those below it) that meshes and images may come from, e.g. a
+            ``<path>`` folder outside the scene's folder.
 
     Raises:
         InputError: malformed or unsafe XML, a missing file, an include
             outside the scene's folder, or (unless ``lenient``) anything
             unsupported; the message names the file, line and element.
     """
-    return _translate(Path(path), params, lenient)[0]
+    return _translate(Path(path), params, lenient, mesh_folder)[0]
 
 
-def _translate(p: Path, params: dict[str, Any] | None, lenient: bool) -> tuple[dict, dict[str, Node]]:
+def _translate(p: Path, params: dict[str, Any] | None, lenient: bool,
+               mesh_folder: str | os.PathLike[str] | None) -> tuple[dict, dict[str, Node]]:
     values = {str(k): _param_text(v) for k, v in (params or {}).items()}
     root = SourceReader(p, values, lenient).read()
-    builder = _SceneBuilder(p, root, Reporter(lenient))
+    builder = _SceneBuilder(p, root, Reporter(lenient), FileSearch(p, mesh_folder))
     return _drop_empty_comments(builder.build(root)), builder.elements
 
 
-def load_mitsuba(path: str | os.PathLike[str], params: dict[str, Any] | None = None, lenient: bool = False):
+def load_mitsuba(path: str | os.PathLike[str], params: dict[str, Any] | None = None, lenient: bool = False,
+                 mesh_folder: str | os.PathLike[str] | None = None):
     """Read, translate and validate a Mitsuba XML scene into a :class:`mcocl.render.scene.Scene`.
 
     A validation error of the translated scene (e.g. an alpha out of range)
     is reported at the XML element the offending JSON key came from.
+    ``mesh_folder``: as :func:`read_mitsuba`.
     """
     p = Path(path)
-    data, elements = _translate(p, params, lenient)
+    data, elements = _translate(p, params, lenient, mesh_folder)
     try:
-        return parse_scene(data, p)
+        return parse_scene(data, p, mesh_folder)
     except InputError as e:
         msg = str(e)
         head = f"{p}: "

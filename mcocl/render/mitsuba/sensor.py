@@ -65,22 +65,35 @@ def fov_on_smaller_axis(fov: float, axis: str, width: int, height: int) -> float
     return math.degrees(2.0 * math.atan(math.tan(math.radians(fov) / 2.0) * small / size))
 
 
-def translate_sensor(node: Node, rep: Reporter) -> tuple[dict, int]:
-    """(the mcocl camera, spp from the sampler) of a ``<sensor>``."""
+def _referenced(objects: list[Node], resolve) -> list[Node]:
+    """``objects`` with each ``<ref id>`` replaced by the element it names (a sampler, film or
+    rfilter declared at the top level with an ``id``, as Mitsuba allows)."""
+    return [resolve(o) if o.tag == "ref" and resolve is not None else o for o in objects]
+
+
+def translate_sensor(node: Node, rep: Reporter, resolve=None) -> tuple[dict, int]:
+    """(the mcocl camera, spp from the sampler) of a ``<sensor>``; ``resolve`` follows ``<ref>``s."""
     kind = node.attrib.get("type", "")
     comments: list[str] = []
     if kind not in SENSORS:
         rep.unsupported(node, f"the sensor {kind!r}", ", ".join(SENSORS), None, comments)
     props, objects = split_children(node)
+    objects = _referenced(objects, resolve)
     width, height, spp = FILM_SIZE[0], FILM_SIZE[1], SAMPLE_COUNT
     films = [o for o in objects if o.tag == "film"]
     samplers = [o for o in objects if o.tag == "sampler"]
     for o in objects:
-        if o.tag not in ("film", "sampler"):
+        if o.tag == "rfilter":  # Mitsuba's sensors take no filter: it would be an unused object there
+            rep.unsupported(o, "<rfilter> directly inside a sensor", "the same <rfilter> inside the sensor's <film>",
+                            "nothing (ignored)", comments)
+        elif o.tag not in ("film", "sampler"):
             rep.unsupported(o, f"<{o.tag}> inside a sensor", "<film> and <sampler>", "nothing (ignored)", comments)
+    for group in (films, samplers):
+        if len(group) > 1:
+            group[1].fail(f"a sensor takes one <{group[1].tag}> (the first is at {group[0].where()})")
     pixel_filter, crop = make_filter("gaussian"), None
     if films:
-        width, height, pixel_filter, crop = _film(films[0], rep, comments)
+        width, height, pixel_filter, crop = _film(films[0], rep, comments, resolve)
     else:
         comments.append(f"no <film>: Mitsuba's hdrfilm default {width} x {height} with its Gaussian filter "
                         "(stddev 0.5)")
@@ -198,7 +211,7 @@ def _orientation(node: Node, props, rep: Reporter, comments: list[str]) -> dict:
             "up": [float(x) for x in up / lens[1]]}
 
 
-def _film(node: Node, rep: Reporter, comments: list[str]) -> tuple[int, int]:
+def _film(node: Node, rep: Reporter, comments: list[str], resolve=None) -> tuple[int, int, PixelFilter, dict | None]:
     kind = node.attrib.get("type", "")
     if kind != "hdrfilm":
         rep.unsupported(node, f"the film {kind!r}", "hdrfilm", "hdrfilm with its width and height", comments)
@@ -211,6 +224,7 @@ def _film(node: Node, rep: Reporter, comments: list[str]) -> tuple[int, int]:
     if "width" not in props or "height" not in props:
         comments.append(f"film size {width} x {height} (Mitsuba's default 768 x 576 where not given)")
     crop = _crop(node, props, width, height, comments)
+    objects = _referenced(objects, resolve)
     filters = [o for o in objects if o.tag == "rfilter"]
     for o in objects:
         if o.tag != "rfilter":
@@ -227,15 +241,23 @@ def _film(node: Node, rep: Reporter, comments: list[str]) -> tuple[int, int]:
         if k in props:
             props.read.add(k)
             comments.append(f"{k}: ignored (mcocl writes float32 RGB EXR with a variance layer)")
-    if "sample_border" in props:
-        # Filter importance sampling draws every pixel's film points over its whole filter footprint, which
-        # is what sample_border = true gives Mitsuba's splatting film; with false, Mitsuba's border pixels
-        # see only the part of their filter inside the image (the same image for the box filter).
-        border = props.get("sample_border", ("boolean",), None)
-        comments.append(f"sample_border {str(border).lower()}: mcocl samples each pixel's whole filter footprint"
-                        + ("" if border else " (as Mitsuba's true; its false crops the border pixels' filters)"))
+    if not any(k in props for k in ("sample_border", "high_quality_edges")) and pixel_filter.kind != "box":
+        # measured on Mitsuba's bunny documentation scene (Gaussian filter): its border pixels differ by up to
+        # 10 standard errors where the image has a gradient at its edge, the rest agrees
+        comments.append("sample_border: Mitsuba's default false crops the filters of the pixels at the image's "
+                        "edge; mcocl samples every pixel's whole filter (as Mitsuba's true), so edge pixels can differ")
+    # high_quality_edges: the name of sample_border before Mitsuba 3.0 (its Film API change), still
+    # written by exporters (the Blender add-on's test scenes); same meaning, same default false.
+    for key in ("sample_border", "high_quality_edges"):
+        if key in props:
+            # Filter importance sampling draws every pixel's film points over its whole filter footprint,
+            # which is what sample_border = true gives Mitsuba's splatting film; with false, Mitsuba's border
+            # pixels see only the part of their filter inside the image (the same image for the box filter).
+            border = props.get(key, ("boolean",), None)
+            comments.append(f"{key} {str(border).lower()}: mcocl samples each pixel's whole filter footprint"
+                            + ("" if border else " (as Mitsuba's true; its false crops the border pixels' filters)"))
     rep.leftover(node, props.unread(), ("width", "height", *CROP_KEYS, "pixel_format", "component_format",
-                                        "file_format", "sample_border"), comments)
+                                        "file_format", "sample_border", "high_quality_edges"), comments)
     return width, height, pixel_filter, crop
 
 

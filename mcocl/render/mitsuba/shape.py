@@ -16,7 +16,6 @@ mcocl/render/mitsuba/instance.py into copies of these.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -24,6 +23,7 @@ import numpy as np
 from .. import shapes as shape_lib
 from .. import transform as tf
 from .bsdf import rgb_json
+from .file_search import FileSearch
 from .properties import split_children
 from .report import Reporter, nearest
 from .texture import textured_properties
@@ -34,14 +34,14 @@ MESH_FILES = ("obj", "ply", "serialized")  # plugins that become a "mesh" shape 
 
 
 def translate_radiance(node: Node, rep: Reporter, comments: list[str], resolve=None,
-                       scene_folder: Path | None = None) -> list[float] | float | dict:
+                       files: FileSearch | None = None) -> list[float] | float | dict:
     """The ``radiance`` of an ``area`` or ``constant`` emitter (default 1).
 
     Given ``resolve`` (an area emitter), a ``<texture name="radiance">`` (nested or by ``<ref>``)
     becomes a textured radiance (mcocl/render/mitsuba/texture.py)."""
     props, objects = split_children(node)
     if resolve is not None:
-        textures = textured_properties(objects, resolve, rep, scene_folder)
+        textures = textured_properties(objects, resolve, rep, files)
         for o in objects:
             name = o.attrib.get("name") or (resolve(o) if o.tag == "ref" else o).attrib.get("name")
             if name in textures and name != "radiance":
@@ -105,8 +105,8 @@ def cylinder_ops(props) -> list[dict]:
 class ShapeTranslator:
     """Turns ``<shape>`` elements into mcocl shape objects; ``material_of`` names their BSDFs."""
 
-    def __init__(self, scene_file: Path, rep: Reporter, material_of, resolve) -> None:
-        self.folder = scene_file.resolve().parent
+    def __init__(self, files: FileSearch, rep: Reporter, material_of, resolve) -> None:
+        self.files = files  # where meshes and images are looked for (mcocl/render/mitsuba/file_search.py)
         self.rep = rep
         self.material_of = material_of  # (bsdf Node | None, emits: bool, comments) -> material name
         self.resolve = resolve  # <ref> Node -> referenced Node
@@ -142,7 +142,7 @@ class ShapeTranslator:
                 self.rep.unsupported(emitter, f"the shape emitter {etype!r}", "area", "no emission", comments)
             else:
                 out["emitter"] = {"type": "area", "radiance": translate_radiance(emitter, self.rep, comments,
-                                                                                 self.resolve, self.folder)}
+                                                                                 self.resolve, self.files)}
         out["material"] = self.material_of(bsdf, emitter is not None and "emitter" in out, comments)
         t = props.get("to_world", ("transform",), None)
         if t is not None:
@@ -167,7 +167,7 @@ class ShapeTranslator:
             if t is not None and tf.uniform_scale_of(t.matrix) is None:
                 props.node("to_world").fail("a sphere's to_world may only translate, rotate and scale uniformly")
         elif kind in MESH_FILES:
-            supported += ["filename", "face_normals", "flip_tex_coords"]
+            supported += ["filename", "face_normals"]
             out[kind] = self._mesh_file(node, props, kind)
             if kind == "serialized":
                 supported.append("shape_index")
@@ -178,28 +178,25 @@ class ShapeTranslator:
             if props.get("face_normals", ("boolean",), False):
                 out["face_normals"] = True
                 comments.append("face_normals: every triangle shades with its face normal")
-            elif kind == "obj":
-                comments.append("mcocl's OBJ reader ignores vn normals: every triangle shades with its face normal "
-                                "(Mitsuba interpolates the file's vertex normals)")
             else:
-                comments.append("the file's vertex normals, if any, shade smoothly (as in Mitsuba)")
-            if "flip_tex_coords" in props:
-                props.read.add("flip_tex_coords")
-                comments.append("flip_tex_coords: ignored (no textures)")
+                out["compute_normals"] = True
+                comments.append("the file's vertex normals shade smoothly; without any, the angle-weighted average "
+                                "of the faces' normals (as Mitsuba computes them)")
+            if kind in ("obj", "ply"):
+                supported.append("flip_tex_coords")
+                default = kind == "obj"  # Mitsuba's defaults (src/shapes/obj.cpp, ply.cpp)
+                flip = props.get("flip_tex_coords", ("boolean",), default)
+                if flip != default:
+                    out["flip_tex_coords"] = flip
+                comments.append(f"flip_tex_coords {str(flip).lower()}{' (the default)' if flip == default else ''}: "
+                                f"the file's UVs are used with v {'flipped to 1 - v' if flip else 'as written'}")
         self.rep.leftover(node, props.unread(), tuple(supported), comments)
         return out
 
     def _mesh_file(self, node: Node, props, kind: str) -> str:
         if "filename" not in props:
             node.fail(f'a{"n" if kind == "obj" else ""} {kind} shape needs <string name="filename" value="..."/>')
-        rel = props.get("filename", ("string",))
-        at = props.node("filename")
-        path = (node.file.parent / rel).resolve()
-        if not path.is_relative_to(self.folder):
-            at.fail(f"the mesh file {rel!r} lies outside the scene's folder {self.folder}")
-        if not path.is_file():
-            at.fail(f"mesh file {rel!r} not found (looked for {path})")
-        return path.relative_to(self.folder).as_posix()
+        return self.files.find(props.get("filename", ("string",)), props.node("filename"), "mesh file")
 
 
 __all__ = ["ShapeTranslator", "translate_radiance"]

@@ -10,11 +10,11 @@ the texturable keys of mcocl/bsdf_registry.py (:data:`TEXTURE_PROPERTIES`).
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 from ...bsdf_registry import BSDFS
 from ...render.textures import FILTERS, WRAPS
+from .file_search import FileSearch
 from .properties import split_children
 from .report import Reporter, nearest
 from .xml_source import Node
@@ -25,7 +25,7 @@ KINDS = ("bitmap", "checkerboard")
 TEXTURE_PROPERTIES = {name: tuple(p.key for p in spec.params if p.texturable) for name, spec in BSDFS.items()}
 
 
-def translate_texture(node: Node, rep: Reporter, scene_folder: Path) -> dict:
+def translate_texture(node: Node, rep: Reporter, files: FileSearch) -> dict:
     """The mcocl texture object of a ``<texture>`` element."""
     kind = node.attrib.get("type", "")
     if kind not in KINDS:
@@ -43,13 +43,7 @@ def translate_texture(node: Node, rep: Reporter, scene_folder: Path) -> dict:
     else:
         if "filename" not in props:
             node.fail('a bitmap texture needs <string name="filename" value="..."/>')
-        rel = props.get("filename", ("string",))
-        path = (node.file.parent / rel).resolve()
-        if not path.is_relative_to(scene_folder.resolve()):
-            props.node("filename").fail(f"the image {rel!r} lies outside the scene's folder")
-        if not path.is_file():
-            props.node("filename").fail(f"image file {rel!r} not found (looked for {path})")
-        out["filename"] = path.relative_to(scene_folder.resolve()).as_posix()
+        out["filename"] = files.find(props.get("filename", ("string",)), props.node("filename"), "image file")
         for k, choices in (("filter_type", FILTERS), ("wrap_mode", WRAPS)):
             v = props.get(k, ("string",), None)
             if v is not None:
@@ -69,7 +63,7 @@ def translate_texture(node: Node, rep: Reporter, scene_folder: Path) -> dict:
     return out
 
 
-def textured_properties(objects: list[Node], resolve, rep: Reporter, scene_folder: Path | None) -> dict[str, dict]:
+def textured_properties(objects: list[Node], resolve, rep: Reporter, files: FileSearch | None) -> dict[str, dict]:
     """The ``<texture>`` children of a BSDF (nested, or ``<ref>`` to one), translated, by property name."""
     out: dict[str, dict] = {}
     for o in objects:
@@ -79,9 +73,9 @@ def textured_properties(objects: list[Node], resolve, rep: Reporter, scene_folde
         name = o.attrib.get("name") or target.attrib.get("name")
         if not name:
             o.fail('a texture inside a BSDF needs name="<property>" (e.g. name="reflectance")')
-        if scene_folder is None:
+        if files is None:
             o.fail("textures are read only from a scene file")
-        out[name] = translate_texture(target, rep, scene_folder)
+        out[name] = translate_texture(target, rep, files)
     return out
 
 
