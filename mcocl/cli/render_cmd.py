@@ -96,7 +96,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=file_path, default=None, help="OpenEXR output (default: SCENE's name with .exr, in the current directory)")
     p.add_argument("--png", type=file_path, default=None, help="also write an sRGB PNG preview")
     p.add_argument("--mesh-folder", default=None, metavar="DIR",
-                   help="a folder the scene may read OBJ files from, besides the scene file's own folder")
+                   help="one more folder the scene may read mesh files (OBJ, PLY, serialized) from, besides its own folder; for a Mitsuba scene also the other files its <path> search finds")
     p.add_argument("--exposure", type=exposure_stops, default=0.0, help="PNG exposure in stops (default 0)")
     add_persistence_args(p, "scene and settings", "print one JSON object describing the render")
     add_device_args(p)
