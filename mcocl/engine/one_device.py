@@ -35,17 +35,19 @@ ABANDONED: list[Any] = []
 
 
 def wait_unless_urgent(handle: Any, interrupt: InterruptFlag) -> bool:
-    """Wait until the OpenCL events of a launch ``handle`` (a runner's tuple) are complete, looking
-    every :data:`POLL_SECONDS`; False, at once, when ``interrupt`` turns urgent first (the launch is
-    abandoned).  A failed event counts as complete: the runner's ``collect`` then raises its error."""
+    """Wait until the OpenCL events of a launch ``handle`` (a runner's tuple) are complete, looking at
+    growing intervals up to :data:`POLL_SECONDS`; False, at once, when ``interrupt`` turns urgent first
+    (the launch is abandoned).  A failed event counts as complete: ``collect`` then raises its error."""
     events = [h for h in handle if isinstance(h, cl.Event)] if isinstance(handle, tuple) else []
     if events:
         events[0].command_queue.flush()  # a queued launch that was never flushed would not start
     complete = cl.command_execution_status.COMPLETE
+    pause = POLL_SECONDS / 64  # short launches (a run's first, 1-block chunk) are not held up by a whole poll
     while not all(ev.command_execution_status <= complete for ev in events):
         if interrupt.urgent:
             return False
-        time.sleep(POLL_SECONDS)
+        time.sleep(pause)
+        pause = min(2 * pause, POLL_SECONDS)
     return True
 
 
