@@ -24,7 +24,7 @@ may appear there).  The repository's ``scenes/`` and ``docs/bench/`` are
 hashed before and after the whole run.
 
     PYTHONPATH=. python bench/hostile_suite.py                 # everything
-    PYTHONPATH=. python bench/hostile_suite.py --every 4       # ~110 cases from every class, ~2-4 min
+    PYTHONPATH=. python bench/hostile_suite.py --every 4       # ~145 cases from every class, ~3-5 min
     PYTHONPATH=. python bench/hostile_suite.py --class signal,env
     PYTHONPATH=. python bench/hostile_suite.py --list
     PYTHONPATH=. python bench/hostile_suite.py --case snippet-oob-write -v
