@@ -24,7 +24,7 @@ may appear there).  The repository's ``scenes/`` and ``docs/bench/`` are
 hashed before and after the whole run.
 
     PYTHONPATH=. python bench/hostile_suite.py                 # everything
-    PYTHONPATH=. python bench/hostile_suite.py --every 4       # ~110 cases from every class, ~2-4 min
+    PYTHONPATH=. python bench/hostile_suite.py --every 4       # ~145 cases from every class, ~3-5 min
     PYTHONPATH=. python bench/hostile_suite.py --class signal,env
     PYTHONPATH=. python bench/hostile_suite.py --list
     PYTHONPATH=. python bench/hostile_suite.py --case snippet-oob-write -v
@@ -279,6 +279,9 @@ def make_base(base: Path) -> None:
          "--checkpoint", str(base / "solve.ckpt"), "--quiet"],
         ["render", str(base / "tiny.json"), "--spp", "2", "--out", str(base / "img.exr"),
          "--checkpoint", str(base / "render.ckpt"), "--quiet"],
+        # batches of 256 spp on 16 x 16 pixels: 4 blocks of 64-pixel ranges a batch (block_pixels 64)
+        ["render", str(base / "tiny.json"), "--sampler", "sobol", "--spp", "1024", "--out", str(base / "sob.exr"),
+         "--checkpoint", str(base / "sobol.ckpt"), "--quiet"],
     ]
     for argv in runs:
         subprocess.run([PY, "-m", "mcocl", *argv], env=env, check=True, capture_output=True, cwd=base)
@@ -304,19 +307,51 @@ def truncated(name: str, frac: float) -> Callable[[Path], None]:
     return prep
 
 
+DELETE = object()  # edited_meta's value that removes the key
+
+
 def edited_meta(name: str, key: str, value: Any) -> Callable[[Path], None]:
-    """Edit one metadata field of a checkpoint and re-save it with a consistent digest (a deliberate forgery)."""
+    """Edit one metadata field of a checkpoint (``DELETE``: remove it) and re-save it with a consistent
+    digest (a deliberate forgery)."""
 
     def prep(case_dir: Path) -> None:
         code = textwrap.dedent(f"""
             from mcocl.accumulate import Accumulator
             a = Accumulator.load({str(case_dir / 'in' / name)!r})
-            a.meta[{key!r}] = {value!r}
+            a.meta[{key!r}] = {None if value is DELETE else value!r}
+            if {value is DELETE!r}:
+                del a.meta[{key!r}]
             a.save({str(case_dir / 'in' / name)!r})
         """)
         subprocess.run([PY, "-c", code], env={**os.environ, "PYTHONPATH": str(ROOT)}, check=True)
 
     return prep
+
+
+def edited_blocks(name: str, blocks: int) -> Callable[[Path], None]:
+    """Set a checkpoint's count of folded blocks and re-save it with a consistent digest (a forgery)."""
+
+    def prep(case_dir: Path) -> None:
+        code = textwrap.dedent(f"""
+            from mcocl.accumulate import Accumulator
+            a = Accumulator.load({str(case_dir / 'in' / name)!r})
+            a.blocks_done = {int(blocks)!r}
+            a.save({str(case_dir / 'in' / name)!r})
+        """)
+        subprocess.run([PY, "-c", code], env={**os.environ, "PYTHONPATH": str(ROOT)}, check=True)
+
+    return prep
+
+
+def exr_has_samples(name: str) -> Check:
+    """A successful render wrote ``name`` with samples in it."""
+
+    def check(o: Outcome) -> str | None:
+        if o.rc != 0:
+            return None
+        return file_kept(name, "exr")(o)
+
+    return check
 
 
 def readonly_out(case_dir: Path) -> None:
@@ -444,6 +479,98 @@ def cli_cases() -> list[Case]:
     add("devices-json", "devices", "--json", expect="ok")
     add("no-command", expect="error")
     add("unknown-command", "frobnicate")
+    return c
+
+
+def render_option_cases() -> list[Case]:
+    """The render options of sobol batches, bdpt's strategies and heuristics, and light samplers."""
+    c: list[Case] = []
+    tiny = "{in}/tiny.json"
+
+    def add(name: str, *argv: str, expect: str = "error", **kw: Any) -> None:
+        outs = ("x.exr",) if expect != "error" else ()
+        checks = (exr_has_samples("x.exr"),) if expect != "error" else ()
+        c.append(Case(f"render-{name}", "render", ["render", tiny, "--out", "x.exr", "--quiet", *argv],
+                      expect=expect, outputs=outs, checks=checks, limit=90, **kw))
+
+    sobol = ["--sampler", "sobol"]
+    for v in ["0", "1", "-3", "abc", "1e30", "1.5", "nan", "inf", ""]:
+        add(f"batches-{v or 'empty'}", *sobol, "--batches", v)
+    # more batches than samples: as many batches as samples (documented), never a giant allocation
+    add("batches-1e9", *sobol, "--batches", "1e9", "--spp", "4", expect="ok")
+    add("batches-1e9-time", *sobol, "--batches", "1e9", "--time", "2", expect="ok")
+    add("batches-independent", "--sampler", "independent", "--batches", "4")
+    add("batches-scene-sampler", "--batches", "4")  # the scene's sampler is independent
+    add("batches-bdpt", "--integrator", "bdpt", "--batches", "4")
+    add("batches-bdpt-sobol", "--integrator", "bdpt", *sobol, "--batches", "4")
+    add("batches-lt-sobol", "--integrator", "lt", *sobol)
+    add("sobol-spp-1", *sobol, "--spp", "1", expect="ok")
+    add("sobol-spp-3", *sobol, "--spp", "3", expect="ok")
+    add("sobol-spp-3-batches-2", *sobol, "--spp", "3", "--batches", "2", expect="ok")
+    add("sobol-target-error", *sobol, "--target-error", "0.5", "--time", "20", expect="ok")
+    for v in ["2", "a,b", "-1,3", "99,99", "1,1,1", "0,1", "", "1.5,2", ",", "1e9,1"]:
+        add(f"strategy-{v.replace(',', '_') or 'empty'}", "--integrator", "bdpt", "--strategy", v)
+    add("strategy-on-mis", "--integrator", "mis", "--strategy", "1,2")
+    add("unweighted-alone", "--integrator", "bdpt", "--unweighted")
+    add("mis-heuristic-bogus", "--integrator", "bdpt", "--mis-heuristic", "bogus")
+    add("mis-heuristic-on-path", "--integrator", "path", "--mis-heuristic", "balance")
+    add("no-roulette-on-nee", "--integrator", "nee", "--no-roulette")
+    add("bdpt-strategy-ok", "--integrator", "bdpt", "--strategy", "1,2", "--unweighted", "--no-roulette",
+        "--spp", "2", expect="ok")
+    for name, integ in {
+        "batches-str": {"type": "mis", "sampler": "sobol", "batches": "4"},
+        "batches-float": {"type": "mis", "sampler": "sobol", "batches": 4.5},
+        "batches-bool": {"type": "mis", "sampler": "sobol", "batches": True},
+        "batches-1": {"type": "mis", "sampler": "sobol", "batches": 1},
+        "batches-neg": {"type": "mis", "sampler": "sobol", "batches": -4},
+        "batches-null": {"type": "mis", "sampler": "sobol", "batches": None},
+        "batches-list": {"type": "mis", "sampler": "sobol", "batches": [4]},
+        "batches-huge": {"type": "mis", "sampler": "sobol", "batches": 1e30},
+        "batches-nan": {"type": "mis", "sampler": "sobol", "batches": float("nan")},
+        "batches-independent": {"type": "mis", "batches": 4},
+        "batches-bdpt": {"type": "bdpt", "sampler": "sobol", "batches": 4},
+        "sampler-bogus": {"type": "mis", "sampler": "halton"},
+        "sampler-num": {"type": "mis", "sampler": 3},
+        "light-sampler-bogus": {"type": "mis", "light_sampler": "magic"},
+        "light-sampler-list": {"type": "mis", "light_sampler": ["bvh"]},
+    }.items():
+        c.append(Case(f"render-scene-{name}", "render", ["render", "{in}/s.json", "--out", "x.exr", "--quiet"],
+                      files={"s.json": scene_with(integrator={**integ, "spp": 2})}, limit=60))
+    c.append(Case("render-scene-batches-ok", "render", ["render", "{in}/s.json", "--out", "x.exr", "--quiet"],
+                  files={"s.json": scene_with(integrator={"type": "mis", "sampler": "sobol", "batches": 2, "spp": 4})},
+                  expect="ok", outputs=("x.exr",), checks=(exr_has_samples("x.exr"),)))
+    for ls in ("uniform", "bvh", "power"):
+        c.append(Case(f"render-scene-light-sampler-{ls}", "render", ["render", "{in}/s.json", "--out", "x.exr",
+                                                                     "--quiet"],
+                      files={"s.json": scene_with(integrator={"type": "mis", "light_sampler": ls, "spp": 2})},
+                      expect="ok", outputs=("x.exr",), checks=(exr_has_samples("x.exr"),)))
+    api = {
+        "batches-1": "mcocl.render(SCENE, spp=4, sampler='sobol', batches=1)",
+        "batches-word": "mcocl.render(SCENE, spp=4, sampler='sobol', batches='four')",
+        "batches-float": "mcocl.render(SCENE, spp=4, sampler='sobol', batches=4.5)",
+        "batches-nan": "mcocl.render(SCENE, spp=4, sampler='sobol', batches=float('nan'))",
+        "batches-bool": "mcocl.render(SCENE, spp=4, sampler='sobol', batches=True)",
+        "batches-independent": "mcocl.render(SCENE, spp=4, batches=4)",
+        "batches-and-block": "mcocl.render(SCENE, spp=4, sampler='sobol', batches=2, spp_per_block=2)",
+        "sampler-bogus": "mcocl.render(SCENE, spp=1, sampler='halton')",
+        "sampler-int": "mcocl.render(SCENE, spp=1, sampler=3)",
+        "strategy-str": "mcocl.render(SCENE, spp=1, integrator='bdpt', strategy='ab')",
+        "strategy-one": "mcocl.render(SCENE, spp=1, integrator='bdpt', strategy=(1,))",
+        "strategy-float": "mcocl.render(SCENE, spp=1, integrator='bdpt', strategy=(1.5, 2))",
+        "strategy-nan": "mcocl.render(SCENE, spp=1, integrator='bdpt', strategy=(float('nan'), 2))",
+        "strategy-huge": "mcocl.render(SCENE, spp=1, integrator='bdpt', strategy=(10**30, 1))",
+        "strategy-huge-unbounded": "mcocl.render(SCENE, spp=1, integrator='bdpt', max_depth=-1, strategy=(10**30, 1))",
+        "strategy-past-subpaths": "mcocl.render(SCENE, spp=1, integrator='bdpt', max_depth=-1, strategy=(30, 1))",
+        "mis-bogus": "mcocl.render(SCENE, spp=1, integrator='bdpt', mis='bogus')",
+        "mis-none": "mcocl.render(SCENE, spp=1, integrator='bdpt', mis=None)",
+        "roulette-str": "mcocl.render(SCENE, spp=1, integrator='bdpt', roulette='no')",
+        "unweighted-str": "mcocl.render(SCENE, spp=1, integrator='bdpt', unweighted='no')",
+    }
+    for name, code in api.items():
+        c.append(Case(f"render-api-{name}", "render", api=code, limit=60))
+    # a numeric string is a number throughout the API (mcocl/validate.py, whole_number: spp='4' too)
+    c.append(Case("render-api-batches-numeric-str", "render", expect="any",
+                  api="mcocl.render(SCENE, spp=4, sampler='sobol', batches='4')"))
     return c
 
 
@@ -602,6 +729,25 @@ def xml_cases() -> list[Case]:
         "rgb-wrong-arity": base.replace('value="0.885809, 0.698859, 0.666422"', 'value="0.8, 0.7"'),
         "version-bogus": base.replace('version="3.0.0"', 'version="banana"'),
         "translate-huge": base.replace('<lookat origin="0, 0, 3.9"', '<lookat origin="0, 0, 1e39"'),
+        "sample-border-word": base.replace('<rfilter type="box"/>',
+                                           '<rfilter type="box"/><boolean name="sample_border" value="maybe"/>'),
+        "sample-border-int": base.replace('<rfilter type="box"/>',
+                                          '<rfilter type="box"/><integer name="sample_border" value="1"/>'),
+        "focus-word": base.replace('<float name="fov"', '<float name="focus_distance" value="far"/><float name="fov"'),
+        "focus-nan": base.replace('<sensor type="perspective">', '<sensor type="thinlens">').replace(
+            '<float name="fov"', '<float name="aperture_radius" value="0.1"/><float name="focus_distance" '
+                                 'value="nan"/><float name="fov"'),
+        "focus-neg": base.replace('<sensor type="perspective">', '<sensor type="thinlens">').replace(
+            '<float name="fov"', '<float name="aperture_radius" value="0.1"/><float name="focus_distance" '
+                                 'value="-2"/><float name="fov"'),
+        "aperture-neg": base.replace('<sensor type="perspective">', '<sensor type="thinlens">').replace(
+            '<float name="fov"', '<float name="aperture_radius" value="-0.1"/><float name="fov"'),
+        "aperture-missing": base.replace('<sensor type="perspective">', '<sensor type="thinlens">'),
+        "aperture-word": base.replace('<sensor type="perspective">', '<sensor type="thinlens">').replace(
+            '<float name="fov"', '<float name="aperture_radius" value="wide"/><float name="fov"'),
+        "aperture-inf": base.replace('<sensor type="perspective">', '<sensor type="thinlens">').replace(
+            '<float name="fov"', '<float name="aperture_radius" value="inf"/><float name="fov"'),
+        "shutter-word": base.replace('<float name="fov"', '<float name="shutter_open" value="soon"/><float name="fov"'),
     }
     c = []
     for name, text in bad.items():
@@ -610,6 +756,21 @@ def xml_cases() -> list[Case]:
     for name in ("doctype-entity", "include-outside", "malformed", "not-utf8", "obj-outside"):
         c.append(Case(f"xml-convert-{name}", "xml", ["convert", "{in}/s.xml", "-o", "o.json"],
                       files={"s.xml": bad[name]}))
+    ok = {  # valid: aperture 0 is a pinhole (mcocl/render/scene.py), sample_border and the shutter are read
+        "thinlens-aperture-0": base.replace('<sensor type="perspective">', '<sensor type="thinlens">').replace(
+            '<float name="fov"', '<float name="aperture_radius" value="0"/><float name="fov"'),
+        "thinlens-ok": base.replace('<sensor type="perspective">', '<sensor type="thinlens">').replace(
+            '<float name="fov"', '<float name="aperture_radius" value="0.05"/><float name="focus_distance" '
+                                 'value="3.9"/><float name="fov"'),
+        "sample-border-false": base.replace('<rfilter type="box"/>',
+                                            '<rfilter type="box"/><boolean name="sample_border" value="false"/>'),
+        "shutter-ok": base.replace('<float name="fov"', '<float name="shutter_open" value="0"/>'
+                                                        '<float name="shutter_close" value="0.5"/><float name="fov"'),
+    }
+    for name, text in ok.items():
+        c.append(Case(f"xml-render-{name}", "xml", ["render", "{in}/s.xml", "--out", "x.exr", "--quiet"],
+                      files={"s.xml": text}, expect="ok", outputs=("x.exr",), checks=(exr_has_samples("x.exr"),),
+                      limit=90))
     c.append(Case("xml-convert-ok", "xml", ["convert", "{in}/tiny.xml", "-o", "o.json"], expect="ok",
                   outputs=("o.json",)))
     c.append(Case("xml-define-injection", "xml", ["render", "{in}/tiny.xml", "--out", "x.exr", "-D",
@@ -739,6 +900,54 @@ def checkpoint_cases() -> list[Case]:
     ]:
         c.append(Case(f"ckpt-{name}", "checkpoint", argv))
 
+    sob = ["render", "{in}/tiny.json", "--sampler", "sobol", "--spp", "1024", "--out", "x.exr", "--quiet"]
+    for name, prep, expect in [
+        ("bp-negative", edited_meta("sobol.ckpt", "block_pixels", -64), "error"),
+        ("bp-zero", edited_meta("sobol.ckpt", "block_pixels", 0), "error"),
+        ("bp-huge", edited_meta("sobol.ckpt", "block_pixels", 10**18), "error"),
+        ("bp-film", edited_meta("sobol.ckpt", "block_pixels", 256), "error"),  # a "range" of the whole film
+        ("bp-not-tile", edited_meta("sobol.ckpt", "block_pixels", 96), "error"),
+        ("bp-float", edited_meta("sobol.ckpt", "block_pixels", 64.5), "error"),
+        ("bp-str", edited_meta("sobol.ckpt", "block_pixels", "64"), "error"),
+        ("bp-bool", edited_meta("sobol.ckpt", "block_pixels", True), "error"),
+        ("bp-list", edited_meta("sobol.ckpt", "block_pixels", [64]), "error"),
+        # another valid cut: a different job's blocks, whose image is as valid (the digest is no signature)
+        ("bp-128", edited_meta("sobol.ckpt", "block_pixels", 128), "any"),
+        ("bp-missing", edited_meta("sobol.ckpt", "block_pixels", DELETE), "any"),
+        ("spb-missing", edited_meta("sobol.ckpt", "spp_per_block", DELETE), "error"),
+        ("spb-zero", edited_meta("sobol.ckpt", "spp_per_block", 0), "error"),
+        ("spb-huge", edited_meta("sobol.ckpt", "spp_per_block", 2**40), "error"),
+        ("spb-max", edited_meta("sobol.ckpt", "spp_per_block", 2**32 - 2), "any"),
+        ("spb-str", edited_meta("sobol.ckpt", "spp_per_block", "256"), "error"),
+        ("limit-missing", edited_meta("sobol.ckpt", "spp_limit", DELETE), "error"),
+        ("limit-neg", edited_meta("sobol.ckpt", "spp_limit", -1), "error"),
+        ("sampler-missing", edited_meta("sobol.ckpt", "sampler", DELETE), "error"),
+        ("sampler-int", edited_meta("sobol.ckpt", "sampler", 7), "error"),
+        ("width-str", edited_meta("sobol.ckpt", "width", "16"), "error"),
+        ("blocks-huge", edited_blocks("sobol.ckpt", 10**15), "any"),
+        ("blocks-mid-batch", edited_blocks("sobol.ckpt", 6), "any"),
+        ("half", truncated("sobol.ckpt", 0.5), "error"),
+        ("flip-50", flipped("sobol.ckpt", 0.5), "any"),
+    ]:
+        c.append(Case(f"ckpt-sobol-{name}", "checkpoint", [*sob, "--resume", "{in}/sobol.ckpt"], prepare=prep,
+                      expect=expect, outputs=("x.exr",) if expect == "any" else (),
+                      checks=(exr_has_samples("x.exr"),) if expect == "any" else (), limit=90))
+    for name, extra in [("batches-other", ["--batches", "8"]), ("spp-other", ["--spp", "2048"]),
+                        ("spp-fewer", ["--spp", "512"]), ("sampler-other", ["--sampler", "independent"]),
+                        ("integrator-other", ["--integrator", "path"]), ("seed-other", ["--seed", "3"]),
+                        ("time", ["--time", "1", "--spp", "4096"])]:
+        argv = [*sob, *extra, "--resume", "{in}/sobol.ckpt"]
+        expect = "any" if name in ("spp-other", "spp-fewer", "time") else "error"
+        c.append(Case(f"ckpt-sobol-resume-{name}", "checkpoint", argv, expect=expect,
+                      outputs=("x.exr",) if expect == "any" else (),
+                      checks=(exr_has_samples("x.exr"),) if expect == "any" else (), limit=90))
+    c.append(Case("ckpt-sobol-resume-good", "checkpoint", [*sob, "--resume", "{in}/sobol.ckpt"], expect="ok",
+                  outputs=("x.exr",), checks=(exr_has_samples("x.exr"),)))
+    c.append(Case("ckpt-sobol-into-independent", "checkpoint",
+                  ["render", "{in}/tiny.json", "--spp", "1024", "--out", "x.exr", "--resume", "{in}/sobol.ckpt"]))
+    c.append(Case("ckpt-independent-into-sobol", "checkpoint",
+                  [*sob, "--resume", "{in}/render.ckpt"]))
+
     def pickle_npz(case_dir: Path) -> None:
         code = (f"import numpy as np; np.savez({str(case_dir / 'in' / 'p.npz')!r}, "
                 "meta=np.array([{'a': 1}], dtype=object))")
@@ -821,6 +1030,18 @@ def signal_cases() -> list[Case]:
                             ("sigint-late-sigterm", (("c.ckpt", signal.SIGINT), (1.0, signal.SIGTERM)))]:
             c.append(Case(f"sig-{what}-{sname}", "signal", argv, expect="signal", signals=sigs, outputs=outs,
                           checks=extra, limit=90))
+    sob_run = ["render", "{in}/tiny.json", "--sampler", "sobol", "--batches", "2", "--spp", "1000000", "--out", "x.exr",
+               "--checkpoint", "c.ckpt", "--quiet"]
+    for sname, sigs in [("sigint", (("c.ckpt", signal.SIGINT),)), ("sigterm", (("c.ckpt", signal.SIGTERM),)),
+                        ("2sigint", (("c.ckpt", signal.SIGINT), (0.5, signal.SIGINT)))]:
+        c.append(Case(f"sig-sobol-batch-{sname}", "signal", sob_run, expect="signal", signals=sigs,
+                      outputs=("c.ckpt", "x.exr"), checks=(file_kept("x.exr", "exr"), file_kept("c.ckpt", "ckpt")),
+                      limit=120))
+    # batches of 25,000 spp: blocks of 64 pixels x 25,000 paths, each done in a moment
+    c.append(Case("sig-sobol-small-batches-sigint", "signal",
+                  ["render", "{in}/tiny.json", "--sampler", "sobol", "--spp", "100000", "--out", "x.exr",
+                   "--checkpoint", "c.ckpt", "--quiet"], expect="signal", signals=(("c.ckpt", signal.SIGINT),),
+                  outputs=("c.ckpt", "x.exr"), checks=(file_kept("x.exr", "exr"),), limit=90))
     c.append(Case("sig-loop-sigint", "signal", ["integrate", LOOP, "--samples", "1e6"], expect="signal",
                   signals=((3.0, signal.SIGINT),), limit=30))
     c.append(Case("sig-loop-2sigint", "signal", ["integrate", LOOP, "--samples", "1e6"], expect="signal",
@@ -970,7 +1191,7 @@ def walk_cases() -> list[Case]:
     return c
 
 
-ALL = [cli_cases, api_cases, scene_cases, xml_cases, problem_cases, mesh_cases, checkpoint_cases, output_cases,
+ALL = [cli_cases, render_option_cases, api_cases, scene_cases, xml_cases, problem_cases, mesh_cases, checkpoint_cases, output_cases,
        signal_cases, env_cases, snippet_cases, walk_cases]
 
 

@@ -13,6 +13,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -215,3 +216,33 @@ def test_a_command_stopped_on_request_ignores_further_requests_as_it_exits(monke
     finally:
         for s, h in before.items():
             signal.signal(s, h)
+
+
+def test_one_ctrl_c_during_a_long_sobol_batch_keeps_the_image(tmp_path) -> None:
+    """A sobol batch of 500,000 spp on a 16 x 16 film is blocks of 64 pixels x 500,000 paths, tens of
+    seconds each: the child waited for one inside OpenCL, deaf to signals, and the supervisor killed it
+    STOP_WAIT later with no image (issue 10).  Now it is asked again, abandons the launch and writes
+    the batch ranges already folded."""
+    import json
+
+    from mcocl.cli.supervise import STOP_WAIT, URGENT_STOP_WAIT
+    from mcocl.render.image_io import read_exr
+
+    scene = json.loads((Path(__file__).resolve().parent.parent / "scenes" / "cornell.json").read_text())
+    scene["camera"].update(width=16, height=16)
+    (tmp_path / "tiny.json").write_text(json.dumps(scene))
+    ckpt, exr = tmp_path / "c.ckpt", tmp_path / "x.exr"
+    p = _mcocl("render", str(tmp_path / "tiny.json"), "--sampler", "sobol", "--batches", "2", "--spp", "1000000",
+               "--out", str(exr), "--checkpoint", str(ckpt), "--quiet", cwd=tmp_path)
+    deadline = time.monotonic() + 120
+    while not ckpt.exists() and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.1)  # the first block is folded: the next one runs for tens of seconds
+    assert ckpt.exists(), p.communicate(timeout=5)
+    p.send_signal(signal.SIGINT)
+    t0 = time.monotonic()
+    out, err = p.communicate(timeout=90)
+    assert p.returncode == 130, (out, err)
+    assert "Traceback" not in err and "crashed" not in err, err
+    assert time.monotonic() - t0 < STOP_WAIT + URGENT_STOP_WAIT + 5
+    img = read_exr(exr)
+    assert img.samples is not None and int(img.samples.max()) >= 1  # the range folded before the stop

@@ -230,6 +230,25 @@ def test_bad_settings(kw: dict, match: str) -> None:
         render(SCENES / "furnace.json", spp=1, integrator="bdpt", max_depth=3, **kw)
 
 
+@pytest.mark.parametrize("strategy", [(1.5, 2), "12", (1,), (1, 2, 3), (float("nan"), 2), (True, 2)])
+def test_a_strategy_is_a_pair_of_whole_numbers(strategy) -> None:
+    """int() took (1.5, 2) and the string "12" for strategy (1, 2) (issue 10: bench/hostile_suite.py)."""
+    with pytest.raises(InputError, match="two whole numbers"):
+        render(SCENES / "furnace.json", spp=1, integrator="bdpt", max_depth=3, strategy=strategy)
+
+
+def test_a_strategy_past_the_kernels_subpaths_is_refused() -> None:
+    """With max_depth -1 nothing bounded a strategy: (30, 1) rendered black (no subpath has 30 vertices)
+    and (10**30, 1) overflowed the launch parameters with a traceback."""
+    from mcocl.render.bdpt_settings import BDPT_MAX_VERTICES
+
+    kernel = (Path(__file__).resolve().parent.parent / "kernels" / "render" / "bdpt.cl").read_text()
+    assert f"#define BDPT_MAX_VERTICES {BDPT_MAX_VERTICES}\n" in kernel
+    for strategy in ((BDPT_MAX_VERTICES + 1, 1), (1, BDPT_MAX_VERTICES + 1), (10**30, 1)):
+        with pytest.raises(InputError, match="bdpt's limit"):
+            render(SCENES / "furnace.json", spp=1, integrator="bdpt", max_depth=-1, strategy=strategy)
+
+
 def test_bdpt_settings_are_bdpts_only() -> None:
     with pytest.raises(InputError, match="bdpt's settings"):
         render(SCENES / "furnace.json", spp=1, integrator="mis", mis="balance")

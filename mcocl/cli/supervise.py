@@ -15,8 +15,9 @@ environment) and supervises it from here:
   stuck;
 - Ctrl-C and SIGTERM are passed on to the child, which stops and saves what it
   has (:class:`~mcocl.engine.contract.InterruptFlag`); a child that has not
-  ended ``STOP_WAIT`` seconds after the first request, or ``URGENT_STOP_WAIT``
-  seconds after the second, is killed;
+  ended ``STOP_WAIT`` seconds after the first request is asked a second time
+  (it then abandons the launch in flight and saves what it has folded), and
+  one still running ``URGENT_STOP_WAIT`` seconds after the second is killed;
 - a child killed by a signal (SIGSEGV, SIGBUS, SIGABRT, ...) is reported in
   one line with exit status 2, instead of the shell's bare "Segmentation
   fault";
@@ -304,7 +305,12 @@ def _run_once(
             if child.killed_for:
                 continue
             wait = STOP_WAIT if forwarded < 2 else URGENT_STOP_WAIT
-            if child.stopping is not None and now - child.stopping > wait:
+            if child.stopping is not None and now - child.stopping > wait and len(requests) == 1:
+                # one request not met in STOP_WAIT: a long launch (a big sobol batch) or a stuck one. Ask
+                # again, as a second Ctrl-C would: the child then keeps what it has folded and abandons
+                # the launch (issue 10: a single Ctrl-C lost the image of the batches already done)
+                requests.append(requests[0])
+            elif child.stopping is not None and now - child.stopping > wait:
                 child.kill(f"it did not stop within {wait:g} s of the request (a kernel launch is stuck)")
             elif time_budget is not None and child.running_seconds(now) > time_budget + GRACE:
                 child.kill(

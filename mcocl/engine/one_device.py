@@ -13,6 +13,8 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
+import pyopencl as cl
+
 from ..accumulate import Accumulator
 from ..runtime import DeviceContext
 from .chunking import ChunkPolicy, ChunkQueue, Sizer
@@ -20,6 +22,33 @@ from .contract import BlockJob, BlockRunner, DeviceStats, Halting, InterruptFlag
 from .fold import FinishedChunk, fold_chunks
 
 IN_FLIGHT = 2  # chunks enqueued at once: one computing, one waiting behind it
+# Seconds between looks at a launch in flight.  Waiting in OpenCL's clWaitForEvents would hold the
+# main thread in C, where Python runs no signal handler: a Ctrl-C during a long launch (a sobol
+# batch of 10^6 spp is tens of seconds: mcocl/render/sobol_film.py) could then not even be seen, let
+# alone a second one that abandons the launch (issue 10).  The next chunk is queued behind the one
+# looked at, so the device does not idle while the host sleeps.
+POLL_SECONDS = 0.01
+# Launches abandoned by an urgent stop (with their runner), kept until the process ends: pyopencl's
+# event of a non-blocking copy waits for the copy when it is released (the host array must outlive
+# it), so dropping them would block the stopped run until the launch ends after all.
+ABANDONED: list[Any] = []
+
+
+def wait_unless_urgent(handle: Any, interrupt: InterruptFlag) -> bool:
+    """Wait until the OpenCL events of a launch ``handle`` (a runner's tuple) are complete, looking at
+    growing intervals up to :data:`POLL_SECONDS`; False, at once, when ``interrupt`` turns urgent first
+    (the launch is abandoned).  A failed event counts as complete: ``collect`` then raises its error."""
+    events = [h for h in handle if isinstance(h, cl.Event)] if isinstance(handle, tuple) else []
+    if events:
+        events[0].command_queue.flush()  # a queued launch that was never flushed would not start
+    complete = cl.command_execution_status.COMPLETE
+    pause = POLL_SECONDS / 64  # short launches (a run's first, 1-block chunk) are not held up by a whole poll
+    while not all(ev.command_execution_status <= complete for ev in events):
+        if interrupt.urgent:
+            return False
+        time.sleep(pause)
+        pause = min(2 * pause, POLL_SECONDS)
+    return True
 
 
 class _DeviceStream:
@@ -56,6 +85,8 @@ class _DeviceStream:
         if not self.inflight:
             self.finished = True
             return None
+        if not wait_unless_urgent(self.inflight[0][2], interrupt):
+            return None  # asked twice to stop: the fold loop keeps what is folded (mcocl/engine/fold.py)
         first, n, handle, enqueued = self.inflight.popleft()
         self.inflight_blocks -= n
         stats = self.runner.collect(handle)
@@ -72,6 +103,10 @@ class _DeviceStream:
         return ()  # one device: the overall rate says it all
 
     def close(self, failed: bool) -> None:
+        if failed and self.inflight:
+            # the runner too: releasing its program and buffers under a running launch crashes PoCL
+            ABANDONED.append((self.runner, tuple(self.inflight)))
+            self.inflight.clear()
         self.chunks.finish()
 
 
@@ -117,4 +152,4 @@ def run_one_device(
     )
 
 
-__all__ = ["run_one_device"]
+__all__ = ["POLL_SECONDS", "run_one_device", "wait_unless_urgent"]

@@ -5,8 +5,12 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import InputError
+from ..validate import whole_number
 from .compiled import CompiledScene
 from .job import MIS_BETAS
+
+# The most vertices of one subpath, the kernel's BDPT_MAX_VERTICES (kernels/render/bdpt.cl, never redefined).
+BDPT_MAX_VERTICES = 24
 
 
 def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, unweighted: Any = False,
@@ -27,12 +31,19 @@ def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, u
     if mis not in MIS_BETAS:
         raise InputError(f"mis: unknown heuristic {mis!r}; choose one of {', '.join(MIS_BETAS)}")
     if strategy is not None:
+        # a pair of whole numbers: int() would take (1.5, 2) for (1, 2) and the string "12" for (1, 2)
+        if not isinstance(strategy, (tuple, list)) or len(strategy) != 2:
+            raise InputError(f"strategy: expected two whole numbers s,t, got {strategy!r}")
         try:
-            s, t = (int(x) for x in strategy)
-        except (TypeError, ValueError):
+            s, t = (whole_number("strategy", x, -(2**63)) for x in strategy)
+        except InputError:
             raise InputError(f"strategy: expected two whole numbers s,t, got {strategy!r}") from None
         if s < 0 or t < 1:
             raise InputError(f"strategy: s >= 0 light vertices and t >= 1 camera vertices, got ({s}, {t})")
+        if max(s, t) > BDPT_MAX_VERTICES:
+            # the kernel's subpaths end there: a longer strategy would render nothing, silently
+            raise InputError(f"strategy: ({s}, {t}) has more than {BDPT_MAX_VERTICES} vertices on one subpath, "
+                             "bdpt's limit")
         if s + t < 2:
             raise InputError(f"strategy: a path needs s + t >= 2 vertices, got ({s}, {t})")
         if cs.max_depth >= 0 and s + t - 1 > cs.max_depth:
@@ -46,4 +57,4 @@ def bdpt_settings(cs: CompiledScene, mis: Any = "power", strategy: Any = None, u
     return {"mis": mis, "strategy": strategy, "unweighted": bool(unweighted), "roulette": roulette}
 
 
-__all__ = ["bdpt_settings"]
+__all__ = ["BDPT_MAX_VERTICES", "bdpt_settings"]
