@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import signal
 import warnings
 
 import pyopencl as cl
+import pytest
 
 # PoCL reports vector-ABI notes as compiler warnings; they are not test failures.
 warnings.filterwarnings("ignore", category=cl.CompilerWarning)
@@ -26,3 +28,15 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:  # no
     cpu = cpuinfo_value(("model name",)) or platform.processor() or "?"
     terminalreporter.write_line(f"mcocl device: {line}; CPU {cpu}, host SIMD width {host_simd_width()}, "
                                 f"Python {platform.python_version()}")
+
+
+@pytest.fixture(autouse=True)
+def _signal_handlers_restored():
+    """Each test leaves SIGINT and SIGTERM as it found them: an in-process ``mcocl.cli.main()`` that a
+    test stops on request ignores both from then on (as the console script must, issue 10), which
+    would otherwise change what later tests in the same worker process see."""
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    yield
+    for s, h in saved.items():
+        if signal.getsignal(s) is not h:
+            signal.signal(s, h)

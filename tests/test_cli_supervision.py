@@ -200,7 +200,10 @@ def test_a_command_stopped_on_request_ignores_further_requests_as_it_exits(monke
 
     import mcocl.cli as cli
 
-    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    # what a console script starts with, whatever an earlier test in this worker process left behind
+    # (an in-process cli.main() stopped on request leaves both ignored, as it should)
+    before = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: signal.SIG_DFL}
     try:
         for code, ignored in ((130, True), (143, True), (0, False)):
             monkeypatch.setattr(cli, "_run", lambda argv, code=code: code)
@@ -214,7 +217,7 @@ def test_a_command_stopped_on_request_ignores_further_requests_as_it_exits(monke
         monkeypatch.setattr(cli, "_run", lambda argv: 130)
         assert cli.main(["integrate"]) == 130 and signal.getsignal(signal.SIGTERM) is before[signal.SIGTERM]
     finally:
-        for s, h in before.items():
+        for s, h in saved.items():
             signal.signal(s, h)
 
 
