@@ -32,10 +32,13 @@ def scale(s: float | np.ndarray | list[float]) -> np.ndarray:
     return m
 
 
-def rotate(axis: np.ndarray | list[float], degrees: float) -> np.ndarray:
-    """The matrix of a right-handed rotation by ``degrees`` about ``axis`` (Rodrigues' formula)."""
+def rotate(axis: np.ndarray | list[float], degrees: float, normalise: bool = True) -> np.ndarray:
+    """The matrix of a right-handed rotation by ``degrees`` about ``axis`` (Rodrigues' formula
+    c·I + s·[a]ₓ + (1 − c)·a aᵀ).  ``normalise=False`` takes the axis as given, as Mitsuba's
+    ``<rotate>`` does: a non-unit axis then also scales and shears."""
     a = np.asarray(axis, dtype=np.float64)
-    a = a / np.linalg.norm(a)
+    if normalise:
+        a = a / np.linalg.norm(a)
     th = math.radians(degrees)
     c, s = math.cos(th), math.sin(th)
     k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])

@@ -134,13 +134,8 @@ def look_at(origin: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarra
 
 
 def _unnormalised_rotation(axis: np.ndarray, degrees: float) -> np.ndarray:
-    """Rodrigues' formula c·I + s·[a]ₓ + (1 − c)·a aᵀ with the axis ``a`` as given (not normalised), as Mitsuba."""
-    th = math.radians(degrees)
-    c, s = math.cos(th), math.sin(th)
-    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    m = np.eye(4)
-    m[:3, :3] = c * np.eye(3) + s * k + (1.0 - c) * np.outer(axis, axis)
-    return m
+    """Mitsuba's ``<rotate>``: Rodrigues' formula with the axis as given (not normalised)."""
+    return tf.rotate(axis, degrees, normalise=False)
 
 
 def parse_transform(node: Node) -> Transform:
