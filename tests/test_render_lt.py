@@ -20,14 +20,13 @@
 from __future__ import annotations
 
 import math
-import os
-import signal
 from pathlib import Path
 
 import numpy as np
 import pyopencl as cl
 import pytest
 from chi2 import Chi2Family
+from interrupting import interrupt_after_first_fold
 from scipy import stats
 
 from mcocl import runtime
@@ -447,15 +446,9 @@ def test_resumed_render_is_identical(tmp_path: Path, integrator: str) -> None:
     cs = downscaled("cornell.json", 16)
     whole = render(cs, spp=12, seed=7, integrator=integrator, spp_per_block=2)
     ckpt = tmp_path / "run.ckpt"
-    calls = []
-
-    def interrupt_after_first_fold(p) -> None:
-        calls.append(p.blocks_done)
-        if len(calls) == 1:
-            os.kill(os.getpid(), signal.SIGINT)
 
     part = render(cs, spp=12, seed=7, integrator=integrator, spp_per_block=2, checkpoint=ckpt,
-                  progress=interrupt_after_first_fold)
+                  progress=interrupt_after_first_fold())
     assert part.stopped_by == "interrupt" and 0 < part.spp < 12
     rest = render(cs, spp=12, seed=7, integrator=integrator, resume=ckpt)
     assert rest.spp == 12 and rest.spp_this_run == 12 - part.spp

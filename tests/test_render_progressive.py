@@ -11,29 +11,22 @@ from __future__ import annotations
 
 import copy
 import math
-import os
-import signal
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from device_doubles import small_cornell
+from interrupting import interrupt_after_first_fold
 
 from mcocl import runtime
 from mcocl.accumulate import Accumulator
 from mcocl.errors import InputError
 from mcocl.render.api import NonFiniteSampleWarning, render
-from mcocl.render.compiled import compile_scene
 from mcocl.render.job import RenderJob, scene_tables
-from mcocl.render.scene_file import load_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
-
-def small_cornell(size: int = 16):
-    sc = load_scene(SCENES / "cornell.json")
-    sc.camera.width = sc.camera.height = size
-    return compile_scene(sc)
 
 
 def test_film_does_not_depend_on_how_blocks_are_launched() -> None:
@@ -67,14 +60,8 @@ def test_resumed_render_is_identical(tmp_path: Path) -> None:
     cs = small_cornell()
     whole = render(cs, spp=12, seed=7, spp_per_block=2)
     ckpt = tmp_path / "run.ckpt"
-    calls = []
 
-    def interrupt_after_first_fold(p) -> None:
-        calls.append(p.blocks_done)
-        if len(calls) == 1:
-            os.kill(os.getpid(), signal.SIGINT)  # what Ctrl-C does: stop after the blocks in flight
-
-    part = render(cs, spp=12, seed=7, spp_per_block=2, checkpoint=ckpt, progress=interrupt_after_first_fold)
+    part = render(cs, spp=12, seed=7, spp_per_block=2, checkpoint=ckpt, progress=interrupt_after_first_fold())
     assert part.stopped_by == "interrupt"
     assert 0 < part.spp < 12
     assert Accumulator.load(ckpt).blocks_done * 2 == part.spp

@@ -14,12 +14,12 @@
 
 from __future__ import annotations
 
-import os
-import signal
 from pathlib import Path
 
 import numpy as np
 import pytest
+from device_doubles import small_cornell
+from interrupting import interrupt_after_first_fold
 from scipy import stats
 
 from mcocl.accumulate import Accumulator
@@ -34,12 +34,6 @@ from mcocl.render.scene_file import load_scene
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 FAMILY_ALPHA = 1e-3
 
-
-def small_cornell(size: int = 16):
-    """scenes/cornell.json at size x size pixels, compiled."""
-    sc = load_scene(SCENES / "cornell.json")
-    sc.camera.width = sc.camera.height = size
-    return compile_scene(sc)
 
 
 def block_z(a, b_mean, b_var, block: int = 8) -> np.ndarray:
@@ -111,15 +105,9 @@ def test_sobol_image_does_not_depend_on_split_or_resume(tmp_path: Path) -> None:
     np.testing.assert_array_equal(two.mean, whole.mean)
     np.testing.assert_array_equal(two.variance, whole.variance)
     ckpt = tmp_path / "run.ckpt"
-    calls = []
-
-    def interrupt_after_first_fold(p) -> None:
-        calls.append(p.blocks_done)
-        if len(calls) == 1:
-            os.kill(os.getpid(), signal.SIGINT)
 
     part = render(cs, spp=12, seed=7, spp_per_block=2, sampler="sobol", checkpoint=ckpt,
-                  progress=interrupt_after_first_fold)
+                  progress=interrupt_after_first_fold())
     assert part.stopped_by == "interrupt" and 0 < part.spp < 12
     assert Accumulator.load(ckpt).blocks_done * 2 == part.spp
     with pytest.raises(InputError):  # the checkpoint of a sobol render is not an independent one

@@ -19,14 +19,14 @@
 from __future__ import annotations
 
 import math
-import os
-import signal
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from device_doubles import small_cornell
+from interrupting import interrupt_after_first_fold
 
 from mcocl.errors import InputError
 from mcocl.render import sobol_film
@@ -34,16 +34,9 @@ from mcocl.render.api import render
 from mcocl.render.compiled import compile_scene
 from mcocl.render.job import default_spp_per_block
 from mcocl.render.scene import parse_scene
-from mcocl.render.scene_file import load_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
-
-def small_cornell(size: int = 16):
-    """scenes/cornell.json at size x size pixels, compiled."""
-    sc = load_scene(SCENES / "cornell.json")
-    sc.camera.width = sc.camera.height = size
-    return compile_scene(sc)
 
 
 def test_spp_is_split_into_the_batches() -> None:
@@ -122,14 +115,8 @@ def test_image_depends_on_seed_and_batches_only(tmp_path: Path) -> None:
     other = render(cs, spp=24, seed=7, sampler="sobol", batches=4)
     assert not np.array_equal(other.mean, whole.mean)  # the batches are part of what the image depends on
     ckpt = tmp_path / "run.ckpt"
-    calls = []
 
-    def interrupt_after_first_fold(p) -> None:
-        calls.append(p.blocks_done)
-        if len(calls) == 1:
-            os.kill(os.getpid(), signal.SIGINT)
-
-    part = render(cs, spp=24, seed=7, sampler="sobol", batches=6, checkpoint=ckpt, progress=interrupt_after_first_fold)
+    part = render(cs, spp=24, seed=7, sampler="sobol", batches=6, checkpoint=ckpt, progress=interrupt_after_first_fold())
     assert part.stopped_by == "interrupt" and 0 < part.spp < 24
     with pytest.raises(InputError, match="batches"):  # 4 batches would be blocks of 6, not the saved 4
         render(cs, spp=24, seed=7, sampler="sobol", batches=4, resume=ckpt)

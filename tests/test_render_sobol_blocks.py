@@ -24,24 +24,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from device_doubles import small_cornell
+from interrupting import interrupt_after_first_fold
 
 from mcocl.accumulate import Accumulator
 from mcocl.render import api
-from mcocl.render.compiled import compile_scene
 from mcocl.render.image_io import read_exr
 from mcocl.render.job import TILE_PIXELS, default_spp_per_block
-from mcocl.render.scene_file import load_scene
 from mcocl.render.sobol_film import sobol_block_pixels
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 ROOT = Path(__file__).resolve().parent.parent
 
-
-def small_cornell(size: int):
-    """scenes/cornell.json at size x size pixels, compiled."""
-    sc = load_scene(SCENES / "cornell.json")
-    sc.camera.width = sc.camera.height = size
-    return compile_scene(sc)
 
 
 def same_image(a, b) -> None:
@@ -49,18 +43,6 @@ def same_image(a, b) -> None:
     np.testing.assert_array_equal(a.mean, b.mean)
     np.testing.assert_array_equal(a.variance, b.variance)
     np.testing.assert_array_equal(a.count, b.count)
-
-
-def interrupt_after_first_fold():
-    """A progress callback that sends SIGINT to this process at the first fold."""
-    calls = []
-
-    def callback(p) -> None:
-        calls.append(p.blocks_done)
-        if len(calls) == 1:
-            os.kill(os.getpid(), signal.SIGINT)
-
-    return callback
 
 
 def test_block_pixels_cut_big_batches_into_independent_block_sizes() -> None:
