@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import json
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
+from interrupting import ctrl_c_render_cli
 
 from mcocl.render.image_io import read_exr
 
@@ -37,23 +36,8 @@ def test_render_writes_exr_and_png(tmp_path: Path) -> None:
 
 def test_ctrl_c_writes_the_image_so_far_and_exits_130(tmp_path: Path) -> None:
     out = tmp_path / "c.exr"
-    proc = subprocess.Popen([sys.executable, "-m", "mcocl", "render", str(SCENES / "cornell.json"), "--spp", "100000",
-                             "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        # the progress bar's first line appears after the first batch is in the film
-        deadline = time.monotonic() + 240
-        line = ""
-        while time.monotonic() < deadline:
-            line = proc.stderr.readline()
-            if line.startswith("render [") or not line:
-                break
-        assert line.startswith("render ["), f"no progress line; stderr: {line!r}"
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 130, err
+    code, _, err = ctrl_c_render_cli([str(SCENES / "cornell.json"), "--spp", "100000", "--out", str(out)])
+    assert code == 130, err
     img = read_exr(out)
     assert img.mean.shape == (256, 256, 3)
     spp = int(img.samples.max())

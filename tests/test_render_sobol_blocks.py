@@ -16,16 +16,12 @@ from __future__ import annotations
 
 import os
 import re
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 from device_doubles import small_cornell
-from interrupting import interrupt_after_first_fold
+from interrupting import ctrl_c_render_cli, interrupt_after_first_fold
 
 from mcocl.accumulate import Accumulator
 from mcocl.render import api
@@ -113,23 +109,9 @@ def test_ctrl_c_of_a_big_batch_writes_the_image(tmp_path: Path) -> None:
     """1024 spp on the 256 x 256 Cornell box: batches of 2^24 paths, blocks of 2^20; Ctrl-C stops within a batch."""
     out = tmp_path / "s.exr"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.Popen([sys.executable, "-m", "mcocl", "render", str(SCENES / "cornell.json"), "--sampler",
-                             "sobol", "--spp", "1024", "--out", str(out)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=env)
-    try:
-        deadline = time.monotonic() + 240
-        line = ""
-        while time.monotonic() < deadline:  # the progress bar's first line: a block is in the film
-            line = proc.stderr.readline()
-            if line.startswith("render [") or not line:
-                break
-        assert line.startswith("render ["), f"no progress line; stderr: {line!r}"
-        proc.send_signal(signal.SIGINT)
-        summary, err = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 130, err
+    code, summary, err = ctrl_c_render_cli([str(SCENES / "cornell.json"), "--sampler", "sobol", "--spp", "1024",
+                                            "--out", str(out)], env)
+    assert code == 130, err
     assert re.search(r"stopped\s+by interrupt", summary), summary
     img = read_exr(out)
     assert img.mean.shape == (256, 256, 3)
