@@ -159,3 +159,15 @@ def test_ctrl_c_keeps_what_was_computed(tmp_path) -> None:
     # the checkpoint holds exactly what was reported and can be continued
     more = mcocl.integrate(POLY, dim=3, samples=d["samples"] + (1 << 20), seed=4, resume=str(ckpt))
     assert more.samples == d["samples"] + (1 << 20)
+
+
+@pytest.mark.parametrize("total", [1 << 20, 1_000_000])
+def test_resume_asking_fewer_samples_keeps_and_reports_what_the_checkpoint_holds(total: int, tmp_path) -> None:
+    """A checkpoint of ``total`` samples (a partial last block, or none) resumed with a quarter of them:
+    the estimate is the checkpoint's, and so are its counts, with a note."""
+    ckpt = tmp_path / "run.npz"
+    full = mcocl.integrate(POLY, dim=3, samples=total, seed=5, checkpoint=str(ckpt))
+    again = mcocl.integrate(POLY, dim=3, samples=total // 4, seed=5, resume=str(ckpt))
+    assert again.samples == total and again.samples_this_run == 0
+    assert (again.estimate, again.stderr) == (full.estimate, full.stderr)
+    assert any(f"already holds {total} samples" in n for n in again.notes)

@@ -72,6 +72,20 @@ def test_resumed_render_is_identical(tmp_path: Path) -> None:
     np.testing.assert_array_equal(rest.count, whole.count)
 
 
+@pytest.mark.parametrize("sampler", ["independent", "sobol"])
+def test_resume_asking_fewer_spp_keeps_and_reports_what_the_checkpoint_holds(tmp_path: Path, sampler: str) -> None:
+    """A checkpoint of 8 spp resumed with spp=4: the image is the checkpoint's, and so are its counts."""
+    cs = small_cornell(8)
+    ckpt = tmp_path / "run.ckpt"
+    whole = render(cs, spp=8, seed=5, sampler=sampler, checkpoint=ckpt)
+    again = render(cs, spp=4, seed=5, sampler=sampler, resume=ckpt)
+    assert again.spp == 8 and again.spp_this_run == 0
+    assert any("already holds 8 spp" in n for n in again.notes)
+    np.testing.assert_array_equal(again.mean, whole.mean)
+    np.testing.assert_array_equal(again.variance, whole.variance)
+    assert Accumulator.load(ckpt).meta_int("spp_limit", ckpt, 1, 1 << 40) == 8
+
+
 def test_checkpoint_of_another_render_is_refused(tmp_path: Path) -> None:
     cs = small_cornell(8)
     ckpt = tmp_path / "a.ckpt"

@@ -102,3 +102,16 @@ def test_a_time_budget_stops_and_reports_it():
     r = _solve(SEP1, "roulette", walks=10**12, time_budget=0.3)
     assert r.stopped_by == "time"
     assert 0 < r.walks < 10**12 and np.all(np.isfinite(r.values))
+
+
+def test_resume_asking_fewer_walks_keeps_and_reports_what_the_checkpoint_holds(tmp_path) -> None:
+    """A checkpoint of 8 blocks of walks resumed with 2 blocks' worth: the estimate and its counts are the
+    checkpoint's (before, it reported 2 blocks of walks over all 8 blocks' sums)."""
+    ck = tmp_path / "w.npz"
+    full = _solve(SEP1, "nee", walks=8 * WPB, checkpoint=str(ck))
+    again = _solve(SEP1, "nee", walks=2 * WPB, resume=str(ck))
+    assert again.walks == full.walks == 8 * WPB and again.walks_this_run == 0
+    np.testing.assert_array_equal(again.values, full.values)
+    np.testing.assert_array_equal(again.stderr, full.stderr)
+    assert again.mean_walk_length == full.mean_walk_length
+    assert any("already holds" in n for n in again.notes)

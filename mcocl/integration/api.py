@@ -399,7 +399,7 @@ def integrate(
             design = dataclasses.replace(design, scrambling=scramble_index)
         shift = None
     spec = spec_of(design)
-    if (acc is not None and acc.meta.get("partial_tail")
+    if (acc is not None and acc.meta.get("partial_tail") and not _holds_more(spec, design, acc, samples)
             and acc.meta_int("unit_limit", opts.resume, 1, UNBOUNDED_UNITS) != spec.granules(design, samples)[1]):
         raise InputError(
             f"checkpoint {opts.resume} ends in a partial block of {spec.units_per_block} units; "
@@ -473,6 +473,14 @@ def _sample(code: EstimatorCode, req: _Request, opts: RunOptions, meta: dict[str
     ``samples``, ``time_budget`` seconds, the target error or an interrupt stops it."""
     spec = spec_of(design)
     max_blocks, unit_limit = spec.granules(design, samples)
+    held_notes = []
+    if acc is not None and _holds_more(spec, design, acc, samples):
+        # A resumed checkpoint already holds more than samples asks for: its samples stay in the estimate
+        # (nothing computed is thrown away), so the counts are its own, and nothing is added.
+        unit_limit = int(acc.meta["unit_limit"])
+        max_blocks = acc.blocks_done
+        held_notes.append(f"the checkpoint already holds {spec.samples_used(design, acc.blocks_done, unit_limit)} "
+                          f"samples, more than the {samples} asked for: nothing was added")
     ctx = runtime.device_context(opts.device)
     if design.double:
         require_fp64(ctx.device)
@@ -498,7 +506,16 @@ def _sample(code: EstimatorCode, req: _Request, opts: RunOptions, meta: dict[str
         bar.close()
     acc.meta["partial_tail"] = bool(spec.partial_tail(design, acc.blocks_done, unit_limit))
     return Sampling(design, acc, shift, runner, report, unit_limit, blocks_before, ctx.name,
-                    report.seconds, runner.build_seconds)
+                    report.seconds, runner.build_seconds, held_notes)
+
+
+def _holds_more(spec: Any, design: Design, acc: Accumulator, samples: int | None) -> bool:
+    """Whether a resumed checkpoint's blocks hold more samples than ``samples`` allows."""
+    saved = acc.meta.get("unit_limit")
+    if samples is None or isinstance(saved, bool) or not isinstance(saved, int) or not 1 <= saved <= UNBOUNDED_UNITS:
+        return False
+    asked = spec.granules(design, samples)[1]
+    return spec.samples_used(design, acc.blocks_done, saved) > spec.samples_used(design, acc.blocks_done, asked)
 
 
 def _report_overflowed_sums(totals: np.ndarray, result: IntegrationResult) -> None:

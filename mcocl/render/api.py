@@ -374,7 +374,17 @@ def render(
                     pixel_filter=pixel_filter, near_clip=near_clip, far_clip=far_clip, block_pixels=block_pixels,
                     **bdpt)
     ranges = job.film_ranges
-    if acc is not None and -(-acc.blocks_done // ranges) * spp_per_block > saved_limit and saved_limit != spp_limit:
+    held_note = ""
+    if acc is not None and spp_limit < saved_limit:
+        job.spp_limit = saved_limit
+        held = job.spp_done(acc.blocks_done)
+        if held > spp_limit:
+            # The checkpoint already holds more than spp asks for: its samples stay in the image (nothing
+            # computed is thrown away), so the counts are its own, not spp's.
+            held_note = f"the checkpoint already holds {held} spp, more than the {spp} asked for: nothing was added"
+        else:
+            job.spp_limit = spp_limit
+    if acc is not None and -(-acc.blocks_done // ranges) * spp_per_block > saved_limit and saved_limit != job.spp_limit:
         raise InputError(
             f"checkpoint {resume} ends in a partial block ({saved_limit} spp, blocks of {spp_per_block}); "
             f"resume it with spp={saved_limit}, or start renders with a multiple of {spp_per_block} spp")
@@ -384,7 +394,7 @@ def render(
         # the key only for cut films: a whole-film checkpoint stays what it was before the cut existed
         acc = Accumulator(job.stat_shape, {**meta, "spp_per_block": spp_per_block,
                                            **({"block_pixels": block_pixels} if block_pixels else {})})
-    acc.meta["spp_limit"] = spp_limit
+    acc.meta["spp_limit"] = job.spp_limit
     spp_before = job.spp_done(acc.blocks_done)
 
     def error_of(mean: np.ndarray, variance: np.ndarray, count: np.ndarray) -> float:
@@ -411,6 +421,8 @@ def render(
             bar.update(p)
 
     max_blocks = -(-spp // spp_per_block) * ranges if spp is not None else None
+    if held_note:  # nothing to add
+        max_blocks = acc.blocks_done
     halting = opts.halting(max_blocks, target if opts.target_error is not None else None)
     report = execute(job, acc, halting, opts.placement, progress=callback, runner=runner, ctx=ctx)
     if bar is not None:
@@ -419,7 +431,7 @@ def render(
     img = film_image(acc.totals)
     nonfinite = img.nonfinite
     spp_done = job.spp_done(acc.blocks_done)
-    notes = list(getattr(report, "notes", []) or [])
+    notes = list(getattr(report, "notes", []) or []) + ([held_note] if held_note else [])
     if sampler == "sobol":
         whole, part = divmod(acc.blocks_done, ranges)
         notes.append(f"sobol: variance from {whole} independent Owen scramblings (batches) of "

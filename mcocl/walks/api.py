@@ -281,6 +281,7 @@ def solve_fredholm(
     notes: list[str] = []
     ctx = runtime.device_context(opts.device)
     limit = walks if walks is not None else (1 << 62)
+    holds_more = False  # a resumed checkpoint holds more walks than asked for
     job = WalkJob(code, req.at, req.seed, limit, survival=req.survival, depth=req.depth,
                   max_len=req.max_walk_length, lanes=opts.lanes, walks_per_block=walks_per_block, sampler=sampler)
     runner = job.runner(ctx)
@@ -299,7 +300,16 @@ def solve_fredholm(
         if acc.meta.get("walks_per_block") != job.walks_per_block:
             raise InputError(f"checkpoint {resume} has blocks of {acc.meta.get('walks_per_block')} walks, this "
                              f"version uses {job.walks_per_block}; it cannot be resumed here")
-        if acc.meta.get("partial_tail") and acc.meta.get("walk_limit") != limit:
+        saved = acc.meta.get("walk_limit")
+        if (isinstance(saved, int) and not isinstance(saved, bool) and limit < saved <= (1 << 62)
+                and min(acc.blocks_done * job.walks_per_block, saved) > limit):
+            # The checkpoint already holds more walks than asked for: they stay in the estimate (nothing
+            # computed is thrown away), so the counts are its own, and nothing is added.
+            notes.append(f"the checkpoint already holds {min(acc.blocks_done * job.walks_per_block, saved)} walks "
+                         f"per point, more than the {walks} asked for: nothing was added")
+            limit = job.walk_limit = saved
+            holds_more = True
+        elif acc.meta.get("partial_tail") and acc.meta.get("walk_limit") != limit:
             raise InputError(f"checkpoint {resume} ends in a partial block of {job.walks_per_block} walks; "
                              f"resume it with the same walks ({acc.meta.get('walk_limit')}) or start runs with a "
                              "multiple of the block size")
@@ -337,6 +347,8 @@ def solve_fredholm(
     callback, bar = opts.progress_reporter(f"solve [{req.estimator}]", "walks", job.walks_per_block * job.nq)
     acc.meta["walk_limit"] = limit
     max_blocks = job.max_blocks if walks is not None else None
+    if holds_more:
+        max_blocks = acc.blocks_done
     blocks_before = acc.blocks_done  # a resumed checkpoint's blocks: not this run's throughput
     report = execute(job, acc, opts.halting(max_blocks, target), opts.placement, progress=callback, runner=runner,
                      ctx=ctx)
