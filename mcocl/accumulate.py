@@ -24,6 +24,7 @@ import os
 import tokenize
 import zipfile
 import zlib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +36,46 @@ from .output_files import write_atomically
 
 # 2: a SHA-256 digest of the contents is saved with them (version 1 files are refused: unverifiable).
 FORMAT_VERSION = 2
+
+
+@dataclass
+class RowRanges:
+    """Statistics of consecutive blocks, each zero outside one range of rows of its block.
+
+    A block's statistics of shape ``shape`` are seen as rows (the product of the
+    leading axes, e.g. the pixels of an ``(H, W, STATS)`` film) of
+    ``shape[-1]`` numbers; block ``i`` holds ``values[i, :counts[i]]`` at rows
+    ``starts[i] ..`` and zeros elsewhere (a sobol render's block of one pixel
+    range: mcocl/render/job.py).  :meth:`Accumulator.add` folds only those rows:
+    the same bits as folding the whole zero-padded block (x + 0.0 is x for the
+    finite, non-negative sums a film holds), at the cost of the range rather
+    than of the whole film, which made a film cut into T ranges cost T times
+    its size per batch on the host.
+
+    Attributes:
+        values: ``(nblocks, rows, shape[-1])`` the blocks' rows (``rows`` at least every count).
+        starts, counts: per block, the first row and the number of rows it holds.
+        shape: one block's full shape.
+    """
+
+    values: np.ndarray
+    starts: tuple[int, ...]
+    counts: tuple[int, ...]
+    shape: tuple[int, ...]
+
+    def __len__(self) -> int:
+        return len(self.starts)
+
+    def dense(self) -> np.ndarray:
+        """The blocks as one ``(nblocks, *shape)`` array, zeros outside their ranges."""
+        out = np.zeros((len(self), int(np.prod(self.shape[:-1])), self.shape[-1]), self.values.dtype)
+        for i, (s, n) in enumerate(zip(self.starts, self.counts)):
+            out[i, s:s + n] = self.values[i, :n]
+        return out.reshape((len(self), *self.shape))
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        d = self.dense()
+        return d if dtype is None else d.astype(dtype)
 
 
 class Accumulator:
@@ -64,9 +105,15 @@ class Accumulator:
         Raises:
             ValueError: the shape is wrong or the blocks were already added.
         """
-        p = np.asarray(partials, dtype=np.float64)
-        if p.shape[1:] != self.shape:
-            raise ValueError(f"block statistics of shape {p.shape[1:]}, expected {self.shape}")
+        p: np.ndarray | RowRanges
+        if isinstance(partials, RowRanges):
+            p = partials
+            if tuple(p.shape) != self.shape:
+                raise ValueError(f"block statistics of shape {tuple(p.shape)}, expected {self.shape}")
+        else:
+            p = np.asarray(partials, dtype=np.float64)
+            if p.shape[1:] != self.shape:
+                raise ValueError(f"block statistics of shape {p.shape[1:]}, expected {self.shape}")
         if len(p) == 0:
             return
         if first_block < self.blocks_done or first_block in self.pending:
@@ -77,7 +124,17 @@ class Accumulator:
             self._fold(chunk)
             self.blocks_done += len(chunk)
 
-    def _fold(self, p: np.ndarray) -> None:
+    def _fold(self, p: np.ndarray | RowRanges) -> None:
+        if isinstance(p, RowRanges):
+            # The blocks' rows in block order (the same bits as their dense form), in place: a fresh copy
+            # of the whole film per chunk would cost what the sparse fold saves.  The folds run in the
+            # caller's thread between reads of the totals, so no reader sees a half-added block.
+            if not (self.totals.flags.c_contiguous and self.totals.dtype == np.float64):
+                self.totals = np.ascontiguousarray(self.totals, dtype=np.float64)
+            rows = self.totals.reshape(-1, self.shape[-1])  # a view: the adds land in the totals
+            for i, (s, n) in enumerate(zip(p.starts, p.counts)):
+                np.add(rows[s:s + n], p.values[i, :n], out=rows[s:s + n], dtype=np.float64)
+            return
         # totals + p[0] + p[1] + ... is evaluated left to right whatever the
         # chunking: the bit-identity guarantee rests on this order.  One
         # whole-array add per block (into a fresh array, so no caller's view of

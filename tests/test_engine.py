@@ -14,7 +14,7 @@ import time
 import numpy as np
 import pytest
 
-from mcocl.accumulate import Accumulator
+from mcocl.accumulate import Accumulator, RowRanges
 from mcocl.engine.chunking import MAX_CHUNK_BYTES, ChunkPolicy, ChunkQueue, Sizer, chunk_block_limit
 from mcocl.engine.contract import Halting, InterruptFlag, Progress
 from mcocl.engine.fold import FinishedChunk, fold_chunks
@@ -140,6 +140,32 @@ def test_the_fold_loop_folds_out_of_order_chunks_in_block_order(tmp_path):
         expected = expected + _blocks(b, 1)[0]
     assert np.array_equal(acc.totals, expected)
     assert Accumulator.load(ckpt).blocks_done == 8
+
+
+def test_a_sparse_fold_gives_the_bits_of_the_dense_one():
+    """Blocks that are zero outside one range of rows (sobol's pixel-range blocks) fold into the same bits
+    whether given densely or as RowRanges, in chunks or one by one, out of order or not; a wrong shape is refused."""
+    rng = np.random.default_rng(3)
+    shape, ranges = (6, 5, 3), [(0, 12), (12, 12), (24, 6)]
+    blocks = []
+    for b in range(9):
+        s, n = ranges[b % 3]
+        blocks.append((s, n, rng.random((12, 3)) * 10.0 ** rng.integers(-8, 8)))
+    dense = np.zeros((9, 30, 3))
+    for b, (s, n, v) in enumerate(blocks):
+        dense[b, s:s + n] = v[:n]
+    one = Accumulator(shape)
+    one.add(0, dense.reshape(9, *shape))
+    sparse = Accumulator(shape)
+    values = np.stack([v for _, _, v in blocks])
+    starts, counts = tuple(s for s, _, _ in blocks), tuple(n for _, n, _ in blocks)
+    sparse.add(4, RowRanges(values[4:], starts[4:], counts[4:], shape))  # waits for blocks 0..3
+    sparse.add(0, RowRanges(values[:4], starts[:4], counts[:4], shape))
+    assert sparse.blocks_done == 9
+    assert np.array_equal(one.totals.view(np.uint64), sparse.totals.view(np.uint64))
+    assert np.array_equal(np.asarray(RowRanges(values, starts, counts, shape)), dense.reshape(9, *shape))
+    with pytest.raises(ValueError, match="shape"):
+        Accumulator((6, 5, 4)).add(0, RowRanges(values, starts, counts, shape))
 
 
 def test_the_fold_loop_stops_on_the_target_but_folds_what_is_in_flight():

@@ -29,7 +29,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..accumulate import Accumulator
+from ..accumulate import Accumulator, RowRanges
 from ..runtime import DeviceContext
 
 
@@ -39,8 +39,9 @@ class BlockRunner(Protocol):
     def enqueue(self, first_block: int, nblocks: int) -> Any:
         """Start computing blocks ``first_block .. first_block + nblocks - 1``; return a handle."""
 
-    def collect(self, handle: Any) -> np.ndarray:
-        """Wait for an enqueued chunk; return its ``(nblocks, *stat_shape)`` statistics."""
+    def collect(self, handle: Any) -> np.ndarray | RowRanges:
+        """Wait for an enqueued chunk; return its ``(nblocks, *stat_shape)`` statistics (dense, or sparse as
+        :class:`~mcocl.accumulate.RowRanges`)."""
 
 
 class BlockJob(Protocol):

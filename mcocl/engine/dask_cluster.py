@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from ..accumulate import Accumulator
+from ..accumulate import Accumulator, RowRanges
 from ..errors import DeviceError, InputError, MCOCLError
 from ..runtime import device_context
 from .chunking import ChunkPolicy, ChunkQueue, Sizer
@@ -86,7 +86,7 @@ class ChunkResult:
 
     first: int
     nblocks: int
-    stats: np.ndarray | None
+    stats: np.ndarray | RowRanges | None
     seconds: float
     worker: str
     device: str
@@ -158,7 +158,8 @@ def compute_chunk(payload: bytes, fingerprint: str, device: Any, first: int, nbl
             seconds = time.perf_counter() - t0
             build = 0.0 if built.reported else built.build_seconds
             built.reported = True
-        return ChunkResult(first, nblocks, np.asarray(stats), seconds, worker, built.name, build)
+        stats = stats if isinstance(stats, RowRanges) else np.asarray(stats)  # a sparse film stays sparse
+        return ChunkResult(first, nblocks, stats, seconds, worker, built.name, build)
     except Exception as e:
         text = str(e).strip().splitlines()
         msg = f"{type(e).__name__}: {text[0][:300] if text else ''}"

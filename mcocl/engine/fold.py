@@ -31,7 +31,7 @@ from typing import Protocol
 import numpy as np
 
 from .. import heartbeat
-from ..accumulate import Accumulator
+from ..accumulate import Accumulator, RowRanges
 from .contract import Halting, InterruptFlag, Progress
 
 
@@ -40,7 +40,7 @@ class FinishedChunk:
     """The statistics of blocks ``first .. first + len(stats) - 1``, ready to fold."""
 
     first: int
-    stats: np.ndarray
+    stats: np.ndarray | RowRanges
 
 
 class ChunkStream(Protocol):

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ..accumulate import Accumulator
+from ..accumulate import Accumulator, RowRanges
 from ..errors import DeviceError, MCOCLError
 from ..runtime import DeviceContext
 from .chunking import ChunkPolicy, ChunkQueue, Sizer
@@ -55,7 +55,7 @@ IN_FLIGHT = 2  # chunks enqueued per device at once: one computing, one waiting 
 class _Done:
     device: int
     first: int
-    stats: np.ndarray
+    stats: np.ndarray | RowRanges
 
 
 @dataclass

@@ -40,6 +40,7 @@ import numpy as np
 import pyopencl as cl
 
 from .. import runtime
+from ..accumulate import RowRanges
 from ..bsdf_registry import BSDFS
 from ..layouts import MATERIAL_RECORD, Integrator, LightSampler
 from .device_scene import (
@@ -269,23 +270,24 @@ class RenderRunner:
         ev = cl.enqueue_copy(self.ctx.queue, out, buf, is_blocking=False)
         return ev, out, first_block
 
-    def collect(self, handle: tuple[cl.Event, np.ndarray, int]) -> np.ndarray:
-        """Wait for a launch; its (nblocks, H, W, STATS) statistics (one batch per block with ``sobol``)."""
+    def collect(self, handle: tuple[cl.Event, np.ndarray, int]) -> np.ndarray | RowRanges:
+        """Wait for a launch; its (nblocks, H, W, STATS) statistics (one batch per block with ``sobol``),
+        as :class:`~mcocl.accumulate.RowRanges` when blocks are pixel ranges."""
         ev, out, first = handle
         ev.wait()
         job = self.job
         if job.film_ranges == 1:
             out = out.reshape((len(out), *job.stat_shape))
             return block_batches(out) if job.sampler == "sobol" else out
-        # a block of range t: its batch statistics there, zeros on the rest of the film (adding them to
-        # the totals changes no bit, so the fold is the whole batch's: mcocl/render/sobol_film.py)
-        full = np.zeros((len(out), job.width * job.height, STATS), out.dtype)
+        # a block of range t: its batch statistics there, zeros on the rest of the film, which the fold
+        # skips (adding zeros changes no bit, so the fold is the whole batch's: mcocl/render/sobol_film.py)
         npix = job.width * job.height
-        for i, block in enumerate(range(first, first + len(out))):
-            p0 = block % job.film_ranges * job.range_pixels
-            n = min(job.range_pixels, npix - p0)
-            full[i, p0:p0 + n] = block_batches(out[i, :n])
-        return full.reshape((len(out), *job.stat_shape))
+        starts = tuple(block % job.film_ranges * job.range_pixels for block in range(first, first + len(out)))
+        counts = tuple(min(job.range_pixels, npix - p0) for p0 in starts)
+        rows = np.zeros_like(out)
+        for i, n in enumerate(counts):  # only the rows a range holds (the last range of a film may be short)
+            rows[i, :n] = block_batches(out[i, :n])
+        return RowRanges(rows, starts, counts, tuple(job.stat_shape))
 
 
 __all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "MIS_BETAS", "SPLAT_INTEGRATORS",

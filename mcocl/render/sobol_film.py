@@ -45,6 +45,9 @@ points as one whole-film block would), and :func:`block_batches` gives it Y_b,
 Y_b^2 and count 1 on its pixels, zeros elsewhere.  The ranges are disjoint and
 adding a zero changes no bit, so the block-order fold of a batch's T blocks is
 exactly the whole batch's statistics: the image is bit-identical whatever T.
+The zeros are never made: a block reaches the fold as its range's rows
+(:class:`mcocl.accumulate.RowRanges`), since a whole-film array per block made
+the host's fold cost T times the film per batch (quadratic in the pixels).
 A run that stops inside a batch (Ctrl-C) leaves the pixels of
 its missing ranges one batch short: ``count`` is per pixel, so their mean and
 variance come from their own batches (a pixel of one batch has the variance
