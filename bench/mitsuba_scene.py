@@ -119,6 +119,8 @@ def mitsuba_dict(scene_file: str | Path, mesh_dir: str | Path, spp: int, sampler
             m = m @ local
         elif kind in ("rectangle", "cube"):
             shape = {"type": kind}
+        elif kind == "mesh" and "ply" in s:  # a PLY keeps its own vertex normals, as mcocl shades with them
+            shape = {"type": "ply", "filename": str((scene_file.parent / s["ply"]).resolve())}
         elif kind == "mesh":
             if "obj" in s:
                 obj = (scene_file.parent / s["obj"]).resolve()
