@@ -12,7 +12,8 @@ The emission seen right after the ball (paths camera, glass, lamp of 2 segments,
   path of that render has 2 segments) per pixel on the ball, where a wrong branch weight would be off by
   the Fresnel factor, also with the camera walk's roulette acting at the glass;
 - the glint's reported variance is a small fraction of what the same render has through a thin lens of
-  negligible aperture (which the split leaves out: its camera subpaths do not start at a pinhole).
+  negligible aperture (which the split leaves out: its camera subpaths do not start at a pinhole);
+- the image is bit-identical on two sub-devices.
 """
 
 from __future__ import annotations
@@ -124,3 +125,12 @@ def test_split_cuts_the_glints_variance() -> None:
     g = glint_pixels(unsplit.variance)
     ratio = split.variance[g].sum() / unsplit.variance[g].sum()
     assert ratio < 0.1, ratio
+
+
+def test_split_is_the_same_on_two_sub_devices() -> None:
+    """The extra ray draws no random numbers: the glint scene's image is bit-identical on two sub-devices."""
+    cs = glint_scene(environment=True)
+    one = render(cs, spp=8, seed=4, integrator="bdpt", spp_per_block=2)
+    two = render(cs, spp=8, seed=4, integrator="bdpt", spp_per_block=2, split=2)
+    np.testing.assert_array_equal(one.mean, two.mean)
+    np.testing.assert_array_equal(one.variance, two.variance)
