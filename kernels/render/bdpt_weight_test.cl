@@ -137,7 +137,7 @@ kernel void bdpt_weight_check(
         floatv pdf_cam = camera_importance(camera, &sc.cam_set, co, cd, width, height).pdf_solid_angle;
         intv nc = lane_select((intv)(0), (intv)(1), active);
         bdpt_walk(&sc, &cs, cam, cam_b, &nc, active, nc_cap, camera_clip_origin(camera, sc.cam_set, co, cd), cd, v3s(1.0f),
-                  pdf_cam, TRANSPORT_RADIANCE, params.rr_depth, (floatv)(1.0f));
+                  pdf_cam, TRANSPORT_RADIANCE, params.rr_depth, (floatv)(1.0f), 0);
         mc_sampler_t ls = sampler_start(params.seed, index, RNG_STREAM_LIGHT_TRACE);
         floatv ue[8];
         sampler_seek(&ls, (uintv)(LT_DIM_EMIT));
@@ -152,7 +152,7 @@ kernel void bdpt_weight_check(
             vec3v b1 = v3_scale(er.radiance, er.cos_theta / (er.pdf_area * er.pdf_solid_angle));
             nl = lane_select(nl, (intv)(1), area);
             bdpt_walk(&sc, &ls, light, light_b, &nl, area & (v3_maxc(b1) > 0.0f), nl_cap, offset_origin(er.pos, er.n, er.d),
-                      er.d, b1, er.pdf_solid_angle, TRANSPORT_IMPORTANCE, params.rr_depth, v3_maxc(b1));
+                      er.d, b1, er.pdf_solid_angle, TRANSPORT_IMPORTANCE, params.rr_depth, v3_maxc(b1), 0);
         }
         floatv checked = (floatv)(0.0f), bad = (floatv)(0.0f), with_delta = (floatv)(0.0f);
         for (int t = 1; lane_any(nc >= t); ++t) {
