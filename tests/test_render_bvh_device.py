@@ -192,12 +192,12 @@ def test_adopt_bvh_frees_the_builders_nodes_and_makes_the_same_table(monkeypatch
 
 
 def test_merge_tree_node_ids_are_int32_where_they_fit():
-    """cluster's merge tree holds its node ids in int32 below 2^31 nodes (8 bytes a primitive less), int64 above."""
+    """cluster's merge tree holds its node ids in int32 below 2^31 nodes (12 bytes a primitive less), int64 above."""
     from mcocl.render import bvh_ploc
 
     rng = np.random.default_rng(3)
     lo = rng.random((500, 3), dtype=np.float32)
     tree, _ = bvh_ploc.cluster(lo, lo + 0.01)
-    assert tree.left.dtype == tree.right.dtype == np.int32
+    assert tree.order.dtype == tree.left.dtype == tree.right.dtype == np.int32
     assert sorted(np.concatenate([tree.left, tree.right])) == list(range(2 * 500 - 2))  # every node but the root once
     assert bvh_ploc._node_type(2**30) is np.int32 and bvh_ploc._node_type(2**30 + 1) is np.int64
