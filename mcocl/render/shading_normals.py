@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..host_memory import release_free_heap
 from . import transform as tf
 from .shape_registry import SHAPES
 
@@ -114,7 +115,9 @@ def vertex_normal_table(shapes: list, world_triangles: np.ndarray) -> np.ndarray
         count = len(sh.faces)
         if sh.normals is not None:
             reverse = tf.is_orientation_reversing(sh.matrix) != sh.flip_normals
+            release_free_heap()  # what compiling freed before, not kept resident beside the normals (host_memory.py)
             world = _world_normals(sh)
+            release_free_heap()  # and its chunks' float64 temporaries
             table[row:row + len(world), :3] = world  # float64 to float32, once per vertex
             # a chunk of triangles at a time: the float64 corners and faces of a big mesh are never all
             # held (each triangle's numbers are the same whatever the chunk)
