@@ -154,3 +154,50 @@ def test_every_triangle_has_its_record_at_its_row(in_tree):
     tree = device_nodes(b.nodes, b.prims, tv, spheres)
     assert np.array_equal(table[:len(tree)].view(np.uint32), tree.view(np.uint32))
     assert len(table) == len(tree) + 3 * (nt - len(kept))
+
+
+@pytest.mark.parametrize("in_tree", ["all", "none"])
+def test_adopt_bvh_frees_the_builders_nodes_and_makes_the_same_table(monkeypatch, in_tree):
+    """adopt_bvh: the table and rows of device_bvh, the BVH's nodes replaced by the table's first rows, and the
+    builder's own nodes array freed before the leaf records are written (no reference to it is left)."""
+    import weakref
+
+    from mcocl.render import bvh_leaves
+    from mcocl.render.bvh_leaves import adopt_bvh, device_bvh
+
+    rng = np.random.default_rng(7)
+    nt = 300
+    tv = rng.normal(size=(nt, 3, 3)).astype(np.float32)
+    ids = np.arange(nt if in_tree == "all" else 0, dtype=np.uint32)
+    b = build_bvh(tv[ids].min(1), tv[ids].max(1), ids)
+    spheres = np.zeros((0, 4), np.float32)
+    want = device_bvh(b.nodes.copy(), b.prims, tv, spheres)
+    builders = weakref.ref(b.nodes)
+    alive_at_fill = []
+    fill = bvh_leaves._fill_leaf_records
+
+    def watched_fill(*args):
+        alive_at_fill.append(builders() is not None)
+        fill(*args)
+
+    monkeypatch.setattr(bvh_leaves, "_fill_leaf_records", watched_fill)
+    got = adopt_bvh(b, tv, spheres)
+    assert np.array_equal(got.table.view(np.uint32), want.table.view(np.uint32))
+    assert np.array_equal(got.tri_rows, want.tri_rows)
+    assert b.nodes is got.nodes and np.array_equal(got.nodes.view(np.uint32), want.nodes.view(np.uint32))
+    if in_tree == "all":  # the tree is the table's first rows: the builder's array is gone
+        assert got.nodes.base is got.table and builders() is None and alive_at_fill == [False]
+    else:  # an empty BVH keeps its own nodes (the header alone)
+        assert builders() is got.nodes
+
+
+def test_merge_tree_node_ids_are_int32_where_they_fit():
+    """cluster's merge tree holds its node ids in int32 below 2^31 nodes (12 bytes a primitive less), int64 above."""
+    from mcocl.render import bvh_ploc
+
+    rng = np.random.default_rng(3)
+    lo = rng.random((500, 3), dtype=np.float32)
+    tree, _ = bvh_ploc.cluster(lo, lo + 0.01)
+    assert tree.order.dtype == tree.left.dtype == tree.right.dtype == np.int32
+    assert sorted(np.concatenate([tree.left, tree.right])) == list(range(2 * 500 - 2))  # every node but the root once
+    assert bvh_ploc._node_type(2**30) is np.int32 and bvh_ploc._node_type(2**30 + 1) is np.int64

@@ -186,3 +186,41 @@ def test_facing_dot_is_einsum_of_cross_bit_for_bit() -> None:
     t = tri.astype(np.float64)
     want = np.einsum("ij,ij->i", corner.sum(axis=1), np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]))
     np.testing.assert_array_equal(facing_dot(corner, tri).view(np.uint64), want.view(np.uint64))
+
+
+@pytest.mark.parametrize("vertices", [1, 2, 700])
+@pytest.mark.parametrize("flip", [False, True])
+@pytest.mark.parametrize("recomputed", [False, True])
+def test_corner_normals_recomputed_per_chunk_are_the_vertex_normals_bit_for_bit(monkeypatch, vertices, flip,
+                                                                                recomputed) -> None:
+    """vertex_normal_table turns each triangle to its front from its corners' float64 world normals, for a big
+    mesh computed again chunk by chunk (no float64 table of every vertex): the same corners and table, bit for
+    bit, as from the world normals of the vertices taken at the corners, with chunks of a few triangles, under
+    a skewing, mirroring transform; a mesh of one vertex (a single row's product rounds apart) included."""
+    from types import SimpleNamespace
+
+    from mcocl.render import shading_normals as sn
+
+    rng = np.random.default_rng(vertices)
+    m = np.eye(4)
+    m[:3, :3] = rng.normal(size=(3, 3))
+    m[:3, :3] *= np.sign(np.linalg.det(m[:3, :3]))  # orientation-preserving, then made mirroring by flip
+    if flip:
+        m[0] *= -1.0
+    faces = rng.integers(0, vertices, size=(257, 3)).astype(np.int32)
+    sh = SimpleNamespace(kind="mesh", normals=rng.normal(size=(vertices, 3)).astype(np.float32), faces=faces,
+                         matrix=m, flip_normals=False)
+    tris = rng.normal(size=(len(faces), 3, 3)).astype(np.float32)
+    monkeypatch.setattr(sn, "_CHUNK", 10)
+    if recomputed:  # every mesh counts as big
+        monkeypatch.setattr(sn, "_WORLD_TABLE_BYTES", 0)
+    seen = []  # the corners' normals each chunk's facing test gets
+    monkeypatch.setattr(sn, "facing_dot", lambda corner, t: seen.append(corner.copy()) or facing_dot(corner, t))
+    table = sn.vertex_normal_table([sh], tris)
+    world = sn._world_normals(sh)
+    ordered = faces[:, [0, 2, 1]] if flip else faces
+    assert np.array_equal(np.concatenate(seen).view(np.uint64), np.take(world, ordered, axis=0).view(np.uint64))
+    behind = facing_dot(np.take(world, ordered, axis=0), tris) < 0.0
+    want = np.where(behind, np.float32(-1.0), np.float32(1.0))
+    assert np.array_equal(table[:len(faces), 3], want) and behind.any() and not behind.all()
+    assert np.array_equal(table[len(faces):, :3], world.astype(np.float32))

@@ -390,6 +390,9 @@ def render(
             f"resume it with spp={saved_limit}, or start renders with a multiple of {spp_per_block} spp")
     ctx = runtime.device_context(opts.device)
     runner = job.runner(ctx)
+    # what the kernel build freed (its compiler's working memory, about 12 MB) would stay resident under the
+    # render's film buffers (bench/scene_memory.py's image stage; mcocl/host_memory.py)
+    release_free_heap()
     if acc is None:
         # the key only for cut films: a whole-film checkpoint stays what it was before the cut existed
         acc = Accumulator(job.stat_shape, {**meta, "spp_per_block": spp_per_block,

@@ -31,6 +31,7 @@ import numpy as np
 from ..errors import InputError
 from ..host_memory import release_free_heap
 from ..layouts import BVH_HEADER, LEAF_PRIM
+from .bvh import BVH
 from .bvh_wide import plan_wide_nodes, write_wide_nodes
 
 LEAF_ROWS = LEAF_PRIM.itemsize // 16  # float4 rows per record
@@ -89,7 +90,17 @@ def device_nodes(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray,
     is written in place into the one table (for 10^6 triangles it is about
     110 MB: no concatenated copy).
     """
-    nodes = np.asarray(nodes, np.float32)
+    return _device_table([nodes], prims, tri_vertices, spheres, extra)
+
+
+def _device_table(held: list[np.ndarray], prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray,
+                  extra: np.ndarray | None) -> np.ndarray:
+    """:func:`device_nodes` of the binary nodes ``held[0]``, which it takes out of ``held`` once they are copied
+    into the table (the wide nodes are then written from the table's copy): where ``held`` had the only
+    reference, the builder's nodes are freed before the leaf records and the wide nodes are written (for 10^6
+    triangles 33 MB less at the peak of :func:`~mcocl.render.compiled.compile_scene`).  An empty BVH's nodes
+    stay in ``held``."""
+    nodes = np.asarray(held[0], np.float32)
     extra = np.zeros(0, np.int64) if extra is None else np.asarray(extra, np.int64)
     if len(prims) == 0 or len(nodes) == 0:  # no BVH: leaf_row stays 0, the extra records follow the nodes
         return np.concatenate([nodes, leaf_records(extra, tri_vertices, spheres)]) if len(extra) else nodes
@@ -101,6 +112,10 @@ def device_nodes(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray,
     wide_end = leaf_row + LEAF_ROWS * p + (plan.rows if plan is not None else 0)
     out = np.empty((wide_end + LEAF_ROWS * e, 4), np.float32)
     out[:leaf_row] = nodes
+    if plan is not None:  # the plan's boxes from the table's rows (the same bytes), not the builder's
+        plan.box = out[1:leaf_row].reshape(plan.box.shape)
+    held.clear()
+    del nodes
     _fill_leaf_records(out[leaf_row:leaf_row + LEAF_ROWS * p].reshape(p, 4 * LEAF_ROWS), prims, tri_vertices, spheres)
     if plan is not None:
         write_wide_nodes(plan, out[leaf_row + LEAF_ROWS * p:wide_end])
@@ -117,6 +132,12 @@ def device_geometry(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarr
     """The ``bvh_nodes`` table (:func:`device_nodes`, with a record for every triangle no leaf holds)
     and ``tri_rows``: uint32 (T,), the row of triangle t's record counted from the header's ``leaf_row``
     (the kernels' ``g->leaves + tri_rows[t]``)."""
+    return _device_geometry([nodes], prims, tri_vertices, spheres)
+
+
+def _device_geometry(held: list[np.ndarray], prims: np.ndarray, tri_vertices: np.ndarray,
+                     spheres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`device_geometry` of the nodes ``held[0]``, taken out of ``held`` as :func:`_device_table` does."""
     prims = np.asarray(prims)  # (uint32 ids as they are: an int64 copy would be 8 MB per 10^6 more)
     nt = len(tri_vertices)
     rows = np.zeros(nt, np.uint32)
@@ -127,7 +148,7 @@ def device_geometry(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarr
     del slots
     extra = np.flatnonzero(~placed)
     del placed
-    table = device_nodes(nodes, prims, tri_vertices, spheres, extra)
+    table = _device_table(held, prims, tri_vertices, spheres, extra)
     leaf_row = int(table[:1].view(BVH_HEADER.dtype())[0, 0]["leaf_row"]) if len(table) else 0
     if len(table) - leaf_row >= 2**32:
         raise InputError(f"the scene's {nt} triangles need more device table rows than the kernels' 32-bit row numbers")
@@ -177,14 +198,32 @@ def _source_digest(*arrays: np.ndarray) -> str:
 def device_bvh(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray) -> DeviceBVH:
     """:func:`device_geometry` of a builder's tree, keeping the tree only as a view of the table.
 
-    The caller drops its own ``nodes`` for the result's: the builder's copy is then freed.
+    The caller drops its own ``nodes`` for the result's: the builder's copy is then freed
+    (:func:`adopt_bvh` frees it earlier, while the table is written).
     """
-    table, rows = device_geometry(nodes, prims, tri_vertices, spheres)
-    nodes = np.asarray(nodes, np.float32)
+    return _device_bvh([nodes], prims, tri_vertices, spheres)
+
+
+def adopt_bvh(bvh: BVH, tri_vertices: np.ndarray, spheres: np.ndarray) -> DeviceBVH:
+    """:func:`device_bvh` of a builder's :class:`~mcocl.render.bvh.BVH`, whose ``nodes`` become the table's first rows.
+
+    ``bvh`` gives up its nodes while the table is made: where it held the only reference, the builder's copy
+    is freed as soon as the table holds the tree, before the leaf records and the wide nodes are written.
+    """
+    held = [bvh.nodes]
+    bvh.nodes = np.zeros((0, 4), np.float32)  # for the making of the table: the tree is in `held`
+    geometry = _device_bvh(held, bvh.prims, tri_vertices, spheres)
+    bvh.nodes = geometry.nodes
+    return geometry
+
+
+def _device_bvh(held: list[np.ndarray], prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray) -> DeviceBVH:
+    """:func:`device_bvh` of the nodes ``held[0]``, taken out of ``held`` as :func:`_device_table` does."""
+    table, rows = _device_geometry(held, prims, tri_vertices, spheres)
     leaf_row = int(table[:1].view(BVH_HEADER.dtype())[0, 0]["leaf_row"]) if len(table) else 0
-    if len(prims) and leaf_row == len(nodes):  # the table starts with the tree (an empty BVH's table does not)
-        nodes = table[:leaf_row]
+    # the table starts with the tree unless the BVH is empty (then its nodes were left in `held`)
+    nodes = np.asarray(held[0], np.float32) if held else table[:leaf_row]
     return DeviceBVH(table, rows, nodes, prims, tri_vertices, spheres)
 
 
-__all__ = ["LEAF_ROWS", "DeviceBVH", "device_bvh", "device_geometry", "device_nodes", "leaf_records"]
+__all__ = ["LEAF_ROWS", "DeviceBVH", "adopt_bvh", "device_bvh", "device_geometry", "device_nodes", "leaf_records"]

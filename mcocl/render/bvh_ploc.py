@@ -37,6 +37,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..host_memory import release_free_heap
+
 MORTON_BITS = 21  # per axis: 63-bit codes
 
 
@@ -105,9 +107,9 @@ class MergeTree:
     is the last merge.
     """
 
-    order: np.ndarray  # int64 (N,): primitive of each leaf node
-    left: np.ndarray  # int64 (N-1,)
-    right: np.ndarray  # int64 (N-1,)
+    order: np.ndarray  # int32 (N,): primitive of each leaf node (int64 when 2N-1 node ids do not fit)
+    left: np.ndarray  # (N-1,) likewise
+    right: np.ndarray  # likewise
     box: np.ndarray  # float32 (6, 2N-1): lo x, y, z, hi x, y, z of every node
     batches: list[tuple[int, int]]
 
@@ -170,6 +172,11 @@ def _leaf_boxes(leaf_box: np.ndarray, lo: np.ndarray, hi: np.ndarray, order: np.
         leaf_box[a], leaf_box[3 + a] = lo[:, a].take(order), hi[:, a].take(order)
 
 
+def _node_type(n: int) -> type:
+    """The integer type of the node ids of a tree of ``n`` primitives (2n - 1 nodes): int32 where they fit."""
+    return np.int32 if 2 * n - 1 < 2**31 else np.int64
+
+
 def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> tuple[MergeTree, np.ndarray]:
     """Agglomerative clustering of the boxes ``[lo, hi]`` (N >= 2, float32) into a :class:`MergeTree`.
 
@@ -177,7 +184,10 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
     (complete only when one cluster is left) and the node ids of the clusters left, in curve order.
     """
     n = len(lo)
-    order = morton_order(lo, hi)
+    # Node ids in int32 where all 2N - 1 fit: the same numbers in half the memory (the tree's order, left and
+    # right: 20 MB less for 10^6 primitives through the rest of the build, whose peak is flatten_tree's).
+    itype = _node_type(n)
+    order = morton_order(lo, hi).astype(itype)
     # Every node's box in one table (the tree's), leaves first: the merges are written into it as they
     # happen, with no concatenated copy of the two halves at the end (issue 13: memory of big meshes).
     node_box = np.empty((6, 2 * n - 1), np.float32)
@@ -191,9 +201,9 @@ def cluster(lo: np.ndarray, hi: np.ndarray, radius: int = 8, stop: int = 1) -> t
     work = leaf_box * np.float32(scale) if scale != 1.0 else leaf_box
     box = work
     row = np.empty(n, np.float32)
-    ids = np.arange(n, dtype=np.int64)
-    left = np.empty(n - 1, np.int64)
-    right = np.empty(n - 1, np.int64)
+    ids = np.arange(n, dtype=itype)
+    left = np.empty(n - 1, itype)
+    right = np.empty(n - 1, itype)
     merged = node_box[:, n:]
     rank_bits = int(np.ceil(np.log2(2 * radius)))
     batches: list[tuple[int, int]] = []
@@ -296,7 +306,12 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
     # the same numbers in about half the memory of a big mesh's build (issue 13).  Each table is
     # dropped once its pass is done: on this machine a page the process touches for the first time
     # costs about as much as 4 KB of NumPy work, so the build's peak memory is also its time.
-    itype = np.int32 if total < 2**31 else np.int64
+    itype = _node_type(n)
+    # Between the passes the freed tables go back to the system (mcocl/host_memory.py): glibc would otherwise
+    # keep the clustering's and each pass's freed memory resident under the next pass's tables, so that the
+    # process's peak here was about 35 MB over what the arrays hold for 10^6 primitives (the compile stage's
+    # peak, bench/scene_memory.py), at no measurable cost in time.
+    release_free_heap()
     area = np.empty(total)  # half areas: only ratios matter
     for s in range(0, total, _AREA_CHUNK):
         ext = box[3:, s:s + _AREA_CHUNK].astype(np.float64) - box[:3, s:s + _AREA_CHUNK]
@@ -317,6 +332,7 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
         is_leaf[p] = leaf
         n_int[p] = np.where(leaf, 0, 1 + n_int[lc] + n_int[rc])
     del area, cost
+    release_free_heap()
     root = total - 1
     if is_leaf[root]:  # the root is always internal, so the kernel starts from a node
         is_leaf[root] = False
@@ -344,6 +360,7 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
         depth[il] = depth[ip] + 1
         depth[ir] = depth[ip] + 1
     del n_int
+    release_free_heap()
     out = np.empty(n, np.int64)
     out[start[:n]] = tree.order
     prims = ids[out].astype(np.uint32)
@@ -356,21 +373,31 @@ def flatten_tree(tree: MergeTree, ids: np.ndarray, max_leaf: int, traversal_cost
     par = np.empty(k, itype)
     par[pre[nodes_by_pre]] = nodes_by_pre  # the internal nodes in depth-first order (pre: a permutation of 0..k-1)
     del nodes_by_pre
+    par -= n  # merge i is node n + i
+    # Each internal node's two children, their refs and counts, before the nodes exist: the per-node tables
+    # (count, start, pre: 23 MB for 10^6 primitives) are then dropped, and the peak of the build, which is
+    # here, holds k-long columns instead (about 12 MB).
+    child = [side.take(par) for side in (left, right)]
+    del par
+    child_leaf = [is_leaf.take(ch) for ch in child]
+    del is_leaf
+    child_ref = [np.where(lf, start.take(ch), pre.take(ch)) for ch, lf in zip(child, child_leaf)]
+    del start, pre
+    child_cnt = [np.where(lf, count.take(ch), 0) for ch, lf in zip(child, child_leaf)]
+    del count
+    num_leaves = int(child_leaf[0].sum()) + int(child_leaf[1].sum())
+    del child_leaf
+    release_free_heap()
     # Row block of node q: (lo0, ref0) (hi0, cnt0) (lo1, ref1) (hi1, cnt1), written a column at a time
     # straight into the nodes (a staging table in column order would be one more table of the nodes' size).
     nodes = np.empty((1 + 4 * k, 4), np.float32)
     cols = nodes[1:].reshape(k, 2, 2, 4)
     ucols = cols.view(np.uint32)
-    num_leaves = 0
-    par -= n  # merge i is node n + i
-    for c, side in enumerate((left, right)):
-        child = side.take(par)
+    for c in range(2):
         for a in range(6):
-            cols[:, c, a // 3, a % 3] = box[a].take(child)
-        leaf = is_leaf.take(child)
-        num_leaves += int(leaf.sum())
-        ucols[:, c, 0, 3] = np.where(leaf, start.take(child), pre.take(child))
-        ucols[:, c, 1, 3] = np.where(leaf, count.take(child), 0)
+            cols[:, c, a // 3, a % 3] = box[a].take(child[c])
+        ucols[:, c, 0, 3] = child_ref[c]
+        ucols[:, c, 1, 3] = child_cnt[c]
     nodes[0] = 0.0
     nodes.view(np.uint32)[0] = (n, k, max_depth, 0)
     return nodes, prims, k, num_leaves, max_depth

@@ -104,7 +104,7 @@ from ..host_memory import release_free_heap
 from ..layouts import CAMERA_RECORD, MATERIAL_RECORD, MaterialKind
 from . import transform as tf
 from .bvh import BVH, C_TRAV, build_bvh
-from .bvh_leaves import DeviceBVH, device_bvh
+from .bvh_leaves import DeviceBVH, adopt_bvh
 from .delta_lights import delta_power
 from .emitter_choice import LUMINANCE, bounding_sphere, environment_choice, light_choice, resolve_light_sampler
 from .envmap import EnvMap
@@ -452,16 +452,19 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
         ids = np.arange(ntri + nsph, dtype=np.uint32)
     else:
         ids = np.concatenate([np.flatnonzero(good_tri), ntri + np.arange(nsph)]).astype(np.uint32)
-    method = bvh_method or ("binned" if len(ids) <= BINNED_UP_TO else "ploc")
+    num_bvh = len(ids)
+    method = bvh_method or ("binned" if num_bvh <= BINNED_UP_TO else "ploc")
     # The boxes are made in the call, with no name here: build_bvh holds the only references and drops
     # them once the tree holds them (24 MB less at the peak of a 10^6-triangle build).
     bvh: BVH = build_bvh(_primitive_boxes(tri_vertices, good_tri, sph32, np.minimum),
                          _primitive_boxes(tri_vertices, good_tri, sph32, np.maximum), ids, max_leaf=max_leaf,
                          bins=bins, traversal_cost=traversal_cost, all_axes=all_axes, method=method)
     # The device's BVH table now, while the builder's tree is the one copy of it: the scene keeps the tree as
-    # the table's first rows, not a second copy (33 MB for 10^6 triangles, bench/scene_memory.py).
-    geometry = device_bvh(bvh.nodes, bvh.prims, tri_vertices, sph32)
-    bvh.nodes = geometry.nodes
+    # the table's first rows, not a second copy (33 MB for 10^6 triangles, bench/scene_memory.py), and bvh
+    # gives its nodes up to the table (adopt_bvh), so that the builder's copy is freed before the leaf records
+    # and the wide nodes are written (33 MB less at that step's peak).
+    del ids  # the builder's ids are bvh.prims now (4 MB for 10^6 triangles)
+    geometry = adopt_bvh(bvh, tri_vertices, sph32)
 
     # Materials and emitters.
     mats = np.zeros(len(scene.materials), MATERIAL_RECORD.dtype())
@@ -493,7 +496,8 @@ def compile_scene(scene: Scene | str | Path, *, integrator: str | None = None, m
     light_prim_area = np.concatenate([_triangle_areas(tri_vertices[light_tris])[0],
                                       sph_area[light_prims[len(light_tris):].astype(np.int64) - ntri]])
     power = lum[prim_emitter[light_prims]] * light_prim_area * math.pi if len(light_prims) else np.zeros(0)
-    bounds = np.ascontiguousarray(bvh.bounds if len(ids) else np.zeros((2, 3)), np.float32)
+    del prim_emitter, good_prim, is_light  # a table of every primitive each: not held through the normals' peak
+    bounds = np.ascontiguousarray(bvh.bounds if num_bvh else np.zeros((2, 3)), np.float32)
     # Point, spot and directional lights follow the light primitives in the choice table.
     dpower = delta_power(scene.lights, bounding_sphere(bounds)[1])
     sampler = resolve_light_sampler(scene.light_sampler, len(light_prims), len(scene.lights))

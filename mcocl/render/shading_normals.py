@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..host_memory import release_free_heap
 from . import transform as tf
 from .shape_registry import SHAPES
 
@@ -40,29 +41,51 @@ VERTEX_NORMALS_ABSENT = {"vertex_normals": np.zeros((1, 4), np.float32)}
 
 
 _CHUNK = 1 << 15  # triangles per step of vertex_normal_table: its float64 temporaries stay small
+# The largest float64 table of a mesh's world vertex normals that vertex_normal_table holds (10^6 vertices);
+# a bigger mesh's corners are computed again, chunk by chunk.
+_WORLD_TABLE_BYTES = 24 << 20
 
 
-def _world_normals(shape) -> np.ndarray:
-    """The shape's vertex normals in world space, unit length (zero rows stay zero), float64.
+def _unit_world_rows(normals: np.ndarray, inv: np.ndarray) -> np.ndarray:
+    """Normals (float64 rows (n, 3)) in world space, unit length (zero rows stay zero): rows times ``inv``, M^-1.
+
+    Each row's numbers are the same whatever rows come with it, given two or more (a single row's product is a
+    matrix-vector one, which may round differently: mcocl/render/transform.py's rows_times).
+    """
+    n = tf.rows_times(normals, inv)  # rows times M^-1: (M^-T n) as rows
+    # np.linalg.norm(n, axis=1, keepdims=True)'s operations (the squares summed along the row)
+    length = np.sqrt(np.add.reduce(n * n, axis=1, keepdims=True))
+    unit = length > 0
+    np.divide(n, length, out=n, where=unit)
+    n[~unit[:, 0]] = 0.0  # +0, as the zeros a division into np.zeros leaves
+    return n
+
+
+def _inverse_linear(shape) -> np.ndarray:
+    """M^-1 of the shape's matrix's linear part, float64 (3, 3)."""
+    return np.linalg.inv(np.asarray(shape.matrix, np.float64)[:3, :3])
+
+
+def _write_world_normals(shape, out: np.ndarray) -> None:
+    """Write the shape's vertex normals in world space, unit length (zero rows stay zero), into ``out`` (V, 3).
 
     :data:`_CHUNK` vertices at a time (a last chunk of one row joins the one before: a single row's product
     may round differently, mcocl/render/transform.py's rows_times), so that the float64 temporaries of a big
     mesh are a chunk's, not four tables of every vertex (for 10^6 vertices 24 MB each).
     """
-    inv = np.linalg.inv(np.asarray(shape.matrix, np.float64)[:3, :3])
+    inv = _inverse_linear(shape)
     normals = np.asarray(shape.normals)
-    out = np.empty((len(normals), 3), np.float64)
     edges = list(range(0, len(normals), _CHUNK)) + [len(normals)]
     if len(edges) > 2 and edges[-1] - edges[-2] == 1:
         del edges[-2]
     for a, b in zip(edges[:-1], edges[1:]):
-        n = tf.rows_times(np.asarray(normals[a:b], np.float64), inv)  # rows times M^-1: (M^-T n) as rows
-        # np.linalg.norm(n, axis=1, keepdims=True)'s operations (the squares summed along the row)
-        length = np.sqrt(np.add.reduce(n * n, axis=1, keepdims=True))
-        unit = length > 0
-        np.divide(n, length, out=n, where=unit)
-        n[~unit[:, 0]] = 0.0  # +0, as the zeros a division into np.zeros leaves
-        out[a:b] = n
+        out[a:b] = _unit_world_rows(np.asarray(normals[a:b], np.float64), inv)
+
+
+def _world_normals(shape) -> np.ndarray:
+    """The shape's vertex normals in world space, unit length (zero rows stay zero), float64 (V, 3)."""
+    out = np.empty((len(shape.normals), 3), np.float64)
+    _write_world_normals(shape, out)
     return out
 
 
@@ -114,20 +137,34 @@ def vertex_normal_table(shapes: list, world_triangles: np.ndarray) -> np.ndarray
         count = len(sh.faces)
         if sh.normals is not None:
             reverse = tf.is_orientation_reversing(sh.matrix) != sh.flip_normals
-            world = _world_normals(sh)
-            table[row:row + len(world), :3] = world  # float64 to float32, once per vertex
-            # a chunk of triangles at a time: the float64 corners and faces of a big mesh are never all
-            # held (each triangle's numbers are the same whatever the chunk)
+            nv = len(sh.normals)
+            release_free_heap()  # what compiling freed before, not kept resident beside the normals (host_memory.py)
+            # The corners' float64 world normals: those of the vertices, taken at the corners, or for a mesh
+            # whose float64 vertex normals would exceed _WORLD_TABLE_BYTES, computed again a chunk of triangles
+            # at a time, with the same numbers (_unit_world_rows of two rows or more) and no such table (for
+            # 10^7 triangles 120 MB at the compile stage's peak, bench/scene_memory.py; 3x the arithmetic).
+            # A mesh of one vertex keeps its table: a single row's product may round apart.
+            world = _world_normals(sh) if nv == 1 or 24 * nv <= _WORLD_TABLE_BYTES else None
+            if world is not None:
+                table[row:row + nv, :3] = world  # float64 to float32, once per vertex
+            else:
+                _write_world_normals(sh, table[row:row + nv, :3])
+            inv = _inverse_linear(sh)
+            normals = np.asarray(sh.normals)
             for s in range(0, count, _CHUNK):
                 faces = sh.faces[s:s + _CHUNK]
                 if reverse:
                     faces = faces[:, [0, 2, 1]]  # as compiled.py's _shape_triangles
                 rows = slice(start + s, start + s + len(faces))
-                corner = np.take(world, faces, axis=0)  # (chunk, 3, 3)
+                if world is None:
+                    corner = _unit_world_rows(normals[np.ravel(faces)].astype(np.float64), inv).reshape(-1, 3, 3)
+                else:
+                    corner = np.take(world, faces, axis=0)  # (chunk, 3, 3)
                 behind = facing_dot(corner, world_triangles[rows]) < 0.0
                 corners[rows, :3] = faces + row
                 table[rows, 3] = np.where(behind, np.float32(-1.0), np.float32(1.0))
-            row += len(world)
+            release_free_heap()  # and its chunks' float64 temporaries
+            row += nv
         start += count
     return table
 
