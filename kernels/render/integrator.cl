@@ -222,6 +222,8 @@ kernel void render_blocks(
     const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;
     const bool thin_lens = camera_aperture(camera) > 0.0f;
     const camera_settings cam_set = camera_settings_of(&params);
+    /* the sample and pixel of a fresh path by multiply-high, not by LANES scalar divides (lane_ops.cl) */
+    const lane_divisor npix_div = lane_divisor_of(npix), width_div = lane_divisor_of(width);
 
     /* per-lane path state */
     intv alive = (intv)(0);
@@ -242,7 +244,7 @@ kernel void render_blocks(
         intv need = !alive;
         if (next < total && lane_any(need)) {
             intv fresh = assign_samples(need, &next, total, &j);
-            uintv s = j / npix;
+            uintv s = lane_div(j, npix_div);
             uintv px = (uintv)(pix0) + (j - s * npix);
 #ifdef RENDER_SOBOL
             /* Per pixel RQMC: the sample's number within the batch is the
@@ -258,7 +260,7 @@ kernel void render_blocks(
             sampler_seek(&fs, (uintv)(RENDER_DIM_CAMERA));
             sampler_next_2d(&fs, uc);
             smp = sampler_select(smp, fs, fresh);
-            uintv py = px / width;
+            uintv py = lane_div(px, width_div);
             /* the film point: the pixel filter's sample (render/pixel_filter.cl) */
             floatv sx = film_coordinate(&cam_set.filter, to_floatv(px - py * width), uc[0]);
             floatv sy = film_coordinate(&cam_set.filter, to_floatv(py), uc[1]);
