@@ -188,7 +188,7 @@ MC_INLINE vec3v emitter_radiance_of_prim(const light_tables *lt, uintv prim, flo
  * and independent comparisons, and only the remaining halvings gather.  On many_lights, 6 counted
  * halvings (63 comparisons, 3 gathers left) took the search from 5.8 % of the kernel's perf samples to
  * 3.0 % (5: 3.7 %, 7: 3.6 %) and gave 2-4 % more paths per CPU-second (interleaved runs, same images);
- * tests/test_render_lights.py checks the choice against the table. */
+ * tests/test_render_light_find.py checks the choice against a plain search. */
 #define LIGHT_FIND_COUNTED 6u
 MC_INLINE uintv light_find(const light_tables *lt, floatv u) {
     const uint n = lt->nlights, top = lt->light_top;
