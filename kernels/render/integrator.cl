@@ -53,6 +53,29 @@
  * lengths.  The order in which a work-item adds samples into a pixel's sums
  * depends on nothing but the work-item's own samples.
  *
+ * Where the time goes (mis, LANES 16, perf samples of a -g build mapped to
+ * these source lines, one PoCL thread; PoCL's work-group function, where
+ * the samples fall, has no line table, so its instructions were matched to
+ * those of the kernel's own copy in the same .so, which has one;
+ * scenes/many_lights.json, where most paths escape after 1-2 bounces, and
+ * scenes/veach_mis.json): shadow rays (trace_packet.cl, packet_any) 36-39
+ * % and 13 %, closest hits 33-35 % and 21 %, the light sample 9 % (the
+ * power CDF's search over 512 emitters 6 %, 3 % since light_find counts
+ * its first halvings: render/lights.cl) and 22 % (the flat light tree over
+ * its 5 lights 10 %, the light record's gather 5 %), surface records 3 and
+ * 5 %, BSDF sampling 1 and 6.5 %, a fresh path's camera sample, ray and
+ * sample assignment 4-5 and 8 %, the film adds 2 and 3 %.  The fresh
+ * path's sample and pixel numbers (j / npix, px / width) were LANES scalar
+ * divides each, 3.8 % and 6.3 % of the kernel; lane_div's multiply-high
+ * (lane_ops.cl) leaves 0.6-0.8 %: 2 % more paths per CPU-second on
+ * many_lights, 2.5-3.5 % on veach_mis (interleaved runs in one process,
+ * +-5 % run to run; with light_find's change 5 % on many_lights).  Tried
+ * and not kept: the eight box tests of a wide node first and then its
+ * children hit in bit order (2-6 % slower), shadow rays traced lane by
+ * lane through bvh.cl (as fast on many_lights, 34 % slower on veach_mis),
+ * hardware gathers for gather_rec4 (3 % slower), no early exit per
+ * primitive in packet_leaf_any (no change).
+ *
  * Output: for every block of the launch and every pixel of its range (the
  * block's stride: min(ntiles * tile_pixels, W * H) pixels), STATS numbers (film_t)
  *   [0..2] sum of R, G, B   [3..5] sum of squares   [6] finite samples
@@ -222,6 +245,8 @@ kernel void render_blocks(
     const float inv_w = 1.0f / (float)width, inv_h = 1.0f / (float)height;
     const bool thin_lens = camera_aperture(camera) > 0.0f;
     const camera_settings cam_set = camera_settings_of(&params);
+    /* the sample and pixel of a fresh path by multiply-high, not by LANES scalar divides (lane_ops.cl) */
+    const lane_divisor npix_div = lane_divisor_of(npix), width_div = lane_divisor_of(width);
 
     /* per-lane path state */
     intv alive = (intv)(0);
@@ -242,7 +267,7 @@ kernel void render_blocks(
         intv need = !alive;
         if (next < total && lane_any(need)) {
             intv fresh = assign_samples(need, &next, total, &j);
-            uintv s = j / npix;
+            uintv s = lane_div(j, npix_div);
             uintv px = (uintv)(pix0) + (j - s * npix);
 #ifdef RENDER_SOBOL
             /* Per pixel RQMC: the sample's number within the batch is the
@@ -258,7 +283,7 @@ kernel void render_blocks(
             sampler_seek(&fs, (uintv)(RENDER_DIM_CAMERA));
             sampler_next_2d(&fs, uc);
             smp = sampler_select(smp, fs, fresh);
-            uintv py = px / width;
+            uintv py = lane_div(px, width_div);
             /* the film point: the pixel filter's sample (render/pixel_filter.cl) */
             floatv sx = film_coordinate(&cam_set.filter, to_floatv(px - py * width), uc[0]);
             floatv sy = film_coordinate(&cam_set.filter, to_floatv(py), uc[1]);
