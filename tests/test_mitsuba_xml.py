@@ -306,7 +306,29 @@ def test_integrators_and_samplers(tmp_path):
         s = SENSOR.replace("</sensor>", f'<sampler type="{sampler}"><integer name="sample_count" value="9"/>'
                                         '</sampler></sensor>')
         p.write_text(f'<scene version="3.0.0">{s}</scene>')
-        assert read_mitsuba(p)["integrator"]["spp"] == 9
+        integ = read_mitsuba(p)["integrator"]
+        assert integ["spp"] == 9
+        # the samplers that stratify map to mcocl's stratified sampler
+        assert integ.get("sampler", "independent") == ("independent" if sampler == "independent" else "sobol")
+    p.write_text(f'<scene version="3.0.0"><integrator type="ptracer"/>{s}</scene>')  # ldsampler, light tracing
+    assert "sampler" not in read_mitsuba(p)["integrator"]
+
+
+def test_a_scene_s_stratified_sampler_is_a_preference_that_bdpt_declines(tmp_path):
+    """A multijitter scene renders with sobol; --integrator bdpt on it draws independent samples and says so,
+    while asking for sobol with bdpt outright stays an error."""
+    s = SENSOR.replace("</sensor>", '<sampler type="multijitter"><integer name="sample_count" value="8"/>'
+                                    '</sampler></sensor>')
+    body = ('<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter>'
+            '<transform name="to_world"><translate z="-2"/></transform></shape>')
+    p = tmp_path / "mj.xml"
+    p.write_text(f'<scene version="3.0.0">{s}{body}</scene>')
+    r = mcocl.render(p, spp=8)
+    assert any(n.startswith("sobol:") for n in r.notes)
+    r = mcocl.render(p, spp=8, integrator="bdpt")
+    assert any("draws independent samples" in n for n in r.notes)
+    with pytest.raises(InputError, match="sobol"):
+        mcocl.render(p, spp=8, integrator="bdpt", sampler="sobol")
 
 
 def test_mitsuba_06_names_are_upgraded(tmp_path):

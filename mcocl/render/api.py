@@ -146,14 +146,20 @@ class RenderResult:
         return s
 
 
-def _render_sampler(cs: CompiledScene, sampler: Any) -> str:
-    """The render sampler: ``sampler`` if given, else the scene's; ``sobol`` only for the path integrators."""
+def _render_sampler(cs: CompiledScene, sampler: Any) -> tuple[str, str]:
+    """The render sampler and a note: ``sampler`` if given, else the scene's; ``sobol`` only for the path
+    integrators.  The scene's ``sobol`` is a preference (a Mitsuba scene's stratified sampler asks for it):
+    ``lt`` and ``bdpt``, e.g. chosen by ``--integrator``, draw independent samples instead, and the note
+    says so; a ``sobol`` asked for here with them is an error."""
     name = getattr(cs, "sampler", "independent") if sampler is None else sampler
     if name not in RENDER_SAMPLERS:
         raise InputError(f"sampler: unknown render sampler {name!r}; choose one of {', '.join(RENDER_SAMPLERS)}")
     if name == "sobol" and cs.integrator in SPLAT_INTEGRATORS:
+        if sampler is None:
+            return "independent", (f"the scene's sampler 'sobol' works with the path integrators only: {cs.integrator} "
+                                   "draws independent samples")
         raise InputError(f"sampler 'sobol' works with the path integrators (path, nee, mis), not {cs.integrator!r}")
-    return name
+    return name, ""
 
 
 def _saved_block_pixels(acc: Accumulator, path: Any, npix: int) -> int:
@@ -285,7 +291,7 @@ def render(
     own = not isinstance(scene, CompiledScene)  # compiled here: nobody else holds cs
     cs = _compile(scene, integrator, max_depth, rr_depth)
     scene = None  # a scene file's meshes, read here, are in cs now (27 MB for 10^6 triangles)
-    sampler = _render_sampler(cs, sampler)
+    sampler, sampler_note = _render_sampler(cs, sampler)
     if batches is not None:
         if sampler != "sobol":
             raise InputError(f"batches: only the sobol sampler estimates its variance from batches, not {sampler!r}")
@@ -293,7 +299,7 @@ def render(
             raise InputError("batches and spp_per_block both set the samples of a batch: give one of them")
         batches = whole_number("batches", batches, MIN_BATCHES, UNBOUNDED_SPP - 1)
     # sobol's batches: the keyword's, the scene's integrator.batches (checked when it was read), or the default
-    min_batches = batches or getattr(cs, "batches", None) or DEFAULT_BATCHES
+    min_batches = batches or (getattr(cs, "batches", None) if sampler == "sobol" else None) or DEFAULT_BATCHES
     opts = RunOptions(seed=seed, time_budget=time_budget, target_error=target_error, device=device, devices=devices,
                       split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)
     seed = opts.seed
@@ -434,7 +440,7 @@ def render(
     img = film_image(acc.totals)
     nonfinite = img.nonfinite
     spp_done = job.spp_done(acc.blocks_done)
-    notes = list(getattr(report, "notes", []) or []) + ([held_note] if held_note else [])
+    notes = list(getattr(report, "notes", []) or []) + [n for n in (held_note, sampler_note) if n]
     if sampler == "sobol":
         whole, part = divmod(acc.blocks_done, ranges)
         notes.append(f"sobol: variance from {whole} independent Owen scramblings (batches) of "

@@ -157,7 +157,7 @@ class _SceneBuilder:
                       '(add <sensor type="perspective">)')
         if len(sensors) > 1:
             comments.append(f"{len(sensors)} sensors: the first (line {sensors[0].line}) is used, as Mitsuba does")
-        camera, spp = translate_sensor(sensors[0], self.rep, self.resolve)
+        camera, spp, sampler = translate_sensor(sensors[0], self.rep, self.resolve)
         out["camera"] = camera
         self.elements["camera"] = sensors[0]
         if len(integrators) > 1:
@@ -168,6 +168,11 @@ class _SceneBuilder:
             integ = {"type": "mis", "max_depth": -1, "rr_depth": 5,
                      "comment": ["no <integrator>: Mitsuba's default path tracer -> mis, max_depth -1, rr_depth 5"]}
         integ["spp"] = spp
+        if sampler == "sobol":
+            if integ["type"] == "lt":  # the stratified sampler is the path integrators' (mcocl/render/api.py)
+                integ["comment"] = [*integ.get("comment", []), "lt draws independent samples, not the sampler's strata"]
+            else:
+                integ["sampler"] = "sobol"
         out["integrator"] = integ
         out["materials"] = self.materials
         shape_list = []

@@ -22,9 +22,11 @@
   they cost no build of their own).  An explicit ``near_clip`` of 0 clips nothing (Mitsuba
   requires it positive).
 - samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
-  ``ldsampler``: ``sample_count`` (default 4) → ``spp``; mcocl always draws from
-  its counter-based Philox generator, so the sample pattern differs, not the
-  expectation.
+  ``ldsampler``: ``sample_count`` (default 4) → ``spp``; ``independent`` →
+  ``integrator.sampler`` ``independent`` (Philox), the four that stratify →
+  ``sobol`` (Owen-scrambled Sobol' nets per pixel, mcocl/render/sobol_film.py),
+  mcocl's stratified sampler: another pattern, the same expectation.  Light
+  tracing (``ptracer``) and ``--integrator bdpt`` draw independent samples.
 - integrators ``path`` and ``volpath`` → ``mis`` with the same ``max_depth`` and
   ``rr_depth`` (Mitsuba's conventions, defaults −1 and 5); ``direct`` → ``mis``
   with max_depth 2; ``ptracer`` (Mitsuba's particle tracer) → ``lt``, light
@@ -45,6 +47,7 @@ from .report import Reporter, nearest
 from .xml_source import Node
 
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
+STRATIFYING = SAMPLERS[1:]  # those that stratify: mcocl's sobol
 INTEGRATORS = ("path", "volpath", "direct", "ptracer")
 FILM_SIZE = (768, 576)
 SAMPLE_COUNT = 4
@@ -72,14 +75,14 @@ def _referenced(objects: list[Node], resolve) -> list[Node]:
 
 
 def translate_sensor(node: Node, rep: Reporter, resolve=None) -> tuple[dict, int]:
-    """(the mcocl camera, spp from the sampler) of a ``<sensor>``; ``resolve`` follows ``<ref>``s."""
+    """(the mcocl camera, spp, the render sampler) of a ``<sensor>``; ``resolve`` follows ``<ref>``s."""
     kind = node.attrib.get("type", "")
     comments: list[str] = []
     if kind not in SENSORS:
         rep.unsupported(node, f"the sensor {kind!r}", ", ".join(SENSORS), None, comments)
     props, objects = split_children(node)
     objects = _referenced(objects, resolve)
-    width, height, spp = FILM_SIZE[0], FILM_SIZE[1], SAMPLE_COUNT
+    width, height, spp, sampler = FILM_SIZE[0], FILM_SIZE[1], SAMPLE_COUNT, "independent"
     films = [o for o in objects if o.tag == "film"]
     samplers = [o for o in objects if o.tag == "sampler"]
     for o in objects:
@@ -98,7 +101,7 @@ def translate_sensor(node: Node, rep: Reporter, resolve=None) -> tuple[dict, int
         comments.append(f"no <film>: Mitsuba's hdrfilm default {width} x {height} with its Gaussian filter "
                         "(stddev 0.5)")
     if samplers:
-        spp = _sampler(samplers[0], rep, comments)
+        spp, sampler = _sampler(samplers[0], rep, comments)
     else:
         comments.append(f"no <sampler>: Mitsuba's default sample_count {spp}")
 
@@ -156,7 +159,7 @@ def translate_sensor(node: Node, rep: Reporter, resolve=None) -> tuple[dict, int
     rep.leftover(node, props.unread(), ("fov", "fov_axis", "focal_length", "to_world", "near_clip", "far_clip",
                                         "focus_distance", "shutter_open", "shutter_close", *lens_keys),
                  comments)
-    return cam, spp
+    return cam, spp, sampler
 
 
 def _clip_planes(props, comments: list[str]) -> dict[str, float]:
@@ -299,7 +302,8 @@ def _rfilter(node: Node, rep: Reporter, comments: list[str]) -> PixelFilter:
     return f
 
 
-def _sampler(node: Node, rep: Reporter, comments: list[str]) -> int:
+def _sampler(node: Node, rep: Reporter, comments: list[str]) -> tuple[int, str]:
+    """(spp, mcocl's render sampler) of a ``<sampler>``."""
     kind = node.attrib.get("type", "")
     if kind not in SAMPLERS:
         rep.unsupported(node, f"the sampler {kind!r}", nearest(kind, SAMPLERS), "independent", comments)
@@ -309,14 +313,17 @@ def _sampler(node: Node, rep: Reporter, comments: list[str]) -> int:
     spp = props.get("sample_count", ("integer",), SAMPLE_COUNT)
     if spp < 1:
         props.node("sample_count").fail(f"sample_count must be >= 1, got {spp}")
-    comments.append(f"sampler {kind!r}, sample_count {spp} -> spp; mcocl draws every sample from its Philox "
-                    "counter-based generator (a different pattern, the same expectation)")
+    ours = "independent" if kind not in STRATIFYING else "sobol"
+    comments.append(f"sampler {kind!r}, sample_count {spp} -> spp, sampler {ours!r} ("
+                    + ("independent samples from mcocl's Philox counter-based generator" if ours == "independent" else
+                       "mcocl's stratified sampler: Owen-scrambled Sobol' nets per pixel, its variance from "
+                       "independent scramblings") + "; a different pattern, the same expectation)")
     for k in ("seed", "jitter", "scramble_seed"):
         if k in props:
             props.read.add(k)
             comments.append(f"{k}: ignored (the image depends on mcocl's --seed)")
     rep.leftover(node, props.unread(), ("sample_count", "seed", "jitter"), comments)
-    return spp
+    return spp, ours
 
 
 def translate_integrator(node: Node, rep: Reporter) -> dict:
