@@ -190,4 +190,6 @@ def test_the_engine_back_ends_import_the_contract_and_never_each_other():
 def test_every_package_folder_is_listed_in_pyproject():
     listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
     folders = {module_name(p) for p in PACKAGE.rglob("__init__.py")}
-    assert folders | {"mcocl.kernels"} == listed
+    kernels = {"mcocl.kernels"} | {f"mcocl.kernels.{d.name}" for d in (ROOT / "kernels").iterdir() if d.is_dir()
+                                   and any(d.glob("*.cl"))}
+    assert folders | kernels == listed
