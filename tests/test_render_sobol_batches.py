@@ -174,6 +174,12 @@ def test_scene_key_sets_the_batches() -> None:
             parse_scene(sphere_scene({"sampler": "sobol", "batches": bad}))
     with pytest.raises(InputError, match="integrator.batches"):  # independent sampling has no batches
         parse_scene(sphere_scene({"batches": 4}))
+    for kind in ("lt", "bdpt"):  # a file asking for sobol with a splatting integrator contradicts itself
+        with pytest.raises(InputError, match="integrator.sampler"):
+            parse_scene(sphere_scene({"type": kind, "sampler": "sobol"}))
+    # ... but --integrator bdpt on a sobol scene declines the scene's sampler, with a note, and its batches
+    r = render(cs, spp=16, seed=3, integrator="bdpt")
+    assert any("draws independent samples" in n for n in r.notes)
 
 
 def test_cli_batches(tmp_path: Path) -> None:
