@@ -13,13 +13,6 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import pytest
-
-try:
-    import tomllib
-except ModuleNotFoundError:  # Python 3.10: the same parser as a package
-    tomllib = pytest.importorskip("tomli")
-
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "mcocl"
 
@@ -185,11 +178,3 @@ def test_the_engine_back_ends_import_the_contract_and_never_each_other():
         assert not graph[name] & (back_ends | {"mcocl.engine.dispatch"}), name
     importers = {name for name, edges in graph.items() if edges & back_ends}
     assert importers == {"mcocl.engine.dispatch"}
-
-
-def test_every_package_folder_is_listed_in_pyproject():
-    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    folders = {module_name(p) for p in PACKAGE.rglob("__init__.py")}
-    kernels = {"mcocl.kernels"} | {f"mcocl.kernels.{d.name}" for d in (ROOT / "kernels").iterdir() if d.is_dir()
-                                   and any(d.glob("*.cl"))}
-    assert folders | kernels == listed
