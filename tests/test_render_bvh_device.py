@@ -158,12 +158,12 @@ def test_every_triangle_has_its_record_at_its_row(in_tree):
 
 @pytest.mark.parametrize("in_tree", ["all", "none"])
 def test_adopt_bvh_frees_the_builders_nodes_and_makes_the_same_table(monkeypatch, in_tree):
-    """adopt_bvh: the table and rows of device_bvh, the BVH's nodes replaced by the table's first rows, and the
+    """adopt_bvh: the table and rows of device_geometry, the BVH's nodes replaced by the table's first rows, and the
     builder's own nodes array freed before the leaf records are written (no reference to it is left)."""
     import weakref
 
     from mcocl.render import bvh_leaves
-    from mcocl.render.bvh_leaves import adopt_bvh, device_bvh
+    from mcocl.render.bvh_leaves import adopt_bvh
 
     rng = np.random.default_rng(7)
     nt = 300
@@ -171,7 +171,9 @@ def test_adopt_bvh_frees_the_builders_nodes_and_makes_the_same_table(monkeypatch
     ids = np.arange(nt if in_tree == "all" else 0, dtype=np.uint32)
     b = build_bvh(tv[ids].min(1), tv[ids].max(1), ids)
     spheres = np.zeros((0, 4), np.float32)
-    want = device_bvh(b.nodes.copy(), b.prims, tv, spheres)
+    want_table, want_rows = device_geometry(b.nodes.copy(), b.prims, tv, spheres)
+    # the tree as the table's first rows (its header now names the leaf row); an empty BVH keeps its own nodes
+    want_nodes = want_table[:len(b.nodes)] if in_tree == "all" else b.nodes.copy()
     builders = weakref.ref(b.nodes)
     alive_at_fill = []
     fill = bvh_leaves._fill_leaf_records
@@ -182,9 +184,9 @@ def test_adopt_bvh_frees_the_builders_nodes_and_makes_the_same_table(monkeypatch
 
     monkeypatch.setattr(bvh_leaves, "_fill_leaf_records", watched_fill)
     got = adopt_bvh(b, tv, spheres)
-    assert np.array_equal(got.table.view(np.uint32), want.table.view(np.uint32))
-    assert np.array_equal(got.tri_rows, want.tri_rows)
-    assert b.nodes is got.nodes and np.array_equal(got.nodes.view(np.uint32), want.nodes.view(np.uint32))
+    assert np.array_equal(got.table.view(np.uint32), want_table.view(np.uint32))
+    assert np.array_equal(got.tri_rows, want_rows)
+    assert b.nodes is got.nodes and np.array_equal(got.nodes.view(np.uint32), want_nodes.view(np.uint32))
     if in_tree == "all":  # the tree is the table's first rows: the builder's array is gone
         assert got.nodes.base is got.table and builders() is None and alive_at_fill == [False]
     else:  # an empty BVH keeps its own nodes (the header alone)

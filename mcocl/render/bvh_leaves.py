@@ -195,35 +195,20 @@ def _source_digest(*arrays: np.ndarray) -> str:
     return h.hexdigest()
 
 
-def device_bvh(nodes: np.ndarray, prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray) -> DeviceBVH:
-    """:func:`device_geometry` of a builder's tree, keeping the tree only as a view of the table.
-
-    The caller drops its own ``nodes`` for the result's: the builder's copy is then freed
-    (:func:`adopt_bvh` frees it earlier, while the table is written).
-    """
-    return _device_bvh([nodes], prims, tri_vertices, spheres)
-
-
 def adopt_bvh(bvh: BVH, tri_vertices: np.ndarray, spheres: np.ndarray) -> DeviceBVH:
-    """:func:`device_bvh` of a builder's :class:`~mcocl.render.bvh.BVH`, whose ``nodes`` become the table's first rows.
+    """:func:`device_geometry` of a builder's :class:`~mcocl.render.bvh.BVH`, whose ``nodes`` become the table's
+    first rows: the tree is kept only as a view of the table.
 
     ``bvh`` gives up its nodes while the table is made: where it held the only reference, the builder's copy
     is freed as soon as the table holds the tree, before the leaf records and the wide nodes are written.
     """
     held = [bvh.nodes]
     bvh.nodes = np.zeros((0, 4), np.float32)  # for the making of the table: the tree is in `held`
-    geometry = _device_bvh(held, bvh.prims, tri_vertices, spheres)
-    bvh.nodes = geometry.nodes
-    return geometry
-
-
-def _device_bvh(held: list[np.ndarray], prims: np.ndarray, tri_vertices: np.ndarray, spheres: np.ndarray) -> DeviceBVH:
-    """:func:`device_bvh` of the nodes ``held[0]``, taken out of ``held`` as :func:`_device_table` does."""
-    table, rows = _device_geometry(held, prims, tri_vertices, spheres)
+    table, rows = _device_geometry(held, bvh.prims, tri_vertices, spheres)
     leaf_row = int(table[:1].view(BVH_HEADER.dtype())[0, 0]["leaf_row"]) if len(table) else 0
     # the table starts with the tree unless the BVH is empty (then its nodes were left in `held`)
-    nodes = np.asarray(held[0], np.float32) if held else table[:leaf_row]
-    return DeviceBVH(table, rows, nodes, prims, tri_vertices, spheres)
+    bvh.nodes = np.asarray(held[0], np.float32) if held else table[:leaf_row]
+    return DeviceBVH(table, rows, bvh.nodes, bvh.prims, tri_vertices, spheres)
 
 
-__all__ = ["LEAF_ROWS", "DeviceBVH", "adopt_bvh", "device_bvh", "device_geometry", "device_nodes", "leaf_records"]
+__all__ = ["LEAF_ROWS", "DeviceBVH", "adopt_bvh", "device_geometry", "device_nodes", "leaf_records"]
