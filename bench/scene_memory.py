@@ -59,21 +59,28 @@ class _Stages:
     """Peak and resident memory (MB over a base) of consecutive stages, and the peak and present memory that
     tracemalloc sees (the arrays): each mark ends one stage and resets the peaks."""
 
-    def __init__(self) -> None:
+    def __init__(self, traced: bool = True) -> None:
         gc.collect()
-        tracemalloc.start()
-        self.base, self.traced = _status_kb("VmRSS"), tracemalloc.get_traced_memory()[0]
+        self.tracing = traced  # False: resident figures only (tracing slows a load and costs memory of its own)
+        if traced:
+            tracemalloc.start()
+        self.base, self.traced = _status_kb("VmRSS"), self._traced()[0]
         self.rows: dict[str, tuple[float, float, float, float]] = {}
         Path("/proc/self/clear_refs").write_text("5")  # resets VmHWM to the present resident size
 
     def mark(self, name: str) -> None:
         """End the stage ``name``: record its peaks and the memory now."""
         peak, now = _status_kb("VmHWM"), _status_kb("VmRSS")
-        t_now, t_peak = tracemalloc.get_traced_memory()
+        t_now, t_peak = self._traced()
         self.rows[name] = (round((peak - self.base) / 1024, 1), round((now - self.base) / 1024, 1),
                            round((t_peak - self.traced) / 2**20, 1), round((t_now - self.traced) / 2**20, 1))
         Path("/proc/self/clear_refs").write_text("5")
-        tracemalloc.reset_peak()
+        if self.tracing:
+            tracemalloc.reset_peak()
+
+    def _traced(self) -> tuple[int, int]:
+        """tracemalloc's present and peak bytes (zeros when not tracing)."""
+        return tracemalloc.get_traced_memory() if self.tracing else (0, 0)
 
 
 def _nbytes(obj) -> int:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
 import pytest
 
 from mcocl import datafile
@@ -93,3 +94,62 @@ def test_pipes_folders_and_missing_files_are_refused(tmp_path, read, kind):
 def test_open_regular_file_refuses_a_device():
     with pytest.raises(OSError, match="not a regular file"):
         datafile.open_regular_file("/dev/zero")
+
+
+def _triangles_ply(order: str, n: int, vertex_type: str = "f4", index: str = "i4") -> bytes:
+    """A binary PLY of ``n`` random triangles over ``n // 2`` vertices, one record layout per element."""
+    from test_render_ply import header
+
+    rng = np.random.default_rng(n)
+    rec = np.zeros(n, np.dtype([("c", "u1"), ("i", order + index, (3,))]))
+    rec["c"], rec["i"] = 3, rng.integers(0, n // 2, (n, 3))
+    verts = rng.standard_normal((n // 2, 3)).astype(order + vertex_type)
+    kind = {"f4": "float", "f8": "double"}[vertex_type]
+    vprops = f"{kind} x\nproperty {kind} y\nproperty {kind} z"
+    names = {"i4": "int", "u4": "uint", "i2": "short"}
+    return (header({"<": "binary_little_endian", ">": "binary_big_endian"}[order], n // 2, n, vprops,
+                   f"list uchar {names[index]} vertex_indices") + verts.tobytes() + rec.tobytes())
+
+
+def _binary_plys() -> list[tuple[bytes, bool]]:
+    """(a binary PLY, whether its elements each have one record size: read element by element)."""
+    from test_render_ply import binary_ply
+
+    return [(binary_ply("<"), False), (binary_ply(">"), False),  # faces of differing lengths: read whole
+            (binary_ply("<", [[0, 1, 2, 3], [2, 3, 4, 5], [5, 4, 1, 0]]), True),  # quads: fans, with the edges
+            (binary_ply(">", [[0, 1, 2], [2, 3, 4]], count="i2", index="u4"), True),
+            (_triangles_ply("<", 30_000), True), (_triangles_ply(">", 3_000, "f8", "i2"), True),
+            (_triangles_ply("<", 3_000, index="u4"), True)]
+
+
+@pytest.mark.parametrize("case", range(7))
+def test_binary_ply_file_reads_element_by_element_as_its_bytes(tmp_path, monkeypatch, no_whole_read, case):
+    data, by_elements = _binary_plys()[case]
+    p = tmp_path / "m.ply"
+    p.write_bytes(data)
+    want = ply_reader.parse_ply(data, f"k: {p}")
+    if by_elements:  # the whole-file parse is not reached
+        monkeypatch.setattr(ply_reader, "_parse_ply_bytes", lambda *a, **k: pytest.fail("read whole"))
+    assert same(shapes.read_ply(p, "k"), want)
+
+
+def _face_count(data: bytes, face: int, count: int) -> bytes:
+    """``data`` (a :func:`_triangles_ply` of 1,500 float vertices) with face ``face``'s corner count set to ``count``."""
+    at = data.index(b"end_header\n") + 11 + 1500 * 12 + 13 * face
+    return data[:at] + bytes([count]) + data[at + 1:]
+
+
+@pytest.mark.parametrize("cut", [
+    lambda d: d.replace(b"element vertex 1500", b"element vertex 1501"),
+    lambda d: d.replace(b"element face 3000", b"element face 2999"),
+    lambda d: d.replace(b"element face 3000", b"element face 3001"),
+    lambda d: d[:-7],
+    lambda d: d + b"\0",
+    lambda d: _face_count(d, 1, 2),  # a face of 2 corners (its record shorter: the layouts differ)
+    lambda d: _face_count(d, 5, 0),
+    lambda d: _face_count(d, 0, 200),  # the first record's lists overrun the first look at the element
+])
+def test_binary_ply_errors_as_its_bytes(tmp_path, cut):
+    p = tmp_path / "bad.ply"
+    p.write_bytes(cut(_triangles_ply("<", 3_000)))
+    same_error(shapes.read_ply, ply_reader.parse_ply, p)

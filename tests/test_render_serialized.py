@@ -71,6 +71,30 @@ def test_round_trip(tmp_path: Path, version: int, double: bool) -> None:
     assert t.normals is None and t.uvs is None and t.face_normals
 
 
+def test_open_file_reads_as_bytes(tmp_path: Path) -> None:
+    """An open file (read where the parse looks: shapes.read_serialized) gives the bytes' arrays bit for bit,
+    over a mesh whose compressed bytes span many inflate slices, and the same errors."""
+    rng = np.random.default_rng(5)
+    big = {"vertices": rng.random((60_000, 3)), "faces": rng.integers(0, 60_000, (40_000, 3)),
+           "normals": rng.random((60_000, 3)), "uvs": rng.random((60_000, 2)), "name": "big"}
+    path = tmp_path / "m.serialized"
+    data = write_serialized(path, [QUAD, big, TET])
+    assert len(data) > 20 * 65536  # many slices of serialized_reader._INFLATE_STEP
+    with path.open("rb") as f:
+        assert mesh_count(f, "m") == 3
+        for k in range(3):
+            a, b = parse_serialized(data, k, "m"), parse_serialized(f, k, "m")
+            for name in ("vertices", "faces", "normals", "uvs"):
+                x, y = getattr(a, name), getattr(b, name)
+                assert (x is None and y is None) or (x.dtype == y.dtype and x.tobytes() == y.tobytes())
+            assert (a.name, a.face_normals) == (b.name, b.face_normals)
+    cut = bytearray(data)
+    cut[10:30] = bytes(20)
+    path.write_bytes(bytes(cut))
+    with path.open("rb") as f, pytest.raises(InputError, match="corrupt zlib data"):
+        parse_serialized(f, 0, "m")
+
+
 def test_scene_json_and_xml(tmp_path: Path) -> None:
     write_serialized(tmp_path / "m.serialized", [QUAD, TET])
     cam = {"origin": [0.5, 0.5, 5], "target": [0.5, 0.5, 0], "fov": 40, "width": 8, "height": 8}

@@ -24,8 +24,11 @@ or a zip bomb is refused before memory is spent on it.
 
 from __future__ import annotations
 
+import os
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import BinaryIO
 
 import numpy as np
 
@@ -48,51 +51,71 @@ class SerializedMesh(PlyMesh):
     face_normals: bool = False
 
 
-def mesh_count(data: bytes, label: str) -> int:
-    """How many meshes the file holds (from its closing table)."""
-    return len(_offsets(data, label)) - 1
+def _reader(source: bytes | BinaryIO) -> tuple[int, Callable[[int, int], bytes | memoryview]]:
+    """The size of ``source`` (a file's bytes, or a binary file open for reading) and a function giving its
+    bytes ``first .. stop``: an open file is read only where the parse looks (the closing table, one mesh's
+    compressed bytes a slice at a time), never whole (issue 13: the load holds the mesh, not the file too)."""
+    if isinstance(source, bytes | bytearray | memoryview):
+        view = memoryview(source).cast("B")
+        return len(view), lambda first, stop: view[first:stop]
+
+    def read(first: int, stop: int) -> bytes:
+        source.seek(first)
+        part = source.read(stop - first)
+        if len(part) != stop - first:  # the file shrank since its size was taken
+            raise OSError(f"the file ended before byte {stop}")
+        return part
+
+    return os.fstat(source.fileno()).st_size, read
 
 
-def _offsets(data: bytes, label: str) -> list[int]:
+def mesh_count(source: bytes | BinaryIO, label: str) -> int:
+    """How many meshes the file (its bytes or the open file) holds (from its closing table)."""
+    return len(_offsets(*_reader(source), label)) - 1
+
+
+def _offsets(size: int, read: Callable[[int, int], bytes | memoryview], label: str) -> list[int]:
     """Where each mesh starts, then where the closing table starts (the last mesh's end)."""
-    if len(data) < 8:
+    if size < 8:
         raise InputError(f"{label}: not a serialized mesh file (too short)")
-    magic, version = np.frombuffer(data, "<u2", 2)
+    magic, version = np.frombuffer(read(0, 4), "<u2", 2)
     if magic != MAGIC or version not in VERSIONS:
         raise InputError(f"{label}: not a serialized mesh file (it must begin with 0x041C and version 3 or 4)")
-    count = int(np.frombuffer(data, "<u4", 1, len(data) - 4)[0])
+    count = int(np.frombuffer(read(size - 4, size), "<u4", 1)[0])
     width = 8 if version == 4 else 4
-    table = len(data) - 4 - count * width
+    table = size - 4 - count * width
     if count < 1 or table < 4:
         raise InputError(f"{label}: the table of meshes at the end of the file is corrupt ({count} meshes)")
-    offs = np.frombuffer(data, "<u8" if width == 8 else "<u4", count, table).astype(np.int64)
+    offs = np.frombuffer(read(table, table + count * width), "<u8" if width == 8 else "<u4", count).astype(np.int64)
     ends = np.append(offs[1:], table)
     if offs[0] != 0 or np.any(ends - offs < 4):
         raise InputError(f"{label}: the table of meshes at the end of the file is corrupt (bad offsets)")
     return [*offs.tolist(), table]
 
 
-def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMesh:
-    """Mesh ``shape_index`` (0-based) of a serialized file's bytes.
+def parse_serialized(source: bytes | BinaryIO, shape_index: int, label: str) -> SerializedMesh:
+    """Mesh ``shape_index`` (0-based) of a serialized file: its bytes, or the file open for reading bytes
+    (read only where needed: :func:`_reader`).
 
     Raises:
         InputError: not a serialized file, an index out of range, or a corrupt mesh (named by ``label``).
     """
-    bounds = _offsets(data, label)
+    size, read = _reader(source)
+    bounds = _offsets(size, read, label)
     n = len(bounds) - 1
     if not 0 <= shape_index < n:
         raise InputError(f"{label}: shape_index {shape_index} is out of range (the file holds {n} meshes: 0..{n - 1})")
     start, end = bounds[shape_index], bounds[shape_index + 1]
     at = f"{label}: mesh {shape_index}"
-    magic, version = np.frombuffer(data, "<u2", 2, start)
+    magic, version = np.frombuffer(read(start, start + 4), "<u2", 2)
     if magic != MAGIC or version not in VERSIONS:
         raise InputError(f"{at}: does not begin with 0x041C and version 3 or 4")
-    packed = memoryview(data)[start + 4:end]  # no copy of the compressed bytes
+    packed = _Slices(read, start + 4, end)  # the compressed bytes, a slice at a time: never copied whole
     inflate = zlib.decompressobj()
     try:
         # one slice of the compressed bytes: it inflates to far more than the header (deflate data
         # inflate to at least about their own size unless the stream ends); the rest is never copied whole
-        head = inflate.decompress(packed[:_INFLATE_STEP], _HEAD_BYTES)
+        head = inflate.decompress(packed.slice(0), _HEAD_BYTES)
     except zlib.error as e:
         raise InputError(f"{at}: corrupt zlib data ({e})") from None
     flags, name, nv, nt, pos = _header(head, int(version), at)
@@ -100,8 +123,8 @@ def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMes
     per_vertex = 3 + 3 * bool(flags & HAS_NORMALS) + 2 * bool(flags & HAS_UVS) + 3 * bool(flags & HAS_COLORS)
     index = 8 if nv > 0xFFFFFFFF else 4
     need = nv * per_vertex * real + nt * 3 * index
-    if need > DEFLATE_MAX_RATIO * len(packed) + _HEAD_BYTES:
-        raise InputError(f"{at}: {nv} vertices and {nt} triangles cannot come from {len(packed)} compressed bytes")
+    if need > DEFLATE_MAX_RATIO * packed.size + _HEAD_BYTES:
+        raise InputError(f"{at}: {nv} vertices and {nt} triangles cannot come from {packed.size} compressed bytes")
     body = _inflate_body(inflate, head[pos:], packed, need, at)
     ftype = "<f8" if real == 8 else "<f4"
     off = 0
@@ -131,7 +154,18 @@ def parse_serialized(data: bytes, shape_index: int, label: str) -> SerializedMes
 _INFLATE_STEP = 1 << 16  # compressed bytes fed per step: at most 1032 times that inflate at once
 
 
-def _inflate_body(inflate, start: bytes, packed: memoryview, need: int, at: str) -> np.ndarray:
+class _Slices:
+    """One mesh's compressed bytes (``first .. stop`` of the file) in slices of :data:`_INFLATE_STEP`."""
+
+    def __init__(self, read: Callable[[int, int], bytes | memoryview], first: int, stop: int) -> None:
+        self.read, self.first, self.size = read, first, stop - first
+
+    def slice(self, at: int) -> bytes | memoryview:
+        """The compressed bytes ``at .. at + _INFLATE_STEP`` (fewer at the end; none past it)."""
+        return self.read(self.first + at, self.first + min(at + _INFLATE_STEP, self.size))
+
+
+def _inflate_body(inflate, start: bytes, packed: _Slices, need: int, at: str) -> np.ndarray:
     """The ``need`` bytes of a mesh's body (``start`` already inflated from the first slice of ``packed``),
     inflated step by step into one buffer.
 
@@ -143,13 +177,13 @@ def _inflate_body(inflate, start: bytes, packed: memoryview, need: int, at: str)
     body = np.empty(need, np.uint8)
     got = min(len(start), need)
     body[:got] = np.frombuffer(start, np.uint8, got)
-    src, fed, tail = packed, _INFLATE_STEP, inflate.unconsumed_tail
+    fed, tail = _INFLATE_STEP, inflate.unconsumed_tail
     try:
         while got < need and not inflate.eof:
             if not tail:
-                if fed >= len(src):
+                if fed >= packed.size:
                     break
-                tail, fed = src[fed:fed + _INFLATE_STEP], fed + _INFLATE_STEP
+                tail, fed = packed.slice(fed), fed + _INFLATE_STEP
             part = inflate.decompress(tail, need - got)
             tail = inflate.unconsumed_tail
             body[got:got + len(part)] = np.frombuffer(part, np.uint8)

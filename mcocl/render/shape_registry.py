@@ -215,7 +215,10 @@ class Mesh(ShapeSpec):
         if not len(shape.faces):
             hint = "no 'f' lines): is it an OBJ mesh?" if kind == "obj" else "no 'face' element or none in it)"
             c.fail(f"{key}.{kind}", f"{path} holds no faces ({hint}")
-        if not np.all(np.abs(shape.vertices) <= GEOMETRY_LIMIT):
+        # from the least and greatest coordinate, as np.all(np.abs(v) <= limit) with no array of v's size
+        # (issue 13; a NaN, refused by the reader already, would fail both comparisons there as here)
+        v = shape.vertices
+        if v.size and not (-GEOMETRY_LIMIT <= v.min() and v.max() <= GEOMETRY_LIMIT):
             c.fail(f"{key}.{kind}", f"{path}: a vertex coordinate beyond {GEOMETRY_LIMIT:g}")
 
 

@@ -90,13 +90,19 @@ def cylinder(segments: int = SEGMENTS) -> tuple[np.ndarray, np.ndarray]:
     return v, f.astype(np.int64)
 
 
+def all_finite(a: np.ndarray) -> bool:
+    """Whether every number of ``a`` is finite, from its least and greatest (a NaN makes both NaN, an
+    infinity is one of them): no temporary array of ``a``'s size (issue 13: a load's peak memory)."""
+    return a.size == 0 or bool(np.isfinite(a.min()) and np.isfinite(a.max()))
+
+
 def check_mesh(vertices: np.ndarray, faces: np.ndarray, where: str) -> None:
     """Reject non-finite vertices and out-of-range face indices, naming ``where``."""
     if vertices.ndim != 2 or vertices.shape[1] != 3:
         raise InputError(f"{where}: vertices must be a list of [x, y, z] triples")
     if faces.ndim != 2 or faces.shape[1] != 3:
         raise InputError(f"{where}: faces must be a list of [i, j, k] index triples")
-    if not np.all(np.isfinite(vertices)):
+    if not all_finite(vertices):
         raise InputError(f"{where}: vertices contain a non-finite number")
     if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
         bad = int(faces.min()) if faces.min() < 0 else int(faces.max())
@@ -131,7 +137,7 @@ def _check_vertex_data(mesh: PlyMesh, label: str) -> None:
     """Refuse bad indices or a non-finite position, normal or texture coordinate."""
     check_mesh(mesh.vertices, mesh.faces, label)
     for name, a in (("normals", mesh.normals), ("texture coordinates", mesh.uvs)):
-        if a is not None and not np.all(np.isfinite(a)):
+        if a is not None and not all_finite(a):
             raise InputError(f"{label}: the vertex {name} contain a non-finite number")
 
 
@@ -162,14 +168,14 @@ def read_serialized(path: Path, shape_index: int, where: str) -> SerializedMesh:
         InputError: the file is missing or malformed, or holds no such mesh; the
             message names the scene key ``where`` and the file.
     """
-    try:
-        data = path.read_bytes()
+    try:  # read where the parse looks, never whole (issue 13: the load holds the mesh, not the file too)
+        with open_regular_file(path) as f:
+            mesh = parse_serialized(f, shape_index, f"{where}: {path}")
     except OSError as e:
         raise InputError(f"{where}: cannot read serialized file {path}: {e.strerror or e}") from None
-    mesh = parse_serialized(data, shape_index, f"{where}: {path}")
     _check_vertex_data(mesh, f"{where}: {path}")
     return mesh
 
 
-__all__ = ["SEGMENTS", "check_mesh", "cube", "cylinder", "disk", "read_obj", "read_ply", "read_serialized",
+__all__ = ["SEGMENTS", "all_finite", "check_mesh", "cube", "cylinder", "disk", "read_obj", "read_ply", "read_serialized",
            "rectangle"]
