@@ -153,3 +153,31 @@ def test_binary_ply_errors_as_its_bytes(tmp_path, cut):
     p = tmp_path / "bad.ply"
     p.write_bytes(cut(_triangles_ply("<", 3_000)))
     same_error(shapes.read_ply, ply_reader.parse_ply, p)
+
+
+@pytest.mark.parametrize("bad", [None, 0, 5, 6, 7, 1000, -1])
+def test_utf8_check_a_block_at_a_time_as_of_the_bytes(tmp_path, monkeypatch, bad):
+    """datafile.check_utf8_file (the OBJ key's check) gives decode_utf8's verdict and message for the whole
+    file, with blocks of 7 bytes cutting 2-, 3- and 4-byte characters, and a bad byte anywhere."""
+    text = bytearray("v 0 0 0 # é\n€ x\n\U0001f600 é€\n".encode() * 40)
+    if bad is not None:
+        text[bad] = 0xFF
+    if bad == 1000:
+        text[bad - 1:bad + 1] = b"\xe2\x82"  # a character cut short by an ASCII byte
+    p = tmp_path / "m.obj"
+    p.write_bytes(bytes(text))
+    monkeypatch.setattr(datafile, "UTF8_BLOCK", 7)
+    try:
+        datafile.decode_utf8(bytes(text), "k")
+    except InputError as e:
+        with pytest.raises(InputError) as got:
+            datafile.check_utf8_file(p, "k")
+        assert str(got.value) == str(e)
+    else:
+        datafile.check_utf8_file(p, "k")
+    p.write_bytes(bytes(text) + b"\xe2\x82")  # the file ends inside a character
+    with pytest.raises(InputError) as got:
+        datafile.check_utf8_file(p, "k")
+    with pytest.raises(InputError) as ref:
+        datafile.decode_utf8(bytes(text) + b"\xe2\x82", "k")
+    assert str(got.value) == str(ref.value)

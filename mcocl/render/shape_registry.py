@@ -20,6 +20,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..datafile import check_utf8_file
 from . import shapes as shape_lib
 from . import transform as tf
 from .mesh_normals import world_space_vertex_normals
@@ -194,7 +195,12 @@ class Mesh(ShapeSpec):
     def _file(c: Any, o: dict, key: str, shape: Any, roots: list[Path], kind: str) -> None:
         """The mesh of the OBJ, PLY or serialized file ``o[kind]``, with its per-vertex normals and UVs."""
         rel = c.string(o[kind], f"{key}.{kind}")
-        path = c.mesh_file(rel, f"{key}.{kind}", roots, text=kind == "obj")
+        path = c.mesh_file(rel, f"{key}.{kind}", roots, text=False)
+        if kind == "obj" and path.is_file():  # UTF-8 text, checked a block at a time (not the file held whole)
+            try:
+                check_utf8_file(path, f"{c.file}: {key}.{kind}: {path}")
+            except OSError:
+                pass  # the parser reports an unreadable file
         where = f"{c.file}: {key}.{kind}"
         try:
             if kind == "serialized":
