@@ -803,19 +803,21 @@ def _face_array(got: dict, index_name: str, order: str | None, label: str) -> np
         return fan_triangles(np.ascontiguousarray(idx, index_type).reshape(-1), per_face)
 
 
+BINARY_PIECE_BYTES = 1 << 23  # a binary element's bytes read and parsed at once: see _parse_binary_streamed
+
+
 def _parse_binary_streamed(f: BinaryIO, order: str, elements: list[Element], start: int, want_v: set[str],
                            index_name: str | None) -> PlyMesh:
-    """The mesh of a well-formed binary PLY read from the open file one element at a time, as
+    """The mesh of a well-formed binary PLY read from the open file a piece of an element at a time, as
     :func:`_parse_ply_bytes` makes it from the whole file's bytes.
 
-    Each element's bytes (its count times the size of its first record: every record of a vertex
-    element, and of a face element whose lists all have one length) are read into a buffer of their
-    own and parsed by :func:`_element` as the whole-file parse does; the vertex arrays and the
-    triangles are made from them at once and the buffer let go, so the read holds the mesh and one
-    element's bytes rather than the whole file besides the mesh (issue 13: a 100 MB binary PLY's load
-    peaked at 2.0x the file, now 1.4x).  Anything else (records of differing sizes, an empty vertex
-    element, a malformed body) raises :class:`_UnstreamedError`: the whole-file parse then reads it,
-    with its messages.
+    An element's records all have the size of its first (every vertex element, and a face element whose
+    lists all have one length): it is read :data:`BINARY_PIECE_BYTES` at a time, each piece parsed by
+    :func:`_element` as the whole-file parse does, its vertex arrays or fan triangles written into the
+    mesh's arrays, so that the read holds the mesh and one piece rather than the whole file besides the
+    mesh (issue 13: a 100 MB binary PLY's load peaked at 2.0x the file).  Anything else (records of
+    differing sizes, an empty vertex element, a malformed body) raises :class:`_UnstreamedError`: the
+    whole-file parse then reads it, with its messages.
     """
     size = os.fstat(f.fileno()).st_size
     vertex = faces = None
@@ -830,23 +832,39 @@ def _parse_binary_streamed(f: BinaryIO, order: str, elements: list[Element], sta
         width = int(first.record_ends(el, np.array([0]))[0])
         if width > first.length or pos + el.count * width > size:
             raise _UnstreamedError
-        buf = np.empty(el.count * width, np.uint8)
-        f.seek(pos)
-        if f.readinto(buf) != len(buf):
-            raise _UnstreamedError
-        body = _Body(buf, 0, order, "", [el])
         want = want_v if el.name == "vertex" else {index_name} if el.name == "face" else set()
-        try:
-            got, end = _element(body, el, 0, want)
-            if end != len(buf):
+        per_piece = max(1, BINARY_PIECE_BYTES // width)
+        out: list[np.ndarray | None] | None = None  # the element's arrays, filled piece by piece
+        filled: list[int] = []
+        for at in range(0, el.count, per_piece):
+            k = min(per_piece, el.count - at)
+            buf = np.empty(k * width, np.uint8)
+            f.seek(pos + at * width)
+            if f.readinto(buf) != len(buf):
                 raise _UnstreamedError
-            if el.name == "vertex":
-                vertex = _vertex_arrays(got)
-            elif el.name == "face":
-                faces = _face_array(got, index_name, order, "")
-        except InputError:
-            raise _UnstreamedError from None
-        del got, body, buf  # the element's bytes go before the next element's are read
+            try:
+                got, end = _element(_Body(buf, 0, order, "", [el]), Element(el.name, k, el.props), 0, want)
+                if end != len(buf):
+                    raise _UnstreamedError
+                parts = (_vertex_arrays(got) if el.name == "vertex" else
+                         (_face_array(got, index_name, order, ""),) if el.name == "face" else ())
+            except InputError:
+                raise _UnstreamedError from None
+            if out is None:  # rows per record are fixed (a fan of equal polygons): the whole element's arrays
+                out = [None if a is None else np.empty((len(a) * el.count // k, *a.shape[1:]), a.dtype) for a in parts]
+                filled = [0] * len(parts)
+            for j, a in enumerate(parts):
+                if a is not None:
+                    if filled[j] + len(a) > len(out[j]) or a.dtype != out[j].dtype:
+                        raise _UnstreamedError
+                    out[j][filled[j]:filled[j] + len(a)] = a
+                    filled[j] += len(a)
+        if out is None or any(a is not None and n != len(a) for a, n in zip(out, filled)):
+            raise _UnstreamedError
+        if el.name == "vertex":
+            vertex = out
+        elif el.name == "face":
+            faces = out[0]
         pos += el.count * width
     if pos != size or vertex is None:
         raise _UnstreamedError

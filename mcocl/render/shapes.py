@@ -162,6 +162,8 @@ def read_ply(path: Path, where: str) -> PlyMesh:
             mesh = parse_ply(f, f"{where}: {path}")
     except OSError as e:
         raise InputError(f"{where}: cannot read PLY file {path}: {e.strerror or e}") from None
+    finally:
+        release_free_heap()  # the pieces' and chunks' freed temporaries (host_memory.py)
     _check_vertex_data(mesh, f"{where}: {path}")
     return mesh
 
