@@ -680,7 +680,8 @@ def parse_ply(source: bytes | BinaryIO, label: str) -> PlyMesh:
 
     ``source`` is the file's bytes or a binary file open for reading.  An open file's ASCII body is
     streamed from it (:class:`~mcocl.render.file_window.FileWindow`), its bytes never held whole
-    (issue 13); a binary file, or an ASCII one the stream leaves to the whole-body parse, is read
+    (issue 13), and a binary body read a piece of an element at a time (:func:`_parse_binary_streamed`);
+    a file either leaves to the whole-file parse (a malformed one, records of differing sizes) is read
     whole and parsed as its bytes are, with the same arrays and messages.
 
     The arrays hold the file's values exactly in the narrowest type that does (issue 13: a binary

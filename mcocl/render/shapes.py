@@ -150,14 +150,14 @@ def read_ply(path: Path, where: str) -> PlyMesh:
     """Vertices, triangles and any per-vertex normals and UVs of a PLY file (ASCII or binary).
 
     Parsing is vectorised (:mod:`mcocl.render.ply_reader`); polygons become
-    triangle fans.  An ASCII body is streamed from the open file; a binary one
-    is read whole.
+    triangle fans.  An ASCII body is streamed from the open file, a binary one
+    read a piece of an element at a time (:func:`~mcocl.render.ply_reader.parse_ply`).
 
     Raises:
         InputError: the file is missing or malformed; the message names the
             scene key ``where`` and the file.
     """
-    try:  # an ASCII body is streamed, never held whole (issue 13: under twice the file's size in memory)
+    try:  # the body is streamed, never held whole (issue 13: under twice the file's size in memory)
         with open_regular_file(path) as f:
             mesh = parse_ply(f, f"{where}: {path}")
     except OSError as e:
