@@ -122,7 +122,7 @@ def _binary_plys() -> list[tuple[bytes, bool]]:
             (_triangles_ply("<", 3_000, index="u4"), True)]
 
 
-@pytest.mark.parametrize("piece", [1 << 23, 1000, 1])
+@pytest.mark.parametrize("piece", [1 << 20, 1000, 1])
 @pytest.mark.parametrize("case", range(7))
 def test_binary_ply_file_reads_element_by_element_as_its_bytes(tmp_path, monkeypatch, no_whole_read, case, piece):
     data, by_elements = _binary_plys()[case]
@@ -151,7 +151,7 @@ def _face_count(data: bytes, face: int, count: int) -> bytes:
     lambda d: _face_count(d, 5, 0),
     lambda d: _face_count(d, 0, 200),  # the first record's lists overrun the first look at the element
 ])
-@pytest.mark.parametrize("piece", [1 << 23, 1000])
+@pytest.mark.parametrize("piece", [1 << 20, 1000])
 def test_binary_ply_errors_as_its_bytes(tmp_path, monkeypatch, cut, piece):
     monkeypatch.setattr(ply_reader, "BINARY_PIECE_BYTES", piece)
     p = tmp_path / "bad.ply"

@@ -804,7 +804,7 @@ def _face_array(got: dict, index_name: str, order: str | None, label: str) -> np
         return fan_triangles(np.ascontiguousarray(idx, index_type).reshape(-1), per_face)
 
 
-BINARY_PIECE_BYTES = 1 << 23  # a binary element's bytes read and parsed at once: see _parse_binary_streamed
+BINARY_PIECE_BYTES = 1 << 20  # a binary element's bytes read and parsed at once: see _parse_binary_streamed
 
 
 def _parse_binary_streamed(f: BinaryIO, order: str, elements: list[Element], start: int, want_v: set[str],
