@@ -22,6 +22,7 @@ from mcocl.errors import InputError
 from mcocl.render.compiled import compile_scene
 from mcocl.render.scene_file import load_scene
 from mcocl.render.serialized_reader import mesh_count, parse_serialized
+from mcocl.render.shapes import read_serialized
 
 QUAD = {"vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], "faces": [[0, 1, 2], [1, 3, 2]],
         "normals": [[0, 0, 1], [0, 0.6, 0.8], [0.6, 0, 0.8], [0, 0, 1]], "uvs": [[0, 0], [1, 0], [0, 1], [1, 1]],
@@ -71,9 +72,9 @@ def test_round_trip(tmp_path: Path, version: int, double: bool) -> None:
     assert t.normals is None and t.uvs is None and t.face_normals
 
 
-def test_open_file_reads_as_bytes(tmp_path: Path) -> None:
-    """An open file (read where the parse looks: shapes.read_serialized) gives the bytes' arrays bit for bit,
-    over a mesh whose compressed bytes span many inflate slices, and the same errors."""
+def test_open_file_reads_as_bytes(tmp_path: Path, monkeypatch) -> None:
+    """An open file (read where the parse looks: shapes.read_serialized, which never reads it whole) gives the
+    bytes' arrays bit for bit, over a mesh whose compressed bytes span many inflate slices, and the same errors."""
     rng = np.random.default_rng(5)
     big = {"vertices": rng.random((60_000, 3)), "faces": rng.integers(0, 60_000, (40_000, 3)),
            "normals": rng.random((60_000, 3)), "uvs": rng.random((60_000, 2)), "name": "big"}
@@ -88,6 +89,10 @@ def test_open_file_reads_as_bytes(tmp_path: Path) -> None:
                 x, y = getattr(a, name), getattr(b, name)
                 assert (x is None and y is None) or (x.dtype == y.dtype and x.tobytes() == y.tobytes())
             assert (a.name, a.face_normals) == (b.name, b.face_normals)
+    monkeypatch.setattr(Path, "read_bytes", lambda self: pytest.fail(f"{self} read whole"))
+    got = read_serialized(path, 1, "k")
+    assert got.vertices.tobytes() == parse_serialized(data, 1, "m").vertices.tobytes()
+    monkeypatch.undo()
     cut = bytearray(data)
     cut[10:30] = bytes(20)
     path.write_bytes(bytes(cut))
