@@ -1,0 +1,65 @@
+"""Which render sampler a render uses: ``auto`` (the default), ``independent`` or ``sobol``.
+
+``sobol`` (per-pixel Owen-scrambled Sobol' nets, :mod:`mcocl.render.sobol_film`)
+had 1.1x-4x lower MSE than ``independent`` at equal time on every scene of
+bench/render_throughput.py (veach_mis 4.1x, cornell 2.2x, the 10^6-triangle
+mesh 2.2x, many_lights 1.8x, cornell_spheres 1.1x; README, *Quasi-Monte Carlo
+pixels*), as pbrt-v4 (ZSobol) and Cycles default to low-discrepancy samplers.
+Its variance comes from a few independent scramblings (batches) per pixel, so
+``auto`` takes it where the render can form them and keeps ``independent``
+everywhere else (:func:`resolve_auto_sampler`):
+
+- ``lt`` and ``bdpt`` splat independent samples (the Sobol' back end is the
+  path integrators' megakernel's): ``independent``;
+- ``batches`` given: they are sobol's alone, so ``sobol``;
+- an explicit ``spp_per_block`` is the size of a batch: ``sobol`` when it
+  holds at least 2 samples, at most 2^31 (a scrambling's points,
+  kernels/samplers/sobol_sampler.cl), and ``spp`` (when given) fills at least
+  2 batches of it; else ``independent``, whose blocks are any size;
+- otherwise ``sobol`` when the default :data:`DEFAULT_BATCHES` batches each
+  hold at least 2 samples (spp >= 8), or the render is halted by time or
+  target error alone (no spp: batches of the default block size, their
+  number growing with the run, as explicit sobol does); ``independent`` for
+  spp < 8, where one or two samples per batch keep no stratification and
+  leave a few-batch variance.
+
+A resumed checkpoint keeps the sampler it was written with (the checkpoint's
+``sampler`` key: none for ``independent``, as before the option existed), so
+resuming ``auto`` reproduces the bits of the uninterrupted run, and a
+checkpoint written before ``auto`` existed continues with ``independent``.
+"""
+
+from __future__ import annotations
+
+from .job import SPLAT_INTEGRATORS
+from .sobol_film import DEFAULT_BATCHES, MIN_BATCHES
+
+# The most points of one scrambling (kernels/samplers/sobol_sampler.cl: SOBOL_LOG2_POINTS <= 31).
+MAX_BATCH_SPP = 1 << 31
+
+
+def resolve_auto_sampler(integrator: str, spp: int | None, spp_per_block: int | None,
+                         batches: int | None) -> tuple[str, str]:
+    """(``"sobol"`` or ``"independent"``, why) for ``sampler="auto"`` (the module docstring's rule).
+
+    ``spp`` is the render's spp bound (None when only time or target error halt it),
+    ``spp_per_block`` and ``batches`` the caller's (None when not given).
+    """
+    if integrator in SPLAT_INTEGRATORS:
+        return "independent", f"{integrator} draws independent samples"
+    if batches is not None:
+        return "sobol", "batches are the sobol sampler's"
+    if spp_per_block is not None:
+        n = int(spp_per_block)
+        if MIN_BATCHES <= n <= MAX_BATCH_SPP and (spp is None or int(spp) >= MIN_BATCHES * n):
+            return "sobol", f"batches of spp_per_block={n} samples"
+        return "independent", (f"spp_per_block={n} does not make {MIN_BATCHES} sobol batches of "
+                               f"{MIN_BATCHES} or more samples" + (f" within {spp} spp" if spp is not None else ""))
+    least = MIN_BATCHES * DEFAULT_BATCHES
+    if spp is None or int(spp) >= least:
+        return "sobol", ("time- or noise-halted: batches of the default block" if spp is None
+                         else f"{DEFAULT_BATCHES} batches of {-(-int(spp) // DEFAULT_BATCHES)} samples")
+    return "independent", f"{spp} spp is below the {least} that {DEFAULT_BATCHES} sobol batches of 2 samples need"
+
+
+__all__ = ["MAX_BATCH_SPP", "resolve_auto_sampler"]
