@@ -33,6 +33,11 @@ Integrators (one megakernel, chosen at build time):
   nee   light sampling at every vertex, BSDF sampling to continue
   mis   both, combined by the power heuristic (default)
 
+Pixel samples (--sampler): auto (default) draws per-pixel Owen-scrambled
+Sobol' nets for path/nee/mis at 8 spp or more (1.1-4x lower error at equal
+time on the bench scenes), independent samples elsewhere; the summary, --json
+and the EXR header say which ran.
+
 Stopping: --spp N samples per pixel, --time S seconds, --target-error R
 (mean relative standard error over the pixels), whichever comes first; with
 none of them, the scene's spp.  (--noise is the deprecated name of
