@@ -20,8 +20,8 @@ everywhere else (:func:`resolve_auto_sampler`):
   hold at least 2 samples (spp >= 8), or the render is halted by time or
   target error alone (no spp: batches of the default block size, their
   number growing with the run, as explicit sobol does); ``independent`` for
-  spp < 8, where one or two samples per batch keep no stratification and
-  leave a few-batch variance.
+  spp < 8, whose 4 batches cannot all hold 2 samples (a batch of one sample
+  is no net: sobol would only cost a variance of few degrees of freedom).
 
 A resumed checkpoint keeps the sampler it was written with (the checkpoint's
 ``sampler`` key: none for ``independent``, as before the option existed), so
@@ -36,6 +36,8 @@ from .sobol_film import DEFAULT_BATCHES, MIN_BATCHES
 
 # The most points of one scrambling (kernels/samplers/sobol_sampler.cl: SOBOL_LOG2_POINTS <= 31).
 MAX_BATCH_SPP = 1 << 31
+# The fewest samples of a batch for auto to choose sobol (one point is no net).
+MIN_BATCH_SPP = 2
 
 
 def resolve_auto_sampler(integrator: str, spp: int | None, spp_per_block: int | None,
@@ -51,15 +53,15 @@ def resolve_auto_sampler(integrator: str, spp: int | None, spp_per_block: int | 
         return "sobol", "batches are the sobol sampler's"
     if spp_per_block is not None:
         n = int(spp_per_block)
-        if MIN_BATCHES <= n <= MAX_BATCH_SPP and (spp is None or int(spp) >= MIN_BATCHES * n):
+        if MIN_BATCH_SPP <= n <= MAX_BATCH_SPP and (spp is None or int(spp) >= MIN_BATCHES * n):
             return "sobol", f"batches of spp_per_block={n} samples"
         return "independent", (f"spp_per_block={n} does not make {MIN_BATCHES} sobol batches of "
-                               f"{MIN_BATCHES} or more samples" + (f" within {spp} spp" if spp is not None else ""))
-    least = MIN_BATCHES * DEFAULT_BATCHES
+                               f"{MIN_BATCH_SPP} or more samples" + (f" within {spp} spp" if spp is not None else ""))
+    least = MIN_BATCH_SPP * DEFAULT_BATCHES
     if spp is None or int(spp) >= least:
         return "sobol", ("time- or noise-halted: batches of the default block" if spp is None
                          else f"{DEFAULT_BATCHES} batches of {-(-int(spp) // DEFAULT_BATCHES)} samples")
     return "independent", f"{spp} spp is below the {least} that {DEFAULT_BATCHES} sobol batches of 2 samples need"
 
 
-__all__ = ["MAX_BATCH_SPP", "resolve_auto_sampler"]
+__all__ = ["MAX_BATCH_SPP", "MIN_BATCH_SPP", "resolve_auto_sampler"]
