@@ -146,14 +146,16 @@ def mse(img: np.ndarray, ref: np.ndarray, ref_var: np.ndarray) -> float:
     return float(np.mean(d * d) - np.mean(ref_var.astype(np.float64)))
 
 
-def ran_sampler(integrator: str, spp: int, sampler: str) -> str:
-    """The sampler a render of ``spp`` spp runs with (``auto`` resolved): its kernel is built before the timing."""
-    return resolve_auto_sampler(integrator, spp, None, None)[0] if sampler == "auto" else sampler
+def ran_sampler(integrator: str, spp: int, sampler: str, pixels: int) -> str:
+    """The sampler a render of ``spp`` spp over ``pixels`` pixels runs with (``auto`` resolved): its kernel
+    is built before the timing."""
+    return resolve_auto_sampler(integrator, spp, None, None, pixels)[0] if sampler == "auto" else sampler
 
 
 def throughput_only(args: argparse.Namespace, out: Path) -> None:
     """Paths/s and build time on the Cornell box (no Mitsuba)."""
-    sampler = ran_sampler(args.integrator, args.spp, args.sampler)
+    cornell = compile_scene(SCENE)
+    sampler = ran_sampler(args.integrator, args.spp, args.sampler, cornell.width * cornell.height)
     res: dict = {"scene": str(SCENE.relative_to(ROOT)), "integrator": args.integrator, "spp": args.spp,
                  "sampler": sampler, "cpus": os.cpu_count(), "loadavg_start": os.getloadavg()}
     if not args.no_cold_build:
@@ -195,7 +197,7 @@ def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, e
         compiled[c] = compile_scene(scene_variant(scene, c[0], c[1]))
         load[c] = time.perf_counter() - t0
         # build the kernel of the sampler the timed renders run with (auto at spp=1 would be independent)
-        render(compiled[c], spp=1, integrator=c[0], seed=999, lanes=args.lanes, sampler=ran_sampler(c[0], args.spp, c[2]))
+        render(compiled[c], spp=1, integrator=c[0], seed=999, lanes=args.lanes, sampler=ran_sampler(c[0], args.spp, c[2], compiled[c].width * compiled[c].height))
     mdir = out / "mitsuba" / name
     ours: dict = {c: {"seconds": [], "cpu": [], "mse": [], "sampler": ""} for c in compiled}
     mi_runs: dict = {"seconds": [], "cpu": [], "mse": []}

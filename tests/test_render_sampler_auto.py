@@ -26,30 +26,51 @@ from mcocl.errors import InputError
 from mcocl.render.api import render
 from mcocl.render.image_io import read_exr
 from mcocl.render.mitsuba import read_mitsuba
-from mcocl.render.sampler_choice import MAX_BATCH_SPP, resolve_auto_sampler
+from mcocl.render.sampler_choice import AUTO_BATCH_PATHS, MAX_BATCH_SPP, resolve_auto_sampler
 from mcocl.render.scene import DEFAULT_RENDER_SAMPLER, parse_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
 
-@pytest.mark.parametrize("integrator,spp,block,batches,want", [
-    ("mis", 8, None, None, "sobol"),  # 4 batches of 2
-    ("mis", 7, None, None, "independent"),  # a batch of 1 sample
-    ("path", 1, None, None, "independent"),
-    ("nee", 1024, None, None, "sobol"),
-    ("mis", None, None, None, "sobol"),  # time or noise halting: batches of the default block
-    ("mis", 2, None, 2, "sobol"),  # batches ask for sobol
-    ("mis", 16, 8, None, "sobol"),  # two batches of 8
-    ("mis", 15, 8, None, "independent"),  # one batch of 8 and one of 7: fewer than 2 whole batches
-    ("mis", 64, 1, None, "independent"),  # batches of one sample
-    ("mis", None, 4, None, "sobol"),
-    ("mis", None, MAX_BATCH_SPP + 1, None, "independent"),  # beyond one scrambling's points
-    ("lt", 64, None, None, "independent"),
-    ("bdpt", None, None, None, "independent"),
+@pytest.mark.parametrize("integrator,spp,block,batches,pixels,bounded,want,batch", [
+    ("mis", 8, None, None, 64, True, "sobol", 2),  # 4 batches of 2
+    ("mis", 7, None, None, 64, True, "independent", None),  # a batch of 1 sample
+    ("path", 1, None, None, 64, True, "independent", None),
+    ("nee", 1024, None, None, 64, True, "sobol", 256),
+    ("mis", 64, None, None, 384 * 256, True, "sobol", 16),  # 1.6 M paths: one whole-film block
+    ("mis", 64, None, None, 512 * 512, True, "sobol", 16),  # 2^22 paths exactly
+    ("mis", 256, None, None, 512 * 512, True, "sobol", 16),  # capped at 2^22 paths: 16 batches of 16
+    ("mis", 256, None, None, 1000 * 1000, True, "sobol", 4),  # the largest power of two that fits
+    ("mis", 64, None, None, 1920 * 1080, True, "sobol", 2),
+    ("mis", 64, None, None, 2048 * 2048, True, "independent", None),  # not even 2 samples fit a block
+    ("mis", None, None, None, 64, False, "sobol", 64),  # time or noise halting: the default block
+    ("mis", None, None, None, 256 * 256, False, "sobol", 16),
+    ("mis", None, None, None, 1024 * 1024, False, "independent", None),  # the default block holds 1 spp
+    ("mis", 16, None, None, 256 * 256, False, "sobol", 4),  # an upper bound: 4 batches within it
+    ("mis", 2, None, 2, 64, True, "sobol", None),  # batches ask for sobol
+    ("mis", 16, 8, None, 64, True, "sobol", None),  # two batches of 8
+    ("mis", 15, 8, None, 64, True, "independent", None),  # one batch of 8 and one of 7: fewer than 2 whole batches
+    ("mis", 64, 1, None, 64, True, "independent", None),  # batches of one sample
+    ("mis", None, 4, None, 64, False, "sobol", None),
+    ("mis", None, MAX_BATCH_SPP + 1, None, 64, False, "independent", None),  # beyond one scrambling's points
+    ("lt", 64, None, None, 64, True, "independent", None),
+    ("bdpt", None, None, None, 64, False, "independent", None),
 ])
-def test_auto_rule(integrator, spp, block, batches, want) -> None:
-    got, why = resolve_auto_sampler(integrator, spp, block, batches)
-    assert got == want and why
+def test_auto_rule(integrator, spp, block, batches, pixels, bounded, want, batch) -> None:
+    got, why, size = resolve_auto_sampler(integrator, spp, block, batches, pixels, bounded)
+    assert got == want and why and size == batch
+    if size is not None:
+        assert size * pixels <= AUTO_BATCH_PATHS
+
+
+def test_auto_batches_are_whole_film_blocks() -> None:
+    """A batch that auto sized is one block over the whole film, so a render stopped in its first
+    batch has every pixel (explicit sobol of the same spp cuts the batch into pixel ranges)."""
+    cs = small_cornell(64)  # 4096 pixels: a batch of 512 spp is 2^21 paths, two default blocks
+    part = render(cs, spp=2048, seed=3, progress=interrupt_after_first_fold())
+    assert part.sampler == "sobol" and part.spp_per_block == 512 and part.stopped_by == "interrupt"
+    assert part.count.min() == part.count.max() >= 1
+    assert np.isfinite(part.mean).all()
 
 
 def test_default_is_auto() -> None:

@@ -159,8 +159,10 @@ def _requested_sampler(cs: CompiledScene, sampler: Any) -> tuple[str, bool]:
 
 
 def _render_sampler(cs: CompiledScene, name: str, from_scene: bool, spp: int | None, spp_per_block: Any,
-                    batches: Any) -> tuple[str, str]:
-    """The render sampler and a note: ``sobol`` only for the path integrators.
+                    batches: Any, bounded_by_spp: bool) -> tuple[str, str, int | None]:
+    """The render sampler, a note, and the samples of a batch when ``auto`` sized it (else None).
+
+    ``sobol`` only for the path integrators.
 
     The scene's ``sobol`` is a preference (a Mitsuba scene's stratified sampler asks for it): ``lt``
     and ``bdpt``, e.g. chosen by ``--integrator``, draw independent samples instead, and the note says
@@ -173,15 +175,16 @@ def _render_sampler(cs: CompiledScene, name: str, from_scene: bool, spp: int | N
             raise InputError(f"batches: only the sobol sampler estimates its variance from batches, and it works "
                              f"with the path integrators (path, nee, mis), not {cs.integrator!r}")
         block = None if spp_per_block is None else whole_number("spp_per_block", spp_per_block, 1, UNBOUNDED_SPP - 1)
-        name, why = resolve_auto_sampler(cs.integrator, spp, block,
-                                         batches if batches is not None else getattr(cs, "batches", None))
-        return name, f"sampler auto: {name} ({why})"
+        name, why, batch = resolve_auto_sampler(cs.integrator, spp, block,
+                                                batches if batches is not None else getattr(cs, "batches", None),
+                                                cs.width * cs.height, bounded_by_spp)
+        return name, f"sampler auto: {name} ({why})", batch
     if name == "sobol" and cs.integrator in SPLAT_INTEGRATORS:
         if from_scene:
             return "independent", (f"the scene's sampler 'sobol' works with the path integrators only: {cs.integrator} "
-                                   "draws independent samples")
+                                   "draws independent samples"), None
         raise InputError(f"sampler 'sobol' works with the path integrators (path, nee, mis), not {cs.integrator!r}")
-    return name, ""
+    return name, "", None
 
 
 def _checkpoint_sampler(acc: Accumulator, path: Any) -> str:
@@ -341,11 +344,13 @@ def render(
     # read before the sampler is chosen: a resume of auto continues with the checkpoint's sampler, so that it
     # gives the uninterrupted run's bits (and a checkpoint made before auto existed continues independent)
     acc: Accumulator | None = Accumulator.load(opts.resume) if opts.resume is not None else None
+    auto_batch = None  # samples per pixel of a batch that auto sized: one whole-film block (sampler_choice.py)
     if sampler == "auto" and acc is not None and batches is None:
         sampler = _checkpoint_sampler(acc, opts.resume)
         sampler_note = f"sampler auto: {sampler} (the checkpoint's)"
     else:
-        sampler, sampler_note = _render_sampler(cs, sampler, from_scene, spp, spp_per_block, batches)
+        sampler, sampler_note, auto_batch = _render_sampler(cs, sampler, from_scene, spp, spp_per_block, batches,
+                                                            opts.time_budget is None and opts.target_error is None)
     if batches is not None:
         if sampler != "sobol":
             raise InputError(f"batches: only the sobol sampler estimates its variance from batches, not {sampler!r}")
@@ -400,6 +405,8 @@ def render(
         acc.check_shape((cs.height, cs.width, STATS), resume)
         # sobol's blocks as the checkpoint cut them (no key: whole-film blocks, as before the cut existed)
         block_pixels = _saved_block_pixels(acc, resume, cs.width * cs.height) if sampler == "sobol" else 0
+    elif auto_batch is not None:
+        spp_per_block = auto_batch
     elif spp_per_block is None:
         spp_per_block = default_spp_per_block(cs.width, cs.height)
         if sampler == "sobol":
@@ -414,9 +421,11 @@ def render(
     else:
         spp_per_block = whole_number("spp_per_block", spp_per_block, 1, UNBOUNDED_SPP - 1)
     if acc is None:
-        # a sobol batch of more paths than an independent block is cut into blocks of pixel ranges
+        # a sobol batch of more paths than an independent block is cut into blocks of pixel ranges (not one
+        # that auto sized: a whole-film block, so that a render stopped in its first batch has every pixel)
         block_pixels = (sobol_block_pixels(spp_per_block, default_spp_per_block(cs.width, cs.height) * cs.width
-                                           * cs.height, cs.width, cs.height, TILE_PIXELS) if sampler == "sobol" else 0)
+                                           * cs.height, cs.width, cs.height, TILE_PIXELS)
+                        if sampler == "sobol" and auto_batch is None else 0)
 
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
