@@ -500,7 +500,7 @@ def render_option_cases() -> list[Case]:
     add("batches-1e9", *sobol, "--batches", "1e9", "--spp", "4", expect="ok")
     add("batches-1e9-time", *sobol, "--batches", "1e9", "--time", "2", expect="ok")
     add("batches-independent", "--sampler", "independent", "--batches", "4")
-    add("batches-scene-sampler", "--batches", "4")  # the scene's sampler is independent
+    add("batches-scene-sampler", "--batches", "4", expect="ok")  # the scene's sampler is auto: batches choose sobol
     add("batches-bdpt", "--integrator", "bdpt", "--batches", "4")
     add("batches-bdpt-sobol", "--integrator", "bdpt", *sobol, "--batches", "4")
     add("batches-lt-sobol", "--integrator", "lt", *sobol)
@@ -527,7 +527,7 @@ def render_option_cases() -> list[Case]:
         "batches-list": {"type": "mis", "sampler": "sobol", "batches": [4]},
         "batches-huge": {"type": "mis", "sampler": "sobol", "batches": 1e30},
         "batches-nan": {"type": "mis", "sampler": "sobol", "batches": float("nan")},
-        "batches-independent": {"type": "mis", "batches": 4},
+        "batches-independent": {"type": "mis", "sampler": "independent", "batches": 4},
         "batches-bdpt": {"type": "bdpt", "sampler": "sobol", "batches": 4},
         "sampler-bogus": {"type": "mis", "sampler": "halton"},
         "sampler-num": {"type": "mis", "sampler": 3},
@@ -550,7 +550,7 @@ def render_option_cases() -> list[Case]:
         "batches-float": "mcocl.render(SCENE, spp=4, sampler='sobol', batches=4.5)",
         "batches-nan": "mcocl.render(SCENE, spp=4, sampler='sobol', batches=float('nan'))",
         "batches-bool": "mcocl.render(SCENE, spp=4, sampler='sobol', batches=True)",
-        "batches-independent": "mcocl.render(SCENE, spp=4, batches=4)",
+        "batches-independent": "mcocl.render(SCENE, spp=4, sampler='independent', batches=4)",
         "batches-and-block": "mcocl.render(SCENE, spp=4, sampler='sobol', batches=2, spp_per_block=2)",
         "sampler-bogus": "mcocl.render(SCENE, spp=1, sampler='halton')",
         "sampler-int": "mcocl.render(SCENE, spp=1, sampler=3)",
@@ -944,7 +944,8 @@ def checkpoint_cases() -> list[Case]:
     c.append(Case("ckpt-sobol-resume-good", "checkpoint", [*sob, "--resume", "{in}/sobol.ckpt"], expect="ok",
                   outputs=("x.exr",), checks=(exr_has_samples("x.exr"),)))
     c.append(Case("ckpt-sobol-into-independent", "checkpoint",
-                  ["render", "{in}/tiny.json", "--spp", "1024", "--out", "x.exr", "--resume", "{in}/sobol.ckpt"]))
+                  ["render", "{in}/tiny.json", "--spp", "1024", "--sampler", "independent", "--out", "x.exr",
+                   "--resume", "{in}/sobol.ckpt"]))
     c.append(Case("ckpt-independent-into-sobol", "checkpoint",
                   [*sob, "--resume", "{in}/render.ckpt"]))
 

@@ -20,7 +20,10 @@ With ``--mitsuba``, for every scene of ``--scenes``:
   ``--big-triangles`` triangles (generated into ``--out`` when missing);
 
 mcocl renders ``--spp`` spp with each of ``--configs`` (integrator/light
-sampler[/render sampler], e.g. ``mis/power`` or ``mis/auto/sobol``), Mitsuba
+sampler[/render sampler], e.g. ``mis/power`` or ``mis/auto/sobol``; without the
+third part the render's default sampler ``auto``, which is ``sobol`` for the
+path integrators at 8 spp or more: mcocl/render/sampler_choice.py; the JSON
+records the sampler that ran), Mitsuba
 (bench/mitsuba_render.py in its own environment, the scene converted by
 bench/mitsuba_scene.py: box filter, the ``--mitsuba-sampler`` (independent by
 default; ``multijitter``, ``ldsampler``... stratify as our ``sobol`` does),
@@ -58,6 +61,7 @@ sys.path.insert(0, str(ROOT))
 
 from mcocl.render import compile_scene  # noqa: E402
 from mcocl.render.api import render  # noqa: E402
+from mcocl.render.sampler_choice import resolve_auto_sampler  # noqa: E402
 
 SCENE = ROOT / "scenes" / "cornell.json"
 SCENE_FILES = {"cornell": SCENE, "veach_mis": ROOT / "scenes" / "veach_mis.json",
@@ -142,17 +146,25 @@ def mse(img: np.ndarray, ref: np.ndarray, ref_var: np.ndarray) -> float:
     return float(np.mean(d * d) - np.mean(ref_var.astype(np.float64)))
 
 
+def ran_sampler(integrator: str, spp: int, sampler: str, pixels: int) -> str:
+    """The sampler a render of ``spp`` spp over ``pixels`` pixels runs with (``auto`` resolved): its kernel
+    is built before the timing."""
+    return resolve_auto_sampler(integrator, spp, None, None, pixels)[0] if sampler == "auto" else sampler
+
+
 def throughput_only(args: argparse.Namespace, out: Path) -> None:
     """Paths/s and build time on the Cornell box (no Mitsuba)."""
+    cornell = compile_scene(SCENE)
+    sampler = ran_sampler(args.integrator, args.spp, args.sampler, cornell.width * cornell.height)
     res: dict = {"scene": str(SCENE.relative_to(ROOT)), "integrator": args.integrator, "spp": args.spp,
-                 "cpus": os.cpu_count(), "loadavg_start": os.getloadavg()}
+                 "sampler": sampler, "cpus": os.cpu_count(), "loadavg_start": os.getloadavg()}
     if not args.no_cold_build:
         res["build_seconds_cold"] = cold_build_seconds(args.integrator, args.lanes)
-    warm = render(SCENE, spp=1, integrator=args.integrator, seed=999, lanes=args.lanes)
+    warm = render(SCENE, spp=1, integrator=args.integrator, seed=999, lanes=args.lanes, sampler=sampler)
     runs = []
     for k in range(args.repeats):
         c0 = time.process_time()
-        r = render(SCENE, spp=args.spp, integrator=args.integrator, seed=1 + k, lanes=args.lanes)
+        r = render(SCENE, spp=args.spp, integrator=args.integrator, seed=1 + k, lanes=args.lanes, sampler=sampler)
         cpu = time.process_time() - c0
         runs.append({"seconds": r.seconds, "cpu_seconds": cpu, "paths_per_second": r.samples_per_second,
                      "cpu_seconds_per_mpath": cpu / (r.samples / 1e6)})
@@ -165,7 +177,7 @@ def throughput_only(args: argparse.Namespace, out: Path) -> None:
     if args.json:
         print(json.dumps(res, indent=2))
         return
-    print(f"scene      {res['scene']}, {args.integrator}, {args.spp} spp x {args.repeats}")
+    print(f"scene      {res['scene']}, {args.integrator}, {sampler} sampler, {args.spp} spp x {args.repeats}")
     print(f"device     {res['device']} ({res['lanes']} lanes), {res['cpus']} CPUs, load average "
           f"{res['loadavg_start'][0]:.1f} -> {res['loadavg_end'][0]:.1f}")
     if "build_seconds_cold" in res:
@@ -176,7 +188,7 @@ def throughput_only(args: argparse.Namespace, out: Path) -> None:
 
 def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, env: dict) -> dict:
     """mcocl's configurations and Mitsuba on one scene, interleaved run by run (see the module docstring)."""
-    configs = [(*c.split("/"), "independent")[:3] for c in args.configs]
+    configs = [(*c.split("/"), "auto")[:3] for c in args.configs]
     if name in ("cornell", "cornell_spheres", "big"):  # one area light: the light sampler cannot matter
         configs = list(dict.fromkeys((integ, "power", smp) for integ, _, smp in configs))
     compiled, load = {}, {}
@@ -184,9 +196,10 @@ def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, e
         t0 = time.perf_counter()
         compiled[c] = compile_scene(scene_variant(scene, c[0], c[1]))
         load[c] = time.perf_counter() - t0
-        render(compiled[c], spp=1, integrator=c[0], seed=999, lanes=args.lanes, sampler=c[2])  # build the kernel
+        # build the kernel of the sampler the timed renders run with (auto at spp=1 would be independent)
+        render(compiled[c], spp=1, integrator=c[0], seed=999, lanes=args.lanes, sampler=ran_sampler(c[0], args.spp, c[2], compiled[c].width * compiled[c].height))
     mdir = out / "mitsuba" / name
-    ours: dict = {c: {"seconds": [], "cpu": [], "mse": []} for c in compiled}
+    ours: dict = {c: {"seconds": [], "cpu": [], "mse": [], "sampler": ""} for c in compiled}
     mi_runs: dict = {"seconds": [], "cpu": [], "mse": []}
     ref, ref_var, how = reference(out, scene, args.reference_seconds)
     mi_info: dict = {}
@@ -197,6 +210,7 @@ def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, e
             ours[c]["cpu"].append(time.process_time() - c0)
             ours[c]["seconds"].append(r.seconds)
             ours[c]["mse"].append(mse(r.mean, ref, ref_var))
+            ours[c]["sampler"] = r.sampler
         p = subprocess.run([args.mitsuba, str(ROOT / "bench" / "mitsuba_render.py"), "--scene", str(scene),
                             "--variant", args.variant, "--spp", str(args.spp), "--repeats", "1", "--seed", str(args.seed + k),
                             "--sampler", args.mitsuba_sampler, "--out", str(mdir)], capture_output=True, text=True, env=env, cwd=ROOT)
@@ -212,7 +226,8 @@ def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, e
     def eff(runs: dict, key: str) -> float:
         return 1.0 / (statistics.mean(runs["mse"]) * statistics.median(runs[key]))
 
-    rows = {"/".join(c if c[2] != "independent" else c[:2]): {"seconds_median": statistics.median(v["seconds"]),
+    rows = {"/".join(c if c[2] != "auto" else c[:2]): {"sampler": v["sampler"],
+                                "seconds_median": statistics.median(v["seconds"]),
                                 "cpu_seconds_median": statistics.median(v["cpu"]),
                                 "mse": statistics.mean(v["mse"]), "load_seconds": load[c],
                                 "efficiency_ratio": eff(v, "seconds") / eff(mi_runs, "seconds"),
@@ -236,6 +251,8 @@ def main() -> None:
     ap.add_argument("--spp", type=int, default=64, help="samples per pixel of each timed render (default 64)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--integrator", default="mis", choices=("path", "nee", "mis"), help="without --mitsuba")
+    ap.add_argument("--sampler", default="auto", choices=("auto", "independent", "sobol"),
+                    help="without --mitsuba: the render sampler (default auto, the render's default)")
     ap.add_argument("--lanes", type=int, default=None, help="vector width (default: the device's)")
     ap.add_argument("--no-cold-build", action="store_true", help="skip the cold-build measurement")
     ap.add_argument("--mitsuba", default=None, metavar="PYTHON", help="Python of a venv with mitsuba: compare with it")
@@ -245,7 +262,8 @@ def main() -> None:
                     help="Mitsuba's sampler plugin (default independent; multijitter or ldsampler stratify)")
     ap.add_argument("--scenes", nargs="+", default=["cornell", "cornell_spheres", "veach_mis", "many_lights", "big"])
     ap.add_argument("--configs", nargs="+", default=["mis/power", "nee/power", "mis/bvh", "nee/bvh"],
-                    help="mcocl integrator/light_sampler pairs (bvh only on the many-light scenes); lt/power "
+                    help="mcocl integrator/light_sampler[/sampler] (bvh only on the many-light scenes; the "
+                         "sampler auto, independent or sobol, default auto); lt/power "
                          "adds light tracing, which renders mirrors and glass seen directly black (compare it "
                          "only on scenes without them)")
     ap.add_argument("--big-triangles", type=int, default=1_000_000)

@@ -217,17 +217,20 @@ class Accumulator:
             raise InputError(f"{name} has an unsupported format version")
         if blocks < 0:
             raise InputError(f"{name} is damaged: {blocks} blocks done")
-        if expect_meta:
-            for key, want in expect_meta.items():
-                got = meta.get(key)
-                if json.dumps(got, sort_keys=True) != json.dumps(want, sort_keys=True):
-                    raise InputError(
-                        f"checkpoint {path} was made for a different job: {key} is {got!r} there, {want!r} here"
-                    )
         acc = cls(totals.shape, meta)
+        acc.check_meta(expect_meta or {}, path)
         acc.totals = np.array(totals, dtype=np.float64)
         acc.blocks_done = blocks
         return acc
+
+    def check_meta(self, expect_meta: dict[str, Any], path: Any) -> None:
+        """Every key of ``expect_meta`` must match the saved metadata, else :class:`InputError` naming the key."""
+        for key, want in expect_meta.items():
+            got = self.meta.get(key)
+            if json.dumps(got, sort_keys=True) != json.dumps(want, sort_keys=True):
+                raise InputError(
+                    f"checkpoint {path} was made for a different job: {key} is {got!r} there, {want!r} here"
+                )
 
     def meta_int(self, key: str, path: Any, lo: int, hi: int) -> int:
         """The saved integer ``meta[key]``, which must lie in ``[lo, hi]`` (else :class:`InputError`)."""

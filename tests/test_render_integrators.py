@@ -61,7 +61,9 @@ CORNELL_SPP = {"path": 16384, "nee": 4096, "mis": 4096}
 @pytest.fixture(scope="module")
 def cornell_renders():
     cs = downscaled("cornell.json", 10, 10)
-    return {k: render(cs, spp=CORNELL_SPP[k], integrator=k, seed=3 + i) for i, k in enumerate(CORNELL_SPP)}
+    # independent samples: per-pixel normal z-tests and per-sample variances (variance x spp) below
+    return {k: render(cs, spp=CORNELL_SPP[k], integrator=k, seed=3 + i, sampler="independent")
+            for i, k in enumerate(CORNELL_SPP)}
 
 
 @pytest.mark.parametrize("a,b", list(itertools.combinations(("path", "nee", "mis"), 2)))
@@ -115,7 +117,8 @@ GLASS_BOX_SPP = {"path": 2048, "nee": 512, "mis": 512}
 
 def test_integrators_agree_with_delta_materials_spheres_and_environment() -> None:
     cs = compile_scene(parse_scene(_glass_and_mirror_box()))
-    r = {k: render(cs, spp=GLASS_BOX_SPP[k], integrator=k, seed=20 + i) for i, k in enumerate(("path", "nee", "mis"))}
+    r = {k: render(cs, spp=GLASS_BOX_SPP[k], integrator=k, seed=20 + i, sampler="independent")  # per-pixel z-tests
+         for i, k in enumerate(("path", "nee", "mis"))}
     for a, b in itertools.combinations(r, 2):
         assert_same_image(r[a], r[b], f"{a} vs {b}")
 
@@ -127,7 +130,7 @@ def test_mis_beats_both_strategies_on_veach() -> None:
     spp = 256
     total = {}
     for k in ("path", "nee", "mis"):
-        r = render(cs, spp=spp, integrator=k, seed=9)
+        r = render(cs, spp=spp, integrator=k, seed=9, sampler="independent")
         total[k] = float(np.nansum(r.variance.astype(np.float64))) * spp  # per-sample variance, summed
     assert total["mis"] < total["path"], total
     assert total["mis"] < total["nee"], total

@@ -94,9 +94,10 @@ def scenes(tmp_path_factory) -> dict[str, Path]:
 
 
 def test_smooth_mesh_renders_like_the_analytic_sphere(scenes) -> None:
-    ref = mcocl.render(scenes["analytic"], spp=256, seed=1)
-    smooth = mcocl.render(scenes["smooth"], spp=256, seed=2)
-    flat = mcocl.render(scenes["flat"], spp=256, seed=3)
+    # independent samples: the mean z^2 bounds below hold for per-sample variances (many degrees of freedom)
+    ref = mcocl.render(scenes["analytic"], spp=256, seed=1, sampler="independent")
+    smooth = mcocl.render(scenes["smooth"], spp=256, seed=2, sampler="independent")
+    flat = mcocl.render(scenes["flat"], spp=256, seed=3, sampler="independent")
     z = block_z(smooth, ref)
     assert np.abs(z).max() < 4.5, np.round(z[..., 0], 1)
     # Per pixel: the mean z^2 of a correct image is 1 (sd 0.04 over ~1600 pixels); the glossy

@@ -55,7 +55,7 @@ def sidak_bound(tests: int) -> float:
 
 def test_furnace_agrees_with_independent_and_exact() -> None:
     a = render(SCENES / "furnace.json", spp=64, seed=11, sampler="sobol", batches=16)
-    b = render(SCENES / "furnace.json", spp=64, seed=12)
+    b = render(SCENES / "furnace.json", spp=64, seed=12, sampler="independent")
     assert a.nonfinite == 0 and np.all(a.count == 16)  # 16 batches of 4 spp
     z = block_z(a, b.mean, b.variance)
     assert np.abs(z).max() < sidak_bound(z.size), z
@@ -76,7 +76,7 @@ def test_padded_dimensions_past_the_table_stay_unbiased(monkeypatch: pytest.Monk
 def test_cornell_agrees_with_independent_and_has_less_variance() -> None:
     cs = small_cornell(32)
     a = render(cs, spp=128, seed=5, sampler="sobol")
-    b = render(cs, spp=128, seed=6)
+    b = render(cs, spp=128, seed=6, sampler="independent")
     z = block_z(a, b.mean, b.variance)
     assert np.abs(z).max() < sidak_bound(z.size), z
     assert a.spp == b.spp == 128 and a.spp_per_block == 32 and np.all(a.count == sobol_film.DEFAULT_BATCHES)
@@ -111,7 +111,7 @@ def test_sobol_image_does_not_depend_on_split_or_resume(tmp_path: Path) -> None:
     assert part.stopped_by == "interrupt" and 0 < part.spp < 12
     assert Accumulator.load(ckpt).blocks_done * 2 == part.spp
     with pytest.raises(InputError):  # the checkpoint of a sobol render is not an independent one
-        render(cs, spp=12, seed=7, resume=ckpt)
+        render(cs, spp=12, seed=7, sampler="independent", resume=ckpt)
     rest = render(cs, spp=12, seed=7, sampler="sobol", resume=ckpt)
     np.testing.assert_array_equal(rest.mean, whole.mean)
     np.testing.assert_array_equal(rest.variance, whole.variance)

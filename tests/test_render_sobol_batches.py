@@ -150,7 +150,7 @@ def test_bad_batches_are_refused() -> None:
         with pytest.raises(InputError, match="batches"):
             render(cs, spp=8, sampler="sobol", batches=bad)
     with pytest.raises(InputError, match="batches"):  # the independent film's variance is per sample
-        render(cs, spp=8, batches=4)
+        render(cs, spp=8, batches=4, sampler="independent")
     with pytest.raises(InputError, match="spp_per_block"):
         render(cs, spp=8, sampler="sobol", batches=4, spp_per_block=2)
 
@@ -173,7 +173,7 @@ def test_scene_key_sets_the_batches() -> None:
         with pytest.raises(InputError, match="integrator.batches"):
             parse_scene(sphere_scene({"sampler": "sobol", "batches": bad}))
     with pytest.raises(InputError, match="integrator.batches"):  # independent sampling has no batches
-        parse_scene(sphere_scene({"batches": 4}))
+        parse_scene(sphere_scene({"sampler": "independent", "batches": 4}))
     for kind in ("lt", "bdpt"):  # a file asking for sobol with a splatting integrator contradicts itself
         with pytest.raises(InputError, match="integrator.sampler"):
             parse_scene(sphere_scene({"type": kind, "sampler": "sobol"}))

@@ -33,6 +33,11 @@ Integrators (one megakernel, chosen at build time):
   nee   light sampling at every vertex, BSDF sampling to continue
   mis   both, combined by the power heuristic (default)
 
+Pixel samples (--sampler): auto (default) draws per-pixel Owen-scrambled
+Sobol' nets for path/nee/mis at 8 spp or more (1.1-4x lower error at equal
+time on the bench scenes), independent samples elsewhere; the summary, --json
+and the EXR header say which ran.
+
 Stopping: --spp N samples per pixel, --time S seconds, --target-error R
 (mean relative standard error over the pixels), whichever comes first; with
 none of them, the scene's spp.  (--noise is the deprecated name of
@@ -85,10 +90,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="longest path in segments, Mitsuba's convention (-1 unbounded, 1 emitters only, 2 direct light)")
     p.add_argument("--rr-depth", type=int, default=None, help="depth from which Russian roulette may end paths")
     p.add_argument("--sampler", choices=RENDER_SAMPLERS, default=None,
-                   help="independent, or sobol: per-pixel Owen-scrambled Sobol', variance from batch means "
-                        "(default: the scene's)")
+                   help="auto, independent, or sobol: per-pixel Owen-scrambled Sobol', variance from batch means "
+                        "(default: the scene's, else auto: sobol for path/nee/mis when its 4 batches get 2 or more "
+                        "samples each (--spp 8 or more, or --time/--target-error alone) or with --batches; "
+                        "each batch one whole-film block of at most 2^22 paths; "
+                        "independent otherwise (lt, bdpt, spp < 8, films over 2^21 pixels) and when "
+                        "resuming a checkpoint made with it)")
     p.add_argument("--batches", type=count, default=None, metavar="B",
-                   help="--sampler sobol: independent scramblings per pixel that the variance layer comes from, "
+                   help="--sampler sobol (given with auto, it chooses sobol): independent scramblings per pixel that the variance layer comes from, "
                         "each a net of spp/B samples (default 4, at least 2: fewer, larger nets give a smaller "
                         "image error and a noisier per-pixel variance). With --time/--target-error, blocks keep "
                         "their default size and --target-error waits for B of them")
@@ -134,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(f"image     {out}" + (f" (preview {args.png})" if args.png else ""))
         print(f"render    {r.width}x{r.height}, {r.spp} spp, {r.integrator}, max_depth {r.max_depth}, "
-              f"rr_depth {r.rr_depth}, seed {r.seed}")
+              f"rr_depth {r.rr_depth}, seed {r.seed}, sampler {r.sampler}")
         print(f"time      {r.seconds:.3f} s  ({r.samples_per_second / 1e6:.3g} M samples/s, {r.lanes} lanes; "
               f"build {r.build_seconds:.2f} s)")
         print(f"noise     {r.relative_error:.4g} (mean relative standard error)")

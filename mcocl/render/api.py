@@ -43,7 +43,8 @@ from .job import (
     tables_digest,
 )
 from .pixel_filter import BOX
-from .scene import INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
+from .sampler_choice import resolve_auto_sampler
+from .scene import DEFAULT_RENDER_SAMPLER, INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
 from .scene_file import load_scene
 from .sobol_film import DEFAULT_BATCHES, MIN_BATCHES, batch_relative_error, sobol_block_pixels, sobol_spp_per_block
 from .splat_film import splat_spp_per_block
@@ -72,6 +73,8 @@ class RenderResult:
         spp_this_run: samples per pixel computed by this call (less than ``spp``
             when it resumed a checkpoint); ``samples_per_second`` counts these.
         notes: anything the user should know.
+        sampler: the render sampler that ran, ``independent`` or ``sobol`` (what ``auto`` resolved to:
+            :mod:`mcocl.render.sampler_choice`).
     """
 
     mean: np.ndarray
@@ -95,6 +98,7 @@ class RenderResult:
     spp_per_block: int = 1
     spp_this_run: int = -1
     notes: list[str] = field(default_factory=list)
+    sampler: str = "independent"
 
     @property
     def samples(self) -> int:
@@ -117,7 +121,7 @@ class RenderResult:
         d = {k: getattr(self, k) for k in (
             "spp", "nonfinite", "seconds", "build_seconds", "relative_error", "integrator", "max_depth", "rr_depth",
             "seed", "width", "height", "lanes", "device", "stopped_by", "scene", "spp_per_block", "spp_this_run",
-            "notes")}
+            "sampler", "notes")}
         d["samples"] = self.samples
         d["samples_per_second"] = self.samples_per_second
         return d
@@ -146,20 +150,51 @@ class RenderResult:
         return s
 
 
-def _render_sampler(cs: CompiledScene, sampler: Any) -> tuple[str, str]:
-    """The render sampler and a note: ``sampler`` if given, else the scene's; ``sobol`` only for the path
-    integrators.  The scene's ``sobol`` is a preference (a Mitsuba scene's stratified sampler asks for it):
-    ``lt`` and ``bdpt``, e.g. chosen by ``--integrator``, draw independent samples instead, and the note
-    says so; a ``sobol`` asked for here with them is an error."""
-    name = getattr(cs, "sampler", "independent") if sampler is None else sampler
+def _requested_sampler(cs: CompiledScene, sampler: Any) -> tuple[str, bool]:
+    """(the sampler asked for, whether the scene asked): ``sampler`` if given, else the scene's."""
+    name = getattr(cs, "sampler", DEFAULT_RENDER_SAMPLER) if sampler is None else sampler
     if name not in RENDER_SAMPLERS:
         raise InputError(f"sampler: unknown render sampler {name!r}; choose one of {', '.join(RENDER_SAMPLERS)}")
+    return name, sampler is None
+
+
+def _render_sampler(cs: CompiledScene, name: str, from_scene: bool, spp: int | None, spp_per_block: Any,
+                    batches: Any, bounded_by_spp: bool) -> tuple[str, str, int | None]:
+    """The render sampler, a note, and the samples of a batch when ``auto`` sized it (else None).
+
+    ``sobol`` only for the path integrators.
+
+    The scene's ``sobol`` is a preference (a Mitsuba scene's stratified sampler asks for it): ``lt``
+    and ``bdpt``, e.g. chosen by ``--integrator``, draw independent samples instead, and the note says
+    so; a ``sobol`` asked for here with them is an error.  ``auto`` is decided by
+    :func:`mcocl.render.sampler_choice.resolve_auto_sampler` (a resumed checkpoint's own sampler wins:
+    :func:`_checkpoint_sampler`); ``batches`` asks for sobol.
+    """
+    if name == "auto":
+        if batches is not None and cs.integrator in SPLAT_INTEGRATORS:
+            raise InputError(f"batches: only the sobol sampler estimates its variance from batches, and it works "
+                             f"with the path integrators (path, nee, mis), not {cs.integrator!r}")
+        block = None if spp_per_block is None else whole_number("spp_per_block", spp_per_block, 1, UNBOUNDED_SPP - 1)
+        name, why, batch = resolve_auto_sampler(cs.integrator, spp, block,
+                                                batches if batches is not None else getattr(cs, "batches", None),
+                                                cs.width * cs.height, bounded_by_spp)
+        return name, f"sampler auto: {name} ({why})", batch
     if name == "sobol" and cs.integrator in SPLAT_INTEGRATORS:
-        if sampler is None:
+        if from_scene:
             return "independent", (f"the scene's sampler 'sobol' works with the path integrators only: {cs.integrator} "
-                                   "draws independent samples")
+                                   "draws independent samples"), None
         raise InputError(f"sampler 'sobol' works with the path integrators (path, nee, mis), not {cs.integrator!r}")
-    return name, ""
+    return name, "", None
+
+
+def _checkpoint_sampler(acc: Accumulator, path: Any) -> str:
+    """The sampler a checkpoint was written with (its ``sampler`` key; none: ``independent``)."""
+    saved = acc.meta.get("sampler")
+    if saved is None:
+        return "independent"
+    if saved not in RENDER_SAMPLERS or saved == "auto":
+        raise InputError(f"checkpoint {path}: its field 'sampler' is {saved!r}, not a render sampler")
+    return saved
 
 
 def _saved_block_pixels(acc: Accumulator, path: Any, npix: int) -> int:
@@ -253,10 +288,15 @@ def render(
         mesh_folder: a folder the scene file may read OBJ files from, besides
             its own folder (a scene cannot reach outside them).
         time, noise: deprecated names of ``time_budget`` and ``target_error``.
-        sampler: ``independent`` or ``sobol`` (per-pixel Owen-scrambled Sobol',
+        sampler: ``auto``, ``independent`` or ``sobol`` (per-pixel Owen-scrambled Sobol',
             the variance from the spread of block means: :mod:`mcocl.render.sobol_film`);
-            default: the scene's ``integrator.sampler``.
-        batches: ``sobol`` only: independent scramblings (batches) per pixel that the variance
+            default: the scene's ``integrator.sampler``, else ``auto``: ``sobol`` for ``path``,
+            ``nee`` and ``mis`` when its default 4 batches hold 2 or more samples each (spp >= 8, or
+            no spp under ``time_budget``/``target_error``), with ``batches``, or with an
+            ``spp_per_block`` that makes 2 batches of 2 or more samples; ``independent`` otherwise
+            (``lt``, ``bdpt``, spp < 8) and when resuming a checkpoint made with it
+            (:mod:`mcocl.render.sampler_choice`).  ``RenderResult.sampler`` says which ran.
+        batches: ``sobol`` only (with ``auto``, giving it chooses ``sobol``): independent scramblings (batches) per pixel that the variance
             comes from, each a net of ceil(spp / batches) samples (default 4: 3 degrees of freedom
             per pixel; more batches give a steadier per-pixel variance and a larger image error,
             fewer the reverse).  At least 2; one scrambling of all ``spp`` samples has no variance
@@ -291,15 +331,7 @@ def render(
     own = not isinstance(scene, CompiledScene)  # compiled here: nobody else holds cs
     cs = _compile(scene, integrator, max_depth, rr_depth)
     scene = None  # a scene file's meshes, read here, are in cs now (27 MB for 10^6 triangles)
-    sampler, sampler_note = _render_sampler(cs, sampler)
-    if batches is not None:
-        if sampler != "sobol":
-            raise InputError(f"batches: only the sobol sampler estimates its variance from batches, not {sampler!r}")
-        if spp_per_block is not None:
-            raise InputError("batches and spp_per_block both set the samples of a batch: give one of them")
-        batches = whole_number("batches", batches, MIN_BATCHES, UNBOUNDED_SPP - 1)
-    # sobol's batches: the keyword's, the scene's integrator.batches (checked when it was read), or the default
-    min_batches = batches or (getattr(cs, "batches", None) if sampler == "sobol" else None) or DEFAULT_BATCHES
+    sampler, from_scene = _requested_sampler(cs, sampler)
     opts = RunOptions(seed=seed, time_budget=time_budget, target_error=target_error, device=device, devices=devices,
                       split=split, client=client, lanes=lanes, checkpoint=checkpoint, resume=resume, progress=progress)
     seed = opts.seed
@@ -309,6 +341,24 @@ def render(
         spp = int(cs.spp)
     if spp is not None and spp >= UNBOUNDED_SPP:
         raise InputError(f"spp must be below {UNBOUNDED_SPP}, got {spp}")
+    # read before the sampler is chosen: a resume of auto continues with the checkpoint's sampler, so that it
+    # gives the uninterrupted run's bits (and a checkpoint made before auto existed continues independent)
+    acc: Accumulator | None = Accumulator.load(opts.resume) if opts.resume is not None else None
+    auto_batch = None  # samples per pixel of a batch that auto sized: one whole-film block (sampler_choice.py)
+    if sampler == "auto" and acc is not None and batches is None:
+        sampler = _checkpoint_sampler(acc, opts.resume)
+        sampler_note = f"sampler auto: {sampler} (the checkpoint's)"
+    else:
+        sampler, sampler_note, auto_batch = _render_sampler(cs, sampler, from_scene, spp, spp_per_block, batches,
+                                                            opts.time_budget is None and opts.target_error is None)
+    if batches is not None:
+        if sampler != "sobol":
+            raise InputError(f"batches: only the sobol sampler estimates its variance from batches, not {sampler!r}")
+        if spp_per_block is not None:
+            raise InputError("batches and spp_per_block both set the samples of a batch: give one of them")
+        batches = whole_number("batches", batches, MIN_BATCHES, UNBOUNDED_SPP - 1)
+    # sobol's batches: the keyword's, the scene's integrator.batches (checked when it was read), or the default
+    min_batches = batches or (getattr(cs, "batches", None) if sampler == "sobol" else None) or DEFAULT_BATCHES
 
     bdpt = bdpt_settings(cs, mis, strategy, unweighted, roulette)
     pixel_filter = getattr(cs, "pixel_filter", BOX)
@@ -338,10 +388,9 @@ def render(
         **({"far_clip": far_clip} if far_clip is not None else {}),
     }
     spp_limit = spp if spp is not None else UNBOUNDED_SPP
-    acc: Accumulator | None = None
     resume = opts.resume
-    if resume is not None:
-        acc = Accumulator.load(resume, expect_meta=meta)
+    if acc is not None:
+        acc.check_meta(meta, resume)
         saved_block = acc.meta_int("spp_per_block", resume, 1, UNBOUNDED_SPP - 1)
         if spp_per_block is not None and whole_number("spp_per_block", spp_per_block) != saved_block:
             raise InputError(f"checkpoint {resume} uses spp_per_block={saved_block}, not {spp_per_block}")
@@ -356,6 +405,8 @@ def render(
         acc.check_shape((cs.height, cs.width, STATS), resume)
         # sobol's blocks as the checkpoint cut them (no key: whole-film blocks, as before the cut existed)
         block_pixels = _saved_block_pixels(acc, resume, cs.width * cs.height) if sampler == "sobol" else 0
+    elif auto_batch is not None:
+        spp_per_block = auto_batch
     elif spp_per_block is None:
         spp_per_block = default_spp_per_block(cs.width, cs.height)
         if sampler == "sobol":
@@ -370,9 +421,11 @@ def render(
     else:
         spp_per_block = whole_number("spp_per_block", spp_per_block, 1, UNBOUNDED_SPP - 1)
     if acc is None:
-        # a sobol batch of more paths than an independent block is cut into blocks of pixel ranges
+        # a sobol batch of more paths than an independent block is cut into blocks of pixel ranges (not one
+        # that auto sized: a whole-film block, so that a render stopped in its first batch has every pixel)
         block_pixels = (sobol_block_pixels(spp_per_block, default_spp_per_block(cs.width, cs.height) * cs.width
-                                           * cs.height, cs.width, cs.height, TILE_PIXELS) if sampler == "sobol" else 0)
+                                           * cs.height, cs.width, cs.height, TILE_PIXELS)
+                        if sampler == "sobol" and auto_batch is None else 0)
 
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
@@ -473,6 +526,7 @@ def render(
         spp_per_block=spp_per_block,
         spp_this_run=spp_done - spp_before,
         notes=notes,
+        sampler=sampler,
     )
     if nonfinite:
         warnings.warn(

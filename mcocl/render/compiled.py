@@ -157,7 +157,7 @@ class CompiledScene:
     delta_lights: list = field(default_factory=list)
     delta_power: np.ndarray = field(default_factory=lambda: np.zeros(0))
     env_map: EnvMap | None = None
-    sampler: str = "independent"  # integrator.sampler (mcocl/render/sobol_film.py)
+    sampler: str = "auto"  # integrator.sampler (mcocl/render/sobol_film.py; auto: mcocl/render/sampler_choice.py)
     batches: int | None = None  # integrator.batches: sobol's batches per pixel (None: the default)
     pixel_filter: PixelFilter = BOX  # the camera's reconstruction filter (mcocl/render/pixel_filter.py)
     # the indexed vertex normals of the triangles that shade smoothly (T + V, 4), None if none does: the kernels'

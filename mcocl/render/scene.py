@@ -64,9 +64,11 @@ LIGHT_SAMPLERS = ("auto", "power", "uniform", "bvh")
 # power costs per sample and wins on MSE per second (veach_mis.json); power elsewhere, where the deep tree's
 # 1.5x cost per sample lost on MSE per second (many_lights.json): scenes/README.md, emitter_choice.py.
 DEFAULT_LIGHT_SAMPLER = "auto"
-# integrator.sampler: independent uniforms, or per-pixel RQMC (mcocl/render/sobol_film.py).
-RENDER_SAMPLERS = ("independent", "sobol")
-DEFAULT_RENDER_SAMPLER = "independent"
+# integrator.sampler: independent uniforms, per-pixel RQMC (mcocl/render/sobol_film.py), or auto: sobol where
+# the render can form its batches, independent elsewhere (mcocl/render/sampler_choice.py, with the rule and
+# the measurements that chose it).
+RENDER_SAMPLERS = ("auto", "independent", "sobol")
+DEFAULT_RENDER_SAMPLER = "auto"
 
 
 @dataclass
@@ -424,9 +426,14 @@ def _integrator(c: _Checker, v: Any, key: str) -> dict:
         # scene's sobol: mcocl/render/api.py)
         c.fail(f"{key}.sampler", f"\"sobol\" works with the path integrators (path, nee, mis), not {settings['integrator']!r}")
     if "batches" in o:
-        # sobol's independent scramblings per pixel (mcocl/render/sobol_film.py): at least 2 for a variance
+        # sobol's independent scramblings per pixel (mcocl/render/sobol_film.py): at least 2 for a variance;
+        # with auto they choose sobol, which the path integrators alone have
+        if settings["sampler"] == "auto" and settings["integrator"] not in ("lt", "bdpt"):
+            settings["sampler"] = "sobol"
         if settings["sampler"] != "sobol":
-            c.fail(f"{key}.batches", "applies to the sobol sampler only (set integrator.sampler to \"sobol\")")
+            c.fail(f"{key}.batches", "applies to the sobol sampler only, which works with the path integrators "
+                   f"(path, nee, mis); here the sampler is {settings['sampler']!r} and the integrator "
+                   f"{settings['integrator']!r}")
         settings["batches"] = c.integer(o["batches"], f"{key}.batches", 2, MAX_SPP)
     return settings
 

@@ -173,6 +173,8 @@ class _SceneBuilder:
                 integ["comment"] = [*integ.get("comment", []), "lt draws independent samples, not the sampler's strata"]
             else:
                 integ["sampler"] = "sobol"
+        elif sampler == "independent":  # the file asks for it; without a <sampler> the default (auto) stays
+            integ["sampler"] = "independent"
         out["integrator"] = integ
         out["materials"] = self.materials
         shape_list = []

@@ -23,10 +23,12 @@
   requires it positive).
 - samplers ``independent``, ``stratified``, ``multijitter``, ``orthogonal`` and
   ``ldsampler``: ``sample_count`` (default 4) → ``spp``; ``independent`` →
-  ``integrator.sampler`` ``independent`` (Philox), the four that stratify →
+  ``integrator.sampler`` ``independent`` (Philox: the file asked for it), the four that stratify →
   ``sobol`` (Owen-scrambled Sobol' nets per pixel, mcocl/render/sobol_film.py),
   mcocl's stratified sampler: another pattern, the same expectation.  Light
   tracing (``ptracer``) and ``--integrator bdpt`` draw independent samples.
+  A sensor without a ``<sampler>`` gets mcocl's default ``auto``
+  (mcocl/render/sampler_choice.py).
 - integrators ``path`` and ``volpath`` → ``mis`` with the same ``max_depth`` and
   ``rr_depth`` (Mitsuba's conventions, defaults −1 and 5); ``direct`` → ``mis``
   with max_depth 2; ``ptracer`` (Mitsuba's particle tracer) → ``lt``, light
@@ -75,14 +77,17 @@ def _referenced(objects: list[Node], resolve) -> list[Node]:
 
 
 def translate_sensor(node: Node, rep: Reporter, resolve=None) -> tuple[dict, int]:
-    """(the mcocl camera, spp, the render sampler) of a ``<sensor>``; ``resolve`` follows ``<ref>``s."""
+    """(the mcocl camera, spp, the render sampler) of a ``<sensor>``; ``resolve`` follows ``<ref>``s.
+
+    The sampler is ``independent`` or ``sobol`` for a ``<sampler>`` (:func:`_sampler`), ``auto`` without one.
+    """
     kind = node.attrib.get("type", "")
     comments: list[str] = []
     if kind not in SENSORS:
         rep.unsupported(node, f"the sensor {kind!r}", ", ".join(SENSORS), None, comments)
     props, objects = split_children(node)
     objects = _referenced(objects, resolve)
-    width, height, spp, sampler = FILM_SIZE[0], FILM_SIZE[1], SAMPLE_COUNT, "independent"
+    width, height, spp, sampler = FILM_SIZE[0], FILM_SIZE[1], SAMPLE_COUNT, "auto"
     films = [o for o in objects if o.tag == "film"]
     samplers = [o for o in objects if o.tag == "sampler"]
     for o in objects:
@@ -103,7 +108,8 @@ def translate_sensor(node: Node, rep: Reporter, resolve=None) -> tuple[dict, int
     if samplers:
         spp, sampler = _sampler(samplers[0], rep, comments)
     else:
-        comments.append(f"no <sampler>: Mitsuba's default sample_count {spp}")
+        comments.append(f"no <sampler>: Mitsuba's default sample_count {spp}, and mcocl's default sampler 'auto' "
+                        "(sobol where the spp make its batches, mcocl/render/sampler_choice.py)")
 
     axis = props.get("fov_axis", ("string",), None)
     if axis is None:
