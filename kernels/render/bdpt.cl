@@ -218,6 +218,7 @@
  */
 #define LT_NO_TRACE_KERNEL
 #include "render/lt.cl"
+#include "samplers/owen_scramble.cl"
 
 #ifndef BDPT_MAX_VERTICES
 #define BDPT_MAX_VERTICES 24
@@ -784,6 +785,15 @@ MC_INLINE bdpt_scene bdpt_scene_of(const render_params *params, const scene_geom
     return sc;
 }
 
+/* The film uniforms of sample s of pixel p (per lane) in batch b: point s of the Owen-scrambled
+ * (0, 2)-sequence (samplers/owen_scramble.cl) of scrambling b W H + p, whose seeds are words 0
+ * and 1 of Philox (b W H + p, block 0, RNG_STREAM_BDPT_FILM) (see the header, "Film positions"). */
+MC_INLINE void bdpt_film_uniforms(ulong seed, uintv b, uintv p, uint npix, uintv s, floatv *u) {
+    const ulongv scrambling = to_ulongv(b) * (ulong)npix + to_ulongv(p);
+    const philox_ctr c = rng_block(rng_init(scrambling, seed, RNG_STREAM_BDPT_FILM), (uintv)(0u));
+    owen_sobol_2d(s, c.v0, c.v1, u);
+}
+
 /* z_0 of a camera subpath: the lens point, facing along the camera's forward axis. */
 MC_INLINE bdpt_vertex lens_vertex(vec3v co, vec3v forward) {
     bdpt_vertex z;
@@ -819,6 +829,7 @@ kernel void bdpt_trace(
     const int nc_cap = max_depth >= 0 ? min(max_depth + 1, BDPT_MAX_VERTICES) : BDPT_MAX_VERTICES;
     const int nl_cap = max_depth >= 0 ? min(max_depth, BDPT_MAX_VERTICES) : BDPT_MAX_VERTICES;
     const vec3v forward = cam_row(camera[CAMERA_RECORD_FORWARD_QUAD]);
+    const uint spb = max(params.spp_per_block, 1u);
     /* the splitting at z_1 (see the header): a pinhole, paths of 2 segments allowed, strategy (0, 3) rendered */
     const int split_on = !thin_lens && nc_cap >= 3 && (max_depth < 0 || max_depth >= 2) && strategy_on(&sc, 0, 3);
 
@@ -832,13 +843,16 @@ kernel void bdpt_trace(
         /* the lanes holding one of the group's samples (the last packet may be partial) */
         const intv active = LANE_IOTA < (uintv)((uint)min(total - j, (ulong)LANES));
         const ulongv index = (ulongv)(path0 + j) + to_ulongv(LANE_IOTA);
-        const uintv pixel = to_uintv(index % (ulongv)(npix));
+        /* sample number sn of pixel `pixel`: sample sn - b spp_per_block of its batch b (see the header) */
+        const uintv sn = to_uintv(index / (ulongv)(npix));
+        const uintv pixel = to_uintv(index) - sn * npix;
+        const uintv batch = sn / spb;
 
         /* ---- the camera subpaths ---- */
         mc_sampler_t cs = sampler_start(seed, index, RNG_STREAM_RENDER);
         floatv uc[2];
-        sampler_seek(&cs, (uintv)(RENDER_DIM_CAMERA));
-        sampler_next_2d(&cs, uc);
+        bdpt_film_uniforms(seed, batch, pixel, npix, sn - batch * spb, uc);
+        sampler_seek(&cs, (uintv)(RENDER_DIM_CAMERA + 2u));
         uintv py = pixel / width;
         /* the film point: filter importance sampling around the pixel (render/pixel_filter.cl) */
         floatv sx = film_coordinate(&sc.cam_set.filter, to_floatv(pixel - py * width), uc[0]);
