@@ -12,6 +12,7 @@
   spp, the variance over 32 seeds of each pixel's mean, summed over the image: with batches of
   16 spp it was 6.5 x lower than with batches of 1 spp (independent film points) when measured
   (0.357 against 2.32, same seeds); the bound asks for 3 x.  The two means agree.
+- The host's choice of bdpt's batch size (mcocl/render/splat_film.py, splat_spp_per_block).
 """
 
 from __future__ import annotations
@@ -23,6 +24,14 @@ import numpy as np
 import pytest
 
 from mcocl.render.api import render
+from mcocl.render.job import default_spp_per_block
+from mcocl.render.splat_film import (
+    BDPT_GROUP_PATHS,
+    MIN_STRATA_BATCHES,
+    STRATA_SPP,
+    splat_groups,
+    splat_spp_per_block,
+)
 
 LE = 4.0
 CAMERA = {"origin": [0, 0, 0], "target": [0, 0, -1], "up": [0, 1, 0], "fov": 40, "width": 15, "height": 15}
@@ -95,3 +104,18 @@ def test_stratified_film_points_lower_the_variance_of_a_small_bright_reflection(
     total = {spb: m.sum(axis=(1, 2)) for spb, m in means.items()}
     se = np.sqrt((total[16].var(ddof=1) + total[1].var(ddof=1)) / len(seeds))
     assert abs(total[16].mean() - total[1].mean()) < 4.0 * se
+
+
+def test_bdpt_batches_hold_several_samples_per_pixel() -> None:
+    """bdpt's blocks hold STRATA_SPP samples per pixel where a work-item's share stays within
+    BDPT_GROUP_PATHS and a render of ``spp`` keeps MIN_STRATA_BATCHES batches; lt's are as before."""
+    for w, untimed, timed in ((128, [8, 16, 64], 64), (512, [8, 16, 16], 16), (1024, [2, 2, 2], 2),
+                              (2048, [1, 1, 1], 1)):
+        default = default_spp_per_block(w, w)
+        assert [splat_spp_per_block(default, spp, "bdpt", w, w) for spp in (64, 128, 1024)] == untimed, w
+        assert splat_spp_per_block(default, None, "bdpt", w, w) == timed, w
+        assert splat_spp_per_block(default, 256, "bdpt", w, w) >= splat_spp_per_block(default, 256, "lt", w, w)
+    assert splat_spp_per_block(4, 256, "lt", 512, 512) == 4 and splat_spp_per_block(64, 64, "lt", 128, 128) == 4
+    assert splat_spp_per_block(64, 4, "bdpt", 128, 128) == 1  # a batch per sample: no fewer batches than lt's
+    assert STRATA_SPP == 16 and MIN_STRATA_BATCHES == 8
+    assert BDPT_GROUP_PATHS * splat_groups(512, 512) // (512 * 512) >= STRATA_SPP

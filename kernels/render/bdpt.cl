@@ -109,10 +109,34 @@
  * 2 BDPT_MAX_VERTICES - 1 segments are dropped, a bias of order rho^(2 cap)).
  *
  * Random numbers.  Sample (pixel, s) has the index s W H + pixel, as in
- * integrator.cl; its camera subpath draws in RNG_STREAM_RENDER (RENDER_DIM_CAMERA,
- * RENDER_DIM_BSDF(k - 1) at z_k, RENDER_DIM_LIGHT(k - 1) for the s = 1 light
- * point at z_k), its light subpath in RNG_STREAM_LIGHT_TRACE with the same
- * index (LT_DIM_EMIT, LT_DIM_BSDF(i) and LT_DIM_LENS(i) at y_i, as lt.cl).
+ * integrator.cl; its camera subpath draws in RNG_STREAM_RENDER (RENDER_DIM_CAMERA
+ * + 2 for a thin lens's point, RENDER_DIM_BSDF(k - 1) at z_k, RENDER_DIM_LIGHT(k - 1)
+ * for the s = 1 light point at z_k), its light subpath in RNG_STREAM_LIGHT_TRACE
+ * with the same index (LT_DIM_EMIT, LT_DIM_BSDF(i) and LT_DIM_LENS(i) at y_i, as
+ * lt.cl).  The film point (RENDER_DIM_CAMERA's two dimensions) comes instead from
+ * a stratified set, next paragraph.
+ *
+ * Film positions.  Sample s = s_b + b spp_per_block of a pixel p is sample s_b
+ * of the pixel in batch (block) b, and its film uniforms are point s_b of an
+ * Owen-scrambled (0, 2)-sequence (Sobol' dimensions 0 and 1; Owen 1995,
+ * nested scrambling by hashing as the sobol back end: samplers/owen_scramble.cl)
+ * whose scrambling (b W H + p) is seeded from Philox in RNG_STREAM_BDPT_FILM
+ * (bdpt_film_uniforms).  So a pixel's film points in a batch are stratified
+ * (any 2^m of them a (0, m, 2)-net, any prefix close to one: a block cut
+ * short by spp_limit stays stratified), every batch and pixel has its own
+ * independent scrambling (the batches stay independent, so the variance
+ * layer stays honest: mcocl/render/splat_film.py), and every other dimension
+ * is drawn as before.  Why: on the Cornell box with a mirror and a glass
+ * sphere a third of bdpt's variance sat in the 10 pixels where the mirror
+ * ball reflects the ceiling light, the coverage noise of a bright region
+ * smaller than a pixel, which only the camera subpath samples ((0, 3): no
+ * connection ends at the mirror) and which bdpt sampled as mis does at
+ * about 3.7 x mis's cost per sample.  The batch must hold several samples
+ * per pixel for it to matter: the host gives bdpt batches of at least 16
+ * spp where a block's time allows (splat_film.py, splat_spp_per_block).
+ * Measured: see the README's bdpt section.  The pixel and batch of a sample
+ * come from its index (two divisions per packet lane, no measurable time).
+ * The thin lens's point stays independent.
  *
  * Output: the splat film of lt.cl (mcocl/render/splat_film.py).  A block is
  * spp_per_block W H samples in `ntiles` groups; the sample's own pixel gets
