@@ -134,7 +134,10 @@
  * about 3.7 x mis's cost per sample.  The batch must hold several samples
  * per pixel for it to matter: the host gives bdpt batches of at least 16
  * spp where a block's time allows (splat_film.py, splat_spp_per_block).
- * Measured: see the README's bdpt section.  The pixel and batch of a sample
+ * Measured (128 px, 256 spp, that box): the summed pixel variance per
+ * sample 24 % lower with batches of 16 spp, 27 % with 64, than with
+ * independent positions (batches of 1); at 512 px 4 % lower with 16 than
+ * with 4; more in the README's bdpt section.  The pixel and batch of a sample
  * come from its index (two divisions per packet lane, no measurable time).
  * The thin lens's point stays independent.
  *
