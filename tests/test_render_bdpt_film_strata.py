@@ -13,11 +13,13 @@
   16 spp it was 6.5 x lower than with batches of 1 spp (independent film points) when measured
   (0.357 against 2.32, same seeds); the bound asks for 3 x.  The two means agree.
 - The host's choice of bdpt's batch size (mcocl/render/splat_film.py, splat_spp_per_block).
+- The two Sobol' rows the kernel computes are the table's.
 """
 
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -119,3 +121,17 @@ def test_bdpt_batches_hold_several_samples_per_pixel() -> None:
     assert splat_spp_per_block(64, 4, "bdpt", 128, 128) == 1  # a batch per sample: no fewer batches than lt's
     assert STRATA_SPP == 16 and MIN_STRATA_BATCHES == 8
     assert BDPT_GROUP_PATHS * splat_groups(512, 512) // (512 * 512) >= STRATA_SPP
+
+
+def test_the_computed_sobol_rows_are_the_tables() -> None:
+    """owen_sobol_2d (kernels/samplers/owen_scramble.cl) computes Sobol' dimensions 0 and 1 instead of
+    reading samplers/sobol_joe_kuo_1024.cl: reversed direction numbers 2^k, and Pascal's rows mod 2."""
+    text = (Path(__file__).resolve().parent.parent / "kernels" / "samplers" / "sobol_joe_kuo_1024.cl").read_text()
+    body = text[text.index("SOBOL_RV[SOBOL_TABLE_DIMS * 32] = {"):]
+    words = [int(w, 16) for w in re.findall(r"0x[0-9a-fA-F]{8}", body)[:64]]
+    assert words[:32] == [1 << k for k in range(32)]
+    rv, row1 = 1, []
+    for _ in range(32):
+        row1.append(rv)
+        rv = (rv ^ (rv << 1)) & 0xFFFFFFFF
+    assert words[32:64] == row1
