@@ -60,7 +60,7 @@ MIN_BATCHES = 16
 # one work-item (path group) of a block may trace, which bounds a block's time (see README, bdpt).
 STRATA_SPP = 16
 MIN_STRATA_BATCHES = 8
-BDPT_GROUP_PATHS = 1 << 21
+BDPT_GROUP_PATHS = 1 << 20
 
 
 def group_image_bytes(width: int, height: int) -> int:
