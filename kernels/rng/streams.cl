@@ -51,6 +51,9 @@
 /* bdpt's Russian roulette on connection shadow rays (render/bdpt.cl): "sample" = the sample's index,
  * one dimension per strategy (s, t) */
 #define RNG_STREAM_BDPT_ROULETTE 12u
+/* The Owen scramblings of bdpt's film positions (render/bdpt.cl): "sample" = the scrambling's index
+ * b W H + pixel (batch b), dimension 0 and 1 the seeds of the film's x and y */
+#define RNG_STREAM_BDPT_FILM 13u
 
 /* ---- sampling tests (render/bsdf_sample_test.cl, render/light_sample_test.cl) ---- */
 #define RNG_STREAM_BSDF_TEST 9u

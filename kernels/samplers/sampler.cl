@@ -51,6 +51,8 @@
 /* Before the choice: includes are resolved once per program, as text, so a
  * file two back ends share must not sit inside one back end's #if. */
 #include "rng/uniform.cl"
+/* shared by the sobol back end and bdpt's film points (render/bdpt.cl) */
+#include "samplers/owen_scramble.cl"
 
 #if SAMPLER_BACKEND == SAMPLER_BACKEND_PHILOX
 #include "samplers/philox_sampler.cl"

@@ -18,7 +18,8 @@
  *      on the reversed bits, the Laine-Karras permutation with seed s_j
  *      flips each bit by a hash of the bits below it (the more significant
  *      bits of the coordinate), which is Owen's nested scrambling.  Burley's
- *      constants.  Then reverse back.
+ *      constants.  Then reverse back (samplers/owen_scramble.cl, shared
+ *      with bdpt's film positions).
  *   3. The top 23 bits -> the cell centre of rng/uniform.cl's grid (never 0
  *      nor 1, unbiased on the grid).
  * s_j, the seed of dimension j of replicate r, is word j % 4 of
@@ -36,6 +37,7 @@
 
 #include "rng/uniform.cl"
 #include "samplers/sobol_joe_kuo_1024.cl"
+#include "samplers/owen_scramble.cl"
 
 /* log2 of the points of one scrambling (host: mcocl/integration/samplers.py, Sobol). */
 #ifndef SOBOL_LOG2_POINTS
@@ -214,32 +216,6 @@ MC_INLINE void sobol_reversed_rows_lanes(uintv p, uintv d, int rows, uintv *x) {
     for (int i = 0; i < rows; ++i) x[i] = MC_CAT(vload, LANES)(0, xl[i]);
 #endif
 }
-
-MC_INLINE uintv reverse_bits(uintv x) {
-    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
-    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
-    return (x >> 16) | (x << 16);
-}
-
-/* Steps 2 and 3: Laine-Karras permutation of the reversed bits with seed s
- * (Burley 2020, sec. 3: each step changes a bit only by bits below it, so
- * bit k of the coordinate is flipped by a hash of bits 0..k-1, the bits above
- * it once reversed back), reverse back, map to the uniform grid. */
-MC_INLINE uintv laine_karras(uintv x, uintv s) {
-    x += s;
-    x ^= x * 0x6c50b47cu;
-    x ^= x * 0xb82f1e52u;
-    x ^= x * 0xc7afe638u;
-    x ^= x * 0x8d22f6e6u;
-    return x;
-}
-
-/* The scrambled coordinate's 32 bits (in order): u01 or u01d maps them to the grid. */
-MC_INLINE uintv owen_bits(uintv x, uintv s) { return reverse_bits(laine_karras(x, s)); }
-
-MC_INLINE floatv owen_uniform(uintv x, uintv s) { return u01(owen_bits(x, s)); }
 
 /* Dimensions j >= SOBOL_TABLE_DIMS, drawn only by consumers of unbounded
  * depth (render paths deeper than the table; the integration host never

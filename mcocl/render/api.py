@@ -415,7 +415,7 @@ def render(
                                                 opts.time_budget is None and opts.target_error is None)
         elif cs.integrator in SPLAT_INTEGRATORS:
             # the variance of a splatted image comes from its batches: have a few
-            spp_per_block = splat_spp_per_block(spp_per_block, spp)
+            spp_per_block = splat_spp_per_block(spp_per_block, spp, cs.integrator, cs.width, cs.height)
         elif spp is not None:
             spp_per_block = max(1, min(spp_per_block, spp))
     else:

@@ -55,6 +55,12 @@ MAX_GROUPS = 64
 SCRATCH_BYTES = 64 << 20
 # A render with a given spp gets at least this many batches (blocks) when spp allows.
 MIN_BATCHES = 16
+# bdpt: the film points of a pixel wanted in one batch (one stratified set: kernels/render/bdpt.cl),
+# the batches a render of a given spp keeps at least for its variance, and the most camera samples
+# one work-item (path group) of a block may trace, which bounds a block's time (see README, bdpt).
+STRATA_SPP = 16
+MIN_STRATA_BATCHES = 8
+BDPT_GROUP_PATHS = 1 << 20
 
 
 def group_image_bytes(width: int, height: int) -> int:
@@ -76,12 +82,24 @@ def blocks_per_launch(width: int, height: int, groups: int) -> int:
     return max(1, SCRATCH_BYTES // (groups * group_image_bytes(width, height)))
 
 
-def splat_spp_per_block(default: int, spp: int | None) -> int:
-    """Samples per pixel of a block for a splatting render: at most ``default``, and small enough that
-    a render of ``spp`` has at least MIN_BATCHES batches when it can."""
-    if spp is None:
-        return default
-    return max(1, min(default, spp // MIN_BATCHES))
+def splat_spp_per_block(default: int, spp: int | None, integrator: str = "lt", width: int = 1,
+                        height: int = 1) -> int:
+    """Samples per pixel of a block for a splatting render of ``width`` x ``height`` pixels.
+
+    ``lt``: at most ``default``, and small enough that a render of ``spp`` has at least
+    MIN_BATCHES batches when it can.  ``bdpt``: at least that, and at least STRATA_SPP (a
+    power of two) when its block stays within BDPT_GROUP_PATHS camera samples per work-item and a
+    render of ``spp`` keeps MIN_STRATA_BATCHES batches: a batch's film points of a pixel are one
+    stratified set (kernels/render/bdpt.cl, "Film positions"), and the more a batch holds the
+    more they help."""
+    base = default if spp is None else max(1, min(default, spp // MIN_BATCHES))
+    if integrator != "bdpt":
+        return base
+    npix = max(width * height, 1)
+    want = min(STRATA_SPP, max(1, BDPT_GROUP_PATHS * splat_groups(width, height) // npix))
+    if spp is not None:
+        want = min(want, max(1, spp // MIN_STRATA_BATCHES))
+    return max(base, 1 << (want.bit_length() - 1))
 
 
 class SplatRunner:
@@ -142,5 +160,5 @@ class SplatRunner:
         return out
 
 
-__all__ = ["KERNEL_FILE", "MIN_BATCHES", "SCRATCH_BYTES", "SPLAT_COLUMNS", "TRACE_KERNELS", "SplatRunner", "blocks_per_launch",
+__all__ = ["BDPT_GROUP_PATHS", "KERNEL_FILE", "MIN_BATCHES", "MIN_STRATA_BATCHES", "SCRATCH_BYTES", "STRATA_SPP", "SPLAT_COLUMNS", "TRACE_KERNELS", "SplatRunner", "blocks_per_launch",
            "splat_groups", "splat_spp_per_block"]
