@@ -63,7 +63,8 @@ def resolve_auto_sampler(integrator: str, spp: int | None, spp_per_block: int | 
     time with neither ``spp_per_block`` nor ``batches`` given: one whole-film block), else None.
     """
     if integrator in SPLAT_INTEGRATORS:
-        return "independent", f"{integrator} draws independent samples", None
+        return "independent", (f"{integrator} has no sobol back end" + (
+            "; its film positions are stratified within each batch" if integrator == "bdpt" else "")), None
     if batches is not None:
         return "sobol", "batches are the sobol sampler's", None
     if spp_per_block is not None:
