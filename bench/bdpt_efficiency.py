@@ -72,9 +72,11 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
 from render_throughput import cornell_spheres  # noqa: E402
 
-INTEGRATORS = ("mis", "lt", "bdpt", "bdpt-exact")
+INTEGRATORS = ("mis", "mis-independent", "lt", "bdpt", "bdpt-exact")
 # What each name renders: bdpt-exact is bdpt without its Russian roulette on connection shadow rays.
-RENDER_KWARGS = {"mis": {"integrator": "mis"}, "lt": {"integrator": "lt"}, "bdpt": {"integrator": "bdpt"},
+# mis is the default sampler's (auto: sobol under a time budget), mis-independent the independent sampler's.
+RENDER_KWARGS = {"mis": {"integrator": "mis"}, "mis-independent": {"integrator": "mis", "sampler": "independent"},
+                 "lt": {"integrator": "lt"}, "bdpt": {"integrator": "bdpt"},
                  "bdpt-exact": {"integrator": "bdpt", "roulette": False}}
 
 
@@ -142,12 +144,12 @@ def main() -> None:
                       f"{spp * npix / wall / 1e6:6.3f} M paths/s  cpu {cpu:5.1f} s  MSE {mse:.4g}  "
                       f"(seen by lt {mse_seen:.4g})  efficiency {eff_all[integrator]:.4g}  "
                       f"(from its own variance {eff_var[integrator]:.4g})", flush=True)
-            if "mis" in eff_all:
+            for base in (b for b in ("mis", "mis-independent") if b in eff_all):
                 for integrator in args.integrators:
-                    if integrator != "mis":
-                        print(f"   {integrator} / mis efficiency: {eff_all[integrator] / eff_all['mis']:.2f}  "
-                              f"(pixels lt sees: {eff_seen[integrator] / eff_seen['mis']:.2f}; from the own "
-                              f"variances: {eff_var[integrator] / eff_var['mis']:.2f})", flush=True)
+                    if not integrator.startswith("mis"):
+                        print(f"   {integrator} / {base} efficiency: {eff_all[integrator] / eff_all[base]:.2f}  "
+                              f"(pixels lt sees: {eff_seen[integrator] / eff_seen[base]:.2f}; from the own "
+                              f"variances: {eff_var[integrator] / eff_var[base]:.2f})", flush=True)
 
 
 if __name__ == "__main__":
