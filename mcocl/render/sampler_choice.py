@@ -1,10 +1,13 @@
 """Which render sampler a render uses: ``auto`` (the default), ``independent`` or ``sobol``.
 
 ``sobol`` (per-pixel Owen-scrambled Sobol' nets, :mod:`mcocl.render.sobol_film`)
-had 1.1x-4x lower MSE than ``independent`` at equal time on every scene of
-bench/render_throughput.py (veach_mis 4.1x, cornell 2.2x, the 10^6-triangle
-mesh 2.2x, many_lights 1.8x, cornell_spheres 1.1x; README, *Quasi-Monte Carlo
-pixels*), as pbrt-v4 (ZSobol) and Cycles default to low-discrepancy samplers.
+was 1.8x-8.8x as efficient as ``independent`` (1/(MSE x seconds), one
+process) on the bench's scenes whose error is direct light and pixel
+coverage (bench/render_throughput.py, bench/bdpt_efficiency.py; README,
+*Quasi-Monte Carlo pixels*), as pbrt-v4 (ZSobol) and Cycles, which default
+to low-discrepancy samplers, expect; it lost (0.56x) on scenes/caustic.json,
+whose error is a caustic through glass that the nets do not stratify, at
+20-25 % more time per path.
 Its variance comes from a few independent scramblings (batches) per pixel, so
 ``auto`` takes it where the render can form them and keeps ``independent``
 everywhere else (:func:`resolve_auto_sampler`):
