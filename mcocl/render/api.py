@@ -283,7 +283,7 @@ def render(
         lanes: paths per vector instruction (default: the device's; 1 = scalar kernel).
         spp_per_block: samples per pixel in one scheduler block (default: about
             2^20 paths per block, a sobol batch that ``auto`` sizes up to 2^22 in one
-            whole-film block, bdpt at least 16 spp where that fits; taken from the
+            whole-film block, bdpt up to 16 spp: splat_film.splat_spp_per_block; taken from the
             checkpoint when resuming).
         params, lenient: for a Mitsuba XML scene file, ``$name`` values and
             whether to substitute what is unsupported (:func:`load_scene`).
