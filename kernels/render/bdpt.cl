@@ -132,8 +132,9 @@
  * smaller than a pixel, which only the camera subpath samples ((0, 3): no
  * connection ends at the mirror) and which bdpt sampled as mis does at
  * about 3.7 x mis's cost per sample.  The batch must hold several samples
- * per pixel for it to matter: the host gives bdpt batches of at least 16
- * spp where a block's time allows (splat_film.py, splat_spp_per_block).
+ * per pixel for it to matter: the host gives bdpt batches of up to 16 spp
+ * while a work-item's share of a block stays within BDPT_GROUP_PATHS camera
+ * samples, which bounds a block's time (splat_film.py, splat_spp_per_block).
  * Measured (128 px, 256 spp, that box): the summed pixel variance per
  * sample 24 % lower with batches of 16 spp, 27 % with 64, than with
  * independent positions (batches of 1); at 512 px 4 % lower with 16 than

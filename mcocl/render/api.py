@@ -295,9 +295,11 @@ def render(
             default: the scene's ``integrator.sampler``, else ``auto``: ``sobol`` for ``path``,
             ``nee`` and ``mis`` when its default 4 batches hold 2 or more samples each (spp >= 8, or
             no spp under ``time_budget``/``target_error``), with ``batches``, or with an
-            ``spp_per_block`` that makes 2 batches of 2 or more samples; ``independent`` otherwise
-            (``lt``, ``bdpt``, spp < 8) and when resuming a checkpoint made with it
-            (:mod:`mcocl.render.sampler_choice`).  ``RenderResult.sampler`` says which ran.
+            ``spp_per_block`` that makes 2 batches of 2 or more samples, each batch it sizes one
+            whole-film block of at most 2^22 paths; ``independent`` otherwise (``lt``, ``bdpt``,
+            spp < 8, a film where 2 samples per pixel do not fit such a block) and when resuming a
+            checkpoint made with it (:mod:`mcocl.render.sampler_choice`).  ``RenderResult.sampler``
+            says which ran.
         batches: ``sobol`` only (with ``auto``, giving it chooses ``sobol``): independent scramblings (batches) per pixel that the variance
             comes from, each a net of ceil(spp / batches) samples (default 4: 3 degrees of freedom
             per pixel; more batches give a steadier per-pixel variance and a larger image error,
