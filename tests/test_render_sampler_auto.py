@@ -30,7 +30,6 @@ from mcocl.render.sampler_choice import AUTO_BATCH_PATHS, MAX_BATCH_SPP, resolve
 from mcocl.render.scene import DEFAULT_RENDER_SAMPLER, parse_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
-pytestmark = pytest.mark.auto_sampler  # the default as users get it (tests/conftest.py)
 
 
 @pytest.mark.parametrize("integrator,spp,block,batches,pixels,bounded,want,batch", [
