@@ -149,9 +149,12 @@ def test_split_gives_the_film_of_one_device_bit_for_bit(tmp_path):
 
 def test_many_small_chunks_on_two_sub_devices_give_the_same_sums(monkeypatch, subs):
     ref = capture_job(monkeypatch, F3, dim=3, samples=4e6, seed=3)
+    # Paced by sleeps (1 ms a block on each device) so that both feeders take
+    # part however busy the machine is (see test_a_slow_device_gets_fewer_blocks).
+    job = SlowJob(SlowJob(ref.job, slow=subs[0].name, per_block=0.001), slow=subs[1].name, per_block=0.001)
     acc = Accumulator(ref.shape)
     rates = []
-    report = run_devices(ref.job, acc, Halting(max_blocks=ref.max_blocks), subs, max_chunk=7,
+    report = run_devices(job, acc, Halting(max_blocks=ref.max_blocks), subs, max_chunk=7,
                          progress=lambda p: rates.append(p.device_rates))
     assert acc.blocks_done == ref.blocks and not acc.pending
     assert np.array_equal(acc.totals, ref.totals)
@@ -172,8 +175,14 @@ def test_a_run_resumed_on_two_sub_devices_gives_the_same_sums(monkeypatch, subs)
 
 
 def test_a_slow_device_gets_fewer_blocks(monkeypatch, subs):
-    ref = capture_job(monkeypatch, F3, dim=3, samples=4e7, seed=5)
-    job = SlowJob(ref.job, slow=subs[1].name, per_block=0.002)  # <= 500 blocks/s
+    ref = capture_job(monkeypatch, F3, dim=3, samples=4e6, seed=5)
+    # Both devices are paced by sleeps (2,000 and 200 blocks/s), far slower
+    # than the kernel itself: the run lasts about half a second whatever the
+    # machine's load, so the slow device's feeder always wakes in time to take
+    # part. (Unpaced, the fast device finished all blocks in 60 ms, and on a
+    # busy CI machine the slow feeder sometimes never got a chunk.)
+    paced = SlowJob(ref.job, slow=subs[0].name, per_block=0.0005)
+    job = SlowJob(paced, slow=subs[1].name, per_block=0.005)
     acc = Accumulator(ref.shape)
     report = run_devices(job, acc, Halting(max_blocks=ref.max_blocks), subs)
     assert np.array_equal(acc.totals, ref.totals)
