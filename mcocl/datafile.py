@@ -12,7 +12,7 @@ import errno
 import json
 import os
 import stat
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -118,14 +118,19 @@ def read_utf8(path: str | Path, where: str) -> str:
     return decode_utf8(raw, where)
 
 
-def loads_json(text: str, where: str, parse_constant: Callable[[str], Any] | None = None) -> Any:
+def loads_json(text: str, where: str, parse_constant: Callable[[str], Any] | None = None,
+               placeholders: tuple[str, Sequence[Any]] | None = None) -> Any:
     """``json.loads(text)``, refusing nesting too deep for Python's recursive decoder and repeated keys.
 
     :class:`json.JSONDecodeError` and ``parse_constant``'s errors pass through
     (the callers word them); a :class:`RecursionError` becomes an
-    :class:`InputError`.
+    :class:`InputError`.  With ``placeholders`` ``(key, values)``, an object
+    ``{key: k}`` stands for ``values[k]`` (mcocl/render/json_arrays.py puts
+    them where it parsed an array itself).
     """
-    def unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    def unique_keys(pairs: list[tuple[str, Any]]) -> Any:
+        if placeholders is not None and len(pairs) == 1 and pairs[0][0] == placeholders[0]:
+            return placeholders[1][pairs[0][1]]
         obj = dict(pairs)
         if len(obj) != len(pairs):
             seen: set[str] = set()

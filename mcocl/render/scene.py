@@ -32,6 +32,7 @@ from . import transform as tf
 from .delta_lights import DeltaLight, parse_lights
 from .emitter_choice import LUMINANCE
 from .envmap import EnvMap, check_rotation, load_envmap_image
+from .json_arrays import InlineArray
 from .pixel_filter import BOX, PixelFilter, parse_filter
 from .shape_registry import GEOMETRY_LIMIT, SHAPES
 from .textures import Texture, parse_texture
@@ -248,7 +249,13 @@ class _Checker:
         return v
 
     def array(self, value: Any, key: str, width: int, integer: bool) -> np.ndarray:
-        """A list of lists of ``width`` numbers (vertices or faces), vectorised check."""
+        """A list of lists of ``width`` numbers (vertices or faces), vectorised check.
+
+        An :class:`~mcocl.render.json_arrays.InlineArray` (parsed from the file by NumPy) is checked by the
+        same rules at once, or raises :class:`~mcocl.render.json_arrays.ExactReadNeededError` for the exact reader.
+        """
+        if isinstance(value, InlineArray):
+            return value.checked(width, integer, 2**31 - 1 if integer else GEOMETRY_LIMIT)
         if not isinstance(value, list):
             self.fail(key, f"expected a list of [{', '.join('abc'[:width])}] lists, got {_kind(value)}")
         for i, row in enumerate(value):

@@ -5,15 +5,22 @@ mcocl's own JSON (``scenes/README.md``) is parsed here; a Mitsuba XML file
 :mod:`mcocl.render.mitsuba`.  Both are validated by
 :func:`mcocl.render.scene.parse_scene`, so the two readers share one scene
 model and one set of checks.
+
+A JSON file is read first by :func:`mcocl.render.json_arrays.read_json_with_arrays`,
+which parses inline mesh arrays with NumPy (issue 13: a scene holds at most
+twice its size); whatever that fast path does not vouch for is read again the
+exact way (``json.loads``), which words every error as before.
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 from ..datafile import decode_utf8, loads_json, read_regular_file
 from ..errors import InputError
+from .json_arrays import ExactReadNeededError, InlineArray, read_json_with_arrays
 from .mitsuba import load_mitsuba
 from .scene import Scene, parse_scene
 
@@ -44,6 +51,27 @@ def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = 
     if params:
         raise InputError(f"{p}: params (-D name=value) apply to Mitsuba XML scenes only")
     try:
+        data, arrays = read_json_with_arrays(p, str(p), parse_constant=_reject_constant)
+        if _arrays_in_meshes(data) == len(arrays):
+            return parse_scene(data, p, mesh_folder)
+    except ExactReadNeededError:
+        pass
+    return parse_scene(_read_json_exact(p), p, mesh_folder)
+
+
+def _arrays_in_meshes(data: Any) -> int:
+    """How many :class:`InlineArray` stand as a shape's ``vertices`` or ``faces``, the only places the
+    checker takes one (``_Checker.array``); one anywhere else would be printed or dumped as a list, so the
+    file must then be read the exact way."""
+    shapes = data.get("shapes") if isinstance(data, dict) else None
+    if not isinstance(shapes, list):
+        return 0
+    return sum(isinstance(s.get(k), InlineArray) for s in shapes if isinstance(s, dict) for k in ("vertices", "faces"))
+
+
+def _read_json_exact(p: Path) -> Any:
+    """The JSON document of ``p`` by ``json.loads``, every error worded with the file, line and column."""
+    try:
         raw = read_regular_file(p)
     except OSError as e:
         raise InputError(f"{p}: cannot read scene file: {e.strerror or e}") from None
@@ -54,7 +82,7 @@ def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = 
         raise InputError(f"{p}:{e.lineno}:{e.colno}: not valid JSON: {e.msg}") from None
     except ValueError as e:
         raise InputError(f"{p}: not valid JSON: {e}") from None
-    return parse_scene(data, p, mesh_folder)
+    return data
 
 
 __all__ = ["load_scene"]
