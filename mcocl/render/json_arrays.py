@@ -37,7 +37,7 @@ from ..datafile import loads_json, open_regular_file
 # faces int64, mcocl/render/shape_registry.py's mesh).
 ARRAY_KEYS: dict[bytes, type] = {b'"vertices"': np.float64, b'"faces"': np.int64}
 
-BLOCK = 1 << 20  # bytes read at once: the text held besides the arrays (a few blocks' worth of temporaries)
+BLOCK = 1 << 18  # bytes read and parsed at once: what the load holds besides the arrays is a few of these
 MARGIN = 1 << 16  # bytes kept ahead of a row's start: a longer row, or a longer run of blanks, is not fast-path
 MAX_WIDTH = 64  # numbers per row the fast path takes (a mesh needs 3)
 EXACT_INT = 2**53  # float64 holds every integer below this exactly, so a parsed integer is the written one
