@@ -176,9 +176,12 @@ def test_arrays_outside_a_mesh_and_odd_files_read_as_before(tmp_path, monkeypatc
         "material.json": write_scene(tmp_path / "material.json", V3, F1, dict(
             SCENE, materials={"w": {"type": "diffuse", "reflectance": 0.5, "faces": [[1, 2, 3]]}})),
     }
+    cases["string.json"] = write_scene(tmp_path / "string.json", V3, F1, dict(
+        SCENE, comment='a scene once had "vertices": [[1, 2, 3]], "faces": [[0, 1, 2]] here'))
     for name, p in cases.items():
         assert outcome(load_scene, p) == outcome(load_exact, p), name
-    assert isinstance(outcome(load_scene, cases["comment.json"])[0], bytes)  # a valid scene, read the exact way
+    for name in ("comment.json", "string.json"):  # valid scenes: the first read the exact way
+        assert isinstance(outcome(load_scene, cases[name])[0], bytes), name
     p = write_scene(tmp_path / "bom.json", V3, F1)
     p.write_bytes(b"\xef\xbb\xbf" + p.read_bytes())
     assert outcome(load_scene, p) == outcome(load_exact, p)
@@ -243,3 +246,14 @@ def test_loading_a_big_inline_mesh_holds_under_twice_its_file(tmp_path):
     assert fast < 2 * size, (fast, size)
     exact = _traced_peak(load_exact, p)
     assert exact > 4 * size, (exact, size)
+
+
+def test_rows_longer_than_the_margin_are_read_the_exact_way(tmp_path, monkeypatch):
+    """A row (or a run of blanks) longer than the bytes kept ahead is not cut: the exact reader takes the file."""
+    monkeypatch.setattr(json_arrays, "BLOCK", 300)
+    monkeypatch.setattr(json_arrays, "MARGIN", 256)
+    p = write_scene(tmp_path / "wide.json", "[[0, 0, 0], [1," + " " * 1000 + "0, 0], [0, 1, 0]]", F1)
+    with pytest.raises(json_arrays.ExactReadNeededError):
+        read_json_with_arrays(p, str(p))
+    fast = outcome(load_scene, p)
+    assert isinstance(fast[0], bytes) and fast == outcome(load_exact, p)

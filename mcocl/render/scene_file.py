@@ -50,13 +50,26 @@ def load_scene(path: str | Path, *, params: dict | None = None, lenient: bool = 
         return load_mitsuba(p, params=params, lenient=lenient, mesh_folder=mesh_folder)
     if params:
         raise InputError(f"{p}: params (-D name=value) apply to Mitsuba XML scenes only")
+    scene = _load_json_fast(p, mesh_folder)
+    return scene if scene is not None else parse_scene(_read_json_exact(p), p, mesh_folder)
+
+
+def _load_json_fast(p: Path, mesh_folder: str | Path | None) -> Scene | None:
+    """The scene of ``p`` with its inline arrays parsed by NumPy, or None where the exact reader must read it.
+
+    A function of its own so that the arrays already parsed are let go when it returns None, before the
+    exact reader holds the file again.
+
+    Raises:
+        InputError: the scene breaks the format (the exact reader's message: the data it checks are the same).
+    """
     try:
         data, arrays = read_json_with_arrays(p, str(p), parse_constant=_reject_constant)
-        if _arrays_in_meshes(data) == len(arrays):
-            return parse_scene(data, p, mesh_folder)
+        if _arrays_in_meshes(data) != len(arrays):
+            return None
+        return parse_scene(data, p, mesh_folder)
     except ExactReadNeededError:
-        pass
-    return parse_scene(_read_json_exact(p), p, mesh_folder)
+        return None
 
 
 def _arrays_in_meshes(data: Any) -> int:
