@@ -154,6 +154,9 @@ F1 = "[[0, 1, 2]]"
     (V3, "[[0, 1, 2147483648]]", "shapes[1].faces[0]"),
     (V3, "[[0, 1, 100000000000000000000000000000]]", "shapes[1].faces[0]"),
     (V3, "[[0, 1], [2, 0]]", "shapes[1].faces[0]"),
+    (V3, "[[0, 1, 123456789012345678]]", "shapes[1].faces[0]"),  # 18 digits: parsed as int64
+    (V3, "[[0, 1, -9223372036854775809]]", "shapes[1].faces[0]"),  # beyond int64: parsed as float64
+    (V3, "[[0," + " " * 30 + "1, 2], [2, 1, 0]]", None),  # a long gap between commas: parsed as float64
     (V3, "[[0, 1, 2]", "not valid JSON"),  # the file ends inside the array
 ])
 def test_bad_arrays_give_the_exact_paths_errors(tmp_path, vertices, faces, where):

@@ -129,20 +129,39 @@ def _parse_rows(text: bytes, width: int, dtype: type) -> np.ndarray:
     Raises:
         ExactReadNeededError: an integer key holds a number not written as an integer, or one too big to be exact.
     """
-    integer = dtype is np.int64
-    if integer and (b"." in text or b"e" in text or b"E" in text):
-        raise ExactReadNeededError("a number not written as an integer")
-    if b"-0" in text and _INT_MINUS_ZERO.search(text):
-        text = _INT_MINUS_ZERO.sub(b" 0", text)
-    # np.fromstring with a separator parses each number with Python's correctly rounded strtod, as float() does
-    flat = np.fromstring(text.translate(_BRACKETS_TO_BLANKS), dtype=np.float64, sep=",")
-    if flat.size != text.count(b"[") * width:  # the grammar was checked: a mismatch is a bug, so be safe
+    count = text.count(b"[") * width
+    if dtype is np.int64:
+        flat = _parse_integers(text)
+    else:
+        if b"-0" in text and _INT_MINUS_ZERO.search(text):
+            text = _INT_MINUS_ZERO.sub(b" 0", text)
+        # np.fromstring with a separator parses each number with Python's correctly rounded strtod, as float()
+        flat = np.fromstring(text.translate(_BRACKETS_TO_BLANKS), dtype=np.float64, sep=",")
+    if flat.size != count:  # the grammar was checked: a mismatch would be a bug, so be safe
         raise ExactReadNeededError("numbers miscounted")
-    if integer:
-        if flat.size and not (-EXACT_INT < flat.min() and flat.max() < EXACT_INT):
-            raise ExactReadNeededError("an integer beyond float64's exact range")
-        flat = flat.astype(np.int64)
     return flat.reshape(-1, width)
+
+
+def _parse_integers(text: bytes) -> np.ndarray:
+    """The numbers of ``text``, every one written as a JSON integer, as int64 equal to Python's ``int()``.
+
+    Raises:
+        ExactReadNeededError: a number not written as an integer, or one beyond float64's exact integers.
+    """
+    if b"." in text or b"e" in text or b"E" in text:
+        raise ExactReadNeededError("a number not written as an integer")
+    blanks = text.translate(_BRACKETS_TO_BLANKS)
+    # Parsing as int64 takes half the time of float64, but an overflowing number is clamped, not refused: take
+    # that way only where no token (the bytes between two commas) is longer than 18 bytes, so no number has
+    # more than 18 digits and every one fits.  ("-0" is int 0 either way.)
+    commas = np.flatnonzero(np.frombuffer(blanks, np.uint8) == ord(","))
+    gaps = np.diff(commas, prepend=-1, append=len(blanks))
+    if gaps.max() <= 19:
+        return np.fromstring(blanks, dtype=np.int64, sep=",")
+    flat = np.fromstring(blanks, dtype=np.float64, sep=",")
+    if flat.size and not (-EXACT_INT < flat.min() and flat.max() < EXACT_INT):
+        raise ExactReadNeededError("an integer beyond float64's exact range")
+    return flat.astype(np.int64)
 
 
 class _Scanner:
