@@ -304,6 +304,10 @@ def camera_matrix(origin: np.ndarray, target: np.ndarray, up: np.ndarray, fov: f
     return cam.view(np.float32).reshape(4, 4)
 
 
+# Faces per block of _shape_triangles' gather (its intp copy of a block's indices: 1.5 MB).
+_GATHER_FACES = 1 << 16
+
+
 def _shape_triangles(shape, path, out: np.ndarray) -> None:
     """Write the world-space triangles of a mesh-like shape into ``out`` (n, 3, 3) float32.
 
@@ -316,20 +320,23 @@ def _shape_triangles(shape, path, out: np.ndarray) -> None:
     Raises:
         InputError: the transform made a vertex of a face non-finite.
     """
-    # a file's float32 vertices widen here, exactly (mcocl/render/ply_reader.py keeps them float32)
-    v = tf.apply_points(shape.matrix, np.asarray(shape.vertices, np.float64))
+    # a file's float32 vertices widen here, exactly (mcocl/render/ply_reader.py keeps them float32), a block
+    # at a time: no float64 table of every vertex (issue 13)
+    v32, finite = tf.apply_points_float32(shape.matrix, shape.vertices)
     f = shape.faces
-    if tf.is_orientation_reversing(shape.matrix) != shape.flip_normals:
-        f = f[:, [0, 2, 1]]
-    if len(f) and (f.min() < 0 or f.max() >= len(v)):  # (the scene's parser checks this already)
-        raise InputError(f"{path}: a face of shape {shape.key} indexes a vertex outside 0..{len(v) - 1}")
+    corners = [0, 2, 1] if tf.is_orientation_reversing(shape.matrix) != shape.flip_normals else slice(None)
+    if len(f) and (f.min() < 0 or f.max() >= len(v32)):  # (the scene's parser checks this already)
+        raise InputError(f"{path}: a face of shape {shape.key} indexes a vertex outside 0..{len(v32) - 1}")
     # (a non-finite vertex that no face uses is allowed: the per-face test only runs when one exists)
-    if not np.isfinite(v).all() and not np.isfinite(v).all(axis=1)[f].all():
+    if not finite.all() and not finite[f].all():
         raise InputError(f"{path}: a transform produced non-finite vertices")
-    v32 = v.astype(np.float32)
-    del v
-    # mode "clip" (the indices are in range): "raise" would gather into a temporary table of out's size first
-    np.take(v32, f, axis=0, out=out, mode="clip")
+    del finite
+    # mode "clip" (the indices are in range): "raise" would gather into a temporary table of out's size first;
+    # a block of faces at a time, since take makes an intp copy of the indices it is given (a file's uint32
+    # faces: 63 MB for 2.6 * 10^6 triangles, the peak of this step, bench/load_memory.py's 33 MB serialized mesh)
+    for s in range(0, len(f), _GATHER_FACES):
+        # (the corners swapped block by block too: no reordered copy of every face)
+        np.take(v32, f[s:s + _GATHER_FACES, corners], axis=0, out=out[s:s + _GATHER_FACES], mode="clip")
 
 
 def _corner_extreme(tri: np.ndarray, op: np.ufunc) -> np.ndarray:

@@ -125,7 +125,10 @@ def parse_serialized(source: bytes | BinaryIO, shape_index: int, label: str) -> 
     need = nv * per_vertex * real + nt * 3 * index
     if need > DEFLATE_MAX_RATIO * packed.size + _HEAD_BYTES:
         raise InputError(f"{at}: {nv} vertices and {nt} triangles cannot come from {packed.size} compressed bytes")
-    body = _inflate_body(inflate, head[pos:], packed, need, at)
+    # the vertex colours (unused) lie between the UVs and the faces: inflated and let go, not kept in the body
+    colors_at = nv * (per_vertex - 3 * bool(flags & HAS_COLORS)) * real
+    colors = (colors_at, colors_at + (nv * 3 * real if flags & HAS_COLORS else 0))
+    body = _inflate_body(inflate, head[pos:], packed, need, colors, at)
     ftype = "<f8" if real == 8 else "<f4"
     off = 0
 
@@ -137,12 +140,10 @@ def parse_serialized(source: bytes | BinaryIO, shape_index: int, label: str) -> 
 
     # The arrays are views of the inflated body, in the file's precision (float32 or float64, exact;
     # compile_scene widens where it transforms) and uint32 indices: the mesh costs its body's size once
-    # (issue 13: memory near the data's own size).  Vertex colours, unused, stay in the body.
+    # (issue 13: memory near the data's own size).  Vertex colours, unused, are not in the body.
     vertices = take(nv * 3, ftype).reshape(nv, 3)
     normals = take(nv * 3, ftype).reshape(nv, 3) if flags & HAS_NORMALS else None
     uvs = take(nv * 2, ftype).reshape(nv, 2) if flags & HAS_UVS else None
-    if flags & HAS_COLORS:
-        take(nv * 3, ftype)  # vertex colours: not used
     faces = take(nt * 3, "<u8" if index == 8 else "<u4").reshape(nt, 3)
     if nt and int(faces.max()) >= nv:
         raise InputError(f"{at}: a triangle's vertex index {int(faces.max())} is outside 0..{nv - 1}")
@@ -165,18 +166,32 @@ class _Slices:
         return self.read(self.first + at, self.first + min(at + _INFLATE_STEP, self.size))
 
 
-def _inflate_body(inflate, start: bytes, packed: _Slices, need: int, at: str) -> np.ndarray:
+def _inflate_body(inflate, start: bytes, packed: _Slices, need: int, skip: tuple[int, int], at: str) -> np.ndarray:
     """The ``need`` bytes of a mesh's body (``start`` already inflated from the first slice of ``packed``),
-    inflated step by step into one buffer.
+    inflated step by step into one buffer, less bytes ``skip[0] .. skip[1]`` of them (inflated, not kept).
 
     The compressed bytes are fed a slice at a time, so neither they nor the body are ever copied whole.
 
     Raises:
         InputError: corrupt zlib data, or the stream ends before ``need`` bytes.
     """
-    body = np.empty(need, np.uint8)
-    got = min(len(start), need)
-    body[:got] = np.frombuffer(start, np.uint8, got)
+    lo, hi = skip
+    body = np.empty(need - (hi - lo), np.uint8)
+    got = 0
+
+    def put(part: bytes) -> None:
+        """The next inflated bytes: those before ``lo`` and from ``hi`` on go to the body."""
+        nonlocal got
+        end = got + len(part)
+        if got < lo:
+            k = min(end, lo)
+            body[got:k] = np.frombuffer(part, np.uint8, k - got)
+        if end > hi:
+            k = max(got, hi)
+            body[k - (hi - lo):end - (hi - lo)] = np.frombuffer(part, np.uint8, end - k, k - got)
+        got = end
+
+    put(start[:need])
     fed, tail = _INFLATE_STEP, inflate.unconsumed_tail
     try:
         while got < need and not inflate.eof:
@@ -186,8 +201,7 @@ def _inflate_body(inflate, start: bytes, packed: _Slices, need: int, at: str) ->
                 tail, fed = packed.slice(fed), fed + _INFLATE_STEP
             part = inflate.decompress(tail, need - got)
             tail = inflate.unconsumed_tail
-            body[got:got + len(part)] = np.frombuffer(part, np.uint8)
-            got += len(part)
+            put(part)
     except zlib.error as e:
         raise InputError(f"{at}: corrupt zlib data ({e})") from None
     if got < need:

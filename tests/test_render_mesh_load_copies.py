@@ -1,0 +1,103 @@
+"""The mesh's arrays after the load and the compiled triangles, against their straightforward conversions (issue 13).
+
+mcocl/render/serialized_reader.py inflates a serialized mesh into one body
+without its (unused) vertex colours, and mcocl/render/compiled.py's
+``_shape_triangles`` transforms and gathers a mesh a block at a time
+(mcocl/render/transform.py's ``apply_points_float32``) to hold no float64
+table of every vertex and no intp copy of every face: the arrays must be,
+bit for bit, those of inflating the whole stream and slicing it, and of
+``apply_points(m, v.astype(float64)).astype(float32)[faces]``.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from mcocl.errors import InputError
+from mcocl.render import transform as tf
+from mcocl.render.compiled import _GATHER_FACES, _shape_triangles
+from mcocl.render.serialized_reader import HAS_COLORS, HAS_NORMALS, HAS_UVS, parse_serialized
+
+
+def _file(nv: int, nt: int, double: bool, seed: int) -> tuple[bytes, bytes]:
+    """A one-mesh serialized file (version 4, normals, UVs and vertex colours) and its inflated stream."""
+    rng = np.random.default_rng(seed)
+    ftype = "<f8" if double else "<f4"
+    flags = (0x2000 if double else 0x1000) | HAS_NORMALS | HAS_UVS | HAS_COLORS
+    arrays = [rng.normal(size=(nv, 3)), rng.normal(size=(nv, 3)), rng.random((nv, 2)), rng.random((nv, 3))]
+    body = struct.pack("<I", flags) + b"mesh\0" + struct.pack("<QQ", nv, nt)
+    body += b"".join(a.astype(ftype).tobytes() for a in arrays) + rng.integers(0, nv, (nt, 3)).astype("<u4").tobytes()
+    data = struct.pack("<HH", 0x041C, 4) + zlib.compress(body, 1) + struct.pack("<QI", 0, 1)
+    return data, body
+
+
+@pytest.mark.parametrize("nv,nt,double", [(5, 4, False), (40_000, 70_000, False), (30_000, 20_000, True)])
+def test_serialized_arrays_are_the_stream_sliced(nv: int, nt: int, double: bool) -> None:
+    """Positions, normals, UVs and faces as slices of the whole inflated stream, over many inflate steps and a
+    colour block that starts and ends inside them; the kept body is the stream less the colours."""
+    data, body = _file(nv, nt, double, nv)
+    real = 8 if double else 4
+    ftype = "<f8" if double else "<f4"
+    at = 4 + 5 + 16
+    want = {}
+    for name, width in (("vertices", 3), ("normals", 3), ("uvs", 2)):
+        want[name] = np.frombuffer(body, ftype, nv * width, at).reshape(nv, width)
+        at += nv * width * real
+    at += nv * 3 * real  # the colours
+    want["faces"] = np.frombuffer(body, "<u4", nt * 3, at).reshape(nt, 3)
+    got = parse_serialized(data, 0, "m")
+    for name, a in want.items():
+        b = getattr(got, name)
+        assert b.dtype == a.dtype and b.shape == a.shape and b.tobytes() == a.tobytes(), name
+    held = got.faces
+    while held.base is not None and isinstance(held.base, np.ndarray):
+        held = held.base
+    assert held.nbytes == nv * 8 * real + nt * 12  # positions, normals, UVs, faces: no colours
+    with pytest.raises(InputError, match="ends early"):  # a stream cut inside the faces still says so
+        cut = zlib.compress(body[:-7], 1)
+        parse_serialized(struct.pack("<HH", 0x041C, 4) + cut + struct.pack("<QI", 0, 1), 0, "m")
+
+
+def _straightforward(shape) -> np.ndarray:
+    """The triangles as compile_scene made them before the blocks: one float64 table, one gather."""
+    v = tf.apply_points(shape.matrix, np.asarray(shape.vertices, np.float64)).astype(np.float32)
+    f = shape.faces[:, [0, 2, 1]] if tf.is_orientation_reversing(shape.matrix) != shape.flip_normals else shape.faces
+    return v[f]
+
+
+@pytest.mark.parametrize("dtype,mirror,flip", [(np.float32, False, False), (np.float32, True, False),
+                                               (np.float64, False, True), (np.float64, True, True)])
+def test_shape_triangles_match_one_table(dtype, mirror: bool, flip: bool) -> None:
+    """More vertices than one block of transform.rows_times and more faces than one gather block; float32 (a
+    file's) and float64 (inline) vertices; a mirroring transform and flip_normals swap the corners."""
+    rng = np.random.default_rng(7)
+    nv = 3 * tf._ROWS + 5
+    nt = 2 * _GATHER_FACES + 3
+    m = tf.compose([tf.scale([1.3, -0.7 if mirror else 0.7, 2.1]), tf.rotate([1, 2, 3], 37.0),
+                    tf.translate([0.1, -3.0, 1e3])])
+    shape = SimpleNamespace(vertices=rng.normal(size=(nv, 3)).astype(dtype),
+                            faces=rng.integers(0, nv, (nt, 3)).astype(np.uint32), matrix=m, flip_normals=flip,
+                            key="shapes[0]")
+    out = np.empty((nt, 3, 3), np.float32)
+    _shape_triangles(shape, Path("s.json"), out)
+    assert out.tobytes() == _straightforward(shape).tobytes()
+
+
+def test_shape_triangles_non_finite() -> None:
+    """A vertex the transform makes infinite is refused only where a face uses it, as before the blocks."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1e300, 0, 0]], np.float64)
+    m = tf.scale(1e10)
+    shape = SimpleNamespace(vertices=v, faces=np.array([[0, 1, 2]], np.uint32), matrix=m, flip_normals=False,
+                            key="shapes[0]")
+    out = np.empty((1, 3, 3), np.float32)
+    _shape_triangles(shape, Path("s.json"), out)
+    assert out.tobytes() == _straightforward(shape).tobytes()
+    shape.faces = np.array([[0, 1, 3]], np.uint32)
+    with pytest.raises(InputError, match="non-finite"):
+        _shape_triangles(shape, Path("s.json"), out)
