@@ -20,7 +20,10 @@ resident memory over the child's resident memory before it, and the memory it
 still holds after (the scene held), as bench/scene_memory.py measures its
 stages (VmHWM reset through /proc/self/clear_refs: Linux), and the peak as a
 multiple of the files' size (the scene file and the mesh files it names).
-The last line is one JSON object, for notes.
+``arrays MB`` is the size of the meshes' arrays the loaded scene holds
+(vertices, faces, normals, UVs): the least a load that keeps them can peak at
+(a serialized file's are its inflated data, more than twice the file at zlib's
+ratios for float meshes).  The last line is one JSON object, for notes.
 
 Usage: python bench/load_memory.py [--mb MB] [--out DIR] [--format NAME ...]
 """
@@ -167,6 +170,9 @@ def scene_file(fmt: str, mb: float, out: Path) -> Path:
     return path
 
 
+_ARRAYS = ("vertices", "faces", "normals", "uvs")  # a loaded mesh shape's arrays
+
+
 def measure(path: Path) -> dict:
     """In this process: load ``path`` once and report the load's seconds and memory (see the module docstring)."""
     from mcocl.render.scene_file import load_scene
@@ -180,8 +186,10 @@ def measure(path: Path) -> dict:
     peak, held = (round(x * 2**20 / 1e6, 1) for x in stages.rows["load"][:2])  # MiB -> MB, as the file's size
     mb = _scene_bytes(path) / 1e6
     triangles = sum(len(s.faces) for s in scene.shapes)
+    arrays = sum(a.nbytes for s in scene.shapes for a in (getattr(s, k, None) for k in _ARRAYS) if a is not None)
     return {"scene": path.name, "file_MB": round(mb, 1), "triangles": triangles, "load_s": round(seconds, 2),
             "peak_MB": peak, "ratio": round(peak / mb, 2), "retained_MB": held, "retained_ratio": round(held / mb, 2),
+            "arrays_MB": round(arrays / 1e6, 1),
             "base_MB": round(stages.base / 1024, 1)}
 
 
@@ -198,7 +206,7 @@ def main() -> None:
         return
     rows = []
     print(f"{'format':15s} {'file MB':>8s} {'triangles':>10s} {'load s':>7s} {'peak MB':>8s} {'ratio':>6s} "
-          f"{'retained MB':>12s}")
+          f"{'retained MB':>12s} {'arrays MB':>10s}")
     for fmt in a.format:
         path = scene_file(fmt, a.mb, a.out)
         out = subprocess.run([sys.executable, __file__, "--measure", str(path)], check=True, capture_output=True,
@@ -206,7 +214,7 @@ def main() -> None:
         r = {"format": fmt, **json.loads(out.strip().splitlines()[-1])}
         rows.append(r)
         print(f"{fmt:15s} {r['file_MB']:8.1f} {r['triangles']:10d} {r['load_s']:7.2f} {r['peak_MB']:8.1f} "
-              f"{r['ratio']:6.2f} {r['retained_MB']:12.1f}", flush=True)
+              f"{r['ratio']:6.2f} {r['retained_MB']:12.1f} {r['arrays_MB']:10.1f}", flush=True)
     worst = max(rows, key=lambda r: r["ratio"])
     print(f"highest peak: {worst['format']}, {worst['ratio']}x its files (goal: at most 2x)")
     print(json.dumps({"load_memory": rows}))
