@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from mcocl.errors import InputError
+from mcocl.render import mesh_normals
 from mcocl.render import transform as tf
 from mcocl.render.compiled import _GATHER_FACES, _shape_triangles
 from mcocl.render.serialized_reader import HAS_COLORS, HAS_NORMALS, HAS_UVS, parse_serialized
@@ -101,3 +102,45 @@ def test_shape_triangles_non_finite() -> None:
     shape.faces = np.array([[0, 1, 3]], np.uint32)
     with pytest.raises(InputError, match="non-finite"):
         _shape_triangles(shape, Path("s.json"), out)
+
+
+def _normals_one_table(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """mesh_normals.angle_weighted_normals as it was before the blocks: every face's tables at once."""
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    p = v[f]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    valid = length > 0.0
+    n = n[valid] / length[valid, None]
+    p, f = p[valid], f[valid]
+    out = np.zeros_like(v)
+    for k in range(3):
+        a = p[:, (k + 1) % 3] - p[:, k]
+        b = p[:, (k + 2) % 3] - p[:, k]
+        a /= np.linalg.norm(a, axis=1, keepdims=True)
+        b /= np.linalg.norm(b, axis=1, keepdims=True)
+        angle = np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1.0, 1.0))
+        for axis in range(3):
+            out[:, axis] += np.bincount(f[:, k], weights=n[:, axis] * angle, minlength=len(v))
+    norm = np.linalg.norm(out, axis=1)
+    bogus = norm == 0.0
+    out[~bogus] /= norm[~bogus, None]
+    out[bogus] = (1.0, 0.0, 0.0)
+    return out
+
+
+@pytest.mark.parametrize("block,nt", [(None, 150_000), (1000, 7_001), (1000, 7_000), (1000, 999)])
+def test_angle_weighted_normals_match_one_table(monkeypatch, block: int | None, nt: int) -> None:
+    """Computed block by block, the normals are those of every face at once, bit for bit: a real block size and
+    small ones (a last block of one face, exact blocks, a single block), with degenerate faces (repeated
+    vertices), vertices no face uses, and many faces per vertex (sums whose order matters)."""
+    rng = np.random.default_rng(11)
+    nv = max(nt // 3, 10)
+    vertices = rng.normal(size=(nv, 3)).astype(np.float32)
+    faces = rng.integers(0, nv - 5, (nt, 3)).astype(np.uint32)
+    faces[::97, 1] = faces[::97, 0]  # degenerate: zero area
+    if block is not None:
+        monkeypatch.setattr(mesh_normals, "_FACES", block)
+    got = mesh_normals.angle_weighted_normals(vertices, faces)
+    assert got.tobytes() == _normals_one_table(vertices, faces).tobytes()
