@@ -12,6 +12,8 @@ when present), the displaced sphere of bench/make_big_scene.py at about
 - ``serialized``: a Mitsuba serialized file (version 4, single precision, normals and UVs; zlib level 1);
 - ``xml``: a Mitsuba XML scene naming three meshes of a third of the size each: a binary PLY, an OBJ, a
   serialized file;
+- ``xml_xyz``: a Mitsuba XML scene naming the positions-only binary PLY, whose vertex normals the load
+  computes (Mitsuba's behaviour for a mesh file without them: mcocl/render/mesh_normals.py);
 - ``json_inline``: an mcocl JSON scene whose mesh is inline ``vertices`` and ``faces`` lists.
 
 Each scene is then loaded by :func:`mcocl.render.scene_file.load_scene` in a
@@ -46,7 +48,7 @@ from make_big_scene import big_scene, displaced_sphere  # noqa: E402
 from ply_load import write_obj, write_ply  # noqa: E402
 from scene_memory import _scene_bytes, _Stages  # noqa: E402
 
-FORMATS = ("ply_binary", "ply_binary_xyz", "ply_ascii", "obj", "serialized", "xml", "json_inline")
+FORMATS = ("ply_binary", "ply_binary_xyz", "ply_ascii", "obj", "serialized", "xml", "xml_xyz", "json_inline")
 # bytes per triangle of each mesh file (the sphere has about half as many vertices as triangles), to size it
 _PROBE_TRIANGLES = 40_000
 
@@ -156,9 +158,10 @@ def scene_file(fmt: str, mb: float, out: Path) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     if fmt == "json_inline":
         return _sized_mesh(fmt, mb, out)
-    if fmt == "xml":
-        meshes = [_sized_mesh(f, mb / 3, out) for f in ("ply_binary", "obj", "serialized")]
-        path = out / f"xml_{mb:g}MB.xml"
+    if fmt in ("xml", "xml_xyz"):
+        kinds = ("ply_binary", "obj", "serialized") if fmt == "xml" else ("ply_binary_xyz",)
+        meshes = [_sized_mesh(f, mb / len(kinds), out) for f in kinds]
+        path = out / f"{fmt}_{mb:g}MB.xml"
         path.write_text(_mitsuba_xml(meshes))
         return path
     mesh = _sized_mesh(fmt, mb, out)
