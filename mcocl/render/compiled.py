@@ -315,7 +315,8 @@ def _shape_triangles(shape, path, out: np.ndarray) -> None:
     float64 and rounded to float32 once per vertex, then gathered per face
     straight into ``out``: the same numbers as
     rounding each gathered float64 triangle, with a fifth of the float64 work
-    and no (n, 3, 3) intermediate.
+    and no (n, 3, 3) intermediate; both steps a block at a time, so that no
+    float64 table of every vertex nor intp copy of every face is made.
 
     Raises:
         InputError: the transform made a vertex of a face non-finite.
