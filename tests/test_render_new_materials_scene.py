@@ -28,7 +28,9 @@ def _scene(integrator: str, pane: bool = True) -> dict:
         "camera": {"origin": [0, 0.3, 3.4], "target": [0, -0.1, 0], "fov": 40, "width": 16, "height": 16},
         "integrator": {"type": integrator, "max_depth": 6, "rr_depth": 4},
         "materials": {
-            "white": {"type": "diffuse", "reflectance": 0.7},
+            # a texture, so that lt's, bdpt's and mis's builds (textures and rough refraction) are those of
+            # tests/test_render_dielectric_tints.py: a build costs 10 to 30 s on a cold cache
+            "white": {"type": "diffuse", "reflectance": {"type": "checkerboard", "color0": 0.7, "color1": 0.6}},
             "frost": {"type": "roughdielectric", "alpha": 0.3, "int_ior": 1.5},
             "frost_b": {"type": "roughdielectric", "alpha": 0.2, "int_ior": 1.33, "distribution": "beckmann"},
             "pane": {"type": "thindielectric", "int_ior": 1.5},
