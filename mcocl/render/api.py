@@ -34,6 +34,7 @@ from .compiled import CompiledScene, compile_scene
 from .emitter_choice import bounding_sphere
 from .film import STATS, film_image, relative_error
 from .job import (
+    SOBOL_INTEGRATORS,
     SPLAT_INTEGRATORS,
     TILE_PIXELS,
     UNBOUNDED_SPP,
@@ -162,11 +163,11 @@ def _render_sampler(cs: CompiledScene, name: str, from_scene: bool, spp: int | N
                     batches: Any, bounded_by_spp: bool) -> tuple[str, str, int | None]:
     """The render sampler, a note, and the samples of a batch when ``auto`` sized it (else None).
 
-    ``sobol`` only for the path integrators.
+    ``sobol`` for the path integrators and ``bdpt`` (SOBOL_INTEGRATORS), not ``lt``.
 
-    The scene's ``sobol`` is a preference (a Mitsuba scene's stratified sampler asks for it): ``lt``
-    and ``bdpt``, e.g. chosen by ``--integrator``, draw independent samples instead, and the note says
-    so; a ``sobol`` asked for here with them is an error.  ``auto`` is decided by
+    The scene's ``sobol`` is a preference (a Mitsuba scene's stratified sampler asks for it): ``lt``,
+    e.g. chosen by ``--integrator``, draws independent samples instead, and the note says
+    so; a ``sobol`` asked for here with it is an error.  ``auto`` is decided by
     :func:`mcocl.render.sampler_choice.resolve_auto_sampler` (a resumed checkpoint's own sampler wins:
     :func:`_checkpoint_sampler`); ``batches`` asks for sobol.
     """
@@ -179,11 +180,11 @@ def _render_sampler(cs: CompiledScene, name: str, from_scene: bool, spp: int | N
                                                 batches if batches is not None else getattr(cs, "batches", None),
                                                 cs.width * cs.height, bounded_by_spp)
         return name, f"sampler auto: {name} ({why})", batch
-    if name == "sobol" and cs.integrator in SPLAT_INTEGRATORS:
+    if name == "sobol" and cs.integrator not in SOBOL_INTEGRATORS:
         if from_scene:
-            return "independent", (f"the scene's sampler 'sobol' works with the path integrators only: {cs.integrator} "
-                                   "draws independent samples"), None
-        raise InputError(f"sampler 'sobol' works with the path integrators (path, nee, mis), not {cs.integrator!r}")
+            return "independent", (f"the scene's sampler 'sobol' works with {', '.join(SOBOL_INTEGRATORS)} only: "
+                                   f"{cs.integrator} draws independent samples"), None
+        raise InputError(f"sampler 'sobol' works with {', '.join(SOBOL_INTEGRATORS)}, not {cs.integrator!r}")
     return name, "", None
 
 
@@ -408,18 +409,20 @@ def render(
         saved_limit = acc.meta_int("spp_limit", resume, 1, UNBOUNDED_SPP)
         acc.check_shape((cs.height, cs.width, STATS), resume)
         # sobol's blocks as the checkpoint cut them (no key: whole-film blocks, as before the cut existed)
-        block_pixels = _saved_block_pixels(acc, resume, cs.width * cs.height) if sampler == "sobol" else 0
+        block_pixels = (_saved_block_pixels(acc, resume, cs.width * cs.height)
+                        if sampler == "sobol" and cs.integrator not in SPLAT_INTEGRATORS else 0)
     elif auto_batch is not None:
         spp_per_block = auto_batch
     elif spp_per_block is None:
         spp_per_block = default_spp_per_block(cs.width, cs.height)
-        if sampler == "sobol":
+        if cs.integrator in SPLAT_INTEGRATORS:
+            # the variance of a splatted image comes from its batches (blocks): have a few; bdpt's sobol
+            # batches are blocks too (kernels/render/bdpt.cl, "Quasi-Monte Carlo")
+            spp_per_block = splat_spp_per_block(spp_per_block, spp, cs.integrator, cs.width, cs.height, sampler)
+        elif sampler == "sobol":
             # batches are the replicates of the variance: a few, each as large a net as they can be
             spp_per_block = sobol_spp_per_block(spp_per_block, spp, min_batches,
                                                 opts.time_budget is None and opts.target_error is None)
-        elif cs.integrator in SPLAT_INTEGRATORS:
-            # the variance of a splatted image comes from its batches: have a few
-            spp_per_block = splat_spp_per_block(spp_per_block, spp, cs.integrator, cs.width, cs.height)
         elif spp is not None:
             spp_per_block = max(1, min(spp_per_block, spp))
     else:
@@ -429,7 +432,8 @@ def render(
         # that auto sized: a whole-film block, so that a render stopped in its first batch has every pixel)
         block_pixels = (sobol_block_pixels(spp_per_block, default_spp_per_block(cs.width, cs.height) * cs.width
                                            * cs.height, cs.width, cs.height, TILE_PIXELS)
-                        if sampler == "sobol" and auto_batch is None else 0)
+                        if sampler == "sobol" and auto_batch is None and cs.integrator not in SPLAT_INTEGRATORS
+                        else 0)
 
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,

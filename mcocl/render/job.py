@@ -76,6 +76,9 @@ KERNEL_BUFFERS = ("camera", "bvh_nodes", "tri_rows", "spheres", "sphere_flip", "
                   "vertex_normals", "env_map", "env_cdf", "textures")
 # The integrators on the splatting film (mcocl/render/splat_film.py).
 SPLAT_INTEGRATORS = ("lt", "bdpt")
+# The integrators with a sobol back end: the megakernel's (kernels/render/integrator.cl, RENDER_SOBOL) and
+# bdpt's (kernels/render/bdpt.cl, "Quasi-Monte Carlo"); lt draws independent samples only.
+SOBOL_INTEGRATORS = ("path", "nee", "mis", "bdpt")
 # bdpt's MIS heuristics: the exponent beta of Veach's power heuristic (1: the balance heuristic).
 MIS_BETAS = {"balance": 1, "power": 2}
 # Light tracing starts its paths at emitters chosen by the power CDF: it takes no light BVH.
@@ -290,6 +293,6 @@ class RenderRunner:
         return RowRanges(rows, starts, counts, tuple(job.stat_shape))
 
 
-__all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "MIS_BETAS", "SPLAT_INTEGRATORS",
+__all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "MIS_BETAS", "SOBOL_INTEGRATORS", "SPLAT_INTEGRATORS",
            "UNBOUNDED_SPP", "RenderJob", "RenderRunner",
            "default_spp_per_block", "light_records", "light_tables", "prim_records", "scene_tables", "tables_digest"]

@@ -83,7 +83,7 @@ def blocks_per_launch(width: int, height: int, groups: int) -> int:
 
 
 def splat_spp_per_block(default: int, spp: int | None, integrator: str = "lt", width: int = 1,
-                        height: int = 1) -> int:
+                        height: int = 1, sampler: str = "independent") -> int:
     """Samples per pixel of a block for a splatting render of ``width`` x ``height`` pixels.
 
     ``lt``: at most ``default``, and small enough that a render of ``spp`` has at least
