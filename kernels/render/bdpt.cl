@@ -114,7 +114,9 @@
  * for the s = 1 light point at z_k), its light subpath in RNG_STREAM_LIGHT_TRACE
  * with the same index (LT_DIM_EMIT, LT_DIM_BSDF(i) and LT_DIM_LENS(i) at y_i, as
  * lt.cl).  The film point (RENDER_DIM_CAMERA's two dimensions) comes instead from
- * a stratified set, next paragraph.
+ * a stratified set, next paragraph.  That is the independent sampler (the Philox
+ * back end); the sobol sampler draws every one of these dimensions as a
+ * quasi-Monte Carlo point of the sample's pixel and batch ("Quasi-Monte Carlo" below).
  *
  * Film positions.  Sample s = s_b + b spp_per_block of a pixel p is sample s_b
  * of the pixel in batch (block) b, and its film uniforms are point s_b of an
@@ -140,7 +142,46 @@
  * independent positions (batches of 1); at 512 px 4 % lower with 16 than
  * with 4; more in the README's bdpt section.  The pixel and batch of a sample
  * come from its index (two divisions per packet lane, no measurable time).
- * The thin lens's point stays independent.
+ * The thin lens's point stays independent.  (This paragraph is the
+ * independent sampler's; the sobol sampler's film points are its own.)
+ *
+ * Quasi-Monte Carlo (the sobol sampler: -DSAMPLER_BACKEND=SAMPLER_BACKEND_SOBOL,
+ * mcocl/render/sobol_film.py's build options).  Sample s = s_b + b spp_per_block
+ * of pixel p has the sampler index ((b W H + p) << SOBOL_LOG2_POINTS) + s_b, as
+ * RENDER_SOBOL in render/integrator.cl: point s_b of scrambling b W H + p of the
+ * Owen-scrambled Sobol' back end (samplers/sobol_sampler.cl; Owen 1995, hashed as
+ * Burley 2020, "Practical Hash-based Owen Scrambling", JCGT 9(4)).  A batch is a
+ * block here (mcocl/render/splat_film.py), so its samples of a pixel are one
+ * randomised net and the batches stay independent scramblings: the splat film's
+ * variance from batch means stays honest, as for lt and the independent sampler.
+ * Every dimension of both subpaths is a Sobol' coordinate of that point: the
+ * film point, the lens point, each camera vertex's BSDF block and s = 1 light
+ * point, the light subpath's emission (emitter, position, direction, the (1, 1)
+ * lens point) and each light vertex's BSDF block and (s, 1) lens point.
+ * The two subpaths keep their layouts of rng/streams.cl, but they must not
+ * share Sobol' coordinates: two Owen scramblings of one coordinate are
+ * strongly dependent within a net (their first bits are the point's first bit
+ * XOR two random bits, and so on down the tree), so camera dimension j and light
+ * dimension j would be paired on a one-dimensional curve instead of filling
+ * the square.  So the coordinates interleave by blocks of four (bdpt_draw,
+ * BDPT_SOBOL_DIM): block k of the camera's layout is Sobol' block 2k, block k
+ * of the light's is 2k + 1 (the film point keeps dimensions 0 and 1, the
+ * best-distributed pair; the light's emitter choice and position take
+ * 4 .. 7).  Distinct Sobol' dimensions are jointly stratified (Joe and Kuo's
+ * direction numbers make the low-dimensional projections nets) and every
+ * dimension has its own scrambling seed (the stream's Philox words, as for
+ * mis).  A table of RENDER_TABLE_DIMS = 256 dimensions covers camera
+ * vertices up to z_15 and light vertices up to y_14; deeper ones are the back
+ * end's padded dimensions (sobol_padded_reversed), still unbiased.  The
+ * connection roulette's uniforms stay Philox in both builds
+ * (connection_roulette): one dimension per strategy (s, t), up to about 1200,
+ * which no table holds, and the padded dimensions are scramblings of one van
+ * der Corput coordinate, so they would be correlated among the strategies of
+ * one sample; the roulette only trades time for variance where a connection
+ * is small, so its stratification has little to gain.  The light subpaths
+ * splat (t = 1) into other pixels than their sample's: each sample stays
+ * unbiased and the nets mostly serve the own pixel's strategies.
+ * Measured: see the README's bdpt section.
  *
  * Output: the splat film of lt.cl (mcocl/render/splat_film.py).  A block is
  * spp_per_block W H samples in `ntiles` groups; the sample's own pixel gets

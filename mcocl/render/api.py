@@ -284,7 +284,8 @@ def render(
         lanes: paths per vector instruction (default: the device's; 1 = scalar kernel).
         spp_per_block: samples per pixel in one scheduler block (default: about
             2^20 paths per block, a sobol batch that ``auto`` sizes up to 2^22 in one
-            whole-film block, bdpt up to 16 spp: splat_film.splat_spp_per_block; taken from the
+            whole-film block, bdpt up to 16 spp, bdpt with sobol spp/4 up to the default block:
+            splat_film.splat_spp_per_block; taken from the
             checkpoint when resuming).
         params, lenient: for a Mitsuba XML scene file, ``$name`` values and
             whether to substitute what is unsupported (:func:`load_scene`).
@@ -297,8 +298,9 @@ def render(
             ``nee`` and ``mis`` when its default 4 batches hold 2 or more samples each (spp >= 8, or
             no spp under ``time_budget``/``target_error``), with ``batches``, or with an
             ``spp_per_block`` that makes 2 batches of 2 or more samples, each batch it sizes one
-            whole-film block of at most 2^22 paths; ``independent`` otherwise (``lt``, ``bdpt``,
-            spp < 8, a film where 2 samples per pixel do not fit such a block) and when resuming a
+            whole-film block of at most 2^22 paths; ``sobol`` for ``bdpt`` when its batches (blocks)
+            hold 2 or more samples (kernels/render/bdpt.cl, "Quasi-Monte Carlo"); ``independent``
+            otherwise (``lt``, spp < 8, a film where 2 samples per pixel do not fit such a block) and when resuming a
             checkpoint made with it (:mod:`mcocl.render.sampler_choice`).  ``RenderResult.sampler``
             says which ran.
         batches: ``sobol`` only (with ``auto``, giving it chooses ``sobol``): independent scramblings (batches) per pixel that the variance
@@ -510,7 +512,7 @@ def render(
     if job.integrator == "lt":
         notes.append(f"light tracing: variance from {acc.blocks_done} independent batches of "
                      f"{spp_per_block} light paths per pixel; specular surfaces seen directly are black")
-    elif job.splats:
+    elif job.splats and sampler != "sobol":  # bdpt's sobol batches have the note above
         notes.append(f"bdpt: variance from {acc.blocks_done} independent batches of {spp_per_block} samples per pixel")
     result = RenderResult(
         mean=img.mean,

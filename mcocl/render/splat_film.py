@@ -43,6 +43,7 @@ import pyopencl as cl
 from .. import runtime
 from .film import STATS
 from .shading_normals import VERTEX_NORMALS_ABSENT
+from .sobol_film import DEFAULT_BATCHES, sobol_spp_per_block
 from .table_buffers import table_buffer
 from .texture_table import TEXTURES_ABSENT
 
@@ -91,7 +92,15 @@ def splat_spp_per_block(default: int, spp: int | None, integrator: str = "lt", w
     power of two) when its block stays within BDPT_GROUP_PATHS camera samples per work-item and a
     render of ``spp`` keeps MIN_STRATA_BATCHES batches: a batch's film points of a pixel are one
     stratified set (kernels/render/bdpt.cl, "Film positions"), and the more a batch holds the
-    more they help."""
+    more they help.
+
+    ``bdpt`` with the ``sobol`` sampler: every dimension of a batch's samples of a pixel is one
+    randomised net (kernels/render/bdpt.cl, "Quasi-Monte Carlo"), whose gain grows with its
+    points, so batches are as mis's sobol batches: :data:`~mcocl.render.sobol_film.DEFAULT_BATCHES`
+    of ceil(spp / 4) samples, at most ``default`` (the default block of about 2^20 paths, which
+    bounds a block's time), and ``default`` under time or noise halting (``spp`` None)."""
+    if integrator == "bdpt" and sampler == "sobol":
+        return sobol_spp_per_block(default, spp, DEFAULT_BATCHES, bounded_by_spp=False)
     base = default if spp is None else max(1, min(default, spp // MIN_BATCHES))
     if integrator != "bdpt":
         return base
