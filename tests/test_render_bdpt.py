@@ -168,7 +168,9 @@ def test_thin_lens_bdpt_agrees_with_mis() -> None:
     sc.camera.width = sc.camera.height = 32
     sc.camera.aperture_radius, sc.camera.focus_distance = 0.15, 2.5
     cs = compile_scene(sc)
-    a = render(cs, spp=1024, integrator="mis", seed=3)
+    # per-pixel z-tests: the reference's variance from independent samples, not 4 sobol batches (whose
+    # 3-degree-of-freedom variance read 1e-6 in a pixel of |z| 4.4-6.6 against bdpt of either sampler)
+    a = render(cs, spp=1024, integrator="mis", seed=3, sampler="independent")
     b = render(cs, spp=128, integrator="bdpt", seed=4, spp_per_block=2)
     assert_blocks_agree(a, b)
     assert_pixels_agree(a, b)

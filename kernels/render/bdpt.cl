@@ -170,7 +170,11 @@
  * 4 .. 7).  Distinct Sobol' dimensions are jointly stratified (Joe and Kuo's
  * direction numbers make the low-dimensional projections nets) and every
  * dimension has its own scrambling seed (the stream's Philox words, as for
- * mis).  A table of RENDER_TABLE_DIMS = 256 dimensions covers camera
+ * mis).  (The alternative, pbrt-v4's padded 2-D pairs, sec. 8.7, needs a
+ * random, hash-based permutation of the sample index per pair: a nested
+ * scrambling of the index is again a scrambling of the van der Corput
+ * coordinate, the same dependence; and padding gives up the joint
+ * stratification of distinct Sobol' coordinates.)  A table of RENDER_TABLE_DIMS = 256 dimensions covers camera
  * vertices up to z_15 and light vertices up to y_14; deeper ones are the back
  * end's padded dimensions (sobol_padded_reversed), still unbiased.  The
  * connection roulette's uniforms stay Philox in both builds

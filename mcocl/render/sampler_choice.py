@@ -19,7 +19,10 @@ everywhere else (:func:`resolve_auto_sampler`):
   batch sobol gives it (ceil(spp / 4) samples, at most the default block's:
   mcocl/render/splat_film.py, splat_spp_per_block; under time or target-error
   halting the default block's) of 2 or more; else ``independent``.  Measured
-  (bench/bdpt_efficiency.py, README's bdpt section): XXX;
+  (bench/bdpt_efficiency.py, 128 px, 6-s budget, batches of 64; README's
+  bdpt section): sobol / independent bdpt efficiency 1.16 on the Cornell
+  box with spheres, 1.22 on the plain one, 1.78 on ``caustic``, 1.54 on
+  ``veach_mis``;
 - ``batches`` given: they are sobol's alone, so ``sobol``;
 - an explicit ``spp_per_block`` is the size of a batch: ``sobol`` when it
   holds at least 2 samples, at most 2^31 (a scrambling's points,
