@@ -150,3 +150,6 @@ def test_the_sampler_is_reported_and_independent_is_unchanged(tmp_path: Path) ->
     # lt has no sobol back end
     with pytest.raises(InputError, match="sampler 'sobol'.*'lt'"):
         render(cs, spp=16, integrator="lt", sampler="sobol")
+    # a block's light subpaths are one scrambling's points: at most 2^24 samples
+    with pytest.raises(InputError, match="spp_per_block.*at most 16777216"):
+        render(cs, spp=1 << 20, integrator="bdpt", sampler="sobol", spp_per_block=1 << 19)

@@ -63,6 +63,7 @@ SCENES = Path(__file__).resolve().parent.parent / "scenes"
     ("bdpt", 16, 8, None, 64, True, "sobol", None),
     ("bdpt", 15, 8, None, 64, True, "independent", None),
     ("bdpt", None, 1, None, 64, False, "independent", None),
+    ("bdpt", None, 1 << 12, None, 1 << 13, False, "independent", None),  # 2^25 samples: past one scrambling
 ])
 def test_auto_rule(integrator, spp, block, batches, pixels, bounded, want, batch) -> None:
     got, why, size = resolve_auto_sampler(integrator, spp, block, batches, pixels, bounded)

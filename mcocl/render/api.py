@@ -48,7 +48,7 @@ from .sampler_choice import resolve_auto_sampler
 from .scene import DEFAULT_RENDER_SAMPLER, INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
 from .scene_file import load_scene
 from .sobol_film import DEFAULT_BATCHES, MIN_BATCHES, batch_relative_error, sobol_block_pixels, sobol_spp_per_block
-from .splat_film import splat_spp_per_block
+from .splat_film import BDPT_SOBOL_BLOCK, splat_spp_per_block
 
 
 @dataclass
@@ -436,6 +436,11 @@ def render(
                                            * cs.height, cs.width, cs.height, TILE_PIXELS)
                         if sampler == "sobol" and auto_batch is None and cs.integrator not in SPLAT_INTEGRATORS
                         else 0)
+    if sampler == "sobol" and cs.integrator == "bdpt" and spp_per_block * cs.width * cs.height > BDPT_SOBOL_BLOCK:
+        # the light subpaths of a block are one scrambling's points (kernels/render/bdpt.cl, "Quasi-Monte Carlo")
+        raise InputError(f"spp_per_block: bdpt's sobol blocks hold at most {BDPT_SOBOL_BLOCK} samples, not "
+                         f"{spp_per_block} x {cs.width} x {cs.height}; take fewer samples per block or "
+                         "sampler='independent'")
 
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,

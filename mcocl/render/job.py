@@ -56,7 +56,7 @@ from .film import STATS
 from .pixel_filter import BOX, PixelFilter
 from .shading_normals import VERTEX_NORMALS_ABSENT, require_face_normals, shading_defines
 from .sobol_film import block_batches, sobol_render_defines
-from .splat_film import SplatRunner, splat_groups
+from .splat_film import SplatRunner, bdpt_sobol_defines, splat_groups
 from .table_buffers import table_buffer
 from .texture_table import TEXTURES_ABSENT, texture_defines
 
@@ -198,7 +198,7 @@ class RenderJob:
         if has_smooth_transmission(self.tables["materials"]):
             opts.append("-DSMOOTH_TRANSMISSION")
         if self.sampler == "sobol":
-            opts += sobol_render_defines(self.spp_per_block)
+            opts += bdpt_sobol_defines() if self.integrator == "bdpt" else sobol_render_defines(self.spp_per_block)
         if self.integrator == "bdpt":
             require_face_normals(self.tables)
         return opts + self.pixel_filter.defines() + shading_defines(self.tables) + texture_defines(self.tables)

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 from .job import SPLAT_INTEGRATORS, default_spp_per_block
 from .sobol_film import DEFAULT_BATCHES, MIN_BATCHES
-from .splat_film import splat_spp_per_block
+from .splat_film import BDPT_SOBOL_BLOCK, splat_spp_per_block
 
 # The most points of one scrambling (kernels/samplers/sobol_sampler.cl: SOBOL_LOG2_POINTS <= 31).
 MAX_BATCH_SPP = 1 << 31
@@ -66,13 +66,15 @@ AUTO_BATCH_PATHS = 1 << 22
 
 def _auto_bdpt(spp: int | None, spp_per_block: int | None, pixels: int) -> tuple[str, str, None]:
     """bdpt's auto: ``sobol`` when its batches (blocks: splat_film.splat_spp_per_block) hold 2 or more samples."""
+    pixels = max(int(pixels), 1)
     if spp_per_block is not None:
         n = int(spp_per_block)
-        if MIN_BATCH_SPP <= n <= MAX_BATCH_SPP and (spp is None or int(spp) >= MIN_BATCHES * n):
+        if n * pixels > BDPT_SOBOL_BLOCK:
+            return "independent", f"a block of {n} x {pixels} samples exceeds bdpt's sobol block", None
+        if MIN_BATCH_SPP <= n and (spp is None or int(spp) >= MIN_BATCHES * n):
             return "sobol", f"batches of spp_per_block={n} samples", None
         return "independent", (f"spp_per_block={n} does not make {MIN_BATCHES} sobol batches of {MIN_BATCH_SPP} "
                                "or more samples" + (f" within {spp} spp" if spp is not None else "")), None
-    pixels = max(int(pixels), 1)
     n = splat_spp_per_block(default_spp_per_block(pixels, 1), spp, "bdpt", pixels, 1, "sobol")
     if n >= MIN_BATCH_SPP:
         return "sobol", f"batches of {n} samples", None

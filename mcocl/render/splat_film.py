@@ -43,7 +43,7 @@ import pyopencl as cl
 from .. import runtime
 from .film import STATS
 from .shading_normals import VERTEX_NORMALS_ABSENT
-from .sobol_film import DEFAULT_BATCHES, sobol_spp_per_block
+from .sobol_film import DEFAULT_BATCHES, RENDER_TABLE_DIMS, sobol_spp_per_block
 from .table_buffers import table_buffer
 from .texture_table import TEXTURES_ABSENT
 
@@ -62,6 +62,19 @@ MIN_BATCHES = 16
 STRATA_SPP = 16
 MIN_STRATA_BATCHES = 8
 BDPT_GROUP_PATHS = 1 << 20
+
+
+# bdpt's sobol build: log2 of the points of one scrambling, which bounds a block's samples (W H
+# spp_per_block) under the batch-wide scrambling of the light subpaths (kernels/render/bdpt.cl,
+# "Quasi-Monte Carlo"); one value, so that every image size and batch shares one build.
+BDPT_SOBOL_LOG2_POINTS = 24
+BDPT_SOBOL_BLOCK = 1 << BDPT_SOBOL_LOG2_POINTS
+
+
+def bdpt_sobol_defines() -> list[str]:
+    """The build options of bdpt's sobol back end (kernels/render/bdpt.cl, "Quasi-Monte Carlo")."""
+    return ["-DSAMPLER_BACKEND=SAMPLER_BACKEND_SOBOL", f"-DSOBOL_LOG2_POINTS={BDPT_SOBOL_LOG2_POINTS}",
+            f"-DSOBOL_TABLE_DIMS={RENDER_TABLE_DIMS}"]
 
 
 def group_image_bytes(width: int, height: int) -> int:
@@ -169,5 +182,5 @@ class SplatRunner:
         return out
 
 
-__all__ = ["BDPT_GROUP_PATHS", "KERNEL_FILE", "MIN_BATCHES", "MIN_STRATA_BATCHES", "SCRATCH_BYTES", "STRATA_SPP", "SPLAT_COLUMNS", "TRACE_KERNELS", "SplatRunner", "blocks_per_launch",
+__all__ = ["BDPT_GROUP_PATHS", "BDPT_SOBOL_BLOCK", "BDPT_SOBOL_LOG2_POINTS", "bdpt_sobol_defines", "KERNEL_FILE", "MIN_BATCHES", "MIN_STRATA_BATCHES", "SCRATCH_BYTES", "STRATA_SPP", "SPLAT_COLUMNS", "TRACE_KERNELS", "SplatRunner", "blocks_per_launch",
            "splat_groups", "splat_spp_per_block"]
