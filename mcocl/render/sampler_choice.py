@@ -20,9 +20,10 @@ everywhere else (:func:`resolve_auto_sampler`):
   mcocl/render/splat_film.py, splat_spp_per_block; under time or target-error
   halting the default block's) of 2 or more; else ``independent``.  Measured
   (bench/bdpt_efficiency.py, 128 px, 6-s budget, batches of 64; README's
-  bdpt section): sobol / independent bdpt efficiency 1.16 on the Cornell
-  box with spheres, 1.22 on the plain one, 1.78 on ``caustic``, 1.54 on
-  ``veach_mis``;
+  bdpt section): sobol / independent bdpt efficiency 1.71 on the Cornell
+  box with spheres, 2.27 on the plain one, 1.44 on ``veach_mis``, and on
+  ``caustic`` 0.58 in one run, 1.78 in another (heavy-tailed; bdpt stays
+  13x-28x ``mis`` there);
 - ``batches`` given: they are sobol's alone, so ``sobol``;
 - an explicit ``spp_per_block`` is the size of a batch: ``sobol`` when it
   holds at least 2 samples, at most 2^31 (a scrambling's points,
