@@ -35,6 +35,7 @@ from mcocl.render.image_io import read_exr
 from mcocl.render.job import RenderJob, scene_tables
 from mcocl.render.pixel_filter import make_filter
 from mcocl.render.scene_file import load_scene
+from mcocl.render.splat_film import BDPT_SOBOL_BLOCK, splat_spp_per_block
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
@@ -171,3 +172,16 @@ def test_the_sampler_is_reported_and_independent_is_unchanged(tmp_path: Path) ->
     # a block's light subpaths are one scrambling's points: at most 2^24 samples
     with pytest.raises(InputError, match="spp_per_block.*at most 16777216"):
         render(cs, spp=1 << 20, integrator="bdpt", sampler="sobol", spp_per_block=1 << 19)
+
+
+def test_sobol_batches_are_a_quarter_of_the_spp_up_to_the_default_block() -> None:
+    """bdpt's sobol batches (mcocl/render/splat_film.py, splat_spp_per_block): ceil(spp / 4) samples, at most
+    the default block's (whose paths stay within a sobol block), the default block under time halting."""
+    assert splat_spp_per_block(64, 64, "bdpt", 128, 128, "sobol") == 16
+    assert splat_spp_per_block(64, 1024, "bdpt", 128, 128, "sobol") == 64
+    assert splat_spp_per_block(64, None, "bdpt", 128, 128, "sobol") == 64
+    assert splat_spp_per_block(64, 7, "bdpt", 128, 128, "sobol") == 2
+    assert splat_spp_per_block(16, 1024, "bdpt", 256, 256, "sobol") == 16
+    # the independent sampler's batches are as before (tests/test_render_bdpt_film_strata.py)
+    assert splat_spp_per_block(64, 256, "bdpt", 128, 128) == 16
+    assert 64 * 128 * 128 <= BDPT_SOBOL_BLOCK
