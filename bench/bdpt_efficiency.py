@@ -72,11 +72,14 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
 from render_throughput import cornell_spheres  # noqa: E402
 
-INTEGRATORS = ("mis", "mis-independent", "lt", "bdpt", "bdpt-exact")
+INTEGRATORS = ("mis", "mis-independent", "lt", "bdpt", "bdpt-independent", "bdpt-sobol", "bdpt-exact")
 # What each name renders: bdpt-exact is bdpt without its Russian roulette on connection shadow rays.
-# mis is the default sampler's (auto: sobol under a time budget), mis-independent the independent sampler's.
+# mis and bdpt are the default sampler's (auto: sobol under a time budget), mis-independent and
+# bdpt-independent the independent sampler's, bdpt-sobol the sobol sampler's whatever auto picks.
 RENDER_KWARGS = {"mis": {"integrator": "mis"}, "mis-independent": {"integrator": "mis", "sampler": "independent"},
                  "lt": {"integrator": "lt"}, "bdpt": {"integrator": "bdpt"},
+                 "bdpt-independent": {"integrator": "bdpt", "sampler": "independent"},
+                 "bdpt-sobol": {"integrator": "bdpt", "sampler": "sobol"},
                  "bdpt-exact": {"integrator": "bdpt", "roulette": False}}
 
 

@@ -314,9 +314,10 @@ def test_integrators_and_samplers(tmp_path):
     assert "sampler" not in read_mitsuba(p)["integrator"]
 
 
-def test_a_scene_s_stratified_sampler_is_a_preference_that_bdpt_declines(tmp_path):
-    """A multijitter scene renders with sobol; --integrator bdpt on it draws independent samples and says so,
-    while asking for sobol with bdpt outright stays an error."""
+def test_a_scene_s_stratified_sampler_is_a_preference_that_lt_declines(tmp_path):
+    """A multijitter scene renders with sobol, also under --integrator bdpt (its Sobol' back end:
+    kernels/render/bdpt.cl); --integrator lt on it draws independent samples and says so, while asking
+    for sobol with lt outright stays an error."""
     s = SENSOR.replace("</sensor>", '<sampler type="multijitter"><integer name="sample_count" value="8"/>'
                                     '</sampler></sensor>')
     body = ('<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter>'
@@ -326,9 +327,11 @@ def test_a_scene_s_stratified_sampler_is_a_preference_that_bdpt_declines(tmp_pat
     r = mcocl.render(p, spp=8)
     assert any(n.startswith("sobol:") for n in r.notes)
     r = mcocl.render(p, spp=8, integrator="bdpt")
-    assert any("draws independent samples" in n for n in r.notes)
+    assert r.sampler == "sobol" and any(n.startswith("sobol:") for n in r.notes)
+    r = mcocl.render(p, spp=8, integrator="lt")
+    assert r.sampler == "independent" and any("draws independent samples" in n for n in r.notes)
     with pytest.raises(InputError, match="sobol"):
-        mcocl.render(p, spp=8, integrator="bdpt", sampler="sobol")
+        mcocl.render(p, spp=8, integrator="lt", sampler="sobol")
 
 
 def test_mitsuba_06_names_are_upgraded(tmp_path):

@@ -212,7 +212,11 @@ def test_splatting_integrators_agree_with_mis_under_a_filter(integrator: str, fi
     sc.camera.pixel_filter = filt
     cs = compile_scene(sc)
     a = mcocl.render(cs, spp=4096, integrator="mis", seed=3)
-    b = mcocl.render(cs, spp=256 if integrator == "bdpt" else 512, integrator=integrator, seed=2, spp_per_block=8)
+    # the independent sampler this test was written for: its per-pixel z-scores are seed-sensitive for either
+    # bdpt sampler (max |z| 4.1-6.3 over seeds 2-4 against this mis; tests/test_render_bdpt_sobol.py has sobol's
+    # filter test, by blocks)
+    b = mcocl.render(cs, spp=256 if integrator == "bdpt" else 512, integrator=integrator, seed=2, spp_per_block=8,
+                     sampler="independent")
     assert b.nonfinite == 0
     z = (a.mean.astype(np.float64) - b.mean) / np.sqrt(a.variance.astype(np.float64) + b.variance)
     assert np.all(np.isfinite(z))

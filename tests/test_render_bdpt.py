@@ -169,7 +169,10 @@ def test_thin_lens_bdpt_agrees_with_mis() -> None:
     sc.camera.aperture_radius, sc.camera.focus_distance = 0.15, 2.5
     cs = compile_scene(sc)
     a = render(cs, spp=1024, integrator="mis", seed=3)
-    b = render(cs, spp=128, integrator="bdpt", seed=4, spp_per_block=2)
+    # the independent sampler, as this test was written for (its per-pixel z-scores are seed-sensitive:
+    # against 4096 independent mis spp, max |z| 5.2-5.7 over seeds 4-6 for either bdpt sampler);
+    # tests/test_render_bdpt_sobol.py has the sobol sampler's thin lens
+    b = render(cs, spp=128, integrator="bdpt", seed=4, spp_per_block=2, sampler="independent")
     assert_blocks_agree(a, b)
     assert_pixels_agree(a, b)
 

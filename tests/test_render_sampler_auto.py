@@ -1,15 +1,15 @@
 """The default render sampler ``auto`` (mcocl/render/sampler_choice.py).
 
 - The rule: which sampler each request resolves to (path integrators with spp >= 8, time or
-  noise halting, batches or a fitting spp_per_block: sobol; lt, bdpt, spp < 8 and an
-  spp_per_block that does not fit: independent).
+  noise halting, batches or a fitting spp_per_block: sobol; bdpt whose batches hold 2 or more
+  samples: sobol; lt, spp < 8 and an spp_per_block that does not fit: independent).
 - A render by ``auto`` is bit for bit the explicit sampler it resolved to, and reports it
   (RenderResult, to_dict, the EXR header, the notes).
 - Resuming: an independent checkpoint (what every checkpoint before ``auto`` was) continues
   independent under ``auto`` and gives the uninterrupted run's bits; an ``auto`` checkpoint that
   resolved to sobol continues sobol even where the resumed spp alone would not choose it.
-- ``batches`` chooses sobol (API and scene key) and is refused with lt/bdpt; a Mitsuba file's
-  ``independent`` sampler stays explicit, a file without a sampler gets ``auto``.
+- ``batches`` chooses sobol (API and scene key) and is refused with lt/bdpt (bdpt's sobol batches
+  are its blocks); a Mitsuba file's ``independent`` sampler stays explicit, a file without a sampler gets ``auto``.
 """
 
 from __future__ import annotations
@@ -54,7 +54,16 @@ SCENES = Path(__file__).resolve().parent.parent / "scenes"
     ("mis", None, 4, None, 64, False, "sobol", None),
     ("mis", None, MAX_BATCH_SPP + 1, None, 64, False, "independent", None),  # beyond one scrambling's points
     ("lt", 64, None, None, 64, True, "independent", None),
-    ("bdpt", None, None, None, 64, False, "independent", None),
+    # bdpt (kernels/render/bdpt.cl, "Quasi-Monte Carlo"): sobol when its batches (blocks) hold 2 or more samples
+    ("bdpt", None, None, None, 64, False, "sobol", None),  # time or noise halting: the default block
+    ("bdpt", None, None, None, 2048 * 2048, False, "independent", None),  # the default block holds 1 spp
+    ("bdpt", 64, None, None, 128 * 128, True, "sobol", None),  # 4 batches of 16
+    ("bdpt", 7, None, None, 64, True, "sobol", None),  # batches of 2, 2, 2 and 1
+    ("bdpt", 4, None, None, 64, True, "independent", None),  # batches of 1 sample are no net
+    ("bdpt", 16, 8, None, 64, True, "sobol", None),
+    ("bdpt", 15, 8, None, 64, True, "independent", None),
+    ("bdpt", None, 1, None, 64, False, "independent", None),
+    ("bdpt", None, 1 << 12, None, 1 << 13, False, "independent", None),  # 2^25 samples: past one scrambling
 ])
 def test_auto_rule(integrator, spp, block, batches, pixels, bounded, want, batch) -> None:
     got, why, size = resolve_auto_sampler(integrator, spp, block, batches, pixels, bounded)
@@ -95,6 +104,12 @@ def test_auto_is_the_explicit_sampler_bit_for_bit(tmp_path: Path) -> None:
     assert not any("sampler auto" in n for n in ind.notes)  # an explicit sampler needs no note
     lt = render(cs, spp=8, seed=5, integrator="lt")
     assert lt.sampler == "independent"
+    # bdpt: auto takes its sobol back end, bit for bit, once its batches hold 2 samples
+    bd = render(cs, spp=8, seed=5, integrator="bdpt")
+    bd_sobol = render(cs, spp=8, seed=5, integrator="bdpt", sampler="sobol")
+    assert bd.sampler == bd_sobol.sampler == "sobol" and bd.spp_per_block == 2
+    np.testing.assert_array_equal(bd.mean, bd_sobol.mean)
+    np.testing.assert_array_equal(bd.variance, bd_sobol.variance)
     # reported: to_dict (the CLI's --json) and the EXR header
     assert auto.to_dict()["sampler"] == "sobol" and auto.metadata()["sampler"] == "sobol"
     auto.save_exr(tmp_path / "a.exr")

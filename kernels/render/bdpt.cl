@@ -114,7 +114,9 @@
  * for the s = 1 light point at z_k), its light subpath in RNG_STREAM_LIGHT_TRACE
  * with the same index (LT_DIM_EMIT, LT_DIM_BSDF(i) and LT_DIM_LENS(i) at y_i, as
  * lt.cl).  The film point (RENDER_DIM_CAMERA's two dimensions) comes instead from
- * a stratified set, next paragraph.
+ * a stratified set, next paragraph.  That is the independent sampler (the Philox
+ * back end); the sobol sampler draws every one of these dimensions as a
+ * quasi-Monte Carlo point of the sample's pixel and batch ("Quasi-Monte Carlo" below).
  *
  * Film positions.  Sample s = s_b + b spp_per_block of a pixel p is sample s_b
  * of the pixel in batch (block) b, and its film uniforms are point s_b of an
@@ -140,7 +142,71 @@
  * independent positions (batches of 1); at 512 px 4 % lower with 16 than
  * with 4; more in the README's bdpt section.  The pixel and batch of a sample
  * come from its index (two divisions per packet lane, no measurable time).
- * The thin lens's point stays independent.
+ * The thin lens's point stays independent.  (This paragraph is the
+ * independent sampler's; the sobol sampler's film points are its own.)
+ *
+ * Quasi-Monte Carlo (the sobol sampler: -DSAMPLER_BACKEND=SAMPLER_BACKEND_SOBOL,
+ * mcocl/render/splat_film.py, bdpt_sobol_defines).  Sample s = s_b + b
+ * spp_per_block of pixel p (s_b its number in batch b) draws every dimension
+ * of both subpaths as a coordinate of an Owen-scrambled Sobol' point (the back
+ * end samplers/sobol_sampler.cl: Owen 1995, "Randomly permuted (t,m,s)-nets
+ * and (t,s)-sequences", nested scrambling, hashed as Burley 2020, "Practical
+ * Hash-based Owen Scrambling", JCGT 9(4)):
+ *   camera subpath  point s_b of scrambling b W H + p (sampler index
+ *                   ((b W H + p) << SOBOL_LOG2_POINTS) + s_b, as RENDER_SOBOL
+ *                   in render/integrator.cl): the pixel's samples in a batch
+ *                   are one net: film point, lens point, each camera vertex's
+ *                   BSDF block and s = 1 light point;
+ *   light subpath   point s_b W H + p of scrambling b (index (b <<
+ *                   SOBOL_LOG2_POINTS) + s_b W H + p): the batch's W H
+ *                   spp_per_block light subpaths, all pixels together, are one
+ *                   net: emission (emitter, position, direction, the (1, 1)
+ *                   lens point), each light vertex's BSDF block and (s, 1) lens point.
+ * Why the light subpaths are one net per batch and not per pixel: they splat
+ * (t = 1) into whichever pixel they reach, so per-pixel nets leave the number
+ * of splats a pixel receives a Poisson count.  On the plain Cornell box (64
+ * px, 256 spp, batches of 64) with per-pixel nets the 1 % of pixels of
+ * largest variance held 74 % of it, on and around the ceiling light, whose
+ * direct view (1, 1) samples with an MIS weight near 1 against the camera
+ * ray hitting it (0, 2); with one net per batch the emitter points and
+ * directions of all light subpaths are stratified together, each pixel's
+ * share of the splats is nearly exact, and the summed variance per sample fell
+ * 3.9x (0.0129 to 0.0034; the top 1 % then held 11 %).  The own pixel's
+ * connections (s >= 2, t >= 2) take the light subpaths at indices s_b W H + p
+ * of that net, a strided subset, not a net of its own but still spread out;
+ * each sample's numbers stay uniform (unbiased).  Batches are blocks
+ * (mcocl/render/splat_film.py) and every batch has its own scramblings (the
+ * camera's per pixel, the light's per batch): the batches stay independent,
+ * so the splat film's variance from batch means stays honest, as for lt and
+ * the independent sampler.  SOBOL_LOG2_POINTS is fixed at 24 for bdpt (one
+ * build for every image and batch size), so a block holds at most 2^24
+ * samples (the host checks it).
+ * The two subpaths keep their layouts of rng/streams.cl, but they must not
+ * share Sobol' coordinates: two Owen scramblings of one coordinate are
+ * strongly dependent within a net (their first bits are the point's first bit
+ * XOR two random bits, and so on down the tree), so camera dimension j and light
+ * dimension j would be paired on a curve instead of filling the square.  So
+ * the coordinates interleave by blocks of four (bdpt_draw, BDPT_SOBOL_DIM):
+ * block k of the camera's layout is Sobol' block 2k, block k of the light's is
+ * 2k + 1 (the film point keeps dimensions 0 and 1, the best-distributed pair;
+ * the light's emitter choice and position take 4 .. 7).  Distinct Sobol'
+ * dimensions are jointly stratified (Joe and Kuo's direction numbers make the
+ * low-dimensional projections nets) and every dimension has its own
+ * scrambling seed (the stream's Philox words, as for mis).  (The alternative,
+ * pbrt-v4's padded 2-D pairs, sec. 8.7, needs a random, hash-based
+ * permutation of the sample index per pair: a nested scrambling of the index
+ * is again a scrambling of the van der Corput coordinate, the same
+ * dependence; and padding gives up the joint stratification of distinct
+ * Sobol' coordinates.)  A table of RENDER_TABLE_DIMS = 256 dimensions covers
+ * camera vertices up to z_15 and light vertices up to y_14; deeper ones are
+ * the back end's padded dimensions (sobol_padded_reversed), still unbiased.
+ * The connection roulette's uniforms stay Philox in both builds
+ * (connection_roulette): one dimension per strategy (s, t), up to about 1200,
+ * which no table holds, and the padded dimensions are scramblings of one van
+ * der Corput coordinate, so they would be correlated among the strategies of
+ * one sample; the roulette only trades time for variance where a connection
+ * is small, so its stratification has little to gain.
+ * Measured: see the README's bdpt section.
  *
  * Output: the splat film of lt.cl (mcocl/render/splat_film.py).  A block is
  * spp_per_block W H samples in `ntiles` groups; the sample's own pixel gets
@@ -251,6 +317,36 @@
 #ifndef BDPT_MAX_VERTICES
 #define BDPT_MAX_VERTICES 24
 #endif
+
+/* The subpath a sampler draws for: its dimensions' place in the Sobol' interleave (see the header,
+ * "Quasi-Monte Carlo"). */
+#define BDPT_SIDE_CAMERA 0u
+#define BDPT_SIDE_LIGHT 1u
+#if SAMPLER_BACKEND == SAMPLER_BACKEND_SOBOL
+#define BDPT_QMC 1
+/* dimension d of a side's layout (rng/streams.cl) -> its Sobol' coordinate: block k of four -> block 2k + side */
+#define BDPT_SOBOL_DIM(d, side) ((((uint)(d) >> 2) << 3) | ((uint)(side) << 2) | ((uint)(d) & 3u))
+#else
+#define BDPT_QMC 0
+#endif
+
+/* n uniforms (2, 4 or 8; 2 from an even, 4 and 8 from a multiple-of-4 dimension) of dimensions
+ * d .. d + n - 1 of a side's layout (rng/streams.cl): the Philox back end draws them as they are, the
+ * Sobol' one from the side's interleaved coordinates, one block of four at a time. */
+MC_INLINE void bdpt_draw(mc_sampler_t *smp, uint side, uint d, int n, floatv *u) {
+#if BDPT_QMC
+    for (int j = 0; j < n; j += 4) {
+        sampler_seek(smp, (uintv)(BDPT_SOBOL_DIM(d + (uint)j, side)));
+        if (n == 2) sampler_next_2d(smp, u);
+        else sampler_next_nd(smp, 4, u + j);
+    }
+#else
+    (void)side;
+    sampler_seek(smp, (uintv)(d));
+    if (n == 2) sampler_next_2d(smp, u);
+    else sampler_next_nd(smp, n, u);
+#endif
+}
 
 /* One vertex of every lane's subpath (lane vectors). */
 typedef struct {
@@ -434,9 +530,8 @@ MC_INLINE void bdpt_walk(const bdpt_scene *sc, mc_sampler_t *smp, bdpt_vertex *p
         *pb = vertex_bsdf_of(sc, v);
         cached = n;
         floatv ub[4]; /* lobe, direction 2D, roulette */
-        sampler_seek(smp, (uintv)(mode == TRANSPORT_RADIANCE ? RENDER_DIM_BSDF((uint)(n - 2))
-                                                              : LT_DIM_BSDF((uint)(n - 1))));
-        sampler_next_nd(smp, 4, ub);
+        if (mode == TRANSPORT_RADIANCE) bdpt_draw(smp, BDPT_SIDE_CAMERA, RENDER_DIM_BSDF((uint)(n - 2)), 4, ub);
+        else bdpt_draw(smp, BDPT_SIDE_LIGHT, LT_DIM_BSDF((uint)(n - 1)), 4, ub);
         bsdf_sample_v bs = bsdf_sample(&pb->m, pb->wi_local, ub[0], ub[1], ub[2], mode);
         if (first && n == 2) *first = bs; /* z_1's branch, for split_first_vertex */
         intv ok = alive & (v3_maxc(bs.weight) > 0.0f) & (bs.pdf > 0.0f);
@@ -517,14 +612,16 @@ MC_INLINE floatv bdpt_connection_weight(const bdpt_scene *sc, bdpt_vertex *light
  * survive; off (sc->roulette 0) it returns `ok` and leaves c as it is. */
 #define BDPT_ROULETTE_FRACTION 1.0f
 #define BDPT_DIM_ROULETTE(s, t) ((uint)(s) * (uint)(2 * BDPT_MAX_VERTICES) + (uint)(t))
-MC_INLINE intv connection_roulette(const bdpt_scene *sc, mc_sampler_t *smp, int s, int t, floatv threshold, floatv w,
+MC_INLINE intv connection_roulette(const bdpt_scene *sc, const rng_t *rr, int s, int t, floatv threshold, floatv w,
                                    vec3v *c, intv ok) {
     if (!sc->roulette) return ok;
     const floatv wc = w * v3_maxc(*c);
     const intv play = ok & (wc < threshold);
     if (!lane_any(play)) return ok;
-    sampler_seek(smp, (uintv)(BDPT_DIM_ROULETTE(s, t)));
-    const floatv u = sampler_next_1d(smp);
+    /* Philox in every sampler build (see the header, "Quasi-Monte Carlo"): dimension d is word d % 4 of
+     * block d / 4, the numbers of the Philox back end's sampler_next_1d */
+    const uint d = BDPT_DIM_ROULETTE(s, t);
+    const floatv u = u01(philox_word(rng_block(*rr, (uintv)(d >> 2)), (uintv)(d & 3u)));
     const floatv q = wc / threshold; /* in [0, 1) where play; zero (a zero weight) never survives */
     *c = v3_select(*c, v3_scale(*c, 1.0f / q), play & (u < q));
     return ok & !(play & (u >= q));
@@ -555,7 +652,7 @@ MC_INLINE vec3v emission_seen(const bdpt_scene *sc, const bdpt_vertex *pt, intv 
  * and frame. */
 MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, const vertex_bsdf *light_b, bdpt_vertex *cam,
                              int s, int t, const floatv *ue, const vertex_bsdf *zb, intv active, int nl_cap, int nc_cap,
-                             mc_sampler_t *smp, floatv threshold, floatv *w) {
+                             const rng_t *rr, floatv threshold, floatv *w) {
     vec3v zero = v3s(0.0f);
     *w = (floatv)(0.0f);
     bdpt_vertex *pt = &cam[t - 1], *ptm = &cam[t - 2];
@@ -642,7 +739,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, const ver
         y0->infinite = y0_inf;
         pt->pdf_rev = save_pt;
         ptm->pdf_rev = save_ptm;
-        ok = connection_roulette(sc, smp, s, t, threshold, *w, &c, ok);
+        ok = connection_roulette(sc, rr, s, t, threshold, *w, &c, ok);
         if (special && lane_any(ok)) {
             const intv at_inf = ok & inf;
             ok = segment_clear(sc, pt->p, pt->n, er.pos, ok & !inf);
@@ -679,7 +776,7 @@ MC_INLINE vec3v bdpt_connect(const bdpt_scene *sc, bdpt_vertex *light, const ver
         qsm->pdf_rev = save_qsm;
         pt->pdf_rev = save_pt;
         ptm->pdf_rev = save_ptm;
-        ok = connection_roulette(sc, smp, s, t, threshold, *w, &c, ok);
+        ok = connection_roulette(sc, rr, s, t, threshold, *w, &c, ok);
         if (lane_any(ok)) ok = segment_clear(sc, qs->p, qs->n, pt->p, ok);
     }
     *w = lane_select((floatv)(0.0f), *w, ok);
@@ -877,10 +974,21 @@ kernel void bdpt_trace(
         const uintv batch = sn / spb;
 
         /* ---- the camera subpaths ---- */
+#if BDPT_QMC
+        /* point s_b of scrambling b W H + p (see the header, "Quasi-Monte Carlo") */
+        const ulongv qindex = ((to_ulongv(batch) * (ulong)npix + to_ulongv(pixel)) << SOBOL_LOG2_POINTS) |
+                              to_ulongv(sn - batch * spb);
+        /* the light subpath: point s_b W H + p (the sample's place in its block) of the batch's scrambling b */
+        const ulongv lindex = (to_ulongv(batch) << SOBOL_LOG2_POINTS) | (index - to_ulongv(batch) * ((ulong)spb * npix));
+        mc_sampler_t cs = sampler_start(seed, qindex, RNG_STREAM_RENDER);
+        floatv uc[2];
+        bdpt_draw(&cs, BDPT_SIDE_CAMERA, RENDER_DIM_CAMERA, 2, uc);
+#else
+        const ulongv lindex = index;
         mc_sampler_t cs = sampler_start(seed, index, RNG_STREAM_RENDER);
         floatv uc[2];
         bdpt_film_uniforms(seed, batch, pixel, npix, sn - batch * spb, uc);
-        sampler_seek(&cs, (uintv)(RENDER_DIM_CAMERA + 2u));
+#endif
         uintv py = pixel / width;
         /* the film point: filter importance sampling around the pixel (render/pixel_filter.cl) */
         floatv sx = film_coordinate(&sc.cam_set.filter, to_floatv(pixel - py * width), uc[0]);
@@ -888,7 +996,7 @@ kernel void bdpt_trace(
         vec3v co, cd;
         if (thin_lens) {
             floatv ul[2];
-            sampler_next_2d(&cs, ul);
+            bdpt_draw(&cs, BDPT_SIDE_CAMERA, RENDER_DIM_CAMERA + 2u, 2, ul);
             cd = camera_ray_lens(camera, sx, sy, inv_w, inv_h, ul[0], ul[1], &co);
         } else {
             cd = camera_ray(camera, sx, sy, inv_w, inv_h, &co);
@@ -907,10 +1015,9 @@ kernel void bdpt_trace(
                   cdir.pdf_solid_angle, TRANSPORT_RADIANCE, rr_depth, (floatv)(1.0f), &z1_branch);
 
         /* ---- the light subpaths ---- */
-        mc_sampler_t ls = sampler_start(seed, index, RNG_STREAM_LIGHT_TRACE);
+        mc_sampler_t ls = sampler_start(seed, lindex, RNG_STREAM_LIGHT_TRACE);
         floatv ue[8];
-        sampler_seek(&ls, (uintv)(LT_DIM_EMIT));
-        sampler_next_nd(&ls, 8, ue);
+        bdpt_draw(&ls, BDPT_SIDE_LIGHT, LT_DIM_EMIT, 8, ue);
         intv nl = (intv)(0);
         if (nl_cap > 0) {
             emitter_ray_v er = sample_emitter_ray(&lt, bsphere, ue, active);
@@ -945,7 +1052,7 @@ kernel void bdpt_trace(
         }
 
         /* ---- every strategy, for all lanes at once ---- */
-        mc_sampler_t rs = sampler_start(seed, index, RNG_STREAM_BDPT_ROULETTE);
+        const rng_t rs = rng_init(index, seed, RNG_STREAM_BDPT_ROULETTE);
         vec3v L = v3s(0.0f);
         /* the lanes whose emission right after z_1 is split over z_1's two delta branches (see the header):
          * the branch the walk did not take now, the one it took at (0, 3) */
@@ -969,8 +1076,7 @@ kernel void bdpt_trace(
                     floatv ul[2] = {ue[6], ue[7]};
                     /* a pinhole's lens point takes no uniforms (camera_lens_point): no draw then */
                     if (s > 1 && thin_lens) {
-                        sampler_seek(&ls, (uintv)(LT_DIM_LENS((uint)(s - 1))));
-                        sampler_next_2d(&ls, ul);
+                        bdpt_draw(&ls, BDPT_SIDE_LIGHT, LT_DIM_LENS((uint)(s - 1)), 2, ul);
                     }
                     camera_direction_v film;
                     vec3v c = bdpt_connect_camera(&sc, light, light_b, cam, s, ul[0], ul[1], run, nl_cap, nc_cap, &film, &w);
@@ -981,8 +1087,7 @@ kernel void bdpt_trace(
                 } else {
                     floatv ul[4] = {(floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f)};
                     if (s == 1) {
-                        sampler_seek(&cs, (uintv)(RENDER_DIM_LIGHT((uint)(t - 2))));
-                        sampler_next_nd(&cs, 4, ul);
+                        bdpt_draw(&cs, BDPT_SIDE_CAMERA, RENDER_DIM_LIGHT((uint)(t - 2)), 4, ul);
                     }
                     const floatv threshold = BDPT_ROULETTE_FRACTION * v3_maxc(L);
                     vec3v c = bdpt_connect(&sc, light, light_b, cam, s, t, ul, zb, run, nl_cap, nc_cap, &rs, threshold, &w);

@@ -94,8 +94,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="auto, independent, or sobol: per-pixel Owen-scrambled Sobol', variance from batch means "
                         "(default: the scene's, else auto: sobol for path/nee/mis when its 4 batches get 2 or more "
                         "samples each (--spp 8 or more, or --time/--target-error alone) or with --batches; "
-                        "each batch one whole-film block of at most 2^22 paths; "
-                        "independent otherwise (lt, bdpt, spp < 8, films over 2^21 pixels) and when "
+                        "each batch one whole-film block of at most 2^22 paths; sobol for bdpt when its "
+                        "batches hold 2 or more samples (--spp 5 or more, or --time/--target-error alone); "
+                        "independent otherwise (lt, spp < 8, films over 2^21 pixels) and when "
                         "resuming a checkpoint made with it)")
     p.add_argument("--batches", type=count, default=None, metavar="B",
                    help="--sampler sobol (given with auto, it chooses sobol): independent scramblings per pixel that the variance layer comes from, "

@@ -34,6 +34,7 @@ from .compiled import CompiledScene, compile_scene
 from .emitter_choice import bounding_sphere
 from .film import STATS, film_image, relative_error
 from .job import (
+    SOBOL_INTEGRATORS,
     SPLAT_INTEGRATORS,
     TILE_PIXELS,
     UNBOUNDED_SPP,
@@ -47,7 +48,7 @@ from .sampler_choice import resolve_auto_sampler
 from .scene import DEFAULT_RENDER_SAMPLER, INTEGRATORS, RENDER_SAMPLERS, Scene, check_integrator_settings
 from .scene_file import load_scene
 from .sobol_film import DEFAULT_BATCHES, MIN_BATCHES, batch_relative_error, sobol_block_pixels, sobol_spp_per_block
-from .splat_film import splat_spp_per_block
+from .splat_film import BDPT_SOBOL_BLOCK, splat_spp_per_block
 
 
 @dataclass
@@ -162,11 +163,11 @@ def _render_sampler(cs: CompiledScene, name: str, from_scene: bool, spp: int | N
                     batches: Any, bounded_by_spp: bool) -> tuple[str, str, int | None]:
     """The render sampler, a note, and the samples of a batch when ``auto`` sized it (else None).
 
-    ``sobol`` only for the path integrators.
+    ``sobol`` for the path integrators and ``bdpt`` (SOBOL_INTEGRATORS), not ``lt``.
 
-    The scene's ``sobol`` is a preference (a Mitsuba scene's stratified sampler asks for it): ``lt``
-    and ``bdpt``, e.g. chosen by ``--integrator``, draw independent samples instead, and the note says
-    so; a ``sobol`` asked for here with them is an error.  ``auto`` is decided by
+    The scene's ``sobol`` is a preference (a Mitsuba scene's stratified sampler asks for it): ``lt``,
+    e.g. chosen by ``--integrator``, draws independent samples instead, and the note says
+    so; a ``sobol`` asked for here with it is an error.  ``auto`` is decided by
     :func:`mcocl.render.sampler_choice.resolve_auto_sampler` (a resumed checkpoint's own sampler wins:
     :func:`_checkpoint_sampler`); ``batches`` asks for sobol.
     """
@@ -179,11 +180,11 @@ def _render_sampler(cs: CompiledScene, name: str, from_scene: bool, spp: int | N
                                                 batches if batches is not None else getattr(cs, "batches", None),
                                                 cs.width * cs.height, bounded_by_spp)
         return name, f"sampler auto: {name} ({why})", batch
-    if name == "sobol" and cs.integrator in SPLAT_INTEGRATORS:
+    if name == "sobol" and cs.integrator not in SOBOL_INTEGRATORS:
         if from_scene:
-            return "independent", (f"the scene's sampler 'sobol' works with the path integrators only: {cs.integrator} "
-                                   "draws independent samples"), None
-        raise InputError(f"sampler 'sobol' works with the path integrators (path, nee, mis), not {cs.integrator!r}")
+            return "independent", (f"the scene's sampler 'sobol' works with {', '.join(SOBOL_INTEGRATORS)} only: "
+                                   f"{cs.integrator} draws independent samples"), None
+        raise InputError(f"sampler 'sobol' works with {', '.join(SOBOL_INTEGRATORS)}, not {cs.integrator!r}")
     return name, "", None
 
 
@@ -283,7 +284,8 @@ def render(
         lanes: paths per vector instruction (default: the device's; 1 = scalar kernel).
         spp_per_block: samples per pixel in one scheduler block (default: about
             2^20 paths per block, a sobol batch that ``auto`` sizes up to 2^22 in one
-            whole-film block, bdpt up to 16 spp: splat_film.splat_spp_per_block; taken from the
+            whole-film block, bdpt up to 16 spp, bdpt with sobol spp/4 up to the default block:
+            splat_film.splat_spp_per_block; taken from the
             checkpoint when resuming).
         params, lenient: for a Mitsuba XML scene file, ``$name`` values and
             whether to substitute what is unsupported (:func:`load_scene`).
@@ -296,8 +298,9 @@ def render(
             ``nee`` and ``mis`` when its default 4 batches hold 2 or more samples each (spp >= 8, or
             no spp under ``time_budget``/``target_error``), with ``batches``, or with an
             ``spp_per_block`` that makes 2 batches of 2 or more samples, each batch it sizes one
-            whole-film block of at most 2^22 paths; ``independent`` otherwise (``lt``, ``bdpt``,
-            spp < 8, a film where 2 samples per pixel do not fit such a block) and when resuming a
+            whole-film block of at most 2^22 paths; ``sobol`` for ``bdpt`` when its batches (blocks)
+            hold 2 or more samples (kernels/render/bdpt.cl, "Quasi-Monte Carlo"); ``independent``
+            otherwise (``lt``, spp < 8, a film where 2 samples per pixel do not fit such a block) and when resuming a
             checkpoint made with it (:mod:`mcocl.render.sampler_choice`).  ``RenderResult.sampler``
             says which ran.
         batches: ``sobol`` only (with ``auto``, giving it chooses ``sobol``): independent scramblings (batches) per pixel that the variance
@@ -408,18 +411,20 @@ def render(
         saved_limit = acc.meta_int("spp_limit", resume, 1, UNBOUNDED_SPP)
         acc.check_shape((cs.height, cs.width, STATS), resume)
         # sobol's blocks as the checkpoint cut them (no key: whole-film blocks, as before the cut existed)
-        block_pixels = _saved_block_pixels(acc, resume, cs.width * cs.height) if sampler == "sobol" else 0
+        block_pixels = (_saved_block_pixels(acc, resume, cs.width * cs.height)
+                        if sampler == "sobol" and cs.integrator not in SPLAT_INTEGRATORS else 0)
     elif auto_batch is not None:
         spp_per_block = auto_batch
     elif spp_per_block is None:
         spp_per_block = default_spp_per_block(cs.width, cs.height)
-        if sampler == "sobol":
+        if cs.integrator in SPLAT_INTEGRATORS:
+            # the variance of a splatted image comes from its batches (blocks): have a few; bdpt's sobol
+            # batches are blocks too (kernels/render/bdpt.cl, "Quasi-Monte Carlo")
+            spp_per_block = splat_spp_per_block(spp_per_block, spp, cs.integrator, cs.width, cs.height, sampler)
+        elif sampler == "sobol":
             # batches are the replicates of the variance: a few, each as large a net as they can be
             spp_per_block = sobol_spp_per_block(spp_per_block, spp, min_batches,
                                                 opts.time_budget is None and opts.target_error is None)
-        elif cs.integrator in SPLAT_INTEGRATORS:
-            # the variance of a splatted image comes from its batches: have a few
-            spp_per_block = splat_spp_per_block(spp_per_block, spp, cs.integrator, cs.width, cs.height)
         elif spp is not None:
             spp_per_block = max(1, min(spp_per_block, spp))
     else:
@@ -429,7 +434,13 @@ def render(
         # that auto sized: a whole-film block, so that a render stopped in its first batch has every pixel)
         block_pixels = (sobol_block_pixels(spp_per_block, default_spp_per_block(cs.width, cs.height) * cs.width
                                            * cs.height, cs.width, cs.height, TILE_PIXELS)
-                        if sampler == "sobol" and auto_batch is None else 0)
+                        if sampler == "sobol" and auto_batch is None and cs.integrator not in SPLAT_INTEGRATORS
+                        else 0)
+    if sampler == "sobol" and cs.integrator == "bdpt" and spp_per_block * cs.width * cs.height > BDPT_SOBOL_BLOCK:
+        # the light subpaths of a block are one scrambling's points (kernels/render/bdpt.cl, "Quasi-Monte Carlo")
+        raise InputError(f"spp_per_block: bdpt's sobol blocks hold at most {BDPT_SOBOL_BLOCK} samples, not "
+                         f"{spp_per_block} x {cs.width} x {cs.height}; take fewer samples per block or "
+                         "sampler='independent'")
 
     centre, radius = bounding_sphere(cs.bounds)
     job = RenderJob(tables, cs.width, cs.height, cs.integrator, cs.max_depth, cs.rr_depth, seed,
@@ -506,7 +517,7 @@ def render(
     if job.integrator == "lt":
         notes.append(f"light tracing: variance from {acc.blocks_done} independent batches of "
                      f"{spp_per_block} light paths per pixel; specular surfaces seen directly are black")
-    elif job.splats:
+    elif job.splats and sampler != "sobol":  # bdpt's sobol batches have the note above
         notes.append(f"bdpt: variance from {acc.blocks_done} independent batches of {spp_per_block} samples per pixel")
     result = RenderResult(
         mean=img.mean,

@@ -56,7 +56,7 @@ from .film import STATS
 from .pixel_filter import BOX, PixelFilter
 from .shading_normals import VERTEX_NORMALS_ABSENT, require_face_normals, shading_defines
 from .sobol_film import block_batches, sobol_render_defines
-from .splat_film import SplatRunner, splat_groups
+from .splat_film import SplatRunner, bdpt_sobol_defines, splat_groups
 from .table_buffers import table_buffer
 from .texture_table import TEXTURES_ABSENT, texture_defines
 
@@ -76,6 +76,9 @@ KERNEL_BUFFERS = ("camera", "bvh_nodes", "tri_rows", "spheres", "sphere_flip", "
                   "vertex_normals", "env_map", "env_cdf", "textures")
 # The integrators on the splatting film (mcocl/render/splat_film.py).
 SPLAT_INTEGRATORS = ("lt", "bdpt")
+# The integrators with a sobol back end: the megakernel's (kernels/render/integrator.cl, RENDER_SOBOL) and
+# bdpt's (kernels/render/bdpt.cl, "Quasi-Monte Carlo"); lt draws independent samples only.
+SOBOL_INTEGRATORS = ("path", "nee", "mis", "bdpt")
 # bdpt's MIS heuristics: the exponent beta of Veach's power heuristic (1: the balance heuristic).
 MIS_BETAS = {"balance": 1, "power": 2}
 # Light tracing starts its paths at emitters chosen by the power CDF: it takes no light BVH.
@@ -195,7 +198,7 @@ class RenderJob:
         if has_smooth_transmission(self.tables["materials"]):
             opts.append("-DSMOOTH_TRANSMISSION")
         if self.sampler == "sobol":
-            opts += sobol_render_defines(self.spp_per_block)
+            opts += bdpt_sobol_defines() if self.integrator == "bdpt" else sobol_render_defines(self.spp_per_block)
         if self.integrator == "bdpt":
             require_face_normals(self.tables)
         return opts + self.pixel_filter.defines() + shading_defines(self.tables) + texture_defines(self.tables)
@@ -290,6 +293,6 @@ class RenderRunner:
         return RowRanges(rows, starts, counts, tuple(job.stat_shape))
 
 
-__all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "MIS_BETAS", "SPLAT_INTEGRATORS",
+__all__ = ["INTEGRATOR_CODES", "KERNEL_BUFFERS", "LIGHT_SAMPLER_CODES", "MIS_BETAS", "SOBOL_INTEGRATORS", "SPLAT_INTEGRATORS",
            "UNBOUNDED_SPP", "RenderJob", "RenderRunner",
            "default_spp_per_block", "light_records", "light_tables", "prim_records", "scene_tables", "tables_digest"]

@@ -428,10 +428,10 @@ def _integrator(c: _Checker, v: Any, key: str) -> dict:
         light_sampler=o.get("light_sampler", DEFAULT_LIGHT_SAMPLER),
     )
     settings["sampler"] = c.string(o.get("sampler", DEFAULT_RENDER_SAMPLER), f"{key}.sampler", RENDER_SAMPLERS)
-    if settings["sampler"] == "sobol" and settings["integrator"] in ("lt", "bdpt"):
-        # a file that asks for both contradicts itself (a --integrator bdpt override only declines the
+    if settings["sampler"] == "sobol" and settings["integrator"] == "lt":
+        # a file that asks for both contradicts itself (a --integrator lt override only declines the
         # scene's sobol: mcocl/render/api.py)
-        c.fail(f"{key}.sampler", f"\"sobol\" works with the path integrators (path, nee, mis), not {settings['integrator']!r}")
+        c.fail(f"{key}.sampler", f"\"sobol\" works with path, nee, mis and bdpt, not {settings['integrator']!r}")
     if "batches" in o:
         # sobol's independent scramblings per pixel (mcocl/render/sobol_film.py): at least 2 for a variance;
         # with auto they choose sobol, which the path integrators alone have

@@ -43,6 +43,7 @@ import pyopencl as cl
 from .. import runtime
 from .film import STATS
 from .shading_normals import VERTEX_NORMALS_ABSENT
+from .sobol_film import DEFAULT_BATCHES, RENDER_TABLE_DIMS, sobol_spp_per_block
 from .table_buffers import table_buffer
 from .texture_table import TEXTURES_ABSENT
 
@@ -61,6 +62,19 @@ MIN_BATCHES = 16
 STRATA_SPP = 16
 MIN_STRATA_BATCHES = 8
 BDPT_GROUP_PATHS = 1 << 20
+
+
+# bdpt's sobol build: log2 of the points of one scrambling, which bounds a block's samples (W H
+# spp_per_block) under the batch-wide scrambling of the light subpaths (kernels/render/bdpt.cl,
+# "Quasi-Monte Carlo"); one value, so that every image size and batch shares one build.
+BDPT_SOBOL_LOG2_POINTS = 24
+BDPT_SOBOL_BLOCK = 1 << BDPT_SOBOL_LOG2_POINTS
+
+
+def bdpt_sobol_defines() -> list[str]:
+    """The build options of bdpt's sobol back end (kernels/render/bdpt.cl, "Quasi-Monte Carlo")."""
+    return ["-DSAMPLER_BACKEND=SAMPLER_BACKEND_SOBOL", f"-DSOBOL_LOG2_POINTS={BDPT_SOBOL_LOG2_POINTS}",
+            f"-DSOBOL_TABLE_DIMS={RENDER_TABLE_DIMS}"]
 
 
 def group_image_bytes(width: int, height: int) -> int:
@@ -83,7 +97,7 @@ def blocks_per_launch(width: int, height: int, groups: int) -> int:
 
 
 def splat_spp_per_block(default: int, spp: int | None, integrator: str = "lt", width: int = 1,
-                        height: int = 1) -> int:
+                        height: int = 1, sampler: str = "independent") -> int:
     """Samples per pixel of a block for a splatting render of ``width`` x ``height`` pixels.
 
     ``lt``: at most ``default``, and small enough that a render of ``spp`` has at least
@@ -91,7 +105,15 @@ def splat_spp_per_block(default: int, spp: int | None, integrator: str = "lt", w
     power of two) when its block stays within BDPT_GROUP_PATHS camera samples per work-item and a
     render of ``spp`` keeps MIN_STRATA_BATCHES batches: a batch's film points of a pixel are one
     stratified set (kernels/render/bdpt.cl, "Film positions"), and the more a batch holds the
-    more they help."""
+    more they help.
+
+    ``bdpt`` with the ``sobol`` sampler: every dimension of a batch's samples of a pixel is one
+    randomised net (kernels/render/bdpt.cl, "Quasi-Monte Carlo"), whose gain grows with its
+    points, so batches are as mis's sobol batches: :data:`~mcocl.render.sobol_film.DEFAULT_BATCHES`
+    of ceil(spp / 4) samples, at most ``default`` (the default block of about 2^20 paths, which
+    bounds a block's time), and ``default`` under time or noise halting (``spp`` None)."""
+    if integrator == "bdpt" and sampler == "sobol":
+        return sobol_spp_per_block(default, spp, DEFAULT_BATCHES, bounded_by_spp=False)
     base = default if spp is None else max(1, min(default, spp // MIN_BATCHES))
     if integrator != "bdpt":
         return base
@@ -160,5 +182,5 @@ class SplatRunner:
         return out
 
 
-__all__ = ["BDPT_GROUP_PATHS", "KERNEL_FILE", "MIN_BATCHES", "MIN_STRATA_BATCHES", "SCRATCH_BYTES", "STRATA_SPP", "SPLAT_COLUMNS", "TRACE_KERNELS", "SplatRunner", "blocks_per_launch",
+__all__ = ["BDPT_GROUP_PATHS", "BDPT_SOBOL_BLOCK", "BDPT_SOBOL_LOG2_POINTS", "bdpt_sobol_defines", "KERNEL_FILE", "MIN_BATCHES", "MIN_STRATA_BATCHES", "SCRATCH_BYTES", "STRATA_SPP", "SPLAT_COLUMNS", "TRACE_KERNELS", "SplatRunner", "blocks_per_launch",
            "splat_groups", "splat_spp_per_block"]

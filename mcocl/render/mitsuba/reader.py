@@ -169,7 +169,7 @@ class _SceneBuilder:
                      "comment": ["no <integrator>: Mitsuba's default path tracer -> mis, max_depth -1, rr_depth 5"]}
         integ["spp"] = spp
         if sampler == "sobol":
-            if integ["type"] == "lt":  # the stratified sampler is the path integrators' (mcocl/render/api.py)
+            if integ["type"] == "lt":  # the stratified sampler is the path integrators' and bdpt's (mcocl/render/api.py)
                 integ["comment"] = [*integ.get("comment", []), "lt draws independent samples, not the sampler's strata"]
             else:
                 integ["sampler"] = "sobol"
