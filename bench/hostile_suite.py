@@ -501,8 +501,10 @@ def render_option_cases() -> list[Case]:
     add("batches-1e9-time", *sobol, "--batches", "1e9", "--time", "2", expect="ok")
     add("batches-independent", "--sampler", "independent", "--batches", "4")
     add("batches-scene-sampler", "--batches", "4", expect="ok")  # the scene's sampler is auto: batches choose sobol
-    add("batches-bdpt", "--integrator", "bdpt", "--batches", "4")
-    add("batches-bdpt-sobol", "--integrator", "bdpt", *sobol, "--batches", "4")
+    # bdpt has a sobol back end: batches choose it (auto) or size its batches; lt has none
+    add("batches-bdpt", "--integrator", "bdpt", "--batches", "4", expect="ok")
+    add("batches-bdpt-sobol", "--integrator", "bdpt", *sobol, "--batches", "4", expect="ok")
+    add("batches-lt", "--integrator", "lt", "--batches", "4")
     add("batches-lt-sobol", "--integrator", "lt", *sobol)
     add("sobol-spp-1", *sobol, "--spp", "1", expect="ok")
     add("sobol-spp-3", *sobol, "--spp", "3", expect="ok")
@@ -528,7 +530,7 @@ def render_option_cases() -> list[Case]:
         "batches-huge": {"type": "mis", "sampler": "sobol", "batches": 1e30},
         "batches-nan": {"type": "mis", "sampler": "sobol", "batches": float("nan")},
         "batches-independent": {"type": "mis", "sampler": "independent", "batches": 4},
-        "batches-bdpt": {"type": "bdpt", "sampler": "sobol", "batches": 4},
+        "batches-lt": {"type": "lt", "sampler": "sobol", "batches": 4},
         "sampler-bogus": {"type": "mis", "sampler": "halton"},
         "sampler-num": {"type": "mis", "sampler": 3},
         "light-sampler-bogus": {"type": "mis", "light_sampler": "magic"},
@@ -536,6 +538,9 @@ def render_option_cases() -> list[Case]:
     }.items():
         c.append(Case(f"render-scene-{name}", "render", ["render", "{in}/s.json", "--out", "x.exr", "--quiet"],
                       files={"s.json": scene_with(integrator={**integ, "spp": 2})}, limit=60))
+    c.append(Case("render-scene-batches-bdpt", "render", ["render", "{in}/s.json", "--out", "x.exr", "--quiet"],
+                  files={"s.json": scene_with(integrator={"type": "bdpt", "sampler": "sobol", "batches": 2, "spp": 4})},
+                  expect="ok", outputs=("x.exr",), checks=(exr_has_samples("x.exr"),)))
     c.append(Case("render-scene-batches-ok", "render", ["render", "{in}/s.json", "--out", "x.exr", "--quiet"],
                   files={"s.json": scene_with(integrator={"type": "mis", "sampler": "sobol", "batches": 2, "spp": 4})},
                   expect="ok", outputs=("x.exr",), checks=(exr_has_samples("x.exr"),)))

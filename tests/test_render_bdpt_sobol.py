@@ -185,3 +185,16 @@ def test_sobol_batches_are_a_quarter_of_the_spp_up_to_the_default_block() -> Non
     # the independent sampler's batches are as before (tests/test_render_bdpt_film_strata.py)
     assert splat_spp_per_block(64, 256, "bdpt", 128, 128) == 16
     assert 64 * 128 * 128 <= BDPT_SOBOL_BLOCK
+
+
+def test_batches_size_bdpt_s_sobol_batches_and_lt_refuses_them() -> None:
+    """``batches`` means for bdpt what it means for mis: that many independent scramblings, each a net of
+    spp / batches samples per pixel, the variance from their means; lt has no sobol back end."""
+    assert splat_spp_per_block(64, 64, "bdpt", 128, 128, "sobol", batches=8) == 8
+    cs = downscaled("cornell.json", 16)
+    for b in (2, 8):
+        r = render(cs, spp=16, seed=1, integrator="bdpt", batches=b)  # auto: batches choose sobol
+        assert r.sampler == "sobol" and r.spp == 16
+        assert np.all(r.count == b)
+    with pytest.raises(InputError, match="not 'lt'"):
+        render(cs, spp=16, seed=1, integrator="lt", batches=2)

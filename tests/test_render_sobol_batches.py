@@ -179,11 +179,11 @@ def test_scene_key_sets_the_batches() -> None:
         parse_scene(sphere_scene({"type": "lt", "sampler": "sobol"}))
     assert parse_scene(sphere_scene({"type": "bdpt", "sampler": "sobol"})).sampler == "sobol"
     # ... --integrator lt on a sobol scene declines the scene's sampler, with a note, and its batches;
-    # --integrator bdpt keeps sobol, with its own batches (blocks: mcocl/render/splat_film.py)
+    # --integrator bdpt keeps sobol and the scene's batches (blocks: mcocl/render/splat_film.py)
     r = render(cs, spp=16, seed=3, integrator="lt")
     assert r.sampler == "independent" and any("draws independent samples" in n for n in r.notes)
     r = render(cs, spp=16, seed=3, integrator="bdpt")
-    assert r.sampler == "sobol" and r.spp_per_block == 4 and np.all(r.count == 4)
+    assert r.sampler == "sobol" and r.spp_per_block == 2 and np.all(r.count == 8)
 
 
 def test_cli_batches(tmp_path: Path) -> None:

@@ -99,7 +99,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "independent otherwise (lt, spp < 8, films over 2^21 pixels) and when "
                         "resuming a checkpoint made with it)")
     p.add_argument("--batches", type=count, default=None, metavar="B",
-                   help="--sampler sobol (given with auto, it chooses sobol): independent scramblings per pixel that the variance layer comes from, "
+                   help="--sampler sobol (path, nee, mis, bdpt; given with auto, it chooses sobol): independent scramblings per pixel that the variance layer comes from, "
                         "each a net of spp/B samples (default 4, at least 2: fewer, larger nets give a smaller "
                         "image error and a noisier per-pixel variance). With --time/--target-error, blocks keep "
                         "their default size and --target-error waits for B of them")

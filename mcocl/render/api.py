@@ -172,9 +172,9 @@ def _render_sampler(cs: CompiledScene, name: str, from_scene: bool, spp: int | N
     :func:`_checkpoint_sampler`); ``batches`` asks for sobol.
     """
     if name == "auto":
-        if batches is not None and cs.integrator in SPLAT_INTEGRATORS:
+        if batches is not None and cs.integrator not in SOBOL_INTEGRATORS:
             raise InputError(f"batches: only the sobol sampler estimates its variance from batches, and it works "
-                             f"with the path integrators (path, nee, mis), not {cs.integrator!r}")
+                             f"with {', '.join(SOBOL_INTEGRATORS)}, not {cs.integrator!r}")
         block = None if spp_per_block is None else whole_number("spp_per_block", spp_per_block, 1, UNBOUNDED_SPP - 1)
         name, why, batch = resolve_auto_sampler(cs.integrator, spp, block,
                                                 batches if batches is not None else getattr(cs, "batches", None),
@@ -303,7 +303,7 @@ def render(
             otherwise (``lt``, spp < 8, a film where 2 samples per pixel do not fit such a block) and when resuming a
             checkpoint made with it (:mod:`mcocl.render.sampler_choice`).  ``RenderResult.sampler``
             says which ran.
-        batches: ``sobol`` only (with ``auto``, giving it chooses ``sobol``): independent scramblings (batches) per pixel that the variance
+        batches: ``sobol`` only (path, nee, mis, bdpt; with ``auto``, giving it chooses ``sobol``): independent scramblings (batches) per pixel that the variance
             comes from, each a net of ceil(spp / batches) samples (default 4: 3 degrees of freedom
             per pixel; more batches give a steadier per-pixel variance and a larger image error,
             fewer the reverse).  At least 2; one scrambling of all ``spp`` samples has no variance
@@ -402,8 +402,10 @@ def render(
         if spp_per_block is not None and whole_number("spp_per_block", spp_per_block) != saved_block:
             raise InputError(f"checkpoint {resume} uses spp_per_block={saved_block}, not {spp_per_block}")
         if batches is not None and sampler == "sobol":
-            want = sobol_spp_per_block(default_spp_per_block(cs.width, cs.height), spp, batches,
-                                       opts.time_budget is None and opts.target_error is None)
+            default = default_spp_per_block(cs.width, cs.height)
+            want = (splat_spp_per_block(default, spp, cs.integrator, cs.width, cs.height, sampler, batches)
+                    if cs.integrator in SPLAT_INTEGRATORS else
+                    sobol_spp_per_block(default, spp, batches, opts.time_budget is None and opts.target_error is None))
             if want != saved_block:
                 raise InputError(f"checkpoint {resume} has batches of {saved_block} spp, not the {want} of "
                                  f"batches={batches}; resume it without batches")
@@ -420,7 +422,8 @@ def render(
         if cs.integrator in SPLAT_INTEGRATORS:
             # the variance of a splatted image comes from its batches (blocks): have a few; bdpt's sobol
             # batches are blocks too (kernels/render/bdpt.cl, "Quasi-Monte Carlo")
-            spp_per_block = splat_spp_per_block(spp_per_block, spp, cs.integrator, cs.width, cs.height, sampler)
+            spp_per_block = splat_spp_per_block(spp_per_block, spp, cs.integrator, cs.width, cs.height, sampler,
+                                                min_batches)
         elif sampler == "sobol":
             # batches are the replicates of the variance: a few, each as large a net as they can be
             spp_per_block = sobol_spp_per_block(spp_per_block, spp, min_batches,

@@ -94,6 +94,8 @@ def resolve_auto_sampler(integrator: str, spp: int | None, spp_per_block: int | 
     time with neither ``spp_per_block`` nor ``batches`` given: one whole-film block), else None.
     """
     if integrator == "bdpt":
+        if batches is not None:
+            return "sobol", "batches are the sobol sampler's", None
         return _auto_bdpt(spp, spp_per_block, pixels)
     if integrator in SPLAT_INTEGRATORS:
         return "independent", f"{integrator} has no sobol back end", None

@@ -97,7 +97,7 @@ def blocks_per_launch(width: int, height: int, groups: int) -> int:
 
 
 def splat_spp_per_block(default: int, spp: int | None, integrator: str = "lt", width: int = 1,
-                        height: int = 1, sampler: str = "independent") -> int:
+                        height: int = 1, sampler: str = "independent", batches: int = DEFAULT_BATCHES) -> int:
     """Samples per pixel of a block for a splatting render of ``width`` x ``height`` pixels.
 
     ``lt``: at most ``default``, and small enough that a render of ``spp`` has at least
@@ -109,11 +109,12 @@ def splat_spp_per_block(default: int, spp: int | None, integrator: str = "lt", w
 
     ``bdpt`` with the ``sobol`` sampler: every dimension of a batch's samples of a pixel is one
     randomised net (kernels/render/bdpt.cl, "Quasi-Monte Carlo"), whose gain grows with its
-    points, so batches are as mis's sobol batches: :data:`~mcocl.render.sobol_film.DEFAULT_BATCHES`
-    of ceil(spp / 4) samples, at most ``default`` (the default block of about 2^20 paths, which
-    bounds a block's time), and ``default`` under time or noise halting (``spp`` None)."""
+    points, so batches are as mis's sobol batches: ``batches`` (default
+    :data:`~mcocl.render.sobol_film.DEFAULT_BATCHES`) of ceil(spp / batches) samples, at most
+    ``default`` (the default block of about 2^20 paths, which bounds a block's time), and
+    ``default`` under time or noise halting (``spp`` None)."""
     if integrator == "bdpt" and sampler == "sobol":
-        return sobol_spp_per_block(default, spp, DEFAULT_BATCHES, bounded_by_spp=False)
+        return sobol_spp_per_block(default, spp, batches, bounded_by_spp=False)
     base = default if spp is None else max(1, min(default, spp // MIN_BATCHES))
     if integrator != "bdpt":
         return base
