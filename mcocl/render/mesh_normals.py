@@ -29,7 +29,7 @@ def _world_corners(vertices: np.ndarray, f: np.ndarray, matrix: np.ndarray | Non
     around it (OpenBLAS's kernel is one fused multiply-add chain per entry; a block here has 3 rows or more),
     then translated as :func:`transform.apply_points` translates them.
     """
-    p = np.asarray(vertices[f], np.float64)  # gather first: a float32 mesh is widened a block at a time
+    p = np.take(vertices, f, axis=0).astype(np.float64, copy=False)  # gather first: a float32 mesh is widened a block at a time
     if matrix is None:
         return p
     flat = tf.rows_times(p.reshape(-1, 3), matrix[:3, :3].T)
