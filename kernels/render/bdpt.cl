@@ -304,6 +304,13 @@
  * same numbers without a division per vertex and strategy) measured 5 %
  * slower; calls instead of inlining for the traversals and the BSDF
  * dispatch halved the kernel's code and changed nothing measurable.
+ * Measured again for the build's time (a cold PoCL cache, 1 spp): the BSDF
+ * dispatch alone as a call halves the cold build (Cornell box 24.8 -> 11.7
+ * CPU-s, caustic 22.5 -> 10.4, veach_mis 26.7 -> 12.9; the traversals as
+ * calls too: 10.3 on Cornell, for 6-9 % fewer paths), but in 3 interleaved
+ * renders it cost 4-12 % of the paths per CPU-second on the Cornell box (0-5 %
+ * more on veach_mis and caustic); the eval dispatch alone cost 3-9 % and
+ * built in 14.8 s.  Not kept: a render's time is the measure (README, bdpt).
  *
  * Launch parameters (render_params), not build options, so that one build
  * serves every choice: bdpt_power_mis (1: beta 2, 0: beta 1); bdpt_only_s/_t
