@@ -162,12 +162,17 @@ def test_bdpt_agrees_with_mis_on_plastic() -> None:
     assert_blocks_agree(a, b)
 
 
-def test_thin_lens_bdpt_agrees_with_mis() -> None:
-    """Depth of field: camera subpaths start at lens points, t = 1 connections reach uniform lens points."""
+def thin_lens_cornell():
+    """The Cornell box at 32 x 32 pixels through a thin lens (aperture radius 0.15, focused at 2.5)."""
     sc = load_scene(SCENES / "cornell.json")
     sc.camera.width = sc.camera.height = 32
     sc.camera.aperture_radius, sc.camera.focus_distance = 0.15, 2.5
-    cs = compile_scene(sc)
+    return compile_scene(sc)
+
+
+def test_thin_lens_bdpt_agrees_with_mis() -> None:
+    """Depth of field: camera subpaths start at lens points, t = 1 connections reach uniform lens points."""
+    cs = thin_lens_cornell()
     a = render(cs, spp=1024, integrator="mis", seed=3)
     # the independent sampler, as this test was written for (its per-pixel z-scores are seed-sensitive:
     # against 4096 independent mis spp, max |z| 5.2-5.7 over seeds 4-6 for either bdpt sampler);

@@ -23,16 +23,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from interrupting import interrupt_after_first_fold
-from scipy import stats
-from test_render_lt import assert_blocks_agree, assert_pixels_agree, downscaled
+from test_render_bdpt import thin_lens_cornell
+from test_render_lt import assert_blocks_agree, assert_pixels_agree, assert_variance_is_honest, downscaled
 
-from mcocl import runtime
-from mcocl.accumulate import Accumulator
 from mcocl.errors import InputError
 from mcocl.render.api import render
 from mcocl.render.compiled import compile_scene
 from mcocl.render.image_io import read_exr
-from mcocl.render.job import RenderJob, scene_tables
 from mcocl.render.pixel_filter import make_filter
 from mcocl.render.scene_file import load_scene
 from mcocl.render.splat_film import BDPT_SOBOL_BLOCK, splat_spp_per_block
@@ -68,10 +65,7 @@ def test_sobol_bdpt_agrees_with_mis_through_glass() -> None:
 
 
 def test_thin_lens_sobol_bdpt_agrees_with_mis() -> None:
-    sc = load_scene(SCENES / "cornell.json")
-    sc.camera.width = sc.camera.height = 32
-    sc.camera.aperture_radius, sc.camera.focus_distance = 0.15, 2.5
-    cs = compile_scene(sc)
+    cs = thin_lens_cornell()
     a = render(cs, spp=1024, integrator="mis", seed=3, sampler="independent")
     b = render(cs, spp=128, integrator="bdpt", seed=4, spp_per_block=8, sampler="sobol")
     assert_blocks_agree(a, b)
@@ -96,12 +90,7 @@ def test_reported_stderr_matches_the_spread_over_seeds() -> None:
     cs = downscaled("cornell.json", 16)
     runs = [render(cs, spp=32, integrator="bdpt", sampler="sobol", spp_per_block=8, seed=s) for s in range(500, 512)]
     assert all(np.all(r.count == 4) for r in runs)
-    means = np.stack([r.mean for r in runs]).astype(np.float64)
-    reported = np.stack([r.variance for r in runs]).astype(np.float64).mean(axis=0)
-    ratio = means.var(axis=0, ddof=1).sum() / reported.sum()
-    dof = 11 * means[0].size
-    # as lt's test (tests/test_render_lt.py): the reported variances are estimates themselves, 15 % beyond
-    assert 0.85 * stats.chi2.ppf(1e-4, dof) / dof < ratio < 1.15 * stats.chi2.ppf(1 - 1e-4, dof) / dof, ratio
+    assert_variance_is_honest(runs)
 
 
 def test_the_nets_lower_the_variance_on_cornell() -> None:
@@ -117,24 +106,7 @@ def test_the_nets_lower_the_variance_on_cornell() -> None:
     assert spread["independent"] > 1.3 * spread["sobol"], spread
 
 
-def test_image_does_not_depend_on_how_blocks_are_launched() -> None:
-    cs = downscaled("cornell.json", 16)
-    job = RenderJob(scene_tables(cs), cs.width, cs.height, "bdpt", cs.max_depth, cs.rr_depth, seed=42,
-                    spp_per_block=4, spp_limit=30, bounding_sphere=(0.0, 0.0, 0.0, 1.0), sampler="sobol")
-    runner = job.runner(runtime.device_context())
-    runner.per_launch = 3  # several launches share the scratch images inside one chunk too
-    films = []
-    for chunks in ([1] * 8, [3, 5], [8], [2, 1, 4, 1]):
-        acc = Accumulator(job.stat_shape)
-        first = 0
-        for n in chunks:
-            acc.add(first, runner.collect(runner.enqueue(first, n)))
-            first += n
-        films.append(acc.totals)
-    for f in films[1:]:
-        np.testing.assert_array_equal(f, films[0])
-    assert films[0][..., 6].min() == 8  # eight batches, the last one partial
-    assert films[0][..., 0].max() > 0
+# Launch splits: tests/test_render_lt.py, test_image_does_not_depend_on_how_blocks_are_launched (bdpt-sobol).
 
 
 def test_sub_devices_give_the_same_image() -> None:
