@@ -188,6 +188,19 @@ def _render_sampler(cs: CompiledScene, name: str, from_scene: bool, spp: int | N
     return name, "", None
 
 
+def _default_block_spp(cs: CompiledScene, spp: int | None, sampler: str, batches: int, bounded_by_spp: bool) -> int:
+    """The samples per pixel of a block when the caller gives none (a resumed run checks ``batches`` by it)."""
+    default = default_spp_per_block(cs.width, cs.height)
+    if cs.integrator in SPLAT_INTEGRATORS:
+        # the variance of a splatted image comes from its batches (blocks): have a few; bdpt's sobol
+        # batches are blocks too (kernels/render/bdpt.cl, "Quasi-Monte Carlo")
+        return splat_spp_per_block(default, spp, cs.integrator, cs.width, cs.height, sampler, batches)
+    if sampler == "sobol":
+        # batches are the replicates of the variance: a few, each as large a net as they can be
+        return sobol_spp_per_block(default, spp, batches, bounded_by_spp)
+    return default if spp is None else max(1, min(default, spp))
+
+
 def _checkpoint_sampler(acc: Accumulator, path: Any) -> str:
     """The sampler a checkpoint was written with (its ``sampler`` key; none: ``independent``)."""
     saved = acc.meta.get("sampler")
@@ -402,10 +415,8 @@ def render(
         if spp_per_block is not None and whole_number("spp_per_block", spp_per_block) != saved_block:
             raise InputError(f"checkpoint {resume} uses spp_per_block={saved_block}, not {spp_per_block}")
         if batches is not None and sampler == "sobol":
-            default = default_spp_per_block(cs.width, cs.height)
-            want = (splat_spp_per_block(default, spp, cs.integrator, cs.width, cs.height, sampler, batches)
-                    if cs.integrator in SPLAT_INTEGRATORS else
-                    sobol_spp_per_block(default, spp, batches, opts.time_budget is None and opts.target_error is None))
+            want = _default_block_spp(cs, spp, sampler, batches,
+                                      opts.time_budget is None and opts.target_error is None)
             if want != saved_block:
                 raise InputError(f"checkpoint {resume} has batches of {saved_block} spp, not the {want} of "
                                  f"batches={batches}; resume it without batches")
@@ -418,18 +429,8 @@ def render(
     elif auto_batch is not None:
         spp_per_block = auto_batch
     elif spp_per_block is None:
-        spp_per_block = default_spp_per_block(cs.width, cs.height)
-        if cs.integrator in SPLAT_INTEGRATORS:
-            # the variance of a splatted image comes from its batches (blocks): have a few; bdpt's sobol
-            # batches are blocks too (kernels/render/bdpt.cl, "Quasi-Monte Carlo")
-            spp_per_block = splat_spp_per_block(spp_per_block, spp, cs.integrator, cs.width, cs.height, sampler,
-                                                min_batches)
-        elif sampler == "sobol":
-            # batches are the replicates of the variance: a few, each as large a net as they can be
-            spp_per_block = sobol_spp_per_block(spp_per_block, spp, min_batches,
-                                                opts.time_budget is None and opts.target_error is None)
-        elif spp is not None:
-            spp_per_block = max(1, min(spp_per_block, spp))
+        spp_per_block = _default_block_spp(cs, spp, sampler, min_batches,
+                                           opts.time_budget is None and opts.target_error is None)
     else:
         spp_per_block = whole_number("spp_per_block", spp_per_block, 1, UNBOUNDED_SPP - 1)
     if acc is None:

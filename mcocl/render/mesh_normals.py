@@ -60,15 +60,10 @@ def _face_terms(vertices: np.ndarray, faces: np.ndarray, corners: range,
     return f, terms
 
 
-def _vertex_rows(n: int) -> list[tuple[int, int]]:
-    """Row ranges of an (n, 3) table: transform.rows_times's blocks (one range of every row for few)."""
-    return tf.row_blocks(n) if n > tf._ROWS else [(0, n)]
-
-
 def _normalise(out: np.ndarray) -> None:
     """Divide each row of ``out`` by its length in place, a block of rows at a time (a row's numbers are its
     own: the same bits as the whole table's); a zero row becomes (1, 0, 0), as in Mitsuba."""
-    for s, e in _vertex_rows(len(out)):
+    for s, e in tf.row_blocks(len(out)):
         rows = out[s:e]
         norm = np.linalg.norm(rows, axis=1)
         bogus = norm == 0.0
@@ -128,7 +123,7 @@ def world_space_vertex_normals(vertices: np.ndarray, faces: np.ndarray, matrix: 
     is its own, as in :func:`_world_corners`): no second (V, 3) table."""
     m = np.asarray(matrix, np.float64)
     out = angle_weighted_normals(vertices, faces, m)
-    for s, e in _vertex_rows(len(out)):
+    for s, e in tf.row_blocks(len(out)):
         out[s:e] = out[s:e] @ m[:3, :3]  # rows n_wᵀ M = (Mᵀ n_w)ᵀ
     release_free_heap()  # the face blocks' freed temporaries (mcocl/host_memory.py): not kept with the scene
     return out

@@ -81,8 +81,8 @@ def rows_times(p: np.ndarray, a: np.ndarray) -> np.ndarray:
 
 
 def row_blocks(n: int) -> list[tuple[int, int]]:
-    """The (start, stop) row ranges of :func:`rows_times`'s blocks for ``n`` > :data:`_ROWS` rows: equal sizes of
-    at most :data:`_ROWS` (one range of every row for fewer)."""
+    """The (start, stop) row ranges of :func:`rows_times`'s blocks for ``n`` rows: equal sizes of at most
+    :data:`_ROWS` (one range of every row for ``n`` <= :data:`_ROWS`, as rows_times multiplies them)."""
     blocks = max(1, -(-n // _ROWS))
     edges = [n * i // blocks for i in range(blocks + 1)]
     return list(zip(edges[:-1], edges[1:]))
@@ -106,8 +106,7 @@ def apply_points_float32(m: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.n
     lin, shift = m[:3, :3].T, m[:3, 3]
     out = np.empty((len(p), 3), np.float32)
     finite = np.empty(len(p), bool)
-    blocks = row_blocks(len(p)) if len(p) > _ROWS else [(0, len(p))]
-    for s, e in blocks:
+    for s, e in row_blocks(len(p)):
         w = np.asarray(p[s:e], np.float64) @ lin  # what rows_times does with this block (or every row)
         w += shift
         finite[s:e] = np.isfinite(w).all(axis=1)
