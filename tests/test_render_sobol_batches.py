@@ -178,6 +178,10 @@ def test_scene_key_sets_the_batches() -> None:
     with pytest.raises(InputError, match="integrator.sampler"):
         parse_scene(sphere_scene({"type": "lt", "sampler": "sobol"}))
     assert parse_scene(sphere_scene({"type": "bdpt", "sampler": "sobol"})).sampler == "sobol"
+    # batches choose sobol under auto for bdpt too (as the batches keyword does), never for lt
+    assert parse_scene(sphere_scene({"type": "bdpt", "batches": 4})).sampler == "sobol"
+    with pytest.raises(InputError, match="integrator.batches"):
+        parse_scene(sphere_scene({"type": "lt", "batches": 4}))
     # ... --integrator lt on a sobol scene declines the scene's sampler, with a note, and its batches;
     # --integrator bdpt keeps sobol and the scene's batches (blocks: mcocl/render/splat_film.py)
     r = render(cs, spp=16, seed=3, integrator="lt")

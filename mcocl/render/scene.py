@@ -434,12 +434,12 @@ def _integrator(c: _Checker, v: Any, key: str) -> dict:
         c.fail(f"{key}.sampler", f"\"sobol\" works with path, nee, mis and bdpt, not {settings['integrator']!r}")
     if "batches" in o:
         # sobol's independent scramblings per pixel (mcocl/render/sobol_film.py): at least 2 for a variance;
-        # with auto they choose sobol, which the path integrators alone have
-        if settings["sampler"] == "auto" and settings["integrator"] not in ("lt", "bdpt"):
+        # with auto they choose sobol, which every integrator but lt has (as the batches keyword does)
+        if settings["sampler"] == "auto" and settings["integrator"] != "lt":
             settings["sampler"] = "sobol"
         if settings["sampler"] != "sobol":
-            c.fail(f"{key}.batches", "applies to the sobol sampler only, which works with the path integrators "
-                   f"(path, nee, mis); here the sampler is {settings['sampler']!r} and the integrator "
+            c.fail(f"{key}.batches", "applies to the sobol sampler only, which works with path, nee, mis and "
+                   f"bdpt; here the sampler is {settings['sampler']!r} and the integrator "
                    f"{settings['integrator']!r}")
         settings["batches"] = c.integer(o["batches"], f"{key}.batches", 2, MAX_SPP)
     return settings
