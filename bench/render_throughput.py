@@ -15,7 +15,8 @@ With ``--mitsuba``, for every scene of ``--scenes``:
 - ``cornell``: scenes/cornell.json (Mitsuba's ``cornell_box()``);
 - ``cornell_spheres``: the same box with its two boxes replaced by a mirror
   and a glass sphere (written into ``--out``);
-- ``veach_mis``, ``many_lights``: scenes/veach_mis.json, scenes/many_lights.json;
+- ``veach_mis``, ``many_lights``, ``caustic``: scenes/veach_mis.json, scenes/many_lights.json,
+  scenes/caustic.json (its reference is rendered by ``bdpt``: ``mis`` leaves the caustic noisy);
 - ``big``: the big-mesh scene of bench/make_big_scene.py with
   ``--big-triangles`` triangles (generated into ``--out`` when missing);
 
@@ -65,7 +66,10 @@ from mcocl.render.sampler_choice import resolve_auto_sampler  # noqa: E402
 
 SCENE = ROOT / "scenes" / "cornell.json"
 SCENE_FILES = {"cornell": SCENE, "veach_mis": ROOT / "scenes" / "veach_mis.json",
-               "many_lights": ROOT / "scenes" / "many_lights.json"}
+               "many_lights": ROOT / "scenes" / "many_lights.json", "caustic": ROOT / "scenes" / "caustic.json"}
+# The reference's integrator: mis, except where mis leaves the image noisy for far longer than the
+# reference's budget (a caustic of a small lamp through glass, which only bdpt's light subpaths resolve).
+REFERENCE_INTEGRATOR = {"caustic": "bdpt"}
 
 COLD_BUILD = """
 import time, sys
@@ -125,17 +129,20 @@ def scene_variant(src: Path, integrator: str, light_sampler: str) -> Path:
     return p
 
 
-def reference(out: Path, scene: Path, seconds: float) -> tuple[np.ndarray, np.ndarray, str]:
-    """An mcocl ``mis`` render of ``seconds`` (mean, variance of the mean, how), cached by the scene's digest."""
-    key = hashlib.sha256(scene.read_bytes() + str(seconds).encode()).hexdigest()[:12]
+def reference(out: Path, scene: Path, seconds: float, integrator: str = "mis") -> tuple[np.ndarray, np.ndarray, str]:
+    """An mcocl render of ``seconds`` with ``integrator`` (mean, variance of the mean, how), cached by the
+    scene's digest."""
+    # mis keeps the key it had before the integrator was a choice, so cached references stay valid
+    tag = b"" if integrator == "mis" else integrator.encode()
+    key = hashlib.sha256(scene.read_bytes() + str(seconds).encode() + tag).hexdigest()[:12]
     f = out / f"reference_{scene.stem}_{key}.npz"
     if f.exists():
         z = np.load(f)
         return z["mean"], z["variance"], str(z["how"])
     print(f"rendering the reference of {scene.name} ({seconds:g} s; cached in {f}) ...", flush=True)
-    r = render(compile_scene(scene_variant(scene, "mis", "power")), None, time_budget=seconds, integrator="mis",
-               seed=0x5EED, progress=False)
-    how = f"mcocl mis/power, {r.spp} spp, {r.seconds:.0f} s"
+    r = render(compile_scene(scene_variant(scene, integrator, "power")), None, time_budget=seconds,
+               integrator=integrator, seed=0x5EED, progress=False)
+    how = f"mcocl {integrator}/power, {r.spp} spp, {r.seconds:.0f} s"
     np.savez(f, mean=r.mean, variance=r.variance, how=how)
     return r.mean, r.variance, how
 
@@ -189,7 +196,7 @@ def throughput_only(args: argparse.Namespace, out: Path) -> None:
 def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, env: dict) -> dict:
     """mcocl's configurations and Mitsuba on one scene, interleaved run by run (see the module docstring)."""
     configs = [(*c.split("/"), "auto")[:3] for c in args.configs]
-    if name in ("cornell", "cornell_spheres", "big"):  # one area light: the light sampler cannot matter
+    if name in ("cornell", "cornell_spheres", "big", "caustic"):  # one area light: the light sampler cannot matter
         configs = list(dict.fromkeys((integ, "power", smp) for integ, _, smp in configs))
     compiled, load = {}, {}
     for c in configs:
@@ -201,7 +208,7 @@ def compare_scene(args: argparse.Namespace, out: Path, name: str, scene: Path, e
     mdir = out / "mitsuba" / name
     ours: dict = {c: {"seconds": [], "cpu": [], "mse": [], "sampler": ""} for c in compiled}
     mi_runs: dict = {"seconds": [], "cpu": [], "mse": []}
-    ref, ref_var, how = reference(out, scene, args.reference_seconds)
+    ref, ref_var, how = reference(out, scene, args.reference_seconds, REFERENCE_INTEGRATOR.get(name, "mis"))
     mi_info: dict = {}
     for k in range(args.repeats):
         for c, cs in compiled.items():
@@ -260,7 +267,7 @@ def main() -> None:
     ap.add_argument("--variant", default="llvm_ad_rgb", help="Mitsuba variant (default llvm_ad_rgb)")
     ap.add_argument("--mitsuba-sampler", default="independent",
                     help="Mitsuba's sampler plugin (default independent; multijitter or ldsampler stratify)")
-    ap.add_argument("--scenes", nargs="+", default=["cornell", "cornell_spheres", "veach_mis", "many_lights", "big"])
+    ap.add_argument("--scenes", nargs="+", default=["cornell", "cornell_spheres", "veach_mis", "many_lights", "caustic", "big"])
     ap.add_argument("--configs", nargs="+", default=["mis/power", "nee/power", "mis/bvh", "nee/bvh"],
                     help="mcocl integrator/light_sampler[/sampler] (bvh only on the many-light scenes; the "
                          "sampler auto, independent or sobol, default auto); lt/power "
