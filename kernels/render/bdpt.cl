@@ -97,6 +97,37 @@
  * path (one whose z_1 lies outside the planes) from every strategy alike and
  * changes no density, so the weights of a path that remains still sum to 1.
  *
+ * Specular chains (specular_vertex, density_toward).  Along a chain of
+ * specular vertices c_1 .. c_k (mirror, glass: no connection ends there)
+ * between non-specular a and b, only the strategies that sample the whole
+ * chain from one side remain, and the ratio of their densities is
+ *   p_a(a -> chain -> b) / p_b(b -> chain -> a)
+ *     = (p_sa(a) G_g / cos_a) / (p_sa(b) G_g / cos_b)
+ * (p_sa the solid-angle densities leaving a and b, G_g the chain's
+ * generalized geometry term, the same both ways: etendue is conserved
+ * through mirrors and, both ends in one medium, through refractions; the
+ * Fresnel choices are the same both ways too), so G_g cancels.
+ * Converting to area at c_1 (cos_c1 / |a c_1|^2) and at c_k as the other
+ * vertices do left a spurious factor (cos_c1 |b c_k|^2) / (cos_ck |a c_1|^2)
+ * in the weights: on the Cornell box with a glass sphere the caustic under
+ * the ball (camera, floor, glass, glass, light), which light tracing (4, 1)
+ * samples far better, gave (4, 1) 2.5 % of its mean and (0, 5) the rest, and
+ * those pixels held 45 % of bdpt's variance (as much variance per sample as
+ * mis there, at 3.5x the cost).  So a specular vertex's densities from a
+ * non-specular neighbour are the projected solid-angle density p_sa / |cos|
+ * at the neighbour (density_toward), its densities from specular neighbours
+ * stay zero (counted as 1), and the ratios across the chain are the exact
+ * ratio above.  "Specular" is a property of the vertex (a material without a
+ * smooth lobe, not an emitter, not at infinity), not of the lobe a walk drew,
+ * so every strategy of a path computes the same numbers and the weights
+ * still sum to 1 (tests/test_bdpt_weights.py recomputes them from the
+ * vertices by the same rule).  Chains next to a light at infinity or a point
+ * or spot light keep the area densities (any consistent choice is unbiased).
+ * Measured (128 px, 256 spp, sobol, the box with two spheres; the renders'
+ * own variances): the summed pixel variance 1.36 -> 0.85, the caustic's 0.61
+ * -> 0.16, variance x CPU-time 1.78x lower; images without specular
+ * surfaces are bit-identical.
+ *
  * Russian roulette is a multiplicative survival weight on the subpath
  * throughput (1 / q on survival); the pdfs of the MIS weights leave it out:
  * any weights that sum to 1 over the strategies of a path keep every
