@@ -8,7 +8,8 @@
  * for a pinhole: no random numbers inside the connection).  For each joined
  * path x_0 (lens) .. x_k (emitter) the kernel recomputes, from the vertices
  * alone, the area density of every vertex from the camera side (pc) and from
- * the light side (pl), lays them out as the subpaths of every strategy
+ * the light side (pl) (at a specular vertex next to a connectable one the
+ * projected solid-angle density, bdpt.cl's density_toward), lays them out as the subpaths of every strategy
  * (s', t') that could have produced x (s' + t' = k + 1 within the depth caps,
  * the connection's two vertices not delta-scattering), and asks bdpt_mis_weight
  * for each weight.  A path is bad when its weights do not sum to 1
