@@ -126,8 +126,8 @@
  * Measured (128 px, 256 spp, sobol, the box with two spheres; the renders'
  * own variances): the summed pixel variance 1.36 -> 0.85, the caustic's 0.61
  * -> 0.16, variance x CPU-time 1.78x lower; bench/bdpt_efficiency.py
- * (128 px, budget 6 s, reference 120 s, 2 runs) bdpt / mis 1.77 on that box
- * (own variances 1.71; 1.08-1.22 before), 0.53 on the plain box (images
+ * (128 px, budget 6 s, reference 120 s, 2 runs) bdpt / mis 1.77 and 1.54 in
+ * two runs on that box (own variances 1.71, 1.48; 1.08-1.22 before), 0.53 on the plain box (images
  * unchanged), 13.1 on scenes/caustic.json (own variances 24.9, 14.3-15.4
  * before).  Images without specular surfaces are bit-identical.  What is
  * left on the box with two spheres (its error, own variance x CPU time):
