@@ -32,10 +32,12 @@ Reading the ratios: in a pixel that sees a caustic through glass or in a
 mirror (a specular-diffuse-specular path), only the camera subpath hitting
 the emitter (s = 0) samples the path, as in ``mis``, so there ``bdpt`` is
 ``mis`` at a higher cost per path; such pixels bound its whole-image ratio.
-On ``cornell_spheres`` ``bdpt``'s variance per sample is a fifth of
-``mis``'s (0.038 against 0.189; a third of it in the 7.5 % of pixels that see
-the spheres, where both are alike), at about a quarter of the paths per
-CPU-second.  ``caustic`` keeps its caustic out of the glass's view (the lamp
+On ``cornell_spheres`` ``bdpt``'s variance per sample is a sixth of
+``mis``'s (128 px, 256 spp, sobol: summed over the pixels 0.85 against 4.99),
+at 3.4x the CPU time per path; two thirds of it lie in the 7.5 % of pixels
+that see the spheres, camera-only paths where both are alike (the caustic
+under the glass ball, a third before the specular chains' MIS densities of
+kernels/render/bdpt.cl, now 3 %).  ``caustic`` keeps its caustic out of the glass's view (the lamp
 stands behind the ball; until December 2026 the camera saw the caustic
 through the ball, and those pixels held 99 % of ``bdpt``'s variance).  What
 bounded ``bdpt`` next was the lamp's reflection in the ball, a highlight

@@ -8,7 +8,8 @@
  * for a pinhole: no random numbers inside the connection).  For each joined
  * path x_0 (lens) .. x_k (emitter) the kernel recomputes, from the vertices
  * alone, the area density of every vertex from the camera side (pc) and from
- * the light side (pl), lays them out as the subpaths of every strategy
+ * the light side (pl) (at a specular vertex next to a connectable one the
+ * projected solid-angle density, bdpt.cl's density_toward), lays them out as the subpaths of every strategy
  * (s', t') that could have produced x (s' + t' = k + 1 within the depth caps,
  * the connection's two vertices not delta-scattering), and asks bdpt_mis_weight
  * for each weight.  A path is bad when its weights do not sum to 1
@@ -48,6 +49,12 @@ MC_INLINE floatv pdf_at(const bdpt_scene *sc, const bdpt_vertex *v, vec3v w_in, 
 MC_INLINE floatv path_weight_sum(const bdpt_scene *sc, const bdpt_vertex *x, int k, int s, int t, int nl_cap,
                                  int nc_cap, floatv *w_st) {
     floatv pc[PATH_MAX], pl[PATH_MAX];
+    intv spec[PATH_MAX]; /* specular vertices take projected solid-angle densities (bdpt.cl, density_toward) */
+    spec[0] = spec[k] = (intv)(0);
+    for (int i = 1; i < k; ++i) {
+        const material_v m = material_load(sc->materials, x[i].mat);
+        spec[i] = specular_vertex(&m, &x[i]);
+    }
     pc[0] = (floatv)(1.0f);
     pl[k] = x[k].light_pdf_area;
     for (int i = 1; i <= k; ++i) {  /* x_i from x_{i-1} (given x_{i-2}) */
@@ -59,7 +66,7 @@ MC_INLINE floatv path_weight_sum(const bdpt_scene *sc, const bdpt_vertex *x, int
             pdf = pdf_at(sc, &x[i - 1], unit_to(x[i - 1].p, x[i - 2].p), unit_to(x[i - 1].p, x[i].p), TRANSPORT_RADIANCE);
             pdf = lane_select(pdf, (floatv)(0.0f), x[i - 1].delta);
         }
-        pc[i] = to_area(pdf, x[i - 1].p, x[i].p, x[i].n);
+        pc[i] = density_toward(pdf, x[i - 1].p, x[i - 1].n, x[i].p, x[i].n, spec[i]);
     }
     for (int i = k - 1; i >= 1; --i) {  /* x_i from x_{i+1} (given x_{i+2}) */
         floatv pdf;
@@ -69,7 +76,7 @@ MC_INLINE floatv path_weight_sum(const bdpt_scene *sc, const bdpt_vertex *x, int
             pdf = pdf_at(sc, &x[i + 1], unit_to(x[i + 1].p, x[i + 2].p), unit_to(x[i + 1].p, x[i].p), TRANSPORT_IMPORTANCE);
             pdf = lane_select(pdf, (floatv)(0.0f), x[i + 1].delta);
         }
-        pl[i] = to_area(pdf, x[i + 1].p, x[i].p, x[i].n);
+        pl[i] = density_toward(pdf, x[i + 1].p, x[i + 1].n, x[i].p, x[i].n, spec[i]);
     }
     pl[0] = (floatv)(0.0f);
     floatv sum = (floatv)(0.0f);
@@ -157,7 +164,6 @@ kernel void bdpt_weight_check(
         floatv checked = (floatv)(0.0f), bad = (floatv)(0.0f), with_delta = (floatv)(0.0f);
         for (int t = 1; lane_any(nc >= t); ++t) {
             const intv has_t = nc >= t;
-            const vertex_bsdf *zb = &cam_b[t - 1];
             for (int s = 0; lane_any(has_t & (nl >= s)); ++s) {
                 if (s == 1 || s + t < 2 || (max_depth >= 0 && s + t - 1 > max_depth)) continue;
                 if (t == 1 && (s < 2 || thin_lens)) continue;
@@ -170,7 +176,7 @@ kernel void bdpt_weight_check(
                 } else {
                     floatv ul[4] = {(floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f), (floatv)(0.0f)};
                     /* threshold 0: no connection roulette (every weight is the exact one) */
-                    bdpt_connect(&sc, light, light_b, cam, s, t, ul, zb, run, nl_cap, nc_cap, &ls, (floatv)(0.0f), &w);
+                    bdpt_connect(&sc, light, light_b, cam, s, t, ul, cam_b, run, nl_cap, nc_cap, &ls, (floatv)(0.0f), &w);
                 }
                 const intv joined = w > 0.0f;  /* not joined: occluded, no contribution */
                 if (!lane_any(joined)) continue;
