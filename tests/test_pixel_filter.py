@@ -149,7 +149,9 @@ def test_an_edge_is_blurred_by_the_filter(tmp_path: Path, filt: PixelFilter, sam
     size, spp = 16, 256
     shapes = [{"type": "rectangle", "material": "black",
                "transform": [{"scale": [50.0, 50.0, 1.0]}, {"translate": [50.0, 0.0, -1.0]}]}]
-    p = _scene(tmp_path, filt.to_json(), shapes, 1.0, size=size)
+    # bvh, though the environment is the only light (chosen with probability 1 by any light sampler): the
+    # builds of the Cornell-box filter tests (tests/test_render_bdpt_sobol.py, test_mitsuba_xml.py)
+    p = _scene(tmp_path, filt.to_json(), shapes, 1.0, size=size, light_sampler="bvh")
     img = mcocl.render(p, spp=spp, seed=9, sampler=sampler).mean[..., 0]
     col = img.mean(axis=0).astype(np.float64)
     centre = np.arange(size) + 0.5
