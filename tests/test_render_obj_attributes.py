@@ -205,5 +205,8 @@ def test_obj_sphere_renders_like_the_ply_sphere(tmp_path):
     assert compile_scene(tmp_path / "f.json").vertex_normals is None
     with warnings.catch_warnings():
         warnings.simplefilter("error", ObjAttributeWarning)
-        ra, rb = mcocl.render(ply, spp=8, seed=3), mcocl.render(obj, spp=8, seed=3)
+        # independent (auto takes sobol at 8 spp): bit-identity holds for any sample points, and mis's independent
+        # shading-normal build is the one tests/test_mitsuba_references.py makes (7 to 10 s on a cold PoCL cache)
+        ra = mcocl.render(ply, spp=8, seed=3, sampler="independent")
+        rb = mcocl.render(obj, spp=8, seed=3, sampler="independent")
     np.testing.assert_array_equal(ra.mean, rb.mean)

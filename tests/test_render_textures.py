@@ -211,7 +211,7 @@ def test_shape_uvs_are_mitsubas(kernels, tmp_path: Path) -> None:
 
 # ---------------------------------------------------------------- renders
 
-def checker_scene(tmp_path: Path, color0, color1, name: str, textured: bool = True) -> Path:
+def checker_scene(tmp_path: Path, color0, color1, name: str, textured: bool = True, light_sampler: str = "auto") -> Path:
     """A rectangle filling a 32 x 32 view (fov 90 at distance 1; it spans ±1.25), one diffuse bounce to a white sky.
 
     to_uv makes (u', v') = (x + 1, y + 1) in view: 4 x 4 squares of 8 x 8 pixels."""
@@ -219,7 +219,7 @@ def checker_scene(tmp_path: Path, color0, color1, name: str, textured: bool = Tr
              "to_uv": [{"scale": [2.5, 2.5, 1]}, {"translate": [-0.25, -0.25, 0]}]} if textured else color0)
     data = {"camera": {"origin": [0, 0, 1], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 90, "width": 32,
                        "height": 32},
-            "integrator": {"type": "path", "max_depth": 2},
+            "integrator": {"type": "path", "max_depth": 2, "light_sampler": light_sampler},
             "materials": {"m": {"type": "diffuse", "reflectance": refl}},
             "environment": {"type": "constant", "radiance": 1.0},
             "shapes": [{"type": "rectangle", "material": "m", "transform": [{"scale": [1.25, 1.25, 1]}]}]}
@@ -230,7 +230,9 @@ def checker_scene(tmp_path: Path, color0, color1, name: str, textured: bool = Tr
 
 def test_checkerboard_on_a_rectangle_is_analytic(tmp_path: Path) -> None:
     c0, c1 = [0.8, 0.3, 0.1], [0.1, 0.5, 0.7]
-    img = mcocl.render(checker_scene(tmp_path, c0, c1, "c.json"), spp=16, seed=7)
+    # path samples no light, so the light sampler is incidental: bvh makes the build the one
+    # tests/test_emitter_textures.py's path render takes (a build costs 7 to 10 s on a cold PoCL cache)
+    img = mcocl.render(checker_scene(tmp_path, c0, c1, "c.json", light_sampler="bvh"), spp=16, seed=7)
     j = np.arange(32)
     qx = (j // 8) % 2 == 1  # frac(x + 1) > 1/2 in column square j // 8
     qy = ((31 - j) // 8) % 2 == 1  # row 0 is the top (y = +1)
