@@ -35,15 +35,6 @@ from mcocl.render.image_io import read_exr
 from mcocl.render.scene import parse_scene
 from mcocl.render.scene_file import load_scene
 
-
-@pytest.fixture(autouse=True)
-def _scalar_build(monkeypatch) -> None:
-    """These tests run bdpt's scalar build (MCOCL_LANES=1): it compiles in half the time of the
-    16-lane build, and test_lane_builds_agree_with_the_scalar_build holds the lane builds (which it
-    asks for explicitly) to it."""
-    monkeypatch.setenv("MCOCL_LANES", "1")
-
-
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
 
@@ -303,9 +294,8 @@ def test_environment_renders_like_mis() -> None:
 def test_cli_no_roulette(tmp_path: Path) -> None:
     """``mcocl render --no-roulette`` renders what ``roulette=False`` does, and is refused for another integrator."""
     out = tmp_path / "b.exr"
-    # 16 lanes, not the scalar build the child would inherit from _scalar_build's MCOCL_LANES: the 16-lane build
-    # of this scene's variant is the one the launch-split, sub-device and dask tests build (the lane width is
-    # incidental here: the CLI and the API take the same build)
+    # 16 lanes on both sides: the 16-lane build of this scene's variant is the one the launch-split, sub-device
+    # and dask tests build (the lane width is incidental here: the CLI and the API take the same build)
     args = [sys.executable, "-m", "mcocl", "render", str(SCENES / "furnace.json"), "--spp", "8", "--max-depth", "3",
             "--seed", "5", "--lanes", "16"]
     p = subprocess.run([*args, "--integrator", "bdpt", "--no-roulette", "--out", str(out)], capture_output=True,
