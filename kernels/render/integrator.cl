@@ -25,8 +25,8 @@
  * (render/lights.cl): from a table (power, uniform) or through the light BVH
  * from the vertex (render/light_bvh.cl).  The BVH's choice depends on the
  * vertex, so an emitter hit's MIS weight recomputes it from the previous
- * vertex's light-sampling point and normal (prev_up, prev_n), kept only in
- * that build.
+ * vertex's point and normal (prev_p, prev_n; the normal is kept only in
+ * that build).
  *
  * Random numbers.  Sample (pixel, s) has the 64-bit index s * W * H + pixel
  * and draws, through the sampler (samplers/sampler.cl) in stream
@@ -258,7 +258,7 @@ kernel void render_blocks(
     floatv eta = (floatv)(1.0f), prev_pdf = (floatv)(0.0f);
     intv unsampled = (intv)(0); /* the previous vertex was the camera or a delta lobe */
 #if LIGHT_CHOICE_AT_VERTEX
-    vec3v prev_up = v3s(0.0f), prev_n = v3s(0.0f);
+    vec3v prev_n = v3s(0.0f);
 #endif
     uint next = 0u;
 
@@ -348,9 +348,9 @@ kernel void render_blocks(
                                            emitting);
 #if INTEGRATOR == INTEGRATOR_MIS
 #if LIGHT_CHOICE_AT_VERTEX
-            floatv lp = light_pdf_hit_at(&lt, &pt, prev_p, prev_up, prev_n, h.prim, &sf, emitting & !unsampled);
+            floatv lp = light_pdf_hit_at(&lt, &pt, prev_p, prev_p, prev_n, d, h.prim, &sf, emitting & !unsampled);
 #else
-            floatv lp = light_pdf_hit(&lt, &pt, prev_p, h.prim, &sf, emitting & !unsampled);
+            floatv lp = light_pdf_hit(&lt, &pt, prev_p, d, h.prim, &sf, emitting & !unsampled);
 #endif
 #else
             floatv lp = (floatv)(0.0f);
@@ -392,13 +392,18 @@ kernel void render_blocks(
 #endif
 
 #if INTEGRATOR != INTEGRATOR_PATH
-            /* The vertex as both strategies see it: the point lifted off the
-             * surface on its front side (the back side where a twosided material is
-             * seen from behind).  Light samples, shadow rays, reflected
-             * rays and the light pdf of a reflected ray's emitter hit all start
-             * here, so that the two MIS weights of one path are computed from
-             * the same point and sum to one (computing them from p and from the
-             * offset origin biased the white furnace by ~1e-4). */
+            /* The point lifted off the surface on its front side (the back side where a
+             * twosided material is seen from behind), where shadow rays start.  Light
+             * samples are measured at p itself, as are the light pdfs of a reflected
+             * ray's emitter hit (light_pdf_hit_at, along the ray's direction from p), so
+             * both MIS weights of a path are one function of the direction at p and sum
+             * to one.  Measured at the lifted point, next-event estimation estimated the
+             * irradiance eps above the surface, a bias of order eps / distance that grows
+             * with the scene's coordinates as offset_origin's eps does: 0.28 % at 50
+             * units, 1e-4 in the Cornell box, where it made mis brighter than bdpt's
+             * connections, which start at p (tests/test_render_direct_lambert.py, against
+             * Lambert's polygon formula).  Reflected rays still leave the lifted point,
+             * as Mitsuba 3's do: the BSDF strategy's share keeps that bias. */
             vec3v p_up = offset_origin(p, n, v3_select(n, v3_neg(n), bsdf_mirrored(&m, wi)));
 
             /* -- next-event estimation -- */
@@ -411,7 +416,7 @@ kernel void render_blocks(
                 sampler_seek(&smp, RENDER_DIM_LIGHT(depth));
                 sampler_next_nd(&smp, 4, ul);
 #endif
-                light_sample_v ls = sample_light_at(&lt, &pt, p_up, n, ul[0], ul[1], ul[2], ul[3], nee);
+                light_sample_v ls = sample_light_at(&lt, &pt, p, n, ul[0], ul[1], ul[2], ul[3], nee);
                 floatv bpdf;
                 vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, ls.wo), &bpdf);
 #if INTEGRATOR == INTEGRATOR_MIS
@@ -438,11 +443,12 @@ kernel void render_blocks(
                     floatv sl = lane_sqrt(v3_len2(sd));
                     vec3v sdir = v3_select(v3_scale(sd, 1.0f / sl), ls.wo, ls.env);
 #else
-                    /* the shadow ray leaves from p_up, where sample_light_at measured the light's direction
-                     * and distance: ls.wo and ls.dist are the same floats as (pos - p_up) / |pos - p_up| and
-                     * |pos - p_up| (ls.wo alone for the environment), without a second square root */
-                    vec3v so = p_up, sdir = ls.wo;
-                    floatv sl = ls.dist;
+                    /* the shadow ray leaves from p_up and aims at the light point itself: a ray parallel
+                     * to ls.wo (measured from p) would pass eps beside it */
+                    vec3v so = p_up;
+                    vec3v sd = v3_sub(ls.pos, so);
+                    floatv sl = lane_sqrt(v3_len2(sd));
+                    vec3v sdir = v3_select(v3_scale(sd, 1.0f / lane_select((floatv)(1.0f), sl, sl > 0.0f)), ls.wo, ls.env);
 #endif
                     floatv tmax = lane_select(sl * (1.0f - SHADOW_EPSILON), (floatv)(INFINITY), ls.env);
                     intv occluded = trace_any_v(&geom, so, sdir, tmax, ok);
@@ -461,10 +467,9 @@ kernel void render_blocks(
             thr = v3_select(thr, v3_mul(thr, bs.weight), cont);
             eta = lane_select(eta, eta * bs.eta, cont);
             vec3v o_next = offset_origin(p, n, wo);
-            prev_p = v3_select(prev_p, o_next, cont);
+            prev_p = v3_select(prev_p, p, cont);
             prev_pdf = lane_select(prev_pdf, bs.pdf, cont);
 #if LIGHT_CHOICE_AT_VERTEX
-            prev_up = v3_select(prev_up, p_up, cont);
             prev_n = v3_select(prev_n, n, cont);
 #endif
             unsampled = lane_select(unsampled, bs.delta, cont);

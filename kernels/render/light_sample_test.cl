@@ -61,7 +61,7 @@ kernel void light_pdf_dirs(LIGHT_TEST_PARAMS, float4 p4, uint n, global const fl
     hitv h = trace_closest_v(&geom, p, d, all);
     surface_v sf = surface_at(&pt, h.prim, h.t, p, d, h.hit);
     intv emitting = h.hit & (sf.emitter >= 0) & (v3_dot(sf.n, d) < 0.0f);
-    floatv pdf = light_pdf_hit(&lt, &pt, p, h.prim, &sf, emitting);
+    floatv pdf = light_pdf_hit(&lt, &pt, p, d, h.prim, &sf, emitting);
     store_floatv(pdf, out + 0 * n + base);
     store_floatv(lane_select((floatv)(-1.0f), to_floatv(h.prim), emitting), out + 1 * n + base);
     store_floatv(to_floatv(mask_bit(!h.hit)), out + 2 * n + base);

@@ -417,37 +417,55 @@ MC_INLINE floatv light_choice_pmf(const light_tables *lt, vec3v p, vec3v n, uint
 
 /* The solid-angle pdf with which sample_light_at, called at p_choice with
  * normal n, picks the point y of surface sf (an emitter hit) — the same
- * choices as above; the solid angle is measured at p (the ray's origin). */
+ * choices as above; the solid angle is measured at p, the surface point the
+ * ray left, along the ray's unit direction w.  The ray itself left an offset
+ * origin (offset_origin), so the line from p along w meets the emitter's
+ * plane at distance s = n_y . (y - p) / n_y . w, not exactly at y: measured
+ * along w, the density is the one sample_light_at(p) has in direction w, and
+ * the two MIS weights of a path are the same function of the direction at p
+ * (measured from p to y, they differed by O(eps / |y - p|), which biased a
+ * furnace sphere's reflected light by 3e-4). */
 MC_INLINE floatv light_pdf_hit_at(const light_tables *lt, const prim_tables *pt, vec3v p, vec3v p_choice, vec3v n,
-                                  uintv prim, const surface_v *sf, intv active) {
+                                  vec3v w, uintv prim, const surface_v *sf, intv active) {
     floatv pmf = light_choice_pmf(lt, p_choice, n, prim, sf, active) * (1.0f - lt->env_pmf);
     intv sph_l = active & prim_is_sphere(pt, prim);
     intv by_cone = active & (intv)(0);
     floatv pdf_cone = (floatv)(0.0f);
+    /* the line from p along w meets the emitter's plane at distance dist, where cosw = n_y . w */
+    floatv cosw = v3_dot(sf->n, w);
+    floatv dist = v3_dot(sf->n, v3_sub(sf->p, p)) / cosw;
     if (pt->nspheres > 0u && lane_any(sph_l)) {
         rec4v c = gather_rec4(pt->spheres, lane_select((uintv)(0u), prim - pt->ntris, sph_l));
+        vec3v cc = v3(c.x, c.y, c.z);
         /* the record's normal points inwards for a flipped sphere: the centre lies on its side */
-        intv flip = v3_dot(sf->n, v3_sub(v3(c.x, c.y, c.z), sf->p)) > 0.0f;
+        intv flip = v3_dot(sf->n, v3_sub(cc, sf->p)) > 0.0f;
         floatv omc, s2max, dc;
         vec3v wc;
-        intv cone = sphere_cone(p, v3(c.x, c.y, c.z), c.w, flip, &omc, &s2max, &wc, &dc);
+        intv cone = sphere_cone(p, cc, c.w, flip, &omc, &s2max, &wc, &dc);
         pdf_cone = pmf * RT_INV_2PI / omc;
         by_cone = sph_l & cone;
+        /* p inside or on the sphere: the line leaves it at the far root of |p + s w - c| = r (a tangent
+         * plane would be off by the curvature where the chord is short, as on the sphere itself) */
+        intv inside = sph_l & !cone;
+        if (lane_any(inside)) {
+            vec3v oc = v3_sub(p, cc);
+            floatv b = v3_dot(w, oc);
+            floatv s_far = safe_sqrt(b * b - (v3_len2(oc) - c.w * c.w)) - b;
+            vec3v ny = v3_scale(v3_sub(v3_madd(p, s_far, w), cc), 1.0f / c.w);
+            dist = lane_select(dist, s_far, inside);
+            cosw = lane_select(cosw, v3_dot(ny, w), inside);
+        }
     }
     floatv pdf = pdf_cone;
-    if (lane_any(active & !by_cone)) { /* the area density, where some lane is not a sphere seen from outside */
-        vec3v dv = v3_sub(sf->p, p);
-        floatv d2 = v3_len2(dv);
-        floatv cosl = lane_abs(v3_dot(sf->n, dv)) * lane_rsqrt(d2);
-        pdf = lane_select(pmf * d2 / (sf->area * cosl), pdf_cone, by_cone);
-    }
+    if (lane_any(active & !by_cone)) /* the area density, where some lane is not a sphere seen from outside */
+        pdf = lane_select(pmf * dist * dist / (sf->area * lane_abs(cosw)), pdf_cone, by_cone);
     return lane_select((floatv)(0.0f), pdf, active);
 }
 
 /* light_pdf_hit_at for sample_light (n = 0). */
-MC_INLINE floatv light_pdf_hit(const light_tables *lt, const prim_tables *pt, vec3v p, uintv prim, const surface_v *sf,
-                               intv active) {
-    return light_pdf_hit_at(lt, pt, p, p, v3s(0.0f), prim, sf, active);
+MC_INLINE floatv light_pdf_hit(const light_tables *lt, const prim_tables *pt, vec3v p, vec3v w, uintv prim,
+                               const surface_v *sf, intv active) {
+    return light_pdf_hit_at(lt, pt, p, p, v3s(0.0f), w, prim, sf, active);
 }
 
 #endif
