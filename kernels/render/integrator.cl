@@ -431,25 +431,20 @@ kernel void render_blocks(
                 ok = ok & shading_side_agrees(n, ns, v3_neg(d)) & shading_side_agrees(n, ns, ls.wo);
 #endif
                 if (lane_any(ok)) {
-#ifdef SMOOTH_TRANSMISSION
                     vec3v so = p_up;
+#ifdef SMOOTH_TRANSMISSION
                     /* a light behind the surface, reached through a rough refraction
                      * (roughdielectric): the shadow ray leaves from that side.  Built only
                      * for scenes with such a material (mcocl/render/job.py): it costs the
                      * others ~4 % even where no lane takes it. */
                     intv across = ok & (v3_dot(ls.wo, v3_sub(p_up, p)) < 0.0f);
                     if (lane_any(across)) so = v3_select(so, offset_origin(p, n, ls.wo), across);
-                    vec3v sd = v3_sub(ls.pos, so);
-                    floatv sl = lane_sqrt(v3_len2(sd));
-                    vec3v sdir = v3_select(v3_scale(sd, 1.0f / sl), ls.wo, ls.env);
-#else
-                    /* the shadow ray leaves from p_up and aims at the light point itself: a ray parallel
+#endif
+                    /* the shadow ray aims from its origin at the light point itself: a ray parallel
                      * to ls.wo (measured from p) would pass eps beside it */
-                    vec3v so = p_up;
                     vec3v sd = v3_sub(ls.pos, so);
                     floatv sl = lane_sqrt(v3_len2(sd));
                     vec3v sdir = v3_select(v3_scale(sd, 1.0f / lane_select((floatv)(1.0f), sl, sl > 0.0f)), ls.wo, ls.env);
-#endif
                     floatv tmax = lane_select(sl * (1.0f - SHADOW_EPSILON), (floatv)(INFINITY), ls.env);
                     intv occluded = trace_any_v(&geom, so, sdir, tmax, ok);
                     L = v3_select(L, v3_add(L, c), ok & !occluded);
