@@ -8,6 +8,7 @@ Chunk sizes come from :mod:`mcocl.engine.chunking`.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import deque
 from collections.abc import Callable
@@ -22,11 +23,15 @@ from .contract import BlockJob, BlockRunner, DeviceStats, Halting, InterruptFlag
 from .fold import FinishedChunk, fold_chunks
 
 IN_FLIGHT = 2  # chunks enqueued at once: one computing, one waiting behind it
-# Seconds between looks at a launch in flight.  Waiting in OpenCL's clWaitForEvents would hold the
-# main thread in C, where Python runs no signal handler: a Ctrl-C during a long launch (a sobol
-# batch of 10^6 spp is tens of seconds: mcocl/render/sobol_film.py) could then not even be seen, let
-# alone a second one that abandons the launch (issue 10).  The next chunk is queued behind the one
-# looked at, so the device does not idle while the host sleeps.
+# Seconds between looks at the interrupt flag while a launch is in flight.  Waiting in OpenCL's
+# clWaitForEvents would hold the main thread in C, where Python runs no signal handler: a Ctrl-C during
+# a long launch (a sobol batch of 10^6 spp is tens of seconds: mcocl/render/sobol_film.py) could then
+# not even be seen, let alone a second one that abandons the launch (issue 10).  So the main thread
+# waits on a threading.Event that the launch's completion callback sets, POLL_SECONDS at a time: it
+# wakes as soon as the launch ends (sleeping between looks at the event's status cost a short render
+# up to a poll interval per chunk: about 4 ms of a 45 ms render of caustic.json), and at least every
+# POLL_SECONDS to look at the flag.  The next chunk is queued behind the one waited for, so the device
+# does not idle meanwhile.
 POLL_SECONDS = 0.01
 # Launches abandoned by an urgent stop (with their runner), kept until the process ends: pyopencl's
 # event of a non-blocking copy waits for the copy when it is released (the host array must outlive
@@ -35,19 +40,31 @@ ABANDONED: list[Any] = []
 
 
 def wait_unless_urgent(handle: Any, interrupt: InterruptFlag) -> bool:
-    """Wait until the OpenCL events of a launch ``handle`` (a runner's tuple) are complete, looking at
-    growing intervals up to :data:`POLL_SECONDS`; False, at once, when ``interrupt`` turns urgent first
-    (the launch is abandoned).  A failed event counts as complete: ``collect`` then raises its error."""
+    """Wait until the OpenCL events of a launch ``handle`` (a runner's tuple) are complete; False, at once,
+    when ``interrupt`` turns urgent first (the launch is abandoned).  A failed event counts as complete:
+    ``collect`` then raises its error."""
     events = [h for h in handle if isinstance(h, cl.Event)] if isinstance(handle, tuple) else []
     if events:
         events[0].command_queue.flush()  # a queued launch that was never flushed would not start
     complete = cl.command_execution_status.COMPLETE
-    pause = POLL_SECONDS / 64  # short launches (a run's first, 1-block chunk) are not held up by a whole poll
-    while not all(ev.command_execution_status <= complete for ev in events):
+    pending = [ev for ev in events if ev.command_execution_status > complete]
+    if not pending:
+        return True
+    done = threading.Event()
+    left = [len(pending)]
+    lock = threading.Lock()
+
+    def finished(status: int) -> None:  # called by the OpenCL runtime, on its thread, once per event
+        with lock:
+            left[0] -= 1
+            if left[0] == 0:
+                done.set()
+
+    for ev in pending:
+        ev.set_callback(complete, finished)  # (runs at once for an event already complete or failed)
+    while not done.wait(POLL_SECONDS):
         if interrupt.urgent:
             return False
-        time.sleep(pause)
-        pause = min(2 * pause, POLL_SECONDS)
     return True
 
 
