@@ -7,6 +7,13 @@ of a few MB — the process keeps about 190 MB of freed heap resident for a
 10^6-triangle scene (``bench/scene_memory.py``): memory no array uses, which
 only ``malloc_trim`` returns.  Calling it between the stages of a render
 costs a walk over the heap (milliseconds) and changes no result.
+
+A trim is skipped while the heap holds less than :data:`TRIM_FREE_BYTES` free
+(glibc's ``mallinfo2``): what a small render frees (10-20 MB for a 160 x 120
+image) the next one allocates again, and every page a trim gave back costs a
+page fault and a cleared page then (perf, 60 renders of scenes/caustic.json:
+6-7 % of the process's cycles in the kernel's page-fault and clear_page paths,
+and up to 2.4 ms per trim).
 """
 
 from __future__ import annotations
@@ -18,6 +25,14 @@ from collections.abc import Callable
 from typing import TypeVar
 
 F = TypeVar("F", bound=Callable)
+# Free heap below which a trim would only hand back pages the next render faults in again.
+TRIM_FREE_BYTES = 32 << 20
+
+
+class _MallInfo2(ctypes.Structure):
+    _fields_ = [(name, ctypes.c_size_t) for name in
+                ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks", "fordblks",
+                 "keepcost")]
 
 
 @functools.cache
@@ -30,12 +45,34 @@ def _malloc_trim():
         return None
 
 
+@functools.cache
+def _mallinfo2():
+    """glibc's ``mallinfo2`` (2.33 and later), or None."""
+    name = ctypes.util.find_library("c")
+    try:
+        fn = ctypes.CDLL(name).mallinfo2 if name else None
+    except (OSError, AttributeError):
+        return None
+    if fn is not None:
+        fn.restype = _MallInfo2
+    return fn
+
+
+def free_heap_bytes() -> int | None:
+    """The bytes of the C heap's free chunks (glibc's ``mallinfo2().fordblks``), or None where unknown."""
+    info = _mallinfo2()
+    return None if info is None else int(info().fordblks)
+
+
 def release_free_heap() -> bool:
-    """Return the C heap's free pages to the system; whether the C library could (glibc)."""
+    """Return the C heap's free pages to the system once it holds :data:`TRIM_FREE_BYTES` free or more;
+    whether the C library could (glibc)."""
     trim = _malloc_trim()
     if trim is None:
         return False
-    trim(0)
+    free = free_heap_bytes()
+    if free is None or free >= TRIM_FREE_BYTES:
+        trim(0)
     return True
 
 
@@ -51,4 +88,4 @@ def releases_free_heap(fn: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
-__all__ = ["release_free_heap", "releases_free_heap"]
+__all__ = ["TRIM_FREE_BYTES", "free_heap_bytes", "release_free_heap", "releases_free_heap"]

@@ -381,13 +381,23 @@ def kernel_source(rel: str, _seen: set[str] | None = None) -> str:
     seen = _seen if _seen is not None else set()
     if rel in seen:
         return ""
+    out: list[str] = []
+    _source_lines(rel, seen, out)
+    return "\n".join(out)
+
+
+def _source_lines(rel: str, seen: set[str], out: list[str]) -> None:
+    """Append kernel_source(rel)'s pieces to ``out`` (joined by newlines, they are its text): one join
+    for the whole program rather than one per file, each copying every file below it again."""
     seen.add(rel)
-    out = [f'#line 1 "{rel}"']
+    out.append(f'#line 1 "{rel}"')
     for text, include in _kernel_parts(rel, _read_kernel(rel)):
         if include is not None:
-            out.append(kernel_source(include, seen))
+            if include in seen:
+                out.append("")  # an include already resolved: an empty line, as its empty text joined
+            else:
+                _source_lines(include, seen, out)
         out.append(text)
-    return "\n".join(out)
 
 
 def compose(

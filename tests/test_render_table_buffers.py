@@ -37,3 +37,23 @@ def test_table_buffer_takes_a_non_contiguous_table_as_its_contiguous_copy():
 
 def test_release_free_heap_trims_on_glibc():
     assert release_free_heap() == (platform.libc_ver()[0] == "glibc")
+
+
+def test_release_free_heap_trims_only_a_heap_with_much_free(monkeypatch):
+    import mcocl.host_memory as hm
+
+    calls: list[int] = []
+    monkeypatch.setattr(hm, "_malloc_trim", lambda: calls.append)
+    monkeypatch.setattr(hm, "free_heap_bytes", lambda: hm.TRIM_FREE_BYTES - 1)
+    assert hm.release_free_heap() is True and calls == []  # a small render's free heap stays for the next one
+    monkeypatch.setattr(hm, "free_heap_bytes", lambda: hm.TRIM_FREE_BYTES)
+    assert hm.release_free_heap() is True and calls == [0]
+    monkeypatch.setattr(hm, "free_heap_bytes", lambda: None)  # mallinfo2 unknown: trim as before
+    assert hm.release_free_heap() is True and calls == [0, 0]
+
+
+def test_free_heap_bytes_reads_glibc():
+    from mcocl.host_memory import free_heap_bytes
+
+    got = free_heap_bytes()
+    assert (got is not None and got >= 0) if platform.libc_ver()[0] == "glibc" else got is None
