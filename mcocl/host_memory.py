@@ -36,23 +36,25 @@ class _MallInfo2(ctypes.Structure):
 
 
 @functools.cache
-def _malloc_trim():
-    """glibc's ``malloc_trim``, or None where the C library has none (macOS, Windows, musl)."""
+def _libc():
+    """The C library, or None where it cannot be loaded."""
     name = ctypes.util.find_library("c")
     try:
-        return ctypes.CDLL(name).malloc_trim if name else None
-    except (OSError, AttributeError):
+        return ctypes.CDLL(name) if name else None
+    except OSError:
         return None
+
+
+@functools.cache
+def _malloc_trim():
+    """glibc's ``malloc_trim``, or None where the C library has none (macOS, Windows, musl)."""
+    return getattr(_libc(), "malloc_trim", None)
 
 
 @functools.cache
 def _mallinfo2():
     """glibc's ``mallinfo2`` (2.33 and later), or None."""
-    name = ctypes.util.find_library("c")
-    try:
-        fn = ctypes.CDLL(name).mallinfo2 if name else None
-    except (OSError, AttributeError):
-        return None
+    fn = getattr(_libc(), "mallinfo2", None)
     if fn is not None:
         fn.restype = _MallInfo2
     return fn

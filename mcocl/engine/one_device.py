@@ -29,7 +29,7 @@ IN_FLIGHT = 2  # chunks enqueued at once: one computing, one waiting behind it
 # not even be seen, let alone a second one that abandons the launch (issue 10).  So the main thread
 # waits on a threading.Event that the launch's completion callback sets, POLL_SECONDS at a time: it
 # wakes as soon as the launch ends (sleeping between looks at the event's status cost a short render
-# up to a poll interval per chunk: about 4 ms of a 45 ms render of caustic.json), and at least every
+# up to a poll interval per chunk: 1-6 ms of a 45 ms render of caustic.json), and at least every
 # POLL_SECONDS to look at the flag.  The next chunk is queued behind the one waited for, so the device
 # does not idle meanwhile.
 POLL_SECONDS = 0.01
@@ -40,31 +40,22 @@ ABANDONED: list[Any] = []
 
 
 def wait_unless_urgent(handle: Any, interrupt: InterruptFlag) -> bool:
-    """Wait until the OpenCL events of a launch ``handle`` (a runner's tuple) are complete; False, at once,
-    when ``interrupt`` turns urgent first (the launch is abandoned).  A failed event counts as complete:
-    ``collect`` then raises its error."""
+    """Wait until the OpenCL events of a launch ``handle`` (a runner's tuple) are complete; False within
+    :data:`POLL_SECONDS` when ``interrupt`` turns urgent first (the launch is abandoned).  A failed event
+    counts as complete: ``collect`` then raises its error."""
     events = [h for h in handle if isinstance(h, cl.Event)] if isinstance(handle, tuple) else []
     if events:
         events[0].command_queue.flush()  # a queued launch that was never flushed would not start
     complete = cl.command_execution_status.COMPLETE
-    pending = [ev for ev in events if ev.command_execution_status > complete]
-    if not pending:
-        return True
-    done = threading.Event()
-    left = [len(pending)]
-    lock = threading.Lock()
-
-    def finished(status: int) -> None:  # called by the OpenCL runtime, on its thread, once per event
-        with lock:
-            left[0] -= 1
-            if left[0] == 0:
-                done.set()
-
-    for ev in pending:
-        ev.set_callback(complete, finished)  # (runs at once for an event already complete or failed)
-    while not done.wait(POLL_SECONDS):
-        if interrupt.urgent:
-            return False
+    for ev in events:
+        if ev.command_execution_status <= complete:
+            continue
+        done = threading.Event()
+        # called by the OpenCL runtime on its own thread, at once for an event already complete or failed
+        ev.set_callback(complete, lambda status, done=done: done.set())
+        while not done.wait(POLL_SECONDS):
+            if interrupt.urgent:
+                return False
     return True
 
 
