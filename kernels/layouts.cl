@@ -483,6 +483,9 @@ typedef struct {
     float filter_radius;
     float filter_stddev;
     float4 env_radiance;
+    uint ncasters;
+    float caster_share;
+    float4 casters[8];
 } render_params;
 
 /* scalar parameters of walk_blocks (kernels/walks/walk.cl) */

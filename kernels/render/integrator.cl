@@ -94,6 +94,9 @@
 #include "render/trace.cl"
 #include "render/shading_normal.cl"
 #include "render/texture.cl"
+#ifdef CASTER_GUIDING
+#include "render/caster_guiding.cl"
+#endif
 
 /* INTEGRATOR_PATH, _NEE, _MIS: the Integrator codes of layouts.cl. */
 #ifndef INTEGRATOR
@@ -257,6 +260,9 @@ kernel void render_blocks(
     vec3v thr = v3s(1.0f), L = v3s(0.0f);
     floatv eta = (floatv)(1.0f), prev_pdf = (floatv)(0.0f);
     intv unsampled = (intv)(0); /* the previous vertex was the camera or a delta lobe */
+#ifdef CASTER_GUIDING
+    intv all_delta = (intv)(0); /* every vertex before was the camera or a delta lobe: caster guiding applies */
+#endif
 #if LIGHT_CHOICE_AT_VERTEX
     vec3v prev_n = v3s(0.0f);
 #endif
@@ -305,6 +311,9 @@ kernel void render_blocks(
             prev_pdf = lane_select(prev_pdf, (floatv)(0.0f), fresh);
             depth = lane_select(depth, (uintv)(0u), fresh);
             unsampled = unsampled | fresh;
+#ifdef CASTER_GUIDING
+            all_delta = all_delta | fresh;
+#endif
             alive = alive | fresh;
         }
         if (!lane_any(alive)) break;
@@ -390,6 +399,21 @@ kernel void render_blocks(
             sampler_seek(&smp, RENDER_DIM_BSDF(depth));
             sampler_next_nd(&smp, 4, ub);
 #endif
+#ifdef CASTER_GUIDING
+            /* The probability that this vertex aims its continuation at a caustic caster
+             * (render/caster_guiding.cl; the estimator: mcocl/render/caster_guiding.py):
+             * params.caster_share at the path's first non-delta vertex (the surface whose
+             * caustic the camera sees, directly or through mirrors and glass) where its BSDF
+             * does not refract and some caster's bounding sphere lies outside the point, else
+             * 0.  One vertex per path: the mixture may raise a vertex's weight by up to
+             * 1 / (1 - share), and at every vertex of a closed scene those factors compound
+             * (share 0.75 at every vertex: a Cornell box with a glass ball 100x noisier). */
+            const caster_view casters = caster_view_at(&params, p);
+            const floatv aim_share = lane_select((floatv)(0.0f), (floatv)(params.caster_share),
+                                                 cont & all_delta & bsdf_is_smooth(&m)
+                                                 & (m.kind != MAT_ROUGHDIELECTRIC) & (casters.n > (uintv)(0u)));
+            const intv guided = aim_share > 0.0f;
+#endif
 
 #if INTEGRATOR != INTEGRATOR_PATH
             /* The point lifted off the surface on its front side (the back side where a
@@ -419,6 +443,11 @@ kernel void render_blocks(
                 light_sample_v ls = sample_light_at(&lt, &pt, p, n, ul[0], ul[1], ul[2], ul[3], nee);
                 floatv bpdf;
                 vec3v f = bsdf_eval(&m, wi, frame_to_local(fr, ls.wo), &bpdf);
+#ifdef CASTER_GUIDING
+                /* the continuation's strategy is the mixture: its density is the BSDF strategy's pdf */
+                if (lane_any(guided))
+                    bpdf = aim_share * caster_pdf(&params, &casters, ls.wo) + (1.0f - aim_share) * bpdf;
+#endif
 #if INTEGRATOR == INTEGRATOR_MIS
                 /* a delta light (render/delta_lights.cl) has no BSDF-sampling strategy: weight 1 */
                 floatv w = lane_select(power_heuristic(ls.pdf, bpdf), (floatv)(1.0f), ls.delta);
@@ -452,8 +481,45 @@ kernel void render_blocks(
             }
 #endif
             /* -- BSDF sampling continues the path -- */
-            bsdf_sample_v bs = bsdf_sample(&m, wi, ub[0], ub[1], ub[2], TRANSPORT_RADIANCE);
+#ifdef CASTER_GUIDING
+            /* ub[0] below aim_share aims at a caster; above it, rescaled to [0, 1), it picks the BSDF's lobe */
+            floatv u_lobe = lane_min(lane_max((ub[0] - aim_share) / (1.0f - aim_share), (floatv)(0.0f)),
+                                     (floatv)(0x1.fffffep-1f));
+#else
+            floatv u_lobe = ub[0];
+#endif
+            bsdf_sample_v bs = bsdf_sample(&m, wi, u_lobe, ub[1], ub[2], TRANSPORT_RADIANCE);
             vec3v wo = frame_to_world(fr, bs.wo);
+#ifdef CASTER_GUIDING
+            /* One-sample MIS of the two techniques, balance heuristic (Veach's thesis §9.2.4): a
+             * direction of either is weighted by f cos over the mixture's density, share * p_cone +
+             * (1 - share) * p_bsdf, which is also the pdf the MIS weight of an emitter the path hits
+             * next sees (prev_pdf).  A delta lobe has no density: the BSDF drew it with probability
+             * (1 - share) times its own, so its weight is divided by (1 - share). */
+            if (lane_any(guided)) {
+                const intv aim = guided & (ub[0] < aim_share);
+                vec3v fcos = v3_scale(bs.weight, bs.pdf); /* f cos of the BSDF's own sample */
+                floatv bsdf_pdf = bs.pdf;
+                if (lane_any(aim)) {
+                    const floatv share = lane_select((floatv)(1.0f), aim_share, aim);
+                    const uintv pick = lane_min_u(to_uintv(ub[0] / share * to_floatv(casters.n)),
+                                                  max(casters.n, (uintv)(1u)) - (uintv)(1u));
+                    const vec3v wa = caster_sample(&params, &casters, pick, ub[1], ub[2]);
+                    floatv pa;
+                    const vec3v fa = bsdf_eval(&m, wi, frame_to_local(fr, wa), &pa);
+                    wo = v3_select(wo, wa, aim);
+                    fcos = v3_select(fcos, fa, aim);
+                    bsdf_pdf = lane_select(bsdf_pdf, pa, aim);
+                    bs.delta = bs.delta & !aim;
+                    bs.eta = lane_select(bs.eta, (floatv)(1.0f), aim); /* a reflection: no refracting BSDF is guided */
+                }
+                const floatv mix = aim_share * caster_pdf(&params, &casters, wo) + (1.0f - aim_share) * bsdf_pdf;
+                const intv spread = guided & !bs.delta;
+                const vec3v w_mix = v3_scale(fcos, lane_select((floatv)(0.0f), 1.0f / mix, mix > 0.0f));
+                bs.weight = v3_select(v3_scale(bs.weight, 1.0f / (1.0f - aim_share)), w_mix, spread);
+                bs.pdf = lane_select(bs.pdf, mix, spread);
+            }
+#endif
 #ifdef SHADING_NORMALS
             /* a direction the two normals disagree on carries nothing (no light leaks) */
             intv leak = !(shading_side_agrees(n, ns, v3_neg(d)) & shading_side_agrees(n, ns, wo));
@@ -468,6 +534,9 @@ kernel void render_blocks(
             prev_n = v3_select(prev_n, n, cont);
 #endif
             unsampled = lane_select(unsampled, bs.delta, cont);
+#ifdef CASTER_GUIDING
+            all_delta = all_delta & (!cont | bs.delta);
+#endif
             o = v3_select(o, o_next, cont);
             d = v3_select(d, wo, cont);
             depth = lane_select(depth, depth + 1u, cont);

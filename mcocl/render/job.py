@@ -76,6 +76,8 @@ KERNEL_BUFFERS = ("camera", "bvh_nodes", "tri_rows", "spheres", "sphere_flip", "
                   "vertex_normals", "env_map", "env_cdf", "textures")
 # The integrators on the splatting film (mcocl/render/splat_film.py).
 SPLAT_INTEGRATORS = ("lt", "bdpt")
+# The integrators that aim part of their continuations at caustic casters (mcocl/render/caster_guiding.py).
+GUIDED_INTEGRATORS = ("nee", "mis")
 # The integrators with a sobol back end: the megakernel's (kernels/render/integrator.cl, RENDER_SOBOL) and
 # bdpt's (kernels/render/bdpt.cl, "Quasi-Monte Carlo"); lt draws independent samples only.
 SOBOL_INTEGRATORS = ("path", "nee", "mis", "bdpt")
@@ -197,6 +199,9 @@ class RenderJob:
             opts.append(f"-DLIGHT_SAMPLER={LIGHT_SAMPLER_CODES['bvh']}")
         if has_smooth_transmission(self.tables["materials"]):
             opts.append("-DSMOOTH_TRANSMISSION")
+        if self.integrator in GUIDED_INTEGRATORS and "casters" in self.tables:
+            # aim at the caustic casters (mcocl/render/caster_guiding.py); their number is a build constant
+            opts.append(f"-DCASTER_GUIDING={len(self.tables['casters'])}")
         if self.sampler == "sobol":
             opts += bdpt_sobol_defines() if self.integrator == "bdpt" else sobol_render_defines(self.spp_per_block)
         if self.integrator == "bdpt":
