@@ -485,7 +485,9 @@ typedef struct {
     float4 env_radiance;
     uint ncasters;
     float caster_share;
+    float caster_reach;
     float4 casters[8];
+    float4 caster_axes[8];
 } render_params;
 
 /* scalar parameters of walk_blocks (kernels/walks/walk.cl) */

@@ -304,9 +304,11 @@ RENDER_PARAMS = Record("render_params", (
     ("filter_kind", "int", 1), ("filter_radius", "float", 1), ("filter_stddev", "float", 1),
     ("env_radiance", "float4", 1),
     # caustic casters (mcocl/render/caster_guiding.py): how many rows of casters hold one (centre xyz, radius),
-    # and the probability that a guided vertex aims at one (kernels/render/caster_guiding.cl)
-    ("ncasters", "uint", 1), ("caster_share", "float", 1),
-    ("casters", "float4", 8),
+    # the probability that a guided vertex aims at one (kernels/render/caster_guiding.cl), and per row the
+    # side its caustic falls on (unit axis from the small light through the caster, cos of the half-angle),
+    # and how far, in caster radii, from its centre a point still aims at it
+    ("ncasters", "uint", 1), ("caster_share", "float", 1), ("caster_reach", "float", 1),
+    ("casters", "float4", 8), ("caster_axes", "float4", 8),
 ), "scalar parameters of render_blocks (kernels/render/integrator.cl)")
 
 # The walk kernel's scalar parameters, passed by value (host: mcocl/walks/job.py, walk_params).

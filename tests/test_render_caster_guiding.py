@@ -21,7 +21,14 @@ import pytest
 import mcocl.render.caster_guiding as caster_guiding
 import mcocl.render.device_scene as device_scene
 from mcocl.render.api import render
-from mcocl.render.caster_guiding import MAX_CASTERS, RADIUS_PAD, SMALL_LIGHT_SR, caster_spheres, light_solid_angles
+from mcocl.render.caster_guiding import (
+    CASTER_CONE_DEG,
+    MAX_CASTERS,
+    RADIUS_PAD,
+    SMALL_LIGHT_SR,
+    caster_rows,
+    light_solid_angles,
+)
 from mcocl.render.compiled import load_compiled
 from mcocl.render.device_scene import scene_tables
 from mcocl.render.job import RenderJob
@@ -65,27 +72,30 @@ def image_mean(r) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_casters_are_the_dielectric_shapes_bounding_spheres(tmp_path: Path) -> None:
-    c = caster_spheres(load_compiled(SCENES / "caustic.json"))
-    np.testing.assert_allclose(c, [[0.0, 0.8, 0.0, 0.5 * (1 + RADIUS_PAD)]], rtol=1e-6)
+    c = caster_rows(load_compiled(SCENES / "caustic.json"))
+    np.testing.assert_allclose(c[:, :4], [[0.0, 0.8, 0.0, 0.5 * (1 + RADIUS_PAD)]], rtol=1e-6)
+    # its caustic's side: the axis from the lamp (0, 4.44, -2.1) through the ball's centre
+    axis = np.array([0.0, 0.8 - 4.44, 2.1]) / np.hypot(0.8 - 4.44, 2.1)
+    np.testing.assert_allclose(c[0, 4:], [*axis, np.cos(np.radians(CASTER_CONE_DEG))], rtol=1e-6, atol=1e-7)
     # and a glass cube under the same small lamp: the sphere around its box (the cube [-1, 1]^3 scaled by
     # 0.25 and moved to (1, 0.3, 1))
     cube = scene_file(tmp_path, "cube.json", "caustic.json", shapes=[
         {"name": "block", "type": "cube", "material": "glass",
          "transform": [{"scale": [0.25, 0.25, 0.25]}, {"translate": [1, 0.3, 1]}]}])
-    got = caster_spheres(load_compiled(cube))
-    np.testing.assert_allclose(got[1], [1, 0.3, 1, 0.25 * np.sqrt(3) * (1 + RADIUS_PAD)], rtol=1e-5, atol=1e-6)
+    got = caster_rows(load_compiled(cube))
+    np.testing.assert_allclose(got[1, :4], [1, 0.3, 1, 0.25 * np.sqrt(3) * (1 + RADIUS_PAD)], rtol=1e-5, atol=1e-6)
     for base in ("cornell.json", "furnace.json", "many_lights.json"):  # no glass
-        assert caster_spheres(load_compiled(SCENES / base)).shape == (0, 4), base
+        assert caster_rows(load_compiled(SCENES / base)).shape == (0, 8), base
     thin = json.loads((SCENES / "caustic.json").read_text())
     thin["materials"]["glass"] = {"type": "thindielectric"}
     (tmp_path / "thin.json").write_text(json.dumps(thin))
-    assert caster_spheres(load_compiled(tmp_path / "thin.json")).shape == (0, 4)
+    assert caster_rows(load_compiled(tmp_path / "thin.json")).shape == (0, 8)
     balls = [{"name": f"b{i}", "type": "sphere", "center": [0.2 * i - 0.8, 0.3, 1.5], "radius": 0.05,
               "material": "glass"} for i in range(MAX_CASTERS)]
     many = scene_file(tmp_path, "many.json", "caustic.json", shapes=balls)  # the ball and 8 more
-    assert caster_spheres(load_compiled(many)).shape == (0, 4)  # more than the kernel aims at: none
+    assert caster_rows(load_compiled(many)).shape == (0, 8)  # more than the kernel aims at: none
     few = scene_file(tmp_path, "few.json", "caustic.json", shapes=balls[:-1])
-    assert caster_spheres(load_compiled(few)).shape == (MAX_CASTERS, 4)
+    assert caster_rows(load_compiled(few)).shape == (MAX_CASTERS, 8)
 
 
 def test_only_glass_under_a_small_light_casts(tmp_path: Path) -> None:
@@ -93,12 +103,12 @@ def test_only_glass_under_a_small_light_casts(tmp_path: Path) -> None:
     lamp of caustic.json 4.5e-4 sr; a lamp 40x wider (radius 2) 0.7 sr: none."""
     ball = [{"name": "ball", "type": "sphere", "center": [0.3, 0.3, 0.2], "radius": 0.25, "material": "glass"}]
     box = scene_file(tmp_path, "box.json", "cornell.json", {"glass": GLASS}, ball)
-    assert caster_spheres(load_compiled(box)).shape == (0, 4)
+    assert caster_rows(load_compiled(box)).shape == (0, 8)
     wide = json.loads((SCENES / "caustic.json").read_text())
     lamp = next(sh for sh in wide["shapes"] if sh["name"] == "lamp")
     lamp["radius"] = 2.0
     (tmp_path / "wide.json").write_text(json.dumps(wide))
-    assert caster_spheres(load_compiled(tmp_path / "wide.json")).shape == (0, 4)
+    assert caster_rows(load_compiled(tmp_path / "wide.json")).shape == (0, 8)
     # the solid angle: a sphere of radius r at distance d subtends 2 pi (1 - sqrt(1 - r^2 / d^2)); 4 pi inside it
     got = light_solid_angles(np.array([[0.0, 0, 0, 1], [5.0, 0, 0, 1]]), np.array([[0.0, 3, 4, 0.05], [5.2, 0, 0, 1]]))
     want_far = 2 * np.pi * (1 - np.sqrt(1 - 0.05**2 / 25))
@@ -125,7 +135,8 @@ def test_glass_ball_in_the_white_furnace(tmp_path: Path, monkeypatch: pytest.Mon
     light is the enclosure itself, so the ball is made a caster by lifting the small-light bound."""
     monkeypatch.setattr(caster_guiding, "SMALL_LIGHT_SR", 100.0)
     scene = furnace_with_ball(tmp_path)
-    assert len(caster_spheres(load_compiled(scene))) == 1
+    rows = caster_rows(load_compiled(scene))
+    assert len(rows) == 1 and rows[0, 7] == -1.0  # inside the light's bounding sphere: every side
     r = render(scene, spp=64, integrator=integrator, max_depth=-1, seed=11, sampler=sampler)
     assert r.nonfinite == 0
     est, se = image_mean(r)
@@ -139,7 +150,7 @@ def test_a_delta_lobe_inside_the_mixture_agrees_with_no_aiming(tmp_path: Path,
     (1 - share) times its own; the image equals the one that never aims (same build, share 0)."""
     monkeypatch.setattr(caster_guiding, "SMALL_LIGHT_SR", 100.0)
     scene = furnace_with_ball(tmp_path, {"type": "plastic", "diffuse_reflectance": 0.3, "int_ior": 1.5})
-    assert len(caster_spheres(load_compiled(scene))) == 1
+    assert len(caster_rows(load_compiled(scene))) == 1
     kw = dict(spp=64, integrator="mis", max_depth=6, seed=3, sampler="independent")
     aimed = render(scene, **kw)
     monkeypatch.setattr(device_scene, "CASTER_SHARE", 0.0)
@@ -180,3 +191,57 @@ def test_aiming_lowers_the_caustic_error(small_caustic: Path, monkeypatch: pytes
 
     aimed, plain = error(caster_guiding.CASTER_SHARE), error(0.0)
     assert plain > 2.0 * aimed, (plain, aimed)
+
+
+def test_rows_pair_each_caster_with_each_small_light(tmp_path: Path) -> None:
+    """A second small lamp beside caustic.json's: two rows for the one ball, each with its own axis (a ball
+    inside a light's bounding sphere, which aims from every side, is in the white-furnace test below)."""
+    second = {"name": "lamp2", "type": "sphere", "material": "lampshell", "center": [3.0, 0.8, 0.0], "radius": 0.05,
+              "emitter": {"type": "area", "radiance": [100, 100, 100]}}
+    rows = caster_rows(load_compiled(scene_file(tmp_path, "two.json", "caustic.json", shapes=[second])))
+    assert rows.shape == (2, 8)
+    axes = sorted(tuple(np.round(r[4:7], 5)) for r in rows)
+    assert axes[0] == pytest.approx((-1.0, 0.0, 0.0))  # from (3, 0.8, 0) through (0, 0.8, 0)
+    want = np.array([0.0, 0.8 - 4.44, 2.1]) / np.hypot(0.8 - 4.44, 2.1)
+    assert axes[1] == pytest.approx(tuple(want), abs=1e-5)
+
+
+def test_aiming_only_on_the_caustics_side_costs_nothing_in_a_closed_box(tmp_path: Path,
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """The Cornell box lit by a small lamp (0.1 x 0.1, the same power), a glass ball on its floor:
+    indirect light dominates, and aiming from every floor point (cosine -1) makes the squared error
+    against a bdpt reference 4.5x that of no aiming; aiming only within CASTER_CONE_DEG of the
+    lamp-ball axis and CASTER_REACH radii of the ball keeps it at 1.02x (bound 1.3x: four seeds of
+    32 x 32 pixels)."""
+    d = json.loads((SCENES / "cornell.json").read_text())
+    light = d["shapes"][0]
+    scale = (0.23 * 0.19) / (0.05 * 0.05)
+    light["transform"][0]["scale"] = [0.05, 0.05, 0.05]
+    light["emitter"]["radiance"] = [x * scale for x in light["emitter"]["radiance"]]
+    d["materials"]["glass"] = GLASS
+    d["shapes"].append({"name": "ball", "type": "sphere", "center": [0.5, -0.8, 0.5], "radius": 0.2,
+                        "material": "glass"})
+    d["camera"].update(width=32, height=32)
+    path = tmp_path / "small_lamp_box.json"
+    path.write_text(json.dumps(d))
+    assert len(caster_rows(load_compiled(path))) == 1
+    ref = render(path, spp=2048, integrator="bdpt", seed=1, sampler="independent")
+    keep = ref.mean.reshape(-1, 3).max(axis=1) < 3.0  # not the lamp seen directly (its edge noise is no one's)
+    ref_var = ref.variance.reshape(-1, 3)[keep].astype(np.float64).mean()
+
+    def error(share: float) -> float:
+        monkeypatch.setattr(device_scene, "CASTER_SHARE", share)
+        total = 0.0
+        for seed in range(30, 34):
+            r = render(path, spp=64, integrator="mis", seed=seed, sampler="independent")
+            diff = r.mean.reshape(-1, 3)[keep].astype(np.float64) - ref.mean.reshape(-1, 3)[keep]
+            total += float((diff ** 2).mean() - ref_var)
+        return total
+
+    aimed, plain = error(caster_guiding.CASTER_SHARE), error(0.0)
+    assert aimed < 1.3 * plain, (aimed, plain)
+    # every side, at any distance: the harm the rules prevent
+    monkeypatch.setattr(caster_guiding, "CASTER_CONE_DEG", 180.0)
+    monkeypatch.setattr(device_scene, "CASTER_REACH", 1e9)
+    everywhere = error(caster_guiding.CASTER_SHARE)
+    assert everywhere > 2.0 * plain, (everywhere, plain)

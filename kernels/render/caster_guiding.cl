@@ -3,7 +3,10 @@
  * estimator: mcocl/render/caster_guiding.py).
  *
  * The casters are the bounding spheres in render_params.casters (centre xyz,
- * radius).  From a point p only the casters p lies outside take part: the
+ * radius), each with the side its caustic falls on in caster_axes (the axis
+ * from a small light through it, the cosine of the half-angle around it).
+ * From a point p only the casters p lies outside, on that side, and within
+ * render_params.caster_reach radii of the centre take part: the
  * technique picks one of those n uniformly and a direction uniform in the cone
  * it subtends (pbrt-v4 §6.2.4; the cone of render/lights.cl's sphere_cone), so
  * its density is (1/n) sum over those casters of [w in cone_k] / (2 pi (1 - cos
@@ -40,6 +43,12 @@ MC_INLINE caster_view caster_view_at(const render_params *prm, vec3v p) {
         intv out = sphere_cone(p, v3((floatv)(c.x), (floatv)(c.y), (floatv)(c.z)), (floatv)(c.w), (intv)(0),
                                &v.omc[k], &s2max, &v.axis[k], &dc);
         out = out & (v.omc[k] > 0.0f); /* a caster so far away that its cone is empty in float takes no part */
+        /* and only on its caustic's side: p within the row's half-angle of the axis from the small light
+         * through the caster, seen from the caster's centre (-wc is the unit direction from it to p) */
+        const float4 a = prm->caster_axes[k];
+        out = out & (-v3_dot(v.axis[k], v3((floatv)(a.x), (floatv)(a.y), (floatv)(a.z))) >= a.w);
+        /* and within its reach: farther away its caustic has spread out, and the cone is small */
+        out = out & (dc <= prm->caster_reach * c.w);
         v.out[k] = out;
         v.density[k] = RT_INV_2PI / lane_select((floatv)(1.0f), v.omc[k], out);
         v.n = v.n + lane_select((uintv)(0u), (uintv)(1u), out);

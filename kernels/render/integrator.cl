@@ -404,8 +404,8 @@ kernel void render_blocks(
              * (render/caster_guiding.cl; the estimator: mcocl/render/caster_guiding.py):
              * params.caster_share at the path's first non-delta vertex (the surface whose
              * caustic the camera sees, directly or through mirrors and glass) where its BSDF
-             * does not refract and some caster's bounding sphere lies outside the point, else
-             * 0.  One vertex per path: the mixture may raise a vertex's weight by up to
+             * does not refract and the point lies outside some caster's bounding sphere, on the
+             * side its caustic falls on, else 0.  One vertex per path: the mixture may raise a vertex's weight by up to
              * 1 / (1 - share), and at every vertex of a closed scene those factors compound
              * (share 0.75 at every vertex: a Cornell box with a glass ball 100x noisier). */
             const caster_view casters = caster_view_at(&params, p);

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..layouts import LIGHT_RECORD, PRIM_RECORD, RENDER_PARAMS, LightShape
 from .bvh_leaves import device_geometry
-from .caster_guiding import CASTER_SHARE, caster_spheres
+from .caster_guiding import CASTER_REACH, CASTER_SHARE, caster_rows
 from .compiled import CompiledScene
 from .delta_lights import delta_records
 from .envmap import envmap_tables
@@ -141,7 +141,7 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
     ``env_choice`` = (env_threshold, env_pmf)) and the environment ``env``;
     with ``light_sampler`` ``"bvh"`` also the light BVH (``light_bvh``
     nodes, ``light_trail`` per primitive; :mod:`mcocl.render.light_bvh`); with caustic casters
-    their bounding spheres ``casters`` (:mod:`mcocl.render.caster_guiding`).
+    their rows ``casters`` (:mod:`mcocl.render.caster_guiding`).
     """
     def nonempty(a: np.ndarray, dtype: type, width: int = 4) -> np.ndarray:
         a = np.ascontiguousarray(a, dtype=dtype)
@@ -174,7 +174,7 @@ def scene_tables(cs: CompiledScene) -> dict[str, np.ndarray]:
         tables["env_map"], tables["env_cdf"] = envmap_tables(cs.env_map)
     else:
         tables["env_map"], tables["env_cdf"] = np.zeros((1, 4), np.float32), np.zeros(1, np.uint32)
-    casters = caster_spheres(cs)
+    casters = caster_rows(cs)
     if len(casters):  # only then: other scenes keep their tables digest
         tables["casters"] = casters
     if cs.light_sampler == "bvh":
@@ -200,9 +200,12 @@ def scene_params(tables: dict[str, np.ndarray]) -> np.ndarray:
     p["far_clip"] = np.inf  # no clip planes (near_clip 0): the render job sets the camera's
     casters = tables.get("casters")
     if casters is not None and len(casters):  # (render/caster_guiding.py; read by -DCASTER_GUIDING builds)
-        p["ncasters"] = len(casters)
-        p["casters"][:4 * len(casters)] = np.asarray(casters, np.float32).reshape(-1)
+        rows = np.asarray(casters, np.float32)
+        p["ncasters"] = len(rows)
+        p["casters"][:4 * len(rows)] = rows[:, :4].reshape(-1)
+        p["caster_axes"][:4 * len(rows)] = rows[:, 4:].reshape(-1)
         p["caster_share"] = CASTER_SHARE
+        p["caster_reach"] = CASTER_REACH
     return p
 
 
