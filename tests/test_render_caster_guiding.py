@@ -245,3 +245,23 @@ def test_aiming_only_on_the_caustics_side_costs_nothing_in_a_closed_box(tmp_path
     monkeypatch.setattr(device_scene, "CASTER_REACH", 1e9)
     everywhere = error(caster_guiding.CASTER_SHARE)
     assert everywhere > 2.0 * plain, (everywhere, plain)
+
+
+@pytest.mark.parametrize("target,aims", [
+    ((0.0, 0.0, -1.5), False),  # behind the ball, on the lamp's side: 92 degrees off the lamp-ball axis
+    ((0.0, 0.0, 3.0), False),   # in front, 45 degrees off the axis but 6 radii from the centre: out of reach
+    ((0.0, 0.0, 0.6), True),    # the caustic's side, within reach
+])
+def test_points_off_the_caustics_side_or_out_of_reach_do_not_aim(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                 target: tuple, aims: bool) -> None:
+    """caustic.json's floor seen from straight above through a narrow lens: where no visible point aims,
+    the render is bit-identical to the same seed's with share 0 (the kernel is the same; a lane that does
+    not aim draws and weighs exactly as without aiming); where they aim, it is not."""
+    x, y, z = target
+    scene = scene_file(tmp_path, "view.json", "caustic.json", origin=[x, 3.0, z], target=[x, y, z], up=[0, 0, -1],
+                       fov=8, width=12, height=12)
+    kw = dict(spp=16, integrator="mis", max_depth=6, seed=5, sampler="independent")
+    aimed = render(scene, **kw)
+    monkeypatch.setattr(device_scene, "CASTER_SHARE", 0.0)
+    plain = render(scene, **kw)
+    assert np.array_equal(aimed.mean, plain.mean) != aims
