@@ -405,10 +405,14 @@ kernel void render_blocks(
              * params.caster_share at the path's first non-delta vertex (the surface whose
              * caustic the camera sees, directly or through mirrors and glass) where its BSDF
              * does not refract and the point lies outside some caster's bounding sphere, on the
-             * side its caustic falls on, else 0.  One vertex per path: the mixture may raise a vertex's weight by up to
-             * 1 / (1 - share), and at every vertex of a closed scene those factors compound
-             * (share 0.75 at every vertex: a Cornell box with a glass ball 100x noisier). */
-            const caster_view casters = caster_view_at(&params, p);
+             * side its caustic falls on and within its reach, else 0.  One vertex per path: the
+             * mixture may raise a vertex's weight by up to 1 / (1 - share), and at every vertex
+             * of a closed scene those factors compound (share 0.75 at every vertex: a Cornell
+             * box with a glass ball 100x noisier). */
+            caster_view casters;
+            casters.n = (uintv)(0u);
+            if (lane_any(cont & all_delta)) /* deeper vertices never aim: no cones to compute */
+                casters = caster_view_at(&params, p);
             const floatv aim_share = lane_select((floatv)(0.0f), (floatv)(params.caster_share),
                                                  cont & all_delta & bsdf_is_smooth(&m)
                                                  & (m.kind != MAT_ROUGHDIELECTRIC) & (casters.n > (uintv)(0u)));

@@ -13,8 +13,8 @@ sees, directly or through mirrors and glass), where its BSDF does not refract,
 the continuation from a mixture (one-sample MIS with the balance heuristic,
 Veach's thesis §9.2.4; the lecture's "kombinované odhady"): with probability
 :data:`CASTER_SHARE` a direction uniform in the cone that one caster's
-bounding sphere subtends from the point (the casters the point lies outside,
-chosen uniformly), else the BSDF's own sample.  The path's weight is f cos
+bounding sphere subtends from the point (one of the casters that take part
+there, below, chosen uniformly), else the BSDF's own sample.  The path's weight is f cos
 over the mixture density ``share * p_cone + (1 - share) * p_bsdf`` whichever
 technique drew the direction, and the same mixture density is the BSDF
 strategy's pdf in the MIS weights of the vertex's light sample and of the
@@ -69,7 +69,7 @@ import numpy as np
 
 from ..layouts import RENDER_PARAMS, MaterialKind
 
-# The most casters a render aims at: the rows of render_params.casters (mcocl/layouts.py).
+# The most (caster, small light) rows a render aims with: the rows of render_params.casters (mcocl/layouts.py).
 MAX_CASTERS = next(count for name, _, count in RENDER_PARAMS.fields if name == "casters")
 # The probability that a guided vertex aims at a caster rather than sampling its BSDF (module docstring).
 CASTER_SHARE = 0.75
