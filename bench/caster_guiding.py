@@ -90,9 +90,10 @@ def cost(args: argparse.Namespace) -> None:
             ref_var = ref.variance.reshape(-1, 3)[keep]
             errors = []
             for _, cone, reach in CONFIGS:
-                caster_guiding.CASTER_CONE_DEG = cone or 60.0
-                device_scene.CASTER_REACH = reach or 4.0
-                device_scene.CASTER_SHARE = caster_guiding.CASTER_SHARE if cone else 0.0
+                aim = cone is not None
+                if aim:
+                    caster_guiding.CASTER_CONE_DEG, device_scene.CASTER_REACH = cone, reach
+                device_scene.CASTER_SHARE = caster_guiding.CASTER_SHARE if aim else 0.0
                 e = [mse(render(path, spp=args.spp, integrator="mis", seed=s, sampler="independent")
                          .mean.reshape(-1, 3)[keep], ref_px, ref_var) for s in range(1, args.seeds + 1)]
                 errors.append(float(np.mean(e)))

@@ -57,7 +57,7 @@ MC_INLINE caster_view caster_view_at(const render_params *prm, vec3v p) {
 }
 
 /* The technique's solid-angle density of the unit direction w (0 where no caster takes part). */
-MC_INLINE floatv caster_pdf(const render_params *prm, const caster_view *v, vec3v w) {
+MC_INLINE floatv caster_pdf(const caster_view *v, vec3v w) {
     floatv sum = (floatv)(0.0f);
     _Pragma("unroll") for (uint k = 0; k < CASTER_ROWS; ++k) {
         intv inside = v->out[k] & (v3_dot(w, v->axis[k]) >= 1.0f - v->omc[k]);
@@ -67,7 +67,7 @@ MC_INLINE floatv caster_pdf(const render_params *prm, const caster_view *v, vec3
 }
 
 /* A direction uniform in the cone of the pick-th caster that takes part (pick < v->n). */
-MC_INLINE vec3v caster_sample(const render_params *prm, const caster_view *v, uintv pick, floatv u1, floatv u2) {
+MC_INLINE vec3v caster_sample(const caster_view *v, uintv pick, floatv u1, floatv u2) {
     vec3v axis = v3(0.0f, 0.0f, 1.0f);
     floatv omc = (floatv)(0.0f);
     uintv seen = (uintv)(0u);

@@ -450,7 +450,7 @@ kernel void render_blocks(
 #ifdef CASTER_GUIDING
                 /* the continuation's strategy is the mixture: its density is the BSDF strategy's pdf */
                 if (lane_any(guided))
-                    bpdf = aim_share * caster_pdf(&params, &casters, ls.wo) + (1.0f - aim_share) * bpdf;
+                    bpdf = aim_share * caster_pdf(&casters, ls.wo) + (1.0f - aim_share) * bpdf;
 #endif
 #if INTEGRATOR == INTEGRATOR_MIS
                 /* a delta light (render/delta_lights.cl) has no BSDF-sampling strategy: weight 1 */
@@ -508,7 +508,7 @@ kernel void render_blocks(
                     const floatv share = lane_select((floatv)(1.0f), aim_share, aim);
                     const uintv pick = lane_min_u(to_uintv(ub[0] / share * to_floatv(casters.n)),
                                                   max(casters.n, (uintv)(1u)) - (uintv)(1u));
-                    const vec3v wa = caster_sample(&params, &casters, pick, ub[1], ub[2]);
+                    const vec3v wa = caster_sample(&casters, pick, ub[1], ub[2]);
                     floatv pa;
                     const vec3v fa = bsdf_eval(&m, wi, frame_to_local(fr, wa), &pa);
                     wo = v3_select(wo, wa, aim);
@@ -517,7 +517,7 @@ kernel void render_blocks(
                     bs.delta = bs.delta & !aim;
                     bs.eta = lane_select(bs.eta, (floatv)(1.0f), aim); /* a reflection: no refracting BSDF is guided */
                 }
-                const floatv mix = aim_share * caster_pdf(&params, &casters, wo) + (1.0f - aim_share) * bsdf_pdf;
+                const floatv mix = aim_share * caster_pdf(&casters, wo) + (1.0f - aim_share) * bsdf_pdf;
                 const intv spread = guided & !bs.delta;
                 const vec3v w_mix = v3_scale(fcos, lane_select((floatv)(0.0f), 1.0f / mix, mix > 0.0f));
                 bs.weight = v3_select(v3_scale(bs.weight, 1.0f / (1.0f - aim_share)), w_mix, spread);

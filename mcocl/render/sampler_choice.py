@@ -8,8 +8,9 @@ coverage (bench/render_throughput.py, bench/bdpt_efficiency.py; README,
 to low-discrepancy samplers, expect; it lost (0.56x) on scenes/caustic.json,
 whose error is a caustic through glass that the nets do not stratify, at
 20-25 % more time per path, until nee and mis aimed at the glass
-(mcocl/render/caster_guiding.py): since then the two are about equal there
-(README, *Caustics: aiming at the glass*).
+(mcocl/render/caster_guiding.py): since then sobol is at 0.73-1.0x of
+independent's efficiency there (README, *Caustics: aiming at the glass*;
+bench/caster_guiding.py gain).
 Its variance comes from a few independent scramblings (batches) per pixel, so
 ``auto`` takes it where the render can form them and keeps ``independent``
 everywhere else (:func:`resolve_auto_sampler`):
